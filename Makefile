@@ -1,0 +1,41 @@
+# dgplate: the two commands are `make demo` and `make test`; both set up .venv first.
+VENV   := .venv
+PY     := $(VENV)/bin/python
+MPIRUN := $(if $(wildcard $(VENV)/bin/mpirun),$(VENV)/bin/mpirun,mpirun)
+NP     ?= 2
+# The main demo: the self-folding box once it exists, else the most complete one.
+DEMO   ?= $(firstword $(wildcard demos/box_folding.py demos/vertical_load.py demos/biharmonic.py))
+PYTEST_FLAGS ?= -q
+
+.PHONY: setup demo test test-serial test-mpi lint format check-debian bench clean
+
+setup:
+	@bash .ci/setup-venv.sh
+
+demo: setup
+	$(MPIRUN) -n $(NP) $(PY) $(DEMO)
+
+test: setup test-serial test-mpi
+
+test-serial: setup
+	$(PY) -m pytest $(PYTEST_FLAGS) tests
+
+# Tests marked `mpi` again on NP ranks; `-m mpi4py` aborts all ranks when one fails.
+test-mpi: setup
+	$(MPIRUN) -n $(NP) $(PY) -m mpi4py -m pytest $(PYTEST_FLAGS) -p no:cacheprovider -m mpi tests
+
+lint: setup
+	$(VENV)/bin/ruff check dgplate tests demos benchmarks
+	$(VENV)/bin/ruff format --check dgplate tests demos benchmarks
+
+format: setup
+	$(VENV)/bin/ruff format dgplate tests demos benchmarks
+	$(VENV)/bin/ruff check --fix dgplate tests demos benchmarks
+
+# Serial tests with Debian 13's DOLFINx 0.9 in a debootstrap chroot (cached in .cache/).
+check-debian:
+	bash .ci/check-debian.sh
+
+clean:
+	rm -rf $(VENV) .cache build dist *.egg-info .pytest_cache .ruff_cache out results
+	find . -name __pycache__ -type d -prune -exec rm -rf {} +

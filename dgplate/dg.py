@@ -1,0 +1,218 @@
+"""Interior-penalty dG building blocks for fourth-order (bending) problems.
+
+Notation (DESIGN.md §2): jumps ``[v] = v⁺ − v⁻`` with ``n = n⁺``; averages ``{v}``;
+``h_e`` the mean cell diameter of the two cells of an interior face and the cell diameter on a
+boundary face. On clamped faces the jumps carry the Nitsche data, ``[v] = v − g`` and
+``[∇v] = ∇v − Φ``, and averages are one-sided. Faces tagged ``crease`` keep the value-jump
+terms only: the deformation stays continuous there while its gradient may jump.
+
+Everything here works for scalar and vector-valued (ℝ³) unknowns, any degree k ≥ 2, on
+triangles and quadrilaterals: the same UFL expressions cover all cases.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import dolfinx
+import dolfinx.mesh
+import numpy as np
+import ufl
+from mpi4py import MPI
+
+from dgplate.errors import InputError
+from dgplate.meshing import TaggedMesh, _make_tags
+
+#: Face-set ids of the measure ``FaceSets.dS`` / ``FaceSets.ds``.
+SMOOTH, CREASE, CLAMPED, FREE = 1, 2, 3, 4
+
+
+@dataclass(frozen=True)
+class Penalty:
+    """Penalty parameters: γ₀ scales h⁻³[y]·[y], γ₁ scales h⁻¹[∇y]:[∇y]."""
+
+    gamma0: float = 5000.0
+    gamma1: float = 1100.0
+
+    def __post_init__(self) -> None:
+        for name in ("gamma0", "gamma1"):
+            if not getattr(self, name) > 0:
+                raise InputError(f"penalty {name} must be > 0, got {getattr(self, name)}")
+
+
+@dataclass
+class FaceSets:
+    """The faces Γ_h of the dG forms, split into smooth interior, crease and clamped faces."""
+
+    mesh: dolfinx.mesh.Mesh
+    tags: dolfinx.mesh.MeshTags
+    num_clamped: int  # global number of clamped boundary facets
+    num_crease: int  # global number of crease facets
+
+    def __post_init__(self) -> None:
+        self.dx = ufl.Measure("dx", domain=self.mesh)
+        self.dS = ufl.Measure("dS", domain=self.mesh, subdomain_data=self.tags)
+        self.ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.tags)
+        self.n = ufl.FacetNormal(self.mesh)
+        self.h = ufl.CellDiameter(self.mesh)
+
+    @property
+    def has_clamped(self) -> bool:
+        return self.num_clamped > 0
+
+    @property
+    def h_interior(self):
+        return ufl.avg(self.h)
+
+    def dS_smooth(self):
+        """Interior faces that carry gradient-jump terms (all but creases)."""
+        return self.dS(SMOOTH)
+
+    def dS_all(self):
+        """All interior faces (value-jump terms)."""
+        return self.dS(SMOOTH) + self.dS(CREASE) if self.num_crease else self.dS(SMOOTH)
+
+    def ds_clamped(self):
+        return self.ds(CLAMPED)
+
+
+def face_sets(
+    tagged: TaggedMesh, clamped: Sequence[str] = (), crease: Sequence[str] = ()
+) -> FaceSets:
+    """Classify the facets of ``tagged`` by the named clamped and crease groups.
+
+    Clamped groups must lie on the boundary, crease groups in the interior: anything else is an
+    ``InputError`` naming the group. Collective on the mesh communicator.
+    """
+    mesh = tagged.mesh
+    comm = mesh.comm
+    tdim = mesh.topology.dim
+    fdim = tdim - 1
+    mesh.topology.create_connectivity(fdim, tdim)
+    fmap = mesh.topology.index_map(fdim)
+    num_local = fmap.size_local + fmap.num_ghosts
+    boundary = np.zeros(num_local, dtype=bool)
+    boundary[dolfinx.mesh.exterior_facet_indices(mesh.topology)] = True
+    values = np.where(boundary, FREE, SMOOTH).astype(np.int32)
+
+    def check(names: Sequence[str], on_boundary: bool, what: str) -> int:
+        total = 0
+        for name in names:
+            facets = tagged.facets(name)
+            wrong = facets[boundary[facets] != on_boundary]
+            wrong_owned = int(np.count_nonzero(wrong < fmap.size_local))
+            owned = int(np.count_nonzero(facets < fmap.size_local))
+            wrong_owned, owned = comm.allreduce(np.array([wrong_owned, owned]), op=MPI.SUM)
+            if wrong_owned:
+                where = "interior" if on_boundary else "boundary"
+                raise InputError(
+                    f"{what} group '{name}' contains {wrong_owned} {where} facet(s): "
+                    f"{what} faces must lie {'on the boundary' if on_boundary else 'inside'}"
+                )
+            if owned == 0:
+                raise InputError(f"{what} group '{name}' has no facets in the mesh")
+            values[facets] = CLAMPED if on_boundary else CREASE
+            total += owned
+        return int(total)
+
+    num_clamped = check(clamped, True, "clamped")
+    num_crease = check(crease, False, "crease")
+    tags = _make_tags(mesh, fdim, np.arange(num_local, dtype=np.int32), values)
+    return FaceSets(mesh, tags, num_clamped, num_crease)
+
+
+def hessian(v):
+    """D²v: shape (2, 2) for scalar v, (3, 2, 2) for v in ℝ³."""
+    return ufl.grad(ufl.grad(v))
+
+
+def grad_laplacian(v):
+    """∇Δv: shape (2,) for scalar v, (3, 2) for v in ℝ³."""
+    return ufl.grad(ufl.div(ufl.grad(v)))
+
+
+def jump(v):
+    return v("+") - v("-")
+
+
+def bending_energy(
+    y,
+    faces: FaceSets,
+    penalty: Penalty,
+    mu=None,
+    g=None,
+    Phi=None,
+):
+    """½ a_h(y, y) of DESIGN.md §2 as a UFL functional, Nitsche data g, Φ on clamped faces.
+
+    ``mu`` (cell-wise rigidity, UFL scalar) weights every term; averages use {μ ·} and the
+    penalties {μ}. ``ufl.derivative`` of this functional gives the symmetric interior-penalty
+    residual and matrix, so no bilinear form is written twice.
+    """
+    mu = 1.0 if mu is None else mu
+    n, h = faces.n, faces.h
+    D2, G3 = hessian(y), grad_laplacian(y)
+    energy = 0.5 * mu * ufl.inner(D2, D2) * faces.dx
+
+    # smooth interior faces: gradient-jump consistency and penalty
+    jgrad = jump(ufl.grad(y))
+    moment_n = ufl.dot(ufl.avg(mu * D2), n("+"))
+    energy += (
+        -ufl.inner(moment_n, jgrad)
+        + 0.5 * penalty.gamma1 * ufl.avg(mu) / faces.h_interior * ufl.inner(jgrad, jgrad)
+    ) * faces.dS_smooth()
+
+    # all interior faces (creases included): value-jump consistency and penalty
+    jval = jump(y)
+    shear_n = ufl.dot(ufl.avg(mu * G3), n("+"))
+    energy += (
+        ufl.inner(shear_n, jval)
+        + 0.5 * penalty.gamma0 * ufl.avg(mu) / faces.h_interior**3 * ufl.inner(jval, jval)
+    ) * faces.dS_all()
+
+    if faces.has_clamped:
+        if g is None or Phi is None:
+            raise InputError("clamped faces need boundary data g and Φ")
+        bgrad = ufl.grad(y) - Phi
+        bval = y - g
+        energy += (
+            -ufl.inner(mu * ufl.dot(D2, n), bgrad)
+            + 0.5 * penalty.gamma1 * mu / h * ufl.inner(bgrad, bgrad)
+            + ufl.inner(mu * ufl.dot(G3, n), bval)
+            + 0.5 * penalty.gamma0 * mu / h**3 * ufl.inner(bval, bval)
+        ) * faces.ds_clamped()
+    return energy
+
+
+def h2_metric(w, v, faces: FaceSets, l2: bool = False):
+    """The discrete H² inner product (w, v)_* with homogeneous jumps (DESIGN.md §3).
+
+    Gradient jumps are left out on creases, as in the energy. ``l2`` adds the L² product,
+    needed when nothing is clamped (rigid motions).
+    """
+    h = faces.h
+    form = ufl.inner(hessian(w), hessian(v)) * faces.dx
+    form += ufl.inner(jump(ufl.grad(w)), jump(ufl.grad(v))) / faces.h_interior * faces.dS_smooth()
+    form += ufl.inner(jump(w), jump(v)) / faces.h_interior**3 * faces.dS_all()
+    if faces.has_clamped:
+        form += (
+            ufl.inner(ufl.grad(w), ufl.grad(v)) / h + ufl.inner(w, v) / h**3
+        ) * faces.ds_clamped()
+    if l2:
+        form += ufl.inner(w, v) * faces.dx
+    return form
+
+
+def broken_norms(error, faces: FaceSets, degree: int | None = None) -> dict[str, float]:
+    """Broken H², H¹ and L² (semi)norms of a UFL expression, summed over the communicator."""
+    from dolfinx.fem import assemble_scalar, form
+
+    md = {} if degree is None else {"quadrature_degree": degree}
+    dx = ufl.Measure("dx", domain=faces.mesh, metadata=md)
+    comm = faces.mesh.comm
+    out = {}
+    for key, expr in (("H2", hessian(error)), ("H1", ufl.grad(error)), ("L2", error)):
+        local = assemble_scalar(form(ufl.inner(expr, expr) * dx))
+        out[key] = float(np.sqrt(comm.allreduce(local, op=MPI.SUM)))
+    return out

@@ -1,0 +1,225 @@
+"""Meshes with named regions: built-in rectangles and gmsh ``.geo`` files.
+
+Every mesh is distributed with shared-facet ghosting, because the dG forms integrate over
+interior facets (``dS``) and a rank must see both cells of each facet it owns. Cell and facet
+regions are addressed by name (gmsh physical groups); an unknown name is an ``InputError``
+that lists the names the mesh does have.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import dolfinx
+import dolfinx.mesh
+import numpy as np
+from mpi4py import MPI
+
+from dgplate import compat
+from dgplate.errors import InputError
+
+MESH_DIR = Path(__file__).resolve().parent.parent / "meshes"
+
+#: Facet-group names of the built-in rectangle.
+RECTANGLE_SIDES = ("left", "right", "bottom", "top")
+
+
+@dataclass
+class TaggedMesh:
+    """A DOLFINx mesh with its cell/facet tags and the physical-group names."""
+
+    mesh: dolfinx.mesh.Mesh
+    cell_tags: dolfinx.mesh.MeshTags | None
+    facet_tags: dolfinx.mesh.MeshTags | None
+    groups: dict[str, tuple[int, int]] = field(default_factory=dict)  # name -> (dim, tag)
+    source: str = "built-in"
+
+    @property
+    def comm(self) -> MPI.Comm:
+        return self.mesh.comm
+
+    def names(self, dim: int) -> list[str]:
+        return sorted(name for name, (d, _) in self.groups.items() if d == dim)
+
+    def tag(self, name: str, dim: int) -> int:
+        """The integer tag of the physical group ``name`` of dimension ``dim``."""
+        entry = self.groups.get(name)
+        if entry is None or entry[0] != dim:
+            kind = "cell" if dim == self.mesh.topology.dim else "facet"
+            available = ", ".join(self.names(dim)) or "none"
+            raise InputError(
+                f"unknown {kind} group '{name}' in mesh {self.source} (available: {available})"
+            )
+        return entry[1]
+
+    def facets(self, name: str) -> np.ndarray:
+        """Local indices of the facets in group ``name`` (owned and ghost)."""
+        tag = self.tag(name, self.mesh.topology.dim - 1)
+        assert self.facet_tags is not None
+        return self.facet_tags.find(tag)
+
+    def cells(self, name: str) -> np.ndarray:
+        """Local indices of the cells in group ``name`` (owned and ghost)."""
+        tag = self.tag(name, self.mesh.topology.dim)
+        assert self.cell_tags is not None
+        return self.cell_tags.find(tag)
+
+
+def rectangle(
+    comm: MPI.Comm,
+    corners: Sequence[Sequence[float]],
+    cells: Sequence[int],
+    cell_type: str = "quadrilateral",
+    diagonal: str = "right",
+) -> TaggedMesh:
+    """A structured rectangle with facet groups left/right/bottom/top and cell group 'plate'."""
+    (x0, y0), (x1, y1) = corners
+    if not (x1 > x0 and y1 > y0):
+        raise InputError(f"mesh.corners must be [[xmin, ymin], [xmax, ymax]], got {corners}")
+    if len(cells) != 2 or min(cells) < 1:
+        raise InputError(f"mesh.cells must be two positive integers, got {list(cells)}")
+    try:
+        ctype = dolfinx.mesh.CellType[cell_type]
+        diag = dolfinx.mesh.DiagonalType[diagonal]
+    except KeyError as err:
+        raise InputError(
+            f"mesh.cell_type must be 'triangle' or 'quadrilateral' and mesh.diagonal one of "
+            f"left/right/crossed, got {err.args[0]!r}"
+        ) from None
+    if ctype not in (dolfinx.mesh.CellType.triangle, dolfinx.mesh.CellType.quadrilateral):
+        raise InputError(f"mesh.cell_type must be 'triangle' or 'quadrilateral', not {cell_type}")
+    mesh = dolfinx.mesh.create_rectangle(
+        comm,
+        [np.array([x0, y0]), np.array([x1, y1])],
+        [int(cells[0]), int(cells[1])],
+        cell_type=ctype,
+        diagonal=diag,
+        ghost_mode=dolfinx.mesh.GhostMode.shared_facet,
+    )
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    tol = 1e-10 * max(x1 - x0, y1 - y0)
+    sides = {
+        "left": lambda x: np.isclose(x[0], x0, atol=tol),
+        "right": lambda x: np.isclose(x[0], x1, atol=tol),
+        "bottom": lambda x: np.isclose(x[1], y0, atol=tol),
+        "top": lambda x: np.isclose(x[1], y1, atol=tol),
+    }
+    indices, values = [], []
+    for tag, name in enumerate(RECTANGLE_SIDES, start=1):
+        found = dolfinx.mesh.locate_entities_boundary(mesh, tdim - 1, sides[name])
+        indices.append(found)
+        values.append(np.full(found.size, tag, dtype=np.int32))
+    facet_tags = _make_tags(mesh, tdim - 1, np.concatenate(indices), np.concatenate(values))
+    num_cells = mesh.topology.index_map(tdim).size_local + mesh.topology.index_map(tdim).num_ghosts
+    cell_tags = _make_tags(
+        mesh, tdim, np.arange(num_cells, dtype=np.int32), np.ones(num_cells, dtype=np.int32)
+    )
+    groups = {name: (tdim - 1, tag) for tag, name in enumerate(RECTANGLE_SIDES, start=1)}
+    groups["plate"] = (tdim, 1)
+    source = f"rectangle {list(corners)} {list(cells)} {cell_type}"
+    return TaggedMesh(mesh, cell_tags, facet_tags, groups, source)
+
+
+def _make_tags(mesh, dim: int, indices: np.ndarray, values: np.ndarray):
+    """MeshTags from possibly repeated, unsorted entity indices (the last value wins)."""
+    indices = np.asarray(indices, dtype=np.int32)
+    order = np.argsort(indices, kind="stable")
+    indices, values = indices[order], np.asarray(values, dtype=np.int32)[order]
+    keep = np.append(indices[1:] != indices[:-1], True) if indices.size else np.array([], bool)
+    return dolfinx.mesh.meshtags(mesh, dim, indices[keep], values[keep])
+
+
+def resolve_geo(name: str | Path) -> Path:
+    """A ``.geo`` path as given, or looked up in the project's ``meshes/`` folder."""
+    path = Path(name)
+    candidates = [path, MESH_DIR / path, MESH_DIR / f"{path}.geo"]
+    for candidate in candidates:
+        if candidate.is_file():
+            return candidate.resolve()
+    raise InputError(f"mesh file not found: {name} (also looked in {MESH_DIR})")
+
+
+def geo_parameters(path: Path) -> dict[str, str]:
+    """The ``DefineConstant`` parameters of a .geo file, name -> default value as written."""
+    text = path.read_text()
+    params: dict[str, str] = {}
+    for block in re.findall(r"DefineConstant\s*\[(.*?)\]\s*;", text, flags=re.S):
+        for match in re.finditer(r"(\w+)\s*=\s*\{\s*([^,}]+)", block):
+            params[match.group(1)] = match.group(2).strip()
+    return params
+
+
+def load_geo(
+    comm: MPI.Comm,
+    name: str | Path,
+    parameters: Mapping[str, float] | None = None,
+    recombine: bool | None = None,
+    gmsh_options: Mapping[str, float] | None = None,
+) -> TaggedMesh:
+    """Mesh a gmsh ``.geo`` file on rank 0 and distribute it with shared-facet ghosts.
+
+    ``parameters`` override the file's ``DefineConstant`` values (an unknown name is an error);
+    ``recombine=True`` asks gmsh for quadrilaterals. The whole communicator sees the same error
+    when gmsh fails on rank 0.
+    """
+    path = resolve_geo(name)
+    parameters = dict(parameters or {})
+    known = geo_parameters(path)
+    unknown = sorted(set(parameters) - set(known))
+    if unknown:
+        raise InputError(
+            f"mesh parameter(s) {', '.join(unknown)} not defined in {path.name} "
+            f"(DefineConstant there: {', '.join(sorted(known)) or 'none'})"
+        )
+    import gmsh
+
+    error, groups = None, None
+    if comm.rank == 0:
+        gmsh.initialize(["dgplate"], readConfigFiles=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        try:
+            for key, value in parameters.items():
+                gmsh.parser.setNumber(key, [float(value)])
+            for key, value in (gmsh_options or {}).items():
+                gmsh.option.setNumber(key, float(value))
+            if recombine:
+                gmsh.option.setNumber("Mesh.RecombineAll", 1)
+            gmsh.merge(str(path))
+            gmsh.model.mesh.generate(2)
+            groups = {}
+            for dim, tag in gmsh.model.getPhysicalGroups():
+                label = gmsh.model.getPhysicalName(dim, tag) or f"{dim}:{tag}"
+                groups[label] = (int(dim), int(tag))
+            if not any(dim == 2 for dim, _ in groups.values()):
+                error = f"{path.name} defines no Physical Surface: name the plate's cell regions"
+        except Exception as exc:  # gmsh raises plain Exceptions with its log message
+            error = f"gmsh failed on {path.name}: {exc}"
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        if comm.rank == 0:
+            gmsh.finalize()
+        raise InputError(error)
+    try:
+        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(
+            gmsh.model if comm.rank == 0 else None, comm, 0, gdim=2
+        )
+    finally:
+        if comm.rank == 0:
+            gmsh.finalize()
+    groups = comm.bcast(groups, root=0)
+    mesh.topology.create_connectivity(1, 2)
+    return TaggedMesh(mesh, cell_tags, facet_tags, groups, source=path.name)
+
+
+def global_count(comm: MPI.Comm, local_owned: int) -> int:
+    """Sum of a per-rank count over the communicator (collective)."""
+    return int(comm.allreduce(int(local_owned), op=MPI.SUM))
+
+
+def owned(indices: np.ndarray, index_map) -> np.ndarray:
+    """The entries of ``indices`` that this rank owns."""
+    return indices[indices < index_map.size_local]

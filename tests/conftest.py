@@ -1,0 +1,17 @@
+"""Shared fixtures. Tests marked ``mpi`` run serially and again under ``mpirun -n 2``."""
+
+import pytest
+from mpi4py import MPI
+
+
+@pytest.fixture
+def comm():
+    return MPI.COMM_WORLD
+
+
+def rates(errors: list[float]) -> list[float]:
+    """Observed convergence rates for a sequence of errors at halved mesh sizes."""
+    import numpy as np
+
+    e = np.asarray(errors)
+    return list(np.log2(e[:-1] / e[1:]))

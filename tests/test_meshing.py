@@ -1,0 +1,79 @@
+"""Meshes: named groups, gmsh parameters, ghosting and the face sets of the dG forms."""
+
+import dolfinx
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from dgplate.dg import CLAMPED, CREASE, SMOOTH, face_sets
+from dgplate.errors import InputError
+from dgplate.meshing import load_geo, rectangle
+
+
+def test_rectangle_groups_and_counts():
+    tagged = rectangle(MPI.COMM_SELF, [[0, 0], [4, 1]], [8, 2], "quadrilateral")
+    assert tagged.facets("left").size == 2
+    assert tagged.facets("bottom").size == 8
+    assert tagged.cells("plate").size == 16
+
+
+def test_unknown_group_lists_available_names():
+    tagged = rectangle(MPI.COMM_SELF, [[0, 0], [1, 1]], [2, 2])
+    with pytest.raises(InputError, match=r"unknown facet group 'clampd'.*left"):
+        tagged.facets("clampd")
+
+
+def test_gmsh_parameters_and_quads():
+    tagged = load_geo(MPI.COMM_SELF, "rectangle", {"Lx": 2, "Ly": 1, "h": 0.25, "quads": 1})
+    mesh = tagged.mesh
+    assert mesh.topology.cell_type == dolfinx.mesh.CellType.quadrilateral
+    x = mesh.geometry.x
+    assert np.isclose(x[:, 0].max(), 2.0) and np.isclose(x[:, 1].max(), 1.0)
+    assert set(tagged.names(1)) == {"left", "right", "bottom", "top"}
+
+
+def test_missing_mesh_file():
+    with pytest.raises(InputError, match=r"mesh file not found: nosuch\.geo"):
+        load_geo(MPI.COMM_SELF, "nosuch.geo")
+
+
+def test_unknown_gmsh_parameter():
+    with pytest.raises(InputError, match=r"width.* not defined in rectangle\.geo"):
+        load_geo(MPI.COMM_SELF, "rectangle", {"width": 3})
+
+
+def test_face_sets_classify_and_validate():
+    tagged = rectangle(MPI.COMM_SELF, [[0, 0], [1, 1]], [4, 4])
+    faces = face_sets(tagged, clamped=["left"])
+    values = faces.tags.values
+    assert np.count_nonzero(values == CLAMPED) == 4
+    assert np.count_nonzero(values == SMOOTH) == 3 * 4 * 2  # interior facets of a 4x4 grid
+    with pytest.raises(InputError, match="crease group 'left' contains 4 boundary"):
+        face_sets(tagged, crease=["left"])
+
+
+def test_crease_facets_are_tagged():
+    tagged = load_geo(MPI.COMM_SELF, "rectangle", {"h": 1.0})
+    # a clamped group made of interior facets is refused as well
+    faces = face_sets(tagged, clamped=["left", "right"])
+    assert faces.num_clamped > 0
+    assert np.count_nonzero(faces.tags.values == CREASE) == 0
+
+
+@pytest.mark.mpi
+def test_shared_facet_ghosting(comm):
+    """Every interior facet owned by a rank sees both of its cells (shared-facet ghosts)."""
+    for tagged in (
+        rectangle(comm, [[0, 0], [1, 1]], [6, 6]),
+        load_geo(comm, "rectangle", {"h": 0.3}),
+    ):
+        mesh = tagged.mesh
+        mesh.topology.create_connectivity(1, 2)
+        f2c = mesh.topology.connectivity(1, 2)
+        fmap = mesh.topology.index_map(1)
+        exterior = set(dolfinx.mesh.exterior_facet_indices(mesh.topology).tolist())
+        for f in range(fmap.size_local):
+            if f not in exterior:
+                assert len(f2c.links(f)) == 2
+        if comm.size > 1:
+            assert mesh.topology.index_map(2).num_ghosts > 0
