@@ -86,5 +86,16 @@ def petsc_problem_kwargs(prefix: str) -> dict[str, Any]:
     return {"petsc_options_prefix": prefix} if DOLFINX_VERSION >= (0, 10) else {}
 
 
+def collapse(subspace):
+    """``(V, dofs)``: the collapsed subspace and the parent-space indices of its local dofs.
+
+    0.11 returns the map as a list holding one array, 0.9 as a flat list.
+    """
+    import numpy as np
+
+    space, dofs = subspace.collapse()
+    return space, np.asarray(dofs, dtype=np.int32).reshape(-1)
+
+
 def version_string() -> str:
     return dolfinx.__version__

@@ -1,0 +1,268 @@
+"""Discrete H² gradient flow with a linearised isometry constraint (DESIGN.md §3).
+
+One step from yⁿ: find δy ∈ [DG_k]³ and a cell-wise symmetric multiplier λ with
+
+    (1/τ)(δy, v)_* + D²E_impl(δy, v) + b_n(v, λ) = −DE_h[yⁿ](v)   for all v,
+    b_n(δy, q) = 0                                                for all q,
+
+then yⁿ⁺¹ = yⁿ + δy. The matrix block (1/τ)(·,·)_* + D²E_impl does not depend on yⁿ: it is
+assembled once, and each step reassembles only b_n (cell integrals) and adds the two matrices,
+which share one sparsity pattern. The flow is generic: it only sees an :class:`Energy`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import basix.ufl
+import dolfinx.fem
+import dolfinx.fem.petsc
+import numpy as np
+import ufl
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from dgplate import compat, solvers
+from dgplate.constraint import IsometryDefect, linearised_isometry, multiplier_element
+from dgplate.dg import FaceSets, h2_metric
+from dgplate.errors import InputError, SolverError
+from dgplate.models.base import Energy
+
+
+@dataclass
+class FlowSettings:
+    """Parameters of the gradient flow.
+
+    tau: pseudo-time step (> 0); D_h = O(τ). tol: stop when (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < tol.
+    max_steps: step budget of one ``run``. l2_metric: add the L² product to the metric; None
+    adds it exactly when nothing is clamped (rigid motions). solver_options: PETSc options.
+    """
+
+    tau: float
+    tol: float = 1e-6
+    max_steps: int = 1000
+    l2_metric: bool | None = None
+    solver_options: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.tau, int | float) and self.tau > 0 and math.isfinite(self.tau)):
+            raise InputError(f"flow.tau must be a number > 0, got {self.tau!r}")
+        if not self.tol > 0:
+            raise InputError(f"flow.tol must be > 0, got {self.tol!r}")
+        if not (isinstance(self.max_steps, int) and self.max_steps >= 1):
+            raise InputError(f"flow.max_steps must be an integer >= 1, got {self.max_steps!r}")
+
+
+@dataclass
+class StepInfo:
+    """What one step did: the row of ``history.csv``."""
+
+    step: int
+    time: float
+    tau: float
+    energy: float
+    defect: float
+    increment: float  # max |δy| over the degrees of freedom
+    rate: float  # (E_h[yⁿ⁻¹] − E_h[yⁿ]) / τ
+    seconds: float
+    assembly_s: float
+    solve_s: float
+
+
+@dataclass
+class FlowResult:
+    converged: bool
+    reason: str
+    steps: int
+    energy: float
+    defect: float
+    history: list[StepInfo]
+    energy_increases: list[int]  # steps at which the energy went up
+
+
+class Observer(Protocol):
+    def step(self, flow: GradientFlow, info: StepInfo) -> None: ...
+
+    def finish(self, flow: GradientFlow, result: FlowResult) -> None: ...
+
+
+class GradientFlow:
+    """The constrained H² gradient flow of an energy built by ``energy_fn(y)``."""
+
+    def __init__(
+        self,
+        faces: FaceSets,
+        degree: int,
+        energy_fn: Callable[[dolfinx.fem.Function], Energy],
+        settings: FlowSettings,
+        observers: Sequence[Observer] = (),
+        initial: Callable | None = None,
+    ):
+        if degree < 2:
+            raise InputError(f"model.degree must be >= 2 for the H² dG method, got {degree}")
+        self.faces, self.settings, self.observers = faces, settings, list(observers)
+        mesh = faces.mesh
+        self.comm: MPI.Comm = mesh.comm
+        ve = basix.ufl.element("DG", mesh.basix_cell(), degree, shape=(3,))
+        self.W = dolfinx.fem.functionspace(
+            mesh, basix.ufl.mixed_element([ve, multiplier_element(mesh)])
+        )
+        self.V, self._vdofs = compat.collapse(self.W.sub(0))
+        self.y = dolfinx.fem.Function(self.V, name="deformation")
+        self.y.interpolate(initial or (lambda x: np.vstack([x[0], x[1], np.zeros_like(x[0])])))
+        self.energy = energy_fn(self.y)
+        self.defect = IsometryDefect(self.y)
+        self.time, self.step_count = 0.0, 0
+        self._tau = dolfinx.fem.Constant(mesh, PETSc.ScalarType(settings.tau))
+        self._build_forms()
+        self._E_form = dolfinx.fem.form(self.energy.total)
+        self._last_energy = self.evaluate_energy()
+
+    # -- set-up -----------------------------------------------------------------------------
+    def _build_forms(self) -> None:
+        y, faces = self.y, self.faces
+        dy, lam = ufl.TrialFunctions(self.W)
+        v, q = ufl.TestFunctions(self.W)
+        l2 = self.settings.l2_metric
+        l2 = (not faces.has_clamped) if l2 is None else l2
+        hessian = ufl.derivative(ufl.derivative(self.energy.implicit, y, v), y, dy)
+        a_const = (1.0 / self._tau) * h2_metric(dy, v, faces, l2=l2) + hessian
+        b = linearised_isometry(v, y, lam) + linearised_isometry(dy, y, q)
+        self._a_const = dolfinx.fem.form(a_const)
+        self._b = dolfinx.fem.form(b)
+        self._rhs = dolfinx.fem.form(-ufl.derivative(self.energy.total, y, v))
+        # One sparsity pattern for the three matrices, so that K = A_const + B is a cheap axpy:
+        # assemble the full form once (PETSc drops unused preallocation at assembly), then
+        # duplicate the structure.
+        self.A_const = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(a_const + b))
+        self.A_const.assemble()
+        self.B = self.A_const.duplicate(copy=False)
+        self.K = self.A_const.duplicate(copy=False)
+        self._rhs_fn = dolfinx.fem.Function(self.W)  # a ghosted vector in every version
+        self.rhs = self._rhs_fn.x.petsc_vec
+        self.solution = dolfinx.fem.Function(self.W)
+        self._assemble_constant()
+        self.ksp = solvers.make_ksp(self.comm, self.K, self.settings.solver_options, "flow_")
+
+    def _assemble_constant(self) -> None:
+        self.A_const.zeroEntries()
+        dolfinx.fem.petsc.assemble_matrix(self.A_const, self._a_const)
+        self.A_const.assemble()
+
+    @property
+    def tau(self) -> float:
+        return float(self._tau.value)
+
+    @tau.setter
+    def tau(self, value: float) -> None:
+        if not value > 0:
+            raise InputError(f"flow.tau must be > 0, got {value}")
+        self._tau.value = value
+        self._assemble_constant()
+
+    @property
+    def num_dofs(self) -> int:
+        imap = self.W.dofmap.index_map
+        return imap.size_global * self.W.dofmap.index_map_bs
+
+    # -- evaluation -------------------------------------------------------------------------
+    def evaluate_energy(self) -> float:
+        local = dolfinx.fem.assemble_scalar(self._E_form)
+        return float(self.comm.allreduce(local, op=MPI.SUM)) + self.energy.constant
+
+    # -- one step ---------------------------------------------------------------------------
+    def step(self) -> StepInfo:
+        t0 = time.perf_counter()
+        self.B.zeroEntries()
+        dolfinx.fem.petsc.assemble_matrix(self.B, self._b)
+        self.B.assemble()
+        self.A_const.copy(self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self.K.axpy(1.0, self.B, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        with self.rhs.localForm() as local:
+            local.set(0.0)
+        dolfinx.fem.petsc.assemble_vector(self.rhs, self._rhs)
+        self.rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        t1 = time.perf_counter()
+        solvers.solve(self.ksp, self.rhs, self.solution.x.petsc_vec)
+        self.solution.x.scatter_forward()
+        t2 = time.perf_counter()
+        dy = self.solution.x.array[self._vdofs]
+        self.y.x.array[:] += dy
+        owned = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
+        increment = self.comm.allreduce(float(np.max(np.abs(dy[:owned]), initial=0.0)), op=MPI.MAX)
+        energy = self.evaluate_energy()
+        rate = (self._last_energy - energy) / self.tau
+        self._last_energy = energy
+        self.step_count += 1
+        self.time += self.tau
+        info = StepInfo(
+            step=self.step_count,
+            time=self.time,
+            tau=self.tau,
+            energy=energy,
+            defect=self.defect(),
+            increment=increment,
+            rate=rate,
+            seconds=time.perf_counter() - t0,
+            assembly_s=t1 - t0,
+            solve_s=t2 - t1,
+        )
+        return info
+
+    def undo(self) -> None:
+        """Take back the last step (used when it produced a non-finite state)."""
+        self.y.x.array[:] -= self.solution.x.array[self._vdofs]
+        self._last_energy = self.evaluate_energy()
+
+    # -- the loop ---------------------------------------------------------------------------
+    def run(self, max_steps: int | None = None) -> FlowResult:
+        """Step until the stopping rule holds or the step budget is spent."""
+        budget = max_steps or self.settings.max_steps
+        history: list[StepInfo] = []
+        increases: list[int] = []
+        converged, reason = (
+            False,
+            f"step budget of {budget} steps spent before (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < {self.settings.tol:g}",
+        )
+        for _ in range(budget):
+            try:
+                info = self.step()
+            except SolverError as exc:
+                reason = f"step {self.step_count + 1} failed: {exc}; the last good state is kept"
+                break
+            if not (math.isfinite(info.energy) and math.isfinite(info.defect)):
+                self.undo()
+                reason = f"diverged at step {info.step}: the energy became {info.energy}; the last finite state is kept"
+                break
+            history.append(info)
+            if info.rate < 0 and -info.rate * self.tau > 1e-12 * max(1.0, abs(info.energy)):
+                increases.append(info.step)
+            for obs in self.observers:
+                obs.step(self, info)
+            if abs(info.rate) < self.settings.tol:
+                converged, reason = (
+                    True,
+                    f"(E_h[yⁿ⁻¹] − E_h[yⁿ])/τ = {info.rate:.3e} < {self.settings.tol:g}",
+                )
+                break
+        last = history[-1] if history else None
+        result = FlowResult(
+            converged=converged,
+            reason=reason,
+            steps=len(history),
+            energy=last.energy if last else self.evaluate_energy(),
+            defect=last.defect if last else self.defect(),
+            history=history,
+            energy_increases=increases,
+        )
+        for obs in self.observers:
+            obs.finish(self, result)
+        return result
+
+    def destroy(self) -> None:
+        for obj in (self.ksp, self.A_const, self.B, self.K):
+            obj.destroy()

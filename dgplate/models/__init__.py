@@ -1,0 +1,1 @@
+"""Plate models: one module per energy (DESIGN.md §6)."""

@@ -1,0 +1,68 @@
+"""What every plate model returns: an energy split for the semi-implicit gradient flow."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import ufl
+
+
+@dataclass
+class Energy:
+    """A discrete energy E_h = implicit + explicit.
+
+    ``implicit`` is quadratic in the deformation: its Hessian is the constant flow matrix, so it
+    is assembled once per run. ``explicit`` holds nonlinear terms (the bilayer's ν term, an
+    obstacle's concave part); the flow evaluates their derivative at the previous iterate.
+    ``constant`` is added to reported energies only (e.g. ½∫μ|Z|² of a bilayer).
+    """
+
+    implicit: ufl.Form
+    explicit: ufl.Form | None = None
+    constant: float = 0.0
+
+    @property
+    def total(self) -> ufl.Form:
+        return self.implicit if self.explicit is None else self.implicit + self.explicit
+
+
+def flat_identity(mesh):
+    """The flat reference deformation y⁰(x) = (x₁, x₂, 0) and its gradient [I₂; 0]."""
+    x = ufl.SpatialCoordinate(mesh)
+    g = ufl.as_vector([x[0], x[1], 0.0])
+    Phi = ufl.as_matrix([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])
+    return g, Phi
+
+
+def piecewise_constant(tagged, values, key: str):
+    """μ-like data: a number, or {cell group name: number} turned into a DG0 function."""
+    import dolfinx.fem
+    import numpy as np
+
+    from dgplate.errors import InputError
+
+    if isinstance(values, int | float) and not isinstance(values, bool):
+        if not values > 0:
+            raise InputError(f"{key} must be > 0, got {values}")
+        return float(values)
+    if not isinstance(values, dict) or not values:
+        raise InputError(f"{key} must be a number or a table {{group = value}}, got {values!r}")
+    mesh = tagged.mesh
+    space = dolfinx.fem.functionspace(mesh, ("DG", 0))
+    field = dolfinx.fem.Function(space, name=key.split(".")[-1])
+    cmap = mesh.topology.index_map(mesh.topology.dim)
+    assigned = np.zeros(cmap.size_local + cmap.num_ghosts, dtype=bool)
+    for name, value in values.items():
+        if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
+            raise InputError(f"{key}.{name} must be a number > 0, got {value!r}")
+        cells = tagged.cells(name)
+        dofs = space.dofmap.list[cells].reshape(-1)
+        field.x.array[dofs] = float(value)
+        assigned[cells] = True
+    missing = int(mesh.comm.allreduce(int(np.count_nonzero(~assigned[: cmap.size_local]))))
+    if missing:
+        raise InputError(
+            f"{key} leaves {missing} cell(s) without a value (cell groups: {tagged.names(mesh.topology.dim)})"
+        )
+    field.x.scatter_forward()
+    return field

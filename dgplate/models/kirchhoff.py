@@ -1,0 +1,101 @@
+"""Isometry-constrained Kirchhoff plate: E_h[y] = ½ a_h(y, y) − ∫ f·y (DESIGN.md §1–§2).
+
+The bending part is the interior-penalty form of :mod:`dgplate.dg` with rigidity μ (a cell-wise
+coefficient) and Nitsche data g, Φ on clamped faces. The isometry constraint is not part of the
+energy: the gradient flow imposes its linearisation (:mod:`dgplate.constraint`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import ufl
+
+from dgplate import expressions
+from dgplate.dg import FaceSets, Penalty, bending_energy, face_sets
+from dgplate.errors import InputError
+from dgplate.models.base import Energy, flat_identity, piecewise_constant
+from dgplate.schema import option
+
+
+def kirchhoff_energy(
+    y,
+    faces: FaceSets,
+    penalty: Penalty,
+    load=None,
+    mu=None,
+    g=None,
+    Phi=None,
+) -> Energy:
+    """The discrete Kirchhoff energy of the deformation ``y`` (a UFL Function in [DG_k]³)."""
+    energy = bending_energy(y, faces, penalty, mu=mu, g=g, Phi=Phi)
+    if load is not None:
+        energy -= ufl.inner(load, y) * faces.dx
+    return Energy(implicit=energy)
+
+
+@dataclass
+class KirchhoffSpec:
+    """[model] of a single-layer isometric plate."""
+
+    name: str = option("kirchhoff", "the model")
+    degree: int = option(2, "polynomial degree k >= 2 of the DG space")
+    clamped: list = option([], "facet groups with clamped data (Γ_D); empty: a free plate")
+    crease: list = option([], "interior facet groups along which the plate may fold")
+    load: list = option([0.0, 0.0, 0.0], "body force f: three numbers or formulas in x, y")
+    mu: float | dict = option(1.0, "bending rigidity: a number or {cell group = value}")
+    penalty: dict = option(
+        {"gamma0": 5000.0, "gamma1": 1100.0}, "IP penalties γ₀ (h⁻³[y]) and γ₁ (h⁻¹[∇y])"
+    )
+    boundary_data: str = option("flat", "clamped data: 'flat' (g = (x, y, 0), Φ = [I; 0])")
+
+    def __post_init__(self) -> None:
+        if self.degree < 2:
+            raise InputError(f"model.degree must be >= 2 for the H² dG method, got {self.degree}")
+        for key in ("clamped", "crease"):
+            names = getattr(self, key)
+            if not all(isinstance(n, str) for n in names):
+                raise InputError(f"model.{key} must be a list of facet group names, got {names!r}")
+        if self.boundary_data != "flat":
+            raise InputError(f"model.boundary_data must be 'flat', got {self.boundary_data!r}")
+        unknown = set(self.penalty) - {"gamma0", "gamma1"}
+        if unknown:
+            raise InputError(
+                f"unknown key model.penalty.{sorted(unknown)[0]} (known: gamma0, gamma1)"
+            )
+        for key, value in self.penalty.items():
+            if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
+                raise InputError(f"model.penalty.{key} must be a number > 0, got {value!r}")
+        if not isinstance(self.load, list) or len(self.load) != 3:
+            raise InputError(
+                f"model.load must be a list of 3 numbers or formulas, got {self.load!r}"
+            )
+
+    @property
+    def penalty_params(self) -> Penalty:
+        return Penalty(**{k: float(v) for k, v in self.penalty.items()})
+
+
+@dataclass
+class FlowModel:
+    """What the runner needs of a gradient-flow model."""
+
+    faces: FaceSets
+    degree: int
+    energy_fn: object  # Callable[[Function], Energy]
+    extras: object = None  # Callable[[GradientFlow], dict] for summary.json
+
+
+def build_kirchhoff(spec: KirchhoffSpec, tagged) -> FlowModel:
+    """Face sets and the energy of a Kirchhoff problem (validates group names)."""
+    faces = face_sets(tagged, clamped=spec.clamped, crease=spec.crease)
+    x = ufl.SpatialCoordinate(tagged.mesh)
+    load = expressions.parse_vector(spec.load, x, "model.load", 3)
+    mu = piecewise_constant(tagged, spec.mu, "model.mu")
+    g, Phi = flat_identity(tagged.mesh)
+    penalty = spec.penalty_params
+
+    def energy_fn(y) -> Energy:
+        return kirchhoff_energy(y, faces, penalty, load=load, mu=mu, g=g, Phi=Phi)
+
+    return FlowModel(faces, spec.degree, energy_fn)

@@ -1,0 +1,189 @@
+"""Problem descriptions: TOML files with the sections [mesh], [model], [flow], [output].
+
+``load_problem(path, overrides)`` reads a file, applies ``--set dotted.key=value`` overrides and
+validates every section before anything is computed or written. The model section is checked
+by the model named in ``model.name`` (see :mod:`dgplate.models.registry`).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import tomllib
+
+from dgplate.errors import InputError
+from dgplate.schema import from_dict, option
+
+SECTIONS = ("mesh", "model", "flow", "output")
+
+
+@dataclass
+class MeshSpec:
+    type: str = option("rectangle", "'rectangle' (built-in) or 'gmsh' (a .geo file)")
+    corners: list = option([[0.0, 0.0], [1.0, 1.0]], "rectangle: [[xmin, ymin], [xmax, ymax]]")
+    cells: list = option([16, 16], "rectangle: number of cells in x and y")
+    cell_type: str = option("quadrilateral", "rectangle: 'quadrilateral' or 'triangle'")
+    diagonal: str = option("right", "rectangle with triangles: 'left', 'right' or 'crossed'")
+    file: str = option("", "gmsh: a .geo file, as a path or a name in meshes/")
+    parameters: dict = option({}, "gmsh: DefineConstant overrides, e.g. {h = 0.1}")
+    recombine: bool = option(False, "gmsh: recombine triangles into quadrilaterals")
+
+    def __post_init__(self) -> None:
+        if self.type not in ("rectangle", "gmsh"):
+            raise InputError(f"mesh.type must be 'rectangle' or 'gmsh', got {self.type!r}")
+        if self.type == "gmsh" and not self.file:
+            raise InputError("mesh.file is required when mesh.type = 'gmsh'")
+        if self.type == "rectangle":
+            c = self.cells
+            if len(c) != 2 or not all(
+                isinstance(n, int) and not isinstance(n, bool) and n > 0 for n in c
+            ):
+                raise InputError(f"mesh.cells must be two positive integers, got {c!r}")
+            try:
+                (x0, y0), (x1, y1) = ((float(a), float(b)) for a, b in self.corners)
+            except (TypeError, ValueError):
+                raise InputError(
+                    f"mesh.corners must be [[xmin, ymin], [xmax, ymax]], got {self.corners!r}"
+                ) from None
+            if not (x1 > x0 and y1 > y0):
+                raise InputError(
+                    f"mesh.corners must have xmax > xmin and ymax > ymin, got {self.corners!r}"
+                )
+        for key, value in self.parameters.items():
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise InputError(f"mesh.parameters.{key} must be a number, got {value!r}")
+
+
+@dataclass
+class FlowSpec:
+    tau: float | str = option("h", "time step τ > 0, or 'h' for the largest cell diameter")
+    tol: float = option(1e-6, "stop when (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < tol")
+    max_steps: int = option(1000, "step budget; reaching it is reported as not converged")
+    l2_metric: bool | str = option(
+        "auto", "add the L² product to the metric; 'auto': when nothing is clamped"
+    )
+    solver: dict = option({}, "PETSc options for the step solve (default: MUMPS LU)")
+
+    def __post_init__(self) -> None:
+        if isinstance(self.tau, str):
+            if self.tau != "h":
+                raise InputError(f"flow.tau must be a number > 0 or 'h', got {self.tau!r}")
+        elif not (self.tau > 0 and math.isfinite(self.tau)):
+            raise InputError(f"flow.tau must be > 0, got {self.tau!r}")
+        if not self.tol > 0:
+            raise InputError(f"flow.tol must be > 0, got {self.tol!r}")
+        if self.max_steps < 1:
+            raise InputError(f"flow.max_steps must be >= 1, got {self.max_steps!r}")
+        if isinstance(self.l2_metric, str) and self.l2_metric != "auto":
+            raise InputError(
+                f"flow.l2_metric must be true, false or 'auto', got {self.l2_metric!r}"
+            )
+
+    @property
+    def l2(self) -> bool | None:
+        return None if self.l2_metric == "auto" else bool(self.l2_metric)
+
+
+@dataclass
+class OutputSpec:
+    dir: str = option("", "output directory (default out/<problem name>); --out overrides it")
+    vtx: bool = option(True, "write a VTX time series (ParaView) of the deformation")
+    every: int = option(1, "write the time series every n steps (the final state always)")
+    png: bool = option(True, "render final.png off-screen")
+    color_by: str = option("curvature", "colour of final.png: 'curvature' (|D²y|) or 'defect'")
+    progress: int = option(1, "print progress every n steps on rank 0 (0: quiet)")
+
+    def __post_init__(self) -> None:
+        if self.every < 1:
+            raise InputError(f"output.every must be >= 1, got {self.every}")
+        if self.color_by not in ("curvature", "defect"):
+            raise InputError(
+                f"output.color_by must be 'curvature' or 'defect', got {self.color_by!r}"
+            )
+        if self.progress < 0:
+            raise InputError(f"output.progress must be >= 0, got {self.progress}")
+
+
+@dataclass
+class Problem:
+    name: str
+    mesh: MeshSpec
+    model: Any  # the model's own spec dataclass
+    flow: FlowSpec
+    output: OutputSpec
+    raw: dict  # the validated input, overrides applied (recorded in summary.json)
+
+
+_KEY = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
+_BARE = re.compile(r"^[A-Za-z_][A-Za-z0-9_./+-]*$")
+
+
+def parse_override(text: str) -> tuple[list[str], Any]:
+    """``'flow.tau=0.1'`` → (['flow', 'tau'], 0.1). Values are TOML; bare words are strings."""
+    if "=" not in text:
+        raise InputError(f"malformed --set {text!r}: expected dotted.key=value")
+    key, value = (part.strip() for part in text.split("=", 1))
+    if not _KEY.match(key) or "." not in key:
+        raise InputError(f"malformed --set {text!r}: the key must be section.name, e.g. flow.tau")
+    if value == "":
+        raise InputError(f"malformed --set {text!r}: no value after '='")
+    try:
+        parsed = tomllib.loads(f"v = {value}")["v"]
+    except tomllib.TOMLDecodeError as err:
+        if _BARE.match(value) and value not in ("true", "false"):
+            parsed = value
+        else:
+            raise InputError(f"malformed --set {text!r}: {err}") from None
+    return key.split("."), parsed
+
+
+def apply_overrides(data: dict, overrides: Sequence[str]) -> dict:
+    for text in overrides:
+        path, value = parse_override(text)
+        node = data
+        for part in path[:-1]:
+            child = node.setdefault(part, {})
+            if not isinstance(child, dict):
+                raise InputError(f"--set {text!r}: {part} is not a table")
+            node = child
+        node[path[-1]] = value
+    return data
+
+
+def load_problem(path: str | Path, overrides: Sequence[str] = ()) -> Problem:
+    """Read, override and validate a problem file. Raises ``InputError`` on any bad input."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"problem file not found: {path}")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as err:
+        raise InputError(f"{path}: invalid TOML: {err}") from None
+    return problem_from_dict(data, path.stem, overrides)
+
+
+def problem_from_dict(data: dict, name: str, overrides: Sequence[str] = ()) -> Problem:
+    """Validate a problem given as a dict (the Python API's entry point)."""
+    import copy
+
+    from dgplate.models.registry import model_spec
+
+    data = apply_overrides(copy.deepcopy(data), overrides)
+    for section in data:
+        if section not in SECTIONS:
+            raise InputError(f"unknown section [{section}] (known: {', '.join(SECTIONS)})")
+    mesh = from_dict(MeshSpec, data.get("mesh"), "mesh")
+    model = model_spec(data.get("model"))
+    flow = from_dict(FlowSpec, data.get("flow"), "flow")
+    output = from_dict(OutputSpec, data.get("output"), "output")
+    if flow.l2 is False and not getattr(model, "clamped", True):
+        raise InputError(
+            "model.clamped is empty but flow.l2_metric = false: without clamped faces the "
+            "metric needs the L² product (rigid motions); set flow.l2_metric = 'auto'"
+        )
+    return Problem(name, mesh, model, flow, output, data)

@@ -1,0 +1,154 @@
+"""Run a validated problem: mesh → model → gradient flow → outputs (the CLI's engine).
+
+``run_problem`` is also the Python API: ``run_problem(load_problem("p.toml", ["flow.tau=0.1"]))``
+does what ``dgplate run p.toml --set flow.tau=0.1`` does.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from mpi4py import MPI
+
+from dgplate import compat
+from dgplate.flow import FlowResult, FlowSettings, GradientFlow, StepInfo
+from dgplate.meshing import TaggedMesh, load_geo, rectangle
+from dgplate.models.registry import MODELS
+from dgplate.output import (
+    OutputDir,
+    ProgressPrinter,
+    bounding_box,
+    print0,
+    write_history,
+    write_json,
+)
+from dgplate.problem import MeshSpec, Problem
+
+
+def build_mesh(spec: MeshSpec, comm: MPI.Comm) -> TaggedMesh:
+    if spec.type == "rectangle":
+        return rectangle(comm, spec.corners, spec.cells, spec.cell_type, spec.diagonal)
+    return load_geo(comm, spec.file, spec.parameters, recombine=spec.recombine)
+
+
+def max_cell_diameter(tagged: TaggedMesh) -> float:
+    """The largest cell diameter (τ = 'h' in problem files, as in the published runs)."""
+    mesh = tagged.mesh
+    tdim = mesh.topology.dim
+    num_owned = mesh.topology.index_map(tdim).size_local
+    local = mesh.h(tdim, np.arange(num_owned, dtype=np.int32))
+    return float(mesh.comm.allreduce(float(local.max(initial=0.0)), op=MPI.MAX))
+
+
+class _History:
+    def __init__(self):
+        self.rows: list[StepInfo] = []
+
+    def step(self, flow, info: StepInfo) -> None:
+        self.rows.append(info)
+
+    def finish(self, flow, result) -> None:
+        pass
+
+
+class _SeriesWriter:
+    """VTX time series of the deformation, every ``every`` steps and at the end."""
+
+    def __init__(self, flow: GradientFlow, path: Path, every: int):
+        from dgplate.vtx import DeformationWriter
+
+        self.writer = DeformationWriter(flow.comm, path, flow.y)
+        self.every = every
+        self.writer.write(0.0)
+
+    def step(self, flow: GradientFlow, info: StepInfo) -> None:
+        if info.step % self.every == 0:
+            self.writer.write(info.time)
+
+    def finish(self, flow: GradientFlow, result: FlowResult) -> None:
+        if result.steps % self.every:
+            self.writer.write(flow.time)
+        self.writer.close()
+
+
+def run_problem(
+    problem: Problem, out_dir: str | Path | None = None, comm: MPI.Comm = MPI.COMM_WORLD
+) -> dict[str, Any]:
+    """Solve ``problem`` and write its outputs; returns the summary (also summary.json).
+
+    Everything that can be validated is validated before the output directory is created.
+    A flow that does not converge still writes its outputs, with ``converged = false``.
+    """
+    wall0 = time.perf_counter()
+    tagged = build_mesh(problem.mesh, comm)
+    entry = MODELS[problem.model.name]
+    model = entry.build(problem.model, tagged)
+    tau = max_cell_diameter(tagged) if problem.flow.tau == "h" else float(problem.flow.tau)
+    settings = FlowSettings(
+        tau=tau,
+        tol=problem.flow.tol,
+        max_steps=problem.flow.max_steps,
+        l2_metric=problem.flow.l2,
+        solver_options=problem.flow.solver,
+    )
+    history = _History()
+    observers: list = [history]
+    if problem.output.progress:
+        observers.append(ProgressPrinter(comm, problem.output.progress))
+    flow = GradientFlow(model.faces, model.degree, model.energy_fn, settings, observers)
+    target = Path(out_dir or problem.output.dir or f"out/{problem.name}")
+    out = OutputDir(comm, target)
+    print0(
+        comm,
+        f"dgplate: {problem.name}: model {problem.model.name}, {flow.num_dofs} dofs on "
+        f"{comm.size} rank(s), τ = {tau:.4g}, output → {target}",
+    )
+    if problem.output.vtx:
+        flow.observers.append(
+            _SeriesWriter(flow, out.path / "deformation.bp", problem.output.every)
+        )
+    result = flow.run()
+    summary = make_summary(problem, flow, result, tagged, wall0)
+    if model.extras is not None:
+        summary.update(model.extras(flow))
+    write_history(comm, out.path / "history.csv", history.rows)
+    if problem.output.png:
+        from dgplate.plotting import plot_deformation
+
+        title = f"{problem.name}: E_h = {result.energy:.4e}, D_h = {result.defect:.2e}"
+        plot_deformation(
+            flow.y, out.path / "final.png", title=title, color_by=problem.output.color_by
+        )
+    summary["wall_time_s"] = time.perf_counter() - wall0
+    write_json(comm, out.path / "summary.json", summary)
+    out.commit()
+    flow.destroy()
+    return summary
+
+
+def make_summary(
+    problem: Problem, flow: GradientFlow, result: FlowResult, tagged, wall0: float
+) -> dict:
+    mesh = tagged.mesh
+    return {
+        "problem": problem.name,
+        "model": problem.model.name,
+        "dofs": flow.num_dofs,
+        "cells": mesh.topology.index_map(mesh.topology.dim).size_global,
+        "degree": problem.model.degree,
+        "ranks": flow.comm.size,
+        "steps": result.steps,
+        "converged": result.converged,
+        "reason": result.reason,
+        "energy": result.energy,
+        "isometry_defect": result.defect,
+        "bbox": bounding_box(flow.y),
+        "tau": flow.tau,
+        "energy_increases": result.energy_increases,
+        "wall_time_s": time.perf_counter() - wall0,
+        "dolfinx_version": compat.version_string(),
+        "input": problem.raw,
+    }

@@ -1,0 +1,110 @@
+"""Validated dataclasses for problem-file sections.
+
+Each section of a problem file is a dataclass whose fields carry a default and a ``doc``
+string. :func:`from_dict` rejects unknown keys and wrong types with a one-line
+``InputError`` that names the dotted key; :func:`describe` prints the documented defaults
+(``dgplate schema``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import types
+import typing
+from typing import Any, TypeVar
+
+from dgplate.errors import InputError
+
+T = TypeVar("T")
+
+
+def option(default: Any, doc: str) -> Any:
+    """A dataclass field with a default (copied if mutable) and a documentation string."""
+    if isinstance(default, list | dict):
+        return dataclasses.field(default_factory=lambda: _copy(default), metadata={"doc": doc})
+    return dataclasses.field(default=default, metadata={"doc": doc})
+
+
+def _copy(value):
+    import copy
+
+    return copy.deepcopy(value)
+
+
+def _type_name(tp) -> str:
+    origin = typing.get_origin(tp)
+    if origin in (typing.Union, types.UnionType):
+        return " or ".join(_type_name(a) for a in typing.get_args(tp))
+    if origin is not None:
+        return origin.__name__
+    return {"NoneType": "none"}.get(tp.__name__, tp.__name__)
+
+
+def _matches(value: Any, tp) -> bool:
+    origin = typing.get_origin(tp)
+    if origin in (typing.Union, types.UnionType):
+        return any(_matches(value, arg) for arg in typing.get_args(tp))
+    if tp is Any:
+        return True
+    if tp is type(None):
+        return value is None
+    if origin is not None:
+        tp = origin
+    if tp is float:
+        return isinstance(value, int | float) and not isinstance(value, bool)
+    if tp is int:
+        return isinstance(value, int) and not isinstance(value, bool)
+    return isinstance(value, tp)
+
+
+def from_dict(cls: type[T], data: Any, section: str) -> T:
+    """Build ``cls`` from a problem-file table, checking keys and types."""
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise InputError(f"[{section}] must be a table, got {data!r}")
+    fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    hints = typing.get_type_hints(cls)
+    for key in data:
+        if key not in fields:
+            known = ", ".join(sorted(fields))
+            raise InputError(f"unknown key {section}.{key} (known keys: {known})")
+    values = {}
+    for key, value in data.items():
+        if not _matches(value, hints[key]):
+            raise InputError(
+                f"{section}.{key} must be {_type_name(hints[key])}, got {value!r} "
+                f"({type(value).__name__})"
+            )
+        if isinstance(value, float) and typing.get_origin(hints[key]) is None:
+            value = float(value)
+        values[key] = value
+    return cls(**values)
+
+
+def to_dict(obj: Any) -> dict:
+    return dataclasses.asdict(obj)
+
+
+def describe(cls: type, section: str) -> str:
+    """The section's keys, defaults and documentation, as commented TOML."""
+    lines = [f"[{section}]"]
+    for f in dataclasses.fields(cls):
+        default = f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default
+        lines.append(f"# {f.metadata.get('doc', '')}")
+        lines.append(f"{f.name} = {_toml(default)}")
+    return "\n".join(lines)
+
+
+def _toml(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k} = {_toml(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    if value is None:
+        return '"auto"'
+    return repr(value)
