@@ -60,7 +60,7 @@ class _SeriesWriter:
     def __init__(self, flow: GradientFlow, path: Path, every: int):
         from dgplate.vtx import DeformationWriter
 
-        self.writer = DeformationWriter(flow.comm, path, flow.y)
+        self.writer = DeformationWriter(path, flow.y, comm=flow.comm)
         self.every = every
         self.writer.write(0.0)
 

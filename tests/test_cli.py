@@ -121,6 +121,6 @@ def test_cli_end_to_end(tmp_path):
     assert summary["steps"] == 13 and summary["converged"]
     assert summary["energy"] == pytest.approx(-7.53e-3, rel=5e-3)
     (lo, hi) = summary["bbox"]
-    assert lo[0] == pytest.approx(0.0, abs=1e-8) and hi[2] > 0.1  # the free corner lifts
+    assert lo[0] == pytest.approx(0.0, abs=1e-3) and hi[2] > 0.1  # clamped edge stays, corner lifts
     rows = (out / "history.csv").read_text().strip().splitlines()
     assert rows[0].startswith("step,time,tau,energy,defect") and len(rows) == 14

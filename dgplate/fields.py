@@ -1,0 +1,232 @@
+"""Field helpers for output: cell fields, VTK-ready spaces and the gathered DG surface.
+
+Plots and files index per-cell data by the *owned local cell* (0 .. num_owned − 1), while
+DG0 functions and assembled DG0 vectors are indexed by *dof*. DOLFINx does not promise that
+the two orders agree, so every conversion here goes through the DG0 dofmap.
+
+``surface_grid`` builds the deformed surface from the DG dofs themselves: each owned cell
+becomes a VTK Lagrange cell of the element degree whose points are the deformed positions at
+that cell's nodes, so a picture shows the discrete surface (with its small jumps), not a
+projection of it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
+
+import basix
+import basix.ufl
+import dolfinx.fem
+import dolfinx.plot
+import numpy as np
+import ufl
+
+from dgplate import compat
+
+if TYPE_CHECKING:
+    import pyvista
+
+#: Point-data name of the reference (undeformed) positions stored on every gathered grid.
+REFERENCE = "reference position"
+
+
+def num_owned_cells(mesh) -> int:
+    """Number of cells this rank owns (ghost cells excluded)."""
+    return mesh.topology.index_map(mesh.topology.dim).size_local
+
+
+def owned_cell_dofs(space: dolfinx.fem.FunctionSpace) -> np.ndarray:
+    """The (block) dof of each owned cell of a DG0 space, in owned-cell order."""
+    mesh = space.mesh
+    cell_dofs = space.dofmap.list
+    if cell_dofs.shape[1] != 1:
+        raise ValueError("owned_cell_dofs needs a cell-wise constant (DG0) space")
+    return np.asarray(cell_dofs[: num_owned_cells(mesh), 0], dtype=np.int64)
+
+
+def dg0_dofs_to_cells(values: np.ndarray, space: dolfinx.fem.FunctionSpace) -> np.ndarray:
+    """Reorder per-DG0-dof values (first axis, owned dofs or all local dofs) to owned cells."""
+    dofs = owned_cell_dofs(space)
+    values = np.asarray(values)
+    if dofs.size and dofs.max() >= values.shape[0]:
+        raise ValueError("an owned cell has a ghost DG0 dof: pass the values of all local dofs")
+    return values[dofs]
+
+
+def cell_field(expr: ufl.core.expr.Expr, mesh) -> np.ndarray:
+    """A scalar UFL expression at each owned cell's midpoint, in owned-cell order.
+
+    The expression is interpolated into DG0 (one point per cell: the reference midpoint)
+    and read back through the dofmap, so the result can be passed as ``cell_values``.
+    """
+    space = dolfinx.fem.functionspace(mesh, ("DG", 0))
+    points = compat.interpolation_points(space.element)
+    compiled = dolfinx.fem.Expression(expr, points)
+    field = dolfinx.fem.Function(space)
+    field.interpolate(compiled)
+    return field.x.array[owned_cell_dofs(space)].real.copy()
+
+
+def bending_density(y: dolfinx.fem.Function) -> np.ndarray:
+    """|D²y| (Frobenius norm of the broken Hessian, y vector or scalar) at the owned cells'
+    midpoints."""
+    hessian = ufl.grad(ufl.grad(y))
+    return cell_field(ufl.sqrt(ufl.inner(hessian, hessian)), y.function_space.mesh)
+
+
+def defect_density(y: dolfinx.fem.Function) -> np.ndarray:
+    """Isometry-defect density |∫_T (∇yᵀ∇y − I)| / |T| per owned cell (owned-cell order)."""
+    if y.ufl_shape != (3,):
+        raise ValueError("the isometry defect needs a deformation y with three components")
+    from dgplate.constraint import IsometryDefect
+
+    defect = IsometryDefect(y)
+    # density() is indexed by the owned dofs of the defect's DG0 space, not by cell.
+    return dg0_dofs_to_cells(defect.density(), defect.space)
+
+
+def output_element(mesh, degree: int, shape: tuple[int, ...] = (), discontinuous: bool = True):
+    """A Lagrange element whose nodes VTK reads correctly (VTK Lagrange cells are equispaced).
+
+    Basix's default variant (GLL-warped) has equispaced nodes up to degree 2, which is kept
+    so that a DG2 deformation is written as is; from degree 3 on the equispaced variant is
+    used, since VTK would draw a wavy surface through warped nodes.
+    """
+    variant = basix.LagrangeVariant.equispaced if degree >= 3 else basix.LagrangeVariant.gll_warped
+    cell = mesh.basix_cell()
+    return basix.ufl.element(
+        "P", cell, degree, lagrange_variant=variant, shape=shape, discontinuous=discontinuous
+    )
+
+
+def to_output_space(
+    f: dolfinx.fem.Function, degree: int | None = None, discontinuous: bool | None = None
+) -> dolfinx.fem.Function:
+    """``f`` in the ``output_element`` of the given degree (default: f's own degree).
+
+    Returns ``f`` itself when it already lives there; otherwise interpolates, which is exact
+    between the variants of one degree (same polynomial space).
+    """
+    element = f.function_space.ufl_element()
+    degree = element.embedded_superdegree if degree is None else degree
+    discontinuous = element.discontinuous if discontinuous is None else discontinuous
+    mesh = f.function_space.mesh
+    target = output_element(mesh, degree, f.ufl_shape, discontinuous)
+    if element == target:
+        return f
+    out = dolfinx.fem.Function(dolfinx.fem.functionspace(mesh, target), name=f.name)
+    out.interpolate(f)
+    return out
+
+
+def reference_coordinates(space: dolfinx.fem.FunctionSpace) -> np.ndarray:
+    """Reference positions x of the local (owned and ghost) dofs, shape (num_dofs, 3)."""
+    return space.tabulate_dof_coordinates()
+
+
+def surface_points(u: dolfinx.fem.Function) -> np.ndarray:
+    """Deformed positions at the local dofs, shape (num_dofs, 3).
+
+    For a vector y with three components this is y itself; for a scalar deflection w it is
+    (x₁, x₂, w).
+    """
+    space = u.function_space
+    bs = space.dofmap.index_map_bs
+    num_dofs = space.dofmap.index_map.size_local + space.dofmap.index_map.num_ghosts
+    values = u.x.array.real[: num_dofs * bs].reshape(num_dofs, bs)
+    if bs == 3:
+        return values.copy()
+    if bs == 1:
+        points = reference_coordinates(space).copy()
+        points[:, 2] = values[:, 0]
+        return points
+    raise ValueError(f"expected a deformation with 3 components or a scalar, got {bs}")
+
+
+def dof_values(values, u: dolfinx.fem.Function) -> np.ndarray:
+    """Values at u's local dofs: an array indexed by local dof, or any Function (put on u's
+    space by ``to_output_space``, so a P1 temperature can be shown on a DG surface)."""
+    space = u.function_space
+    num_dofs = space.dofmap.index_map.size_local + space.dofmap.index_map.num_ghosts
+    if isinstance(values, dolfinx.fem.Function):
+        element = space.ufl_element()
+        values = to_output_space(values, element.embedded_superdegree, element.discontinuous)
+        # Same element layout, possibly other dof numbers: match them node by node per cell.
+        same_node = np.empty(num_dofs, dtype=np.int64)
+        same_node[space.dofmap.list.reshape(-1)] = values.function_space.dofmap.list.reshape(-1)
+        bs = values.function_space.dofmap.index_map_bs
+        array = values.x.array.real.reshape(-1, bs)[same_node]
+        return array[:, 0] if bs == 1 else array
+    array = np.asarray(values)
+    if array.shape[0] != num_dofs:
+        raise ValueError(f"point values need one entry per local dof ({num_dofs})")
+    return array
+
+
+def set_displacement(u: dolfinx.fem.Function, y: dolfinx.fem.Function, x: np.ndarray) -> None:
+    """u ← y − x for the dof coordinates ``x`` (both functions in the same [DG_k]³ space)."""
+    u.x.array[:] = y.x.array - x.reshape(-1)
+
+
+def surface_grid(
+    u: dolfinx.fem.Function,
+    cell_values: Mapping[str, np.ndarray] | None = None,
+    point_values: Mapping[str, np.ndarray | dolfinx.fem.Function] | None = None,
+) -> pyvista.UnstructuredGrid | None:
+    """The deformed surface of the owned cells of all ranks, as one grid on rank 0.
+
+    ``u`` is a deformation y in [DG_k]³ or a scalar deflection w (surface (x₁, x₂, w)).
+    ``cell_values`` are indexed by owned local cell, ``point_values`` by local dof of u's
+    space. Collective; returns None on ranks other than 0. The reference positions are
+    attached as point data ``REFERENCE``.
+    """
+    import pyvista
+
+    u = to_output_space(u)
+    space = u.function_space
+    mesh = space.mesh
+    owned = np.arange(num_owned_cells(mesh), dtype=np.int32)
+    cells, types, _ = dolfinx.plot.vtk_mesh(space, entities=owned)
+    nodes = space.dofmap.dof_layout.num_dofs  # per cell; reshape works for 0 owned cells too
+    topology = np.asarray(cells, dtype=np.int64).reshape(owned.size, nodes + 1)
+    used, local = np.unique(topology[:, 1:], return_inverse=True)
+    topology[:, 1:] = local.reshape(owned.size, nodes)
+    points = surface_points(u)[used]
+    reference = space.tabulate_dof_coordinates()[used]
+    cvals = {name: np.asarray(v)[: owned.size] for name, v in (cell_values or {}).items()}
+    for name, v in cvals.items():
+        if v.shape[0] != owned.size:
+            raise ValueError(f"cell values {name!r} need one entry per owned cell ({owned.size})")
+    pvals = {name: dof_values(v, u)[used] for name, v in (point_values or {}).items()}
+    pieces = mesh.comm.gather((topology, np.asarray(types), points, reference, cvals, pvals))
+    if mesh.comm.rank != 0:
+        return None
+    offsets = np.cumsum([0] + [p[2].shape[0] for p in pieces])
+    conn = [np.c_[t[:, :1], t[:, 1:] + off].reshape(-1) for (t, *_), off in zip(pieces, offsets)]
+    types = np.concatenate([p[1] for p in pieces]).astype(np.uint8)
+    grid = pyvista.UnstructuredGrid(np.concatenate(conn), types, np.vstack([p[2] for p in pieces]))
+    grid.point_data[REFERENCE] = np.concatenate([p[3] for p in pieces])
+    for name in cvals:
+        grid.cell_data[name] = np.concatenate([p[4][name] for p in pieces])
+    for name in pvals:
+        grid.point_data[name] = np.concatenate([p[5][name] for p in pieces])
+    return grid
+
+
+__all__ = [
+    "REFERENCE",
+    "bending_density",
+    "cell_field",
+    "defect_density",
+    "dg0_dofs_to_cells",
+    "dof_values",
+    "num_owned_cells",
+    "output_element",
+    "owned_cell_dofs",
+    "reference_coordinates",
+    "set_displacement",
+    "surface_grid",
+    "surface_points",
+    "to_output_space",
+]

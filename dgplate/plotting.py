@@ -1,0 +1,298 @@
+"""Pictures of the deformed plate: gather the DG surface to rank 0, render it off-screen.
+
+``surface_grid`` (from :mod:`dgplate.fields`) gathers the surface as VTK Lagrange cells;
+``render_png`` draws it with pyvista without a display; ``plot_deformation`` does both for a
+deformation coloured by bending or isometry defect; ``frames_to_gif`` makes an animation.
+Functions taking a DOLFINx function are collective; only rank 0 renders and writes.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Sequence
+from contextlib import contextmanager
+from pathlib import Path
+
+import dolfinx.fem
+import numpy as np
+import pyvista
+from mpi4py import MPI
+
+from dgplate.fields import REFERENCE, bending_density, defect_density, surface_grid
+
+#: Scalar-bar labels of the fields ``plot_deformation`` can colour by.
+COLOR_LABELS = {"curvature": "bending |D²y|", "defect": "isometry defect density"}
+_VIEWS = {"iso": (1.0, -1.4, 1.1), "top": (0.0, 0.0, 1.0), "front": (0.0, -1.0, 0.0)}
+_VIEWS.update({"xy": _VIEWS["top"], "xz": _VIEWS["front"], "yz": (1.0, 0.0, 0.0)})
+_LOOK = {"smooth_shading": True, "specular": 0.3, "specular_power": 25, "ambient": 0.15}
+_BAR = {"title": "", "vertical": False, "position_x": 0.25, "width": 0.5, "position_y": 0.03}
+_BAR |= {"height": 0.07, "label_font_size": 16, "color": "black", "fmt": "%.3g", "n_labels": 5}
+
+
+def _smooth_surface(grid: pyvista.UnstructuredGrid, levels: int = 3) -> pyvista.PolyData:
+    """Triangulated higher-order surface (each Lagrange cell subdivided ``levels`` times)."""
+    try:
+        surface = grid.extract_surface(nonlinear_subdivision=levels, algorithm="dataset_surface")
+    except TypeError:  # pyvista < 0.47 has no ``algorithm`` argument
+        surface = grid.extract_surface(nonlinear_subdivision=levels)
+    return surface.compute_normals(
+        cell_normals=False, split_vertices=False, auto_orient_normals=False
+    )
+
+
+def _reference_outline(grid: pyvista.UnstructuredGrid) -> pyvista.PolyData:
+    """Boundary edges of the undeformed domain, from the cells' corner nodes (z = 0)."""
+    legacy, faces, i = np.asarray(grid.cells), [], 0
+    for vtk_type in np.asarray(grid.celltypes):
+        corners = 3 if int(vtk_type) in (5, 22, 69) else 4  # triangles, else quadrilaterals
+        faces.append(np.r_[corners, legacy[i + 1 : i + 1 + corners]])
+        i += legacy[i] + 1
+    reference = np.asarray(grid.point_data[REFERENCE], dtype=np.float64)
+    flat = pyvista.PolyData(reference, faces=np.concatenate(faces))
+    size = float(np.ptp(reference, axis=0).max()) or 1.0
+    return _boundary_edges(flat.clean(tolerance=1e-9 * size, absolute=True))
+
+
+def _boundary_edges(surface: pyvista.PolyData) -> pyvista.PolyData:
+    """Edges with one adjacent face. DG cells share no points, so on the deformed surface
+    these are all element edges; on the cleaned reference mesh, the domain's boundary."""
+    return surface.extract_feature_edges(
+        boundary_edges=True, feature_edges=False, manifold_edges=False, non_manifold_edges=False
+    )
+
+
+def _set_camera(plotter: pyvista.Plotter, camera: str | Sequence, bounds: np.ndarray) -> None:
+    """Look at the centre of ``bounds`` from a named view, a direction or a camera position."""
+    if isinstance(camera, str):
+        if camera not in _VIEWS:
+            raise ValueError(
+                f"camera must be one of {sorted(_VIEWS)} or a position, not {camera!r}"
+            )
+        direction = np.asarray(_VIEWS[camera])
+        up = (0.0, 1.0, 0.0) if camera in ("top", "xy") else (0.0, 0.0, 1.0)
+        if camera != "iso":  # axis views read best without perspective
+            plotter.enable_parallel_projection()
+    elif len(camera) == 3 and np.ndim(camera[0]) == 0:
+        direction, up = np.asarray(camera, dtype=float), (0.0, 0.0, 1.0)
+    else:  # a full pyvista camera position: (position, focal point, view up)
+        plotter.camera_position = camera
+        plotter.reset_camera(bounds=bounds)
+        return
+    centre = 0.5 * (bounds[0::2] + bounds[1::2])
+    distance = 4.0 * max(float(np.linalg.norm(bounds[1::2] - bounds[0::2])), 1e-12)
+    eye = centre + distance * direction / np.linalg.norm(direction)
+    plotter.camera_position = [tuple(eye), tuple(centre), up]
+    plotter.reset_camera(bounds=bounds)
+
+
+def _fit(plotter: pyvista.Plotter, points: np.ndarray, top: float, bottom: float) -> None:
+    """Zoom and shift the view so ``points`` fill the picture, leaving the top and bottom
+    fractions free for the title and the colour bar (tighter than the bounding sphere)."""
+    camera, (width, height) = plotter.camera, plotter.window_size
+    matrix = camera.GetCompositeProjectionTransformMatrix(width / height, -1, 1)
+    m = np.array([[matrix.GetElement(i, j) for j in range(4)] for i in range(4)])
+    ndc = np.c_[points, np.ones(len(points))] @ m.T
+    xy = ndc[:, :2] / ndc[:, 3:]
+    lo, hi, margin = xy.min(axis=0), xy.max(axis=0), 0.04
+    room = np.array([2.0 - 2 * margin, 2.0 - 2 * (top + bottom) - 2 * margin])
+    scale = float(np.clip(np.min(room / np.maximum(hi - lo, 1e-9)), 0.1, 20.0))
+    if camera.parallel_projection:
+        camera.parallel_scale /= scale
+    else:
+        angle = np.radians(camera.view_angle) / 2
+        camera.view_angle = float(np.degrees(2 * np.arctan(np.tan(angle) / scale)))
+    centre = 0.5 * scale * (lo + hi) - np.array([0.0, bottom - top])
+    camera.SetWindowCenter(*centre)
+    plotter.reset_camera_clipping_range()
+
+
+def _colour_range(values: np.ndarray, clim) -> tuple[float, float]:
+    """``clim`` or the data range, widened so a (nearly) constant field reads as one colour."""
+    if clim is not None:
+        return float(clim[0]), float(clim[1])
+    finite = values[np.isfinite(values)]
+    lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+    half = max(0.5 * (hi - lo), 1e-2 * max(abs(lo), abs(hi)), 1e-12)
+    mid = 0.5 * (lo + hi)
+    return mid - half, mid + half
+
+
+@contextmanager
+def _plain_text():
+    """Render all text with FreeType: VTK hands strings containing '|' to matplotlib's
+    mathtext, which reads '|' as a table-cell separator and drops it ("|D²y|" → "D²y")."""
+    from vtkmodules.vtkRenderingCore import vtkTextRenderer
+
+    renderer = vtkTextRenderer.GetInstance()
+    if renderer is None:
+        yield
+        return
+    previous = renderer.GetDefaultBackend()
+    renderer.SetDefaultBackend(vtkTextRenderer.FreeType)
+    try:
+        yield
+    finally:
+        renderer.SetDefaultBackend(previous)
+
+
+def _headless() -> None:
+    """Without a display, ask VTK for its EGL window directly (saves an X probe and a warning)."""
+    if not os.environ.get("DISPLAY") and "VTK_DEFAULT_OPENGL_WINDOW" not in os.environ:
+        from vtkmodules import vtkRenderingOpenGL2
+
+        if hasattr(vtkRenderingOpenGL2, "vtkEGLRenderWindow"):
+            os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
+
+
+def _publish(tmp: str, path: Path) -> None:
+    """Move a finished temporary file into place with the usual permissions (mkstemp: 0600)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    os.chmod(tmp, 0o666 & ~mask)
+    os.replace(tmp, path)
+
+
+def render_png(
+    grid: pyvista.UnstructuredGrid | None,
+    path: str | Path,
+    scalars: str | None = None,
+    title: str = "",
+    camera: str | Sequence = "iso",
+    clim: tuple[float, float] | None = None,
+    show_edges: bool = False,
+    lines: Sequence[np.ndarray] | None = None,
+    *,
+    reference: bool = True,
+    window_size: tuple[int, int] = (1200, 900),
+    cmap: str = "viridis",
+) -> None:
+    """Render the surface off-screen to a PNG (no display needed); a no-op for ``None``.
+
+    ``scalars`` names a cell or point array of ``grid``. ``camera`` is "iso", "top"/"xy",
+    "front"/"xz", "yz", a view direction (3 numbers) or a pyvista camera position. ``lines``
+    are polylines (N×3 arrays) drawn on top in red, e.g. creases. ``reference`` adds a light
+    outline of the undeformed domain. The PNG is written under a temporary name and moved
+    into place, so a reader never sees half a file.
+    """
+    if grid is None:
+        return
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    _headless()
+    plotter = pyvista.Plotter(off_screen=True, window_size=list(window_size))
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
+    os.close(fd)
+    try:
+        _draw(plotter, grid, scalars, title, camera, clim, show_edges, lines, reference, cmap)
+        with _plain_text():
+            plotter.screenshot(tmp)
+        _publish(tmp, path)
+    finally:
+        plotter.close()
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def _draw(plotter, grid, scalars, title, camera, clim, show_edges, lines, reference, cmap) -> None:
+    """Put the surface, outline, lines, labels and camera of ``render_png`` into ``plotter``."""
+    surface = _smooth_surface(grid)
+    plotter.set_background("white")
+    if scalars:
+        # The bar's own title overlaps its labels and drops some glyphs: label it with a text.
+        colour = {"scalars": scalars, "cmap": cmap, "scalar_bar_args": _BAR}
+        colour["clim"] = _colour_range(np.asarray(surface[scalars], dtype=float), clim)
+        label = plotter.add_text(
+            scalars, position=(0.5, 0.115), viewport=True, font_size=13, color="black"
+        )
+        label.GetTextProperty().SetJustificationToCentered()
+    else:
+        colour = {"color": "#8fb3d9"}
+    plotter.add_mesh(surface, show_scalar_bar=bool(scalars), **_LOOK, **colour)
+    if show_edges:
+        plotter.add_mesh(_boundary_edges(surface), color="#303030", line_width=1)
+    bounds = np.array(surface.bounds, dtype=float)
+    if reference and REFERENCE in grid.point_data:
+        outline = _reference_outline(grid)
+        plotter.add_mesh(outline, color="#a0a0a0", line_width=2)
+        lo = np.minimum(bounds[0::2], outline.bounds[0::2])
+        hi = np.maximum(bounds[1::2], outline.bounds[1::2])
+        bounds = np.column_stack([lo, hi]).reshape(-1)
+    if title:
+        plotter.add_text(title, position="upper_edge", font_size=14, color="black")
+    plotter.add_axes(color="black", viewport=(0.0, 0.0, 0.14, 0.14))
+    _set_camera(plotter, camera, bounds)
+    shown = [surface.points, outline.points] if reference and REFERENCE in grid.point_data else []
+    _fit(
+        plotter, np.vstack(shown or [surface.points]), 0.07 if title else 0.0, 0.17 * bool(scalars)
+    )
+    towards = np.asarray(plotter.camera.position) - np.asarray(plotter.camera.focal_point)
+    lift = 3e-3 * np.linalg.norm(np.ptp(surface.points, axis=0)) * towards / np.linalg.norm(towards)
+    for polyline in lines or ():  # lifted a hair towards the eye, so the surface cannot hide it
+        points = np.asarray(polyline, dtype=np.float64).reshape(-1, 3)
+        if points.shape[0] >= 2:
+            line = pyvista.lines_from_points(points + lift)
+            plotter.add_mesh(line, color="#d62728", line_width=6, render_lines_as_tubes=True)
+
+
+def plot_deformation(
+    u: dolfinx.fem.Function,
+    path: str | Path,
+    title: str = "",
+    color_by: str | None = "curvature",
+    camera: str | Sequence = "iso",
+    clim: tuple[float, float] | None = None,
+    show_edges: bool = False,
+    lines: Sequence[np.ndarray] | None = None,
+    **options,
+) -> None:
+    """Picture of the deformed plate coloured by |D²y| ("curvature"), the isometry-defect
+    density ("defect", vector y only) or nothing. Collective; rank 0 writes ``path``.
+
+    ``options`` go to ``render_png`` (reference, window_size, cmap)."""
+    if color_by not in (None, *COLOR_LABELS):
+        raise ValueError(
+            f"color_by must be None or one of {sorted(COLOR_LABELS)}, not {color_by!r}"
+        )
+    scalars = COLOR_LABELS[color_by] if color_by else None
+    if scalars and not u.ufl_shape:  # a scalar deflection w
+        scalars = scalars.replace("y", "w")
+    values = {}
+    if color_by == "curvature":
+        values[scalars] = bending_density(u)
+    elif color_by == "defect":
+        values[scalars] = defect_density(u)
+    grid = surface_grid(u, cell_values=values)
+    render_png(grid, path, scalars, title, camera, clim, show_edges, lines, **options)
+
+
+def frames_to_gif(
+    pngs: Sequence[str | Path],
+    gif_path: str | Path,
+    fps: float = 10.0,
+    comm: MPI.Comm | None = None,
+) -> None:
+    """Assemble PNG frames into a looping GIF (rank 0 of ``comm`` only; written atomically)."""
+    if (comm or MPI.COMM_WORLD).rank != 0:
+        return
+    from PIL import Image
+
+    if not pngs:
+        raise ValueError("frames_to_gif needs at least one frame")
+    frames = [Image.open(p).convert("RGB") for p in pngs]
+    palette = [f.quantize(colors=256, method=Image.Quantize.MEDIANCUT) for f in frames]
+    gif_path = Path(gif_path)
+    gif_path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{gif_path.stem}-", suffix=".gif", dir=gif_path.parent)
+    os.close(fd)
+    try:
+        palette[0].save(
+            tmp, save_all=True, append_images=palette[1:], duration=round(1000 / fps), loop=0
+        )
+        _publish(tmp, gif_path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+__all__ = ["REFERENCE", "frames_to_gif", "plot_deformation", "render_png", "surface_grid"]

@@ -1,0 +1,179 @@
+"""Time series of the deformation for ParaView: VTX (ADIOS2) files, XDMF when ADIOS2 is absent.
+
+``DeformationWriter`` writes the deformation y and the displacement u = y − x (so ParaView's
+"Warp By Vector" on u shows the deformed plate) as DG fields of y's degree. VTX takes DG
+fields of any degree, but one writer needs one element for all its functions, so extra
+functions on other elements (a P1 temperature, a DG0 cell field) go to their own ``.bp``
+files next to the main one. XDMF stores only fields of the mesh's geometry degree: there
+everything is interpolated into P1 (DG0 fields stay cell data).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import dolfinx.common
+import dolfinx.fem
+import dolfinx.io
+from mpi4py import MPI
+
+from dgplate.errors import InputError
+from dgplate.fields import output_element, set_displacement, to_output_space
+
+BACKENDS = ("auto", "vtx", "xdmf")
+
+
+def _element_key(f: dolfinx.fem.Function) -> tuple:
+    """What a VTX writer needs to share: the scalar Lagrange element (any block size)."""
+    element = f.function_space.ufl_element()
+    return (element.embedded_superdegree, element.discontinuous)
+
+
+class DeformationWriter:
+    """Writes y, u = y − x and optional extra functions at each ``write(t)``.
+
+    ``path`` names the main file (``.bp`` for VTX, ``.xdmf`` for XDMF; the suffix is set
+    from the backend). Extra functions need unique names; on VTX those whose element differs
+    from y's go to ``<stem>_<name>.bp``. ``backend``: "vtx", "xdmf" or "auto" (VTX when
+    DOLFINx has ADIOS2). Collective: every rank constructs, writes and closes.
+    """
+
+    def __init__(
+        self,
+        path: str | Path,
+        y: dolfinx.fem.Function,
+        extras: Sequence[dolfinx.fem.Function] = (),
+        backend: str = "auto",
+        comm: MPI.Comm | None = None,
+    ):
+        if backend not in BACKENDS:
+            raise InputError(
+                f"output backend must be one of {', '.join(BACKENDS)}, not {backend!r}"
+            )
+        if backend == "auto":
+            backend = "vtx" if dolfinx.common.has_adios2 else "xdmf"
+        if backend == "vtx" and not dolfinx.common.has_adios2:
+            raise InputError("VTX output needs DOLFINx built with ADIOS2; use backend='xdmf'")
+        if y.ufl_shape != (3,):
+            raise InputError(f"DeformationWriter needs y with three components, not {y.ufl_shape}")
+        self.backend = backend
+        self.comm = comm or y.function_space.mesh.comm
+        self.y = y
+        self.extras = list(extras)
+        names = ["deformation", "displacement", *(f.name for f in self.extras)]
+        if len(set(names)) != len(names):
+            raise InputError(f"output function names must be unique, got {names}")
+        suffix = ".bp" if backend == "vtx" else ".xdmf"
+        self.path = Path(path).with_suffix(suffix)
+        if self.comm.rank == 0:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.comm.barrier()
+        self.paths: list[Path] = []
+        self._writers: list = []
+        self._closed = False
+        if backend == "vtx":
+            self._open_vtx()
+        else:
+            self._open_xdmf()
+
+    # -- set-up -----------------------------------------------------------------------------
+    def _outputs(self, degree: int, discontinuous: bool) -> None:
+        """The output copies of y and u on ``output_element(degree)`` and their dof coords."""
+        mesh = self.y.function_space.mesh
+        element = output_element(mesh, degree, self.y.ufl_shape, discontinuous)
+        same = element == self.y.function_space.ufl_element()
+        space = self.y.function_space if same else dolfinx.fem.functionspace(mesh, element)
+        self._copy = same  # same space: copy the dof values, else interpolate
+        self.y_out = dolfinx.fem.Function(space, name="deformation")
+        self.u_out = dolfinx.fem.Function(space, name="displacement")
+        self._x = space.tabulate_dof_coordinates()
+
+    def _open_vtx(self) -> None:
+        element = self.y.function_space.ufl_element()
+        self._outputs(element.embedded_superdegree, element.discontinuous)
+        main_key = _element_key(self.y_out)
+        groups: dict[tuple, list] = {main_key: [self.y_out, self.u_out]}
+        self._extra_outputs = []  # (source, output): equispaced copies of degree >= 3 fields
+        for f in self.extras:
+            cellwise = f.function_space.ufl_element().embedded_superdegree == 0
+            out = f if cellwise else to_output_space(f)
+            self._extra_outputs.append((f, out))
+            groups.setdefault(_element_key(out), []).append(out)
+        policy = dolfinx.io.VTXMeshPolicy.reuse  # the reference mesh never changes
+        for key, functions in groups.items():
+            path = self.path
+            if key != main_key:
+                path = self.path.with_name(f"{self.path.stem}_{functions[0].name}.bp")
+            self._writers.append(
+                dolfinx.io.VTXWriter(self.comm, str(path), functions, "BPFile", policy)
+            )
+            self.paths.append(path)
+
+    def _open_xdmf(self) -> None:
+        self._outputs(1, discontinuous=False)  # XDMF: geometry-degree (P1) fields only
+        self._extra_outputs = []  # (source, output): P1 copies, DG0 fields as they are
+        for f in self.extras:
+            cellwise = f.function_space.ufl_element().embedded_superdegree == 0
+            self._extra_outputs.append((f, f if cellwise else to_output_space(f, 1, False)))
+        mesh = self.y.function_space.mesh
+        writer = dolfinx.io.XDMFFile(self.comm, str(self.path), "w")
+        writer.write_mesh(mesh)
+        self._writers.append(writer)
+        self.paths += [self.path, self.path.with_suffix(".h5")]
+
+    # -- output -----------------------------------------------------------------------------
+    def _update(self) -> None:
+        if self._copy:
+            self.y_out.x.array[:] = self.y.x.array
+        else:
+            self.y_out.interpolate(self.y)
+        set_displacement(self.u_out, self.y_out, self._x)
+        for source, out in self._extra_outputs:
+            if out is not source:
+                out.interpolate(source)
+
+    def write(self, t: float) -> None:
+        """Append the current state at time ``t`` to every file."""
+        if self._closed:
+            raise RuntimeError("DeformationWriter.write after close()")
+        self._update()
+        if self.backend == "vtx":
+            for writer in self._writers:
+                writer.write(float(t))
+            return
+        (writer,) = self._writers
+        for f in (self.y_out, self.u_out):
+            writer.write_function(f, float(t))
+        for _, out in self._extra_outputs:
+            writer.write_function(out, float(t))
+
+    def close(self) -> None:
+        if not self._closed:
+            for writer in self._writers:
+                writer.close()
+            self._closed = True
+
+    def __enter__(self) -> DeformationWriter:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def bp_variables(path: str | Path) -> set[str]:
+    """Names of the fields a VTX ``.bp`` directory declares (from its VTK schema attribute).
+
+    A light readability check that needs no ADIOS2 Python bindings; empty if unreadable.
+    """
+    import re
+
+    names: set[str] = set()
+    for meta in sorted(Path(path).glob("md.*")):
+        text = meta.read_bytes().decode("latin-1")
+        for _, block in re.findall(r"<(PointData|CellData)>(.*?)</\1>", text, flags=re.S):
+            names.update(re.findall(r'DataArray Name="([^"]+)"', block))
+    return names - {"TIME", "vtkOriginalPointIds", "vtkGhostType"}
+
+
+__all__ = ["BACKENDS", "DeformationWriter", "bp_variables"]
