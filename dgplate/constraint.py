@@ -13,9 +13,13 @@ import ufl
 from mpi4py import MPI
 
 
-def multiplier_element(mesh):
-    """DG0 with three components: the entries (11, 12, 22) of a symmetric 2×2 matrix."""
-    return basix.ufl.element("DG", mesh.basix_cell(), 0, shape=(3,))
+def multiplier_element(mesh, degree: int = 0):
+    """DG_degree with three components: the entries (11, 12, 22) of a symmetric 2×2 matrix.
+
+    Degree 0 imposes the linearised constraint on cell means (the published method); degree 1
+    imposes it on the first moments as well, a stronger discrete isometry.
+    """
+    return basix.ufl.element("DG", mesh.basix_cell(), degree, shape=(3,))
 
 
 def symmetric(q):

@@ -47,6 +47,7 @@ class FlowSettings:
     max_steps: int = 1000
     l2_metric: bool | None = None
     solver_options: dict = field(default_factory=dict)
+    multiplier_degree: int = 0
 
     def __post_init__(self) -> None:
         if not (isinstance(self.tau, int | float) and self.tau > 0 and math.isfinite(self.tau)):
@@ -109,7 +110,8 @@ class GradientFlow:
         self.comm: MPI.Comm = mesh.comm
         ve = basix.ufl.element("DG", mesh.basix_cell(), degree, shape=(3,))
         self.W = dolfinx.fem.functionspace(
-            mesh, basix.ufl.mixed_element([ve, multiplier_element(mesh)])
+            mesh,
+            basix.ufl.mixed_element([ve, multiplier_element(mesh, settings.multiplier_degree)]),
         )
         self.V, self._vdofs = compat.collapse(self.W.sub(0))
         self.y = dolfinx.fem.Function(self.V, name="deformation")

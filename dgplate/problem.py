@@ -9,12 +9,11 @@ from __future__ import annotations
 
 import math
 import re
+import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
-
-import tomllib
 
 from dgplate.errors import InputError
 from dgplate.schema import from_dict, option
@@ -68,6 +67,10 @@ class FlowSpec:
         "auto", "add the L² product to the metric; 'auto': when nothing is clamped"
     )
     solver: dict = option({}, "PETSc options for the step solve (default: MUMPS LU)")
+    multiplier_degree: int = option(
+        0,
+        "degree of the isometry multiplier: 0 = cell means (published), 1 = also first moments (stronger)",
+    )
 
     def __post_init__(self) -> None:
         if isinstance(self.tau, str):
@@ -79,6 +82,10 @@ class FlowSpec:
             raise InputError(f"flow.tol must be > 0, got {self.tol!r}")
         if self.max_steps < 1:
             raise InputError(f"flow.max_steps must be >= 1, got {self.max_steps!r}")
+        if self.multiplier_degree not in (0, 1):
+            raise InputError(
+                f"flow.multiplier_degree must be 0 or 1, got {self.multiplier_degree!r}"
+            )
         if isinstance(self.l2_metric, str) and self.l2_metric != "auto":
             raise InputError(
                 f"flow.l2_metric must be true, false or 'auto', got {self.l2_metric!r}"

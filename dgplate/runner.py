@@ -93,6 +93,7 @@ def run_problem(
         max_steps=problem.flow.max_steps,
         l2_metric=problem.flow.l2,
         solver_options=problem.flow.solver,
+        multiplier_degree=problem.flow.multiplier_degree,
     )
     history = _History()
     observers: list = [history]

@@ -66,3 +66,38 @@ def piecewise_constant(tagged, values, key: str):
         )
     field.x.scatter_forward()
     return field
+
+
+def clamped_data(value, mesh, key: str = "model.boundary_data"):
+    """Nitsche data (g, Φ) on clamped faces from a problem file.
+
+    ``"flat"``: g = (x, y, 0), Φ = [I₂; 0]. A table ``{g = [3 formulas], Phi = [[2], [2], [2]]}``
+    gives any data, e.g. a folded sheet; Φ defaults to ∇g.
+    """
+    from dgplate import expressions
+    from dgplate.errors import InputError
+
+    if value == "flat":
+        return flat_identity(mesh)
+    if not isinstance(value, dict) or "g" not in value or set(value) - {"g", "Phi"}:
+        raise InputError(
+            f"{key} must be 'flat' or a table {{g = [..3..], Phi = [[..2..] x3]}}, got {value!r}"
+        )
+    x = ufl.SpatialCoordinate(mesh)
+    g = expressions.parse_vector(value["g"], x, f"{key}.g", 3)
+    if "Phi" not in value:
+        return g, ufl.grad(g)
+    rows = value["Phi"]
+    if not (
+        isinstance(rows, list)
+        and len(rows) == 3
+        and all(isinstance(r, list) and len(r) == 2 for r in rows)
+    ):
+        raise InputError(f"{key}.Phi must be a 3×2 matrix [[..], [..], [..]], got {rows!r}")
+    Phi = ufl.as_matrix(
+        [
+            [expressions.parse(rows[i][j], x, f"{key}.Phi[{i}][{j}]") for j in range(2)]
+            for i in range(3)
+        ]
+    )
+    return g, Phi

@@ -14,7 +14,7 @@ import ufl
 from dgplate import expressions
 from dgplate.dg import FaceSets, Penalty, bending_energy, face_sets
 from dgplate.errors import InputError
-from dgplate.models.base import Energy, flat_identity, piecewise_constant
+from dgplate.models.base import Energy, clamped_data, piecewise_constant
 from dgplate.schema import option
 
 
@@ -47,7 +47,10 @@ class KirchhoffSpec:
     penalty: dict = option(
         {"gamma0": 5000.0, "gamma1": 1100.0}, "IP penalties γ₀ (h⁻³[y]) and γ₁ (h⁻¹[∇y])"
     )
-    boundary_data: str = option("flat", "clamped data: 'flat' (g = (x, y, 0), Φ = [I; 0])")
+    boundary_data: str | dict = option(
+        "flat",
+        "clamped data: 'flat' (g = (x, y, 0), Φ = [I; 0]) or {g = [3 formulas], Phi = [[..], [..], [..]]} (Φ defaults to ∇g)",
+    )
 
     def __post_init__(self) -> None:
         if self.degree < 2:
@@ -56,8 +59,10 @@ class KirchhoffSpec:
             names = getattr(self, key)
             if not all(isinstance(n, str) for n in names):
                 raise InputError(f"model.{key} must be a list of facet group names, got {names!r}")
-        if self.boundary_data != "flat":
-            raise InputError(f"model.boundary_data must be 'flat', got {self.boundary_data!r}")
+        if isinstance(self.boundary_data, str) and self.boundary_data != "flat":
+            raise InputError(
+                f"model.boundary_data must be 'flat' or a table {{g, Phi}}, got {self.boundary_data!r}"
+            )
         unknown = set(self.penalty) - {"gamma0", "gamma1"}
         if unknown:
             raise InputError(
@@ -92,7 +97,7 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged) -> FlowModel:
     x = ufl.SpatialCoordinate(tagged.mesh)
     load = expressions.parse_vector(spec.load, x, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
-    g, Phi = flat_identity(tagged.mesh)
+    g, Phi = clamped_data(spec.boundary_data, tagged.mesh)
     penalty = spec.penalty_params
 
     def energy_fn(y) -> Energy:

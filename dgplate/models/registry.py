@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from dgplate.errors import InputError
+from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
 from dgplate.schema import from_dict
 
@@ -19,6 +20,7 @@ class ModelEntry:
 
 MODELS: dict[str, ModelEntry] = {
     "kirchhoff": ModelEntry(KirchhoffSpec, build_kirchhoff),
+    "bilayer": ModelEntry(BilayerSpec, build_bilayer),
 }
 
 
