@@ -5,9 +5,10 @@ All functions are collective and return the same numbers on every rank.
 
 from __future__ import annotations
 
+from mpi4py import MPI
+
 import numpy as np
 import ufl
-from mpi4py import MPI
 
 from dgplate.fields import cell_field, dg0_dofs_to_cells
 

@@ -10,9 +10,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from mpi4py import MPI
+
 import dolfinx
 import dolfinx.mesh
-from mpi4py import MPI
 
 from dgplate.errors import UnsupportedVersionError
 

@@ -6,11 +6,12 @@ linearised constraint ∇δyᵀ∇yⁿ + ∇yⁿᵀ∇δy = 0 holds for the inte
 
 from __future__ import annotations
 
+from mpi4py import MPI
+
 import basix.ufl
 import dolfinx.fem
 import numpy as np
 import ufl
-from mpi4py import MPI
 
 
 def multiplier_element(mesh, degree: int = 0):

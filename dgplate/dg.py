@@ -15,11 +15,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from mpi4py import MPI
+
 import dolfinx
 import dolfinx.mesh
 import numpy as np
 import ufl
-from mpi4py import MPI
 
 from dgplate.errors import InputError
 from dgplate.meshing import TaggedMesh, _make_tags

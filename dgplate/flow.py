@@ -18,12 +18,13 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
+from mpi4py import MPI
+
 import basix.ufl
 import dolfinx.fem
 import dolfinx.fem.petsc
 import numpy as np
 import ufl
-from mpi4py import MPI
 from petsc4py import PETSc
 
 from dgplate import compat, solvers

@@ -13,10 +13,11 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from mpi4py import MPI
+
 import dolfinx
 import dolfinx.mesh
 import numpy as np
-from mpi4py import MPI
 
 from dgplate import compat
 from dgplate.errors import InputError

@@ -18,8 +18,9 @@ from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from mpi4py import MPI
+
+import numpy as np
 
 from dgplate.flow import FlowResult, GradientFlow, StepInfo
 

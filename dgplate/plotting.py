@@ -14,10 +14,11 @@ from collections.abc import Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
+from mpi4py import MPI
+
 import dolfinx.fem
 import numpy as np
 import pyvista
-from mpi4py import MPI
 
 from dgplate.fields import REFERENCE, bending_density, defect_density, surface_grid
 

@@ -10,8 +10,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from mpi4py import MPI
+
+import numpy as np
 
 from dgplate import compat
 from dgplate.flow import FlowResult, FlowSettings, GradientFlow, StepInfo

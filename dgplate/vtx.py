@@ -13,10 +13,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
+from mpi4py import MPI
+
 import dolfinx.common
 import dolfinx.fem
 import dolfinx.io
-from mpi4py import MPI
 
 from dgplate.errors import InputError
 from dgplate.fields import output_element, set_displacement, to_output_space

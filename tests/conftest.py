@@ -1,7 +1,8 @@
 """Shared fixtures. Tests marked ``mpi`` run serially and again under ``mpirun -n 2``."""
 
-import pytest
 from mpi4py import MPI
+
+import pytest
 
 
 @pytest.fixture

@@ -4,11 +4,12 @@ Manufactured solution u = x²(1−x)²y²(1−y)² on (0,1)², clamped on all si
 k: broken H² error O(h^{k−1}), H¹ O(h^k), L² O(h^{k+1}) for k ≥ 3 (O(h²) for k = 2).
 """
 
+from mpi4py import MPI
+
 import numpy as np
 import pytest
 import ufl
 from conftest import rates
-from mpi4py import MPI
 
 from dgplate.biharmonic import solve_biharmonic
 from dgplate.dg import Penalty, face_sets

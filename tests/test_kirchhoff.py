@@ -6,9 +6,10 @@
 
 import math
 
+from mpi4py import MPI
+
 import numpy as np
 import pytest
-from mpi4py import MPI
 
 from dgplate.flow import FlowSettings, GradientFlow
 from dgplate.meshing import rectangle

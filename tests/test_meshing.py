@@ -1,9 +1,10 @@
 """Meshes: named groups, gmsh parameters, ghosting and the face sets of the dG forms."""
 
+from mpi4py import MPI
+
 import dolfinx
 import numpy as np
 import pytest
-from mpi4py import MPI
 
 from dgplate.dg import CLAMPED, CREASE, SMOOTH, face_sets
 from dgplate.errors import InputError

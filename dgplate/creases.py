@@ -1,0 +1,292 @@
+"""Measurements along a crease C: fold angles and the deformed crease lines (DESIGN.md §1).
+
+A crease is a union of interior facets (the faces tagged ``CREASE`` by
+:func:`dgplate.dg.face_sets`). The deformation is continuous across C but its gradient may
+jump, so the deformed surface has a kink there. For each crease facet the *fold angle* is the
+angle between the unit normals ν = ∂₁y × ∂₂y / |∂₁y × ∂₂y| of the two adjacent cells, evaluated
+at the facet midpoint: 0° for a flat sheet, 180° for a sheet folded flat onto itself. The
+*signed* fold angle is positive for a valley fold (the sheet on either side turns towards the
+normal ν of the other side — the convention of the bilayer model, where Z = αI with α > 0 bends
+towards +ν) and negative for a mountain fold.
+
+Summaries are over the whole crease: min, max and the length-weighted mean (weights: the
+reference facet lengths), reduced over the communicator, so every rank gets the same numbers
+and they do not depend on the number of ranks. The crease lines in deformed coordinates
+(``polylines``) are gathered to rank 0 for pictures (``plot_deformation(..., lines=...)``).
+
+Works for vector deformations y ∈ [DG_k]³ and for scalar deflections w (surface (x₁, x₂, w)),
+on triangles and quadrilaterals. Every function here is collective on the mesh communicator.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+
+from mpi4py import MPI
+
+import basix
+import dolfinx.fem
+import numpy as np
+import ufl
+
+from dgplate.dg import CREASE, FaceSets
+
+
+def _surface(u):
+    """The deformed surface as a UFL 3-vector: y itself, or (x₁, x₂, w) for a deflection."""
+    if u.ufl_shape == (3,):
+        return u
+    if u.ufl_shape == ():
+        x = ufl.SpatialCoordinate(u.function_space.mesh)
+        return ufl.as_vector([x[0], x[1], u])
+    raise ValueError(f"expected a deformation with 3 components or a scalar, got {u.ufl_shape}")
+
+
+def _reference_facets(cell_name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Reference vertex coordinates and the (two) vertices of each facet of a 2D cell."""
+    cell = basix.CellType[cell_name]
+    vertices = np.asarray(basix.geometry(cell), dtype=np.float64)
+    facets = np.asarray(basix.topology(cell)[1], dtype=np.int64)
+    return vertices, facets
+
+
+class CreaseMeasure:
+    """Fold angles and deformed crease lines of ``u`` on the crease facets of ``faces``.
+
+    The set-up (which cells border which crease facet, and through which of their local
+    facets) is done once; ``summary()`` and ``polylines()`` then evaluate the current ``u``.
+    ``samples`` is the number of segments each crease facet is drawn with.
+    """
+
+    def __init__(self, u: dolfinx.fem.Function, faces: FaceSets, samples: int = 4):
+        mesh = faces.mesh
+        self.mesh, self.comm, self.u = mesh, mesh.comm, u
+        tdim = mesh.topology.dim
+        mesh.topology.create_connectivity(tdim - 1, tdim)
+        mesh.topology.create_connectivity(tdim, tdim - 1)
+        fmap = mesh.topology.index_map(tdim - 1)
+        tags = faces.tags
+        crease = tags.indices[tags.values == CREASE]
+        self.facets = crease[crease < fmap.size_local].astype(np.int32)  # owned crease facets
+        f_to_c = mesh.topology.connectivity(tdim - 1, tdim)
+        c_to_f = mesh.topology.connectivity(tdim, tdim - 1)
+        num = self.facets.size
+        cells = np.zeros((num, 2), dtype=np.int32)
+        local = np.zeros((num, 2), dtype=np.int32)
+        for k, facet in enumerate(self.facets):
+            pair = f_to_c.links(facet)
+            if pair.size != 2:  # cannot happen with shared-facet ghosting and interior facets
+                raise RuntimeError(
+                    f"crease facet {facet} sees {pair.size} cell(s) on rank {self.comm.rank}: "
+                    "the mesh must be distributed with shared-facet ghosts"
+                )
+            cells[k] = pair
+            for side in range(2):
+                local[k, side] = int(np.flatnonzero(c_to_f.links(pair[side]) == facet)[0])
+        self.cells, self.local = cells, local
+
+        # Reference points: each local facet sampled at samples + 1 equispaced points from its
+        # first to its second vertex (the midpoint is among them when samples is even).
+        samples = max(2, 2 * ((int(samples) + 1) // 2))
+        self.samples = samples
+        ref_vertices, ref_facets = _reference_facets(mesh.topology.cell_name())
+        t = np.linspace(0.0, 1.0, samples + 1)
+        start, end = ref_vertices[ref_facets[:, 0]], ref_vertices[ref_facets[:, 1]]
+        points = start[:, None, :] + t[None, :, None] * (end - start)[:, None, :]
+        self._num_per_facet = samples + 1
+        self._ref_points = points.reshape(-1, tdim)
+        mid = samples // 2
+        self._mid = np.arange(len(ref_facets)) * (samples + 1) + mid  # midpoint indices
+
+        # Reference geometry of each crease facet: its vertices (in the orientation seen from
+        # the first cell), length, and unit normal pointing from the first cell to the second.
+        x = mesh.geometry.x[:, :2]
+        dofmap = mesh.geometry.dofmap
+        ends = np.zeros((num, 2, 2))
+        normals = np.zeros((num, 2))
+        for k in range(num):
+            nodes = dofmap[cells[k, 0]]
+            a, b = ref_facets[local[k, 0]]
+            ends[k] = x[nodes[a]], x[nodes[b]]
+            tangent = ends[k, 1] - ends[k, 0]
+            normal = np.array([tangent[1], -tangent[0]])
+            centre0 = x[dofmap[cells[k, 0]]].mean(axis=0)
+            centre1 = x[dofmap[cells[k, 1]]].mean(axis=0)
+            normals[k] = normal if np.dot(centre1 - centre0, normal) > 0 else -normal
+        self.ends = ends
+        self.lengths = np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)
+        self.normals = normals / np.maximum(self.lengths, 1e-300)[:, None]
+        # Whether the second cell sees the facet in the same vertex order as the first.
+        self.same_order = np.ones(num, dtype=bool)
+        for k in range(num):
+            nodes = dofmap[cells[k, 1]]
+            a, _ = ref_facets[local[k, 1]]
+            self.same_order[k] = np.allclose(x[nodes[a]], ends[k, 0])
+
+        y = _surface(u)
+        grad = ufl.grad(y)
+        normal = ufl.cross(grad[:, 0], grad[:, 1])
+        nu = normal / ufl.sqrt(ufl.inner(normal, normal))
+        # y, ν, ∂₁y, ∂₂y at every sample point of every reference facet
+        values = ufl.as_vector([*[y[i] for i in range(3)], *[nu[i] for i in range(3)]])
+        values = ufl.as_vector([*values, *[grad[i, j] for j in range(2) for i in range(3)]])
+        self._expr = dolfinx.fem.Expression(values, self._ref_points)
+
+    @property
+    def num_facets(self) -> int:
+        """Global number of crease facets."""
+        return int(self.comm.allreduce(int(self.facets.size), op=MPI.SUM))
+
+    def _evaluate(self) -> np.ndarray:
+        """Values (y, ν, ∂₁y, ∂₂y) at the sample points: shape (facets, 2 sides, points, 12),
+        the points of each side ordered like the first side's facet."""
+        num = self.facets.size
+        out = np.zeros((num, 2, self._num_per_facet, 12))
+        if num == 0:
+            return out
+        cells = self.cells.reshape(-1)
+        values = np.asarray(self._expr.eval(self.mesh, cells)).real
+        values = values.reshape(cells.size, -1, 12)
+        per = self._num_per_facet
+        for side in range(2):
+            rows = values[side::2]
+            start = self.local[:, side] * per
+            index = start[:, None] + np.arange(per)[None, :]
+            picked = np.take_along_axis(rows, index[:, :, None], axis=1)
+            if side == 1:
+                flip = ~self.same_order
+                picked[flip] = picked[flip, ::-1]
+            out[:, side] = picked
+        return out
+
+    def fold_angles(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per owned crease facet: fold angle (degrees, 0..180), signed fold angle (valley
+        > 0), and the jump |[y]| at the midpoint (continuity across C)."""
+        data = self._evaluate()
+        mid = self.samples // 2
+        y0, y1 = data[:, 0, mid, 0:3], data[:, 1, mid, 0:3]
+        nu0, nu1 = data[:, 0, mid, 3:6], data[:, 1, mid, 3:6]
+        cos = np.einsum("ki,ki->k", nu0, nu1)
+        sin = np.linalg.norm(np.cross(nu0, nu1), axis=1)
+        angle = np.degrees(np.arctan2(sin, cos))
+        # conormal of the second side, pointing away from C into that side: ∇y₁ n
+        g1 = data[:, 1, mid, 6:12].reshape(-1, 2, 3)  # rows ∂₁y, ∂₂y
+        conormal = np.einsum("kj,kji->ki", self.normals, g1)
+        sign = np.where(np.einsum("ki,ki->k", conormal, nu0) >= 0.0, 1.0, -1.0)
+        return angle, sign * angle, np.linalg.norm(y1 - y0, axis=1)
+
+    def summary(self) -> dict:
+        """Fold-angle statistics over C (same numbers on every rank), for summary.json."""
+        comm = self.comm
+        angle, signed, gap = self.fold_angles()
+        w = self.lengths
+        total = comm.allreduce(float(w.sum()), op=MPI.SUM)
+
+        def stats(values):
+            lo = comm.allreduce(float(values.min(initial=np.inf)), op=MPI.MIN)
+            hi = comm.allreduce(float(values.max(initial=-np.inf)), op=MPI.MAX)
+            mean = comm.allreduce(float(np.dot(values, w)), op=MPI.SUM) / total if total else 0.0
+            return {"min": lo, "max": hi, "mean": mean}
+
+        return {
+            "fold_angle_deg": stats(angle),
+            "crease": {
+                "facets": self.num_facets,
+                "length": total,
+                "signed_fold_angle_deg": stats(signed),
+                "max_value_jump": comm.allreduce(float(gap.max(initial=0.0)), op=MPI.MAX),
+            },
+        }
+
+    def polylines(self) -> list[np.ndarray]:
+        """The crease in deformed coordinates as polylines (N×3 arrays) on rank 0, [] on the
+        other ranks. Each facet is drawn with ``samples`` segments at the mean of the two
+        sides' values; facets are chained into polylines by their shared reference vertices."""
+        data = self._evaluate()
+        points = 0.5 * (data[:, 0, :, 0:3] + data[:, 1, :, 0:3])
+        gathered = self.comm.gather((self.ends, points), root=0)
+        if self.comm.rank != 0:
+            return []
+        ends = np.concatenate([g[0] for g in gathered]) if gathered else np.zeros((0, 2, 2))
+        pts = np.concatenate([g[1] for g in gathered]) if gathered else np.zeros((0, 0, 3))
+        return _chain(ends, pts)
+
+
+def _chain(ends: np.ndarray, points: np.ndarray) -> list[np.ndarray]:
+    """Join segments (reference end points ``ends[k]``, sampled points ``points[k]``) that
+    share end points into polylines; closed curves come back closed (first point repeated)."""
+    if ends.shape[0] == 0:
+        return []
+    scale = float(np.ptp(ends.reshape(-1, 2), axis=0).max()) or 1.0
+    keys = np.round(ends / (1e-9 * scale)).astype(np.int64)
+    at: dict[tuple, list[tuple[int, int]]] = defaultdict(list)
+    for k in range(ends.shape[0]):
+        for end in range(2):
+            at[tuple(keys[k, end])].append((k, end))
+    used = np.zeros(ends.shape[0], dtype=bool)
+
+    def walk(k: int, end: int) -> list[np.ndarray]:
+        """Follow the chain leaving segment k through its end ``end``."""
+        parts = []
+        while True:
+            nxt = [(j, e) for j, e in at[tuple(keys[k, end])] if not used[j]]
+            if not nxt:
+                return parts
+            j, e = nxt[0]
+            used[j] = True
+            parts.append(points[j] if e == 0 else points[j, ::-1])
+            k, end = j, 1 - e
+
+    lines = []
+    # start at a free end (degree 1) where there is one, so open arcs come out in one piece
+    order = sorted(range(ends.shape[0]), key=lambda k: min(len(at[tuple(keys[k, e])]) for e in (0, 1)))
+    for k in order:
+        if used[k]:
+            continue
+        used[k] = True
+        backward = walk(k, 0)
+        forward = walk(k, 1)
+        pieces = [p[::-1] for p in reversed(backward)] + [points[k]] + forward
+        line = pieces[0]
+        for piece in pieces[1:]:
+            line = np.vstack([line, piece[1:]])
+        lines.append(line)
+    return lines
+
+
+def fold_angle_summary(u: dolfinx.fem.Function, faces: FaceSets) -> dict:
+    """``CreaseMeasure(u, faces).summary()``: fold angles over C for summary.json."""
+    return CreaseMeasure(u, faces).summary()
+
+
+def crease_polylines(u: dolfinx.fem.Function, faces: FaceSets, samples: int = 4) -> list:
+    """The deformed crease lines on rank 0 ([] elsewhere), for ``plot_deformation(lines=)``."""
+    return CreaseMeasure(u, faces, samples).polylines()
+
+
+def with_fold_angles(model):
+    """Wrap ``model.extras`` (a FlowModel) so that summary.json also gets the fold angles
+    along C when the model has crease faces; the model is returned unchanged otherwise."""
+    if not model.faces.num_crease:
+        return model
+    previous = model.extras
+    cache: dict = {}
+
+    def extras(flow) -> dict:
+        out = dict(previous(flow)) if previous is not None else {}
+        measure = cache.get(id(flow))
+        if measure is None:
+            measure = cache[id(flow)] = CreaseMeasure(flow.y, model.faces)
+        out.update(measure.summary())
+        return out
+
+    model.extras = extras
+    return model
+
+
+__all__ = [
+    "CreaseMeasure",
+    "crease_polylines",
+    "fold_angle_summary",
+    "with_fold_angles",
+]

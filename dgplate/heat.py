@@ -1,0 +1,264 @@
+"""Heat equation on the flat reference domain: θ_t − κΔθ = s(x, t) (DESIGN.md §1).
+
+Implicit Euler in time, continuous Lagrange (P1 or P2, Q1 or Q2 on quadrilaterals) in space,
+homogeneous Neumann conditions (∂θ/∂n = 0: the plate exchanges no heat through its edges).
+One step from θⁿ to θⁿ⁺¹ = θ(tⁿ + Δt) solves
+
+    ∫ θⁿ⁺¹ v + Δt κ ∫ ∇θⁿ⁺¹·∇v = ∫ θⁿ v + Δt ∫ s(·, tⁿ⁺¹) v      for all v.
+
+The matrix M + Δt κ K does not change: it is assembled and factorised once, each step only
+assembles the right-hand side. The source is either a :class:`HeatSource` (a piecewise
+constant time schedule, optionally restricted to cell groups: "s = 5 until t = 28.2, then −5")
+or any callable ``(x, t) -> UFL expression`` with ``t`` a DOLFINx Constant (manufactured
+solutions). Everything is collective; reductions (min/max/mean) return the same numbers on
+every rank, and results do not depend on the number of ranks.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from mpi4py import MPI
+
+import dolfinx.fem
+import dolfinx.fem.petsc
+import numpy as np
+import ufl
+from petsc4py import PETSc
+
+from dgplate import solvers
+from dgplate.errors import InputError
+from dgplate.meshing import TaggedMesh
+
+
+def _number(value, key: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise InputError(f"{key} must be a finite number, got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class HeatSource:
+    """A source s(x, t) that is piecewise constant in time, optionally only in some regions.
+
+    ``schedule`` lists ``(t_i, s_i)`` pairs with strictly increasing times: s = s_i for
+    t_i ≤ t < t_{i+1} (the last value holds for ever, s = 0 before t_0). ``regions`` names the
+    cell groups that are heated (None: the whole plate). The value at a time step is taken at
+    the end of the step (implicit Euler), so a switch at t_i takes effect for the first step
+    that ends after t_i.
+    """
+
+    schedule: tuple[tuple[float, float], ...]
+    regions: tuple[str, ...] | None = None
+
+    def __post_init__(self) -> None:
+        try:
+            pairs = tuple((t, s) for t, s in self.schedule)
+        except (TypeError, ValueError):
+            raise InputError(
+                f"heat source schedule must be a list of (time, value) pairs, got {self.schedule!r}"
+            ) from None
+        if not pairs:
+            raise InputError("heat source schedule is empty: give at least one (time, value)")
+        pairs = tuple(
+            (_number(t, f"heat source time #{i}"), _number(s, f"heat source value #{i}"))
+            for i, (t, s) in enumerate(pairs)
+        )
+        for i in range(1, len(pairs)):
+            if not pairs[i][0] > pairs[i - 1][0]:
+                raise InputError(
+                    f"heat source schedule times must increase strictly: t = {pairs[i][0]:g} "
+                    f"(entry {i}) follows t = {pairs[i - 1][0]:g} (entry {i - 1})"
+                )
+        object.__setattr__(self, "schedule", pairs)
+        if self.regions is not None:
+            regions = (self.regions,) if isinstance(self.regions, str) else tuple(self.regions)
+            if not regions or not all(isinstance(r, str) for r in regions):
+                raise InputError(
+                    f"heat source regions must be cell group names, got {self.regions!r}"
+                )
+            object.__setattr__(self, "regions", regions)
+
+    @classmethod
+    def switched(
+        cls,
+        before: float,
+        after: float,
+        switch_time: float,
+        regions: Sequence[str] | None = None,
+    ) -> HeatSource:
+        """s = ``before`` for 0 ≤ t < switch_time, then ``after`` (the box's heating/cooling)."""
+        return cls(((0.0, before), (switch_time, after)), None if regions is None else regions)
+
+    def value(self, t: float) -> float:
+        """s at time t (inside the heated regions)."""
+        current = 0.0
+        for start, s in self.schedule:
+            if t >= start:
+                current = s
+        return current
+
+    @property
+    def switch_times(self) -> tuple[float, ...]:
+        return tuple(t for t, _ in self.schedule[1:])
+
+
+class HeatSolver:
+    """θ_t − κΔθ = s with implicit Euler on a (tagged) plate mesh.
+
+    ``kappa`` > 0 (diffusivity), ``dt`` > 0 (time step), ``degree`` of the continuous Lagrange
+    space (1 or 2), ``theta0`` the initial temperature (a number or a callable for
+    ``Function.interpolate``). ``source`` is a :class:`HeatSource`, a callable ``(x, t)``
+    returning a UFL expression (``t`` is the Constant ``self.t_next``), or None (no source).
+    ``solver_options`` override the PETSc options (default: MUMPS LU, factorised once).
+    """
+
+    def __init__(
+        self,
+        tagged: TaggedMesh,
+        kappa: float,
+        dt: float,
+        source: HeatSource | Callable | None = None,
+        degree: int = 1,
+        theta0: float | Callable = 0.0,
+        solver_options: dict | None = None,
+    ):
+        kappa = _number(kappa, "heat kappa")
+        if not kappa > 0:
+            raise InputError(f"heat kappa (diffusivity) must be > 0, got {kappa:g}")
+        dt = _number(dt, "heat dt")
+        if not dt > 0:
+            raise InputError(f"heat dt (time step) must be > 0, got {dt:g}")
+        if degree not in (1, 2):
+            raise InputError(f"heat degree must be 1 or 2, got {degree!r}")
+        self.tagged, self.kappa, self.degree = tagged, kappa, degree
+        mesh = tagged.mesh
+        self.mesh, self.comm = mesh, mesh.comm
+        self.V = dolfinx.fem.functionspace(mesh, ("Lagrange", degree))
+        self.theta = dolfinx.fem.Function(self.V, name="temperature")
+        self._previous = dolfinx.fem.Function(self.V)
+        if callable(theta0):
+            self.theta.interpolate(theta0)
+        else:
+            self.theta.x.array[:] = _number(theta0, "heat theta0")
+        self.time, self.steps = 0.0, 0
+        self._dt = dolfinx.fem.Constant(mesh, PETSc.ScalarType(dt))
+        self.t_next = dolfinx.fem.Constant(mesh, PETSc.ScalarType(dt))
+        self.source = source
+        self._source_value = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
+        x = ufl.SpatialCoordinate(mesh)
+        if isinstance(source, HeatSource):
+            s = self._source_value * self._indicator(source.regions)
+        elif callable(source):
+            s = source(x, self.t_next)
+        elif source is None:
+            s = None
+        else:
+            raise InputError(
+                f"heat source must be a HeatSource, a callable (x, t) or None, got {source!r}"
+            )
+        u, v = ufl.TrialFunction(self.V), ufl.TestFunction(self.V)
+        kappa_c = dolfinx.fem.Constant(mesh, PETSc.ScalarType(kappa))
+        a = (u * v + self._dt * kappa_c * ufl.inner(ufl.grad(u), ufl.grad(v))) * ufl.dx
+        L = self._previous * v * ufl.dx
+        if s is not None:
+            L += self._dt * s * v * ufl.dx
+        self._a, self._L = dolfinx.fem.form(a), dolfinx.fem.form(L)
+        self.A = dolfinx.fem.petsc.assemble_matrix(self._a)
+        self.A.assemble()
+        self._b_fn = dolfinx.fem.Function(self.V)  # a ghosted vector in every version
+        self.b = self._b_fn.x.petsc_vec
+        self.ksp = solvers.make_ksp(self.comm, self.A, solver_options, "heat_")
+        self._area = self._integral(dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0)))
+        self._mean_form = dolfinx.fem.form(self.theta * ufl.dx)
+
+    # -- set-up helpers ---------------------------------------------------------------------
+    def _indicator(self, regions: tuple[str, ...] | None):
+        """1 on the heated cell groups, 0 elsewhere (a DG0 field), or 1 for the whole plate."""
+        if regions is None:
+            return dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(1.0))
+        space = dolfinx.fem.functionspace(self.mesh, ("DG", 0))
+        chi = dolfinx.fem.Function(space, name="heated")
+        for name in regions:
+            cells = self.tagged.cells(name)  # InputError naming the group if unknown
+            chi.x.array[space.dofmap.list[cells].reshape(-1)] = 1.0
+        chi.x.scatter_forward()
+        return chi
+
+    def _integral(self, expr) -> float:
+        local = dolfinx.fem.assemble_scalar(dolfinx.fem.form(expr * ufl.dx))
+        return float(self.comm.allreduce(local, op=MPI.SUM))
+
+    # -- time stepping ----------------------------------------------------------------------
+    @property
+    def dt(self) -> float:
+        return float(self._dt.value)
+
+    def source_value(self, t: float) -> float:
+        """The scheduled source value at time t (0 without a scheduled source)."""
+        return self.source.value(t) if isinstance(self.source, HeatSource) else 0.0
+
+    def step(self) -> float:
+        """Advance θ by one time step; returns the new time. Collective."""
+        t_new = self.time + self.dt
+        self.t_next.value = t_new
+        self._source_value.value = self.source_value(t_new)
+        self._previous.x.array[:] = self.theta.x.array
+        with self.b.localForm() as local:
+            local.set(0.0)
+        dolfinx.fem.petsc.assemble_vector(self.b, self._L)
+        self.b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        solvers.solve(self.ksp, self.b, self.theta.x.petsc_vec)
+        self.theta.x.scatter_forward()
+        self.time, self.steps = t_new, self.steps + 1
+        return t_new
+
+    def advance_to(self, t_end: float) -> int:
+        """Step until ``time`` reaches ``t_end`` (to within 1e-9 Δt); returns the step count."""
+        count = 0
+        while self.time < t_end - 1e-9 * self.dt:
+            self.step()
+            count += 1
+        return count
+
+    # -- figures ----------------------------------------------------------------------------
+    def min_max(self) -> tuple[float, float]:
+        """Smallest and largest nodal value of θ (owned dofs, reduced over all ranks)."""
+        owned = self.V.dofmap.index_map.size_local
+        values = self.theta.x.array[:owned].real
+        lo = values.min() if values.size else np.inf
+        hi = values.max() if values.size else -np.inf
+        return float(self.comm.allreduce(lo, op=MPI.MIN)), float(
+            self.comm.allreduce(hi, op=MPI.MAX)
+        )
+
+    def mean(self, region: str | None = None) -> float:
+        """Area-weighted mean of θ over the plate or over one cell group."""
+        if region is None:
+            local = dolfinx.fem.assemble_scalar(self._mean_form)
+            return float(self.comm.allreduce(local, op=MPI.SUM)) / self._area
+        dx = ufl.Measure("dx", domain=self.mesh, subdomain_data=self.tagged.cell_tags)
+        tag = self.tagged.tag(region, self.mesh.topology.dim)
+        one = dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(1.0))
+        num = dolfinx.fem.assemble_scalar(dolfinx.fem.form(self.theta * dx(tag)))
+        den = dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * dx(tag)))
+        num, den = self.comm.allreduce(np.array([num, den], dtype=float), op=MPI.SUM)
+        return float(num / den)
+
+    def l2_error(self, exact: Callable, quadrature_degree: int = 6) -> float:
+        """‖θ − exact(x, t)‖_L² at the current time (``exact`` as for a callable source)."""
+        t = dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(self.time))
+        x = ufl.SpatialCoordinate(self.mesh)
+        e = self.theta - exact(x, t)
+        dx = ufl.Measure("dx", domain=self.mesh, metadata={"quadrature_degree": quadrature_degree})
+        local = dolfinx.fem.assemble_scalar(dolfinx.fem.form(e * e * dx))
+        return math.sqrt(self.comm.allreduce(local, op=MPI.SUM))
+
+    def destroy(self) -> None:
+        for obj in (self.ksp, self.A):
+            obj.destroy()
+
+
+__all__ = ["HeatSolver", "HeatSource"]

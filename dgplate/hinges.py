@@ -1,0 +1,197 @@
+"""Fold angles of hinges and rigid frames of plate regions (self-folding structures).
+
+A hinge is a strip (cell group) between two faces (cell groups). Its fold angle is the angle
+between the faces' area-weighted mean unit normals ν̄ = ∫_F ν / |∫_F ν|, signed by the
+deformed hinge axis: for the inner face A, the outer face B and the reference direction d
+from A's centroid to B's, the axis is a = ∫_hinge ∇y·t (t = e₃ × d, the reference hinge
+direction, normalised) and
+
+    φ = atan2(−(ν̄_A × ν̄_B)·a, ν̄_A·ν̄_B),
+
+positive when B has turned towards the side +ν̄_A (``sense = −1`` flips that convention). For
+a flat start y = (x₁, x₂, 0) that is the side +e₃. A face region's rigid frame (centre,
+orthonormal frame from the polar factor of the mean gradient) maps the deformed plate back
+into that region's reference position, which makes positions comparable whatever rigid
+motion the plate has made. Everything here is collective and returns the same numbers on
+every rank (integrals are summed over owned cells).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import dolfinx.fem
+import dolfinx.mesh
+import numpy as np
+import ufl
+from mpi4py import MPI
+
+from dgplate.errors import InputError
+from dgplate.meshing import TaggedMesh
+
+
+@dataclass(frozen=True)
+class Hinge:
+    """A hinge strip ``name`` joining the face ``inner`` (towards the base) to ``outer``."""
+
+    name: str
+    inner: str
+    outer: str
+
+
+def _normal(y):
+    n = ufl.cross(y.dx(0), y.dx(1))
+    return n / ufl.sqrt(ufl.inner(n, n))
+
+
+class RegionIntegrals:
+    """∫_R expr dx for UFL expressions and named cell groups R, summed over all ranks."""
+
+    def __init__(self, tagged: TaggedMesh, quadrature_degree: int | None = None):
+        self.tagged = tagged
+        self.mesh = tagged.mesh
+        md = {} if quadrature_degree is None else {"quadrature_degree": quadrature_degree}
+        self.dx = ufl.Measure(
+            "dx", domain=self.mesh, subdomain_data=tagged.cell_tags, metadata=md
+        )
+
+    def forms(self, exprs: Sequence, region: str) -> list:
+        tag = self.tagged.tag(region, self.mesh.topology.dim)
+        return [dolfinx.fem.form(e * self.dx(tag)) for e in exprs]
+
+    def evaluate(self, forms: Sequence) -> np.ndarray:
+        local = np.array([dolfinx.fem.assemble_scalar(f) for f in forms], dtype=float)
+        return self.mesh.comm.allreduce(local, op=MPI.SUM)
+
+    def __call__(self, exprs: Sequence, region: str) -> np.ndarray:
+        return self.evaluate(self.forms(exprs, region))
+
+
+class FoldAngles:
+    """Signed fold angles (radians) of ``hinges`` for the deformation ``y`` (see module doc).
+
+    The forms are compiled once; calling the object evaluates them for the current ``y``.
+    """
+
+    def __init__(
+        self, y: dolfinx.fem.Function, tagged: TaggedMesh, hinges: Sequence[Hinge], sense=1
+    ):
+        if sense not in (1, -1):
+            raise InputError(f"fold-angle sense must be +1 or -1, got {sense!r}")
+        if not hinges:
+            raise InputError("FoldAngles needs at least one hinge")
+        self.y, self.hinges, self.sense = y, list(hinges), sense
+        self._int = RegionIntegrals(tagged)
+        x = ufl.SpatialCoordinate(tagged.mesh)
+        one = ufl.as_ufl(1.0)
+        faces = sorted({h.inner for h in hinges} | {h.outer for h in hinges})
+        nu = _normal(y)
+        self._normal_forms = {f: self._int.forms([nu[i] for i in range(3)], f) for f in faces}
+        centroids = {}
+        for region in faces:
+            area, cx, cy = self._int([one, x[0], x[1]], region)
+            centroids[region] = np.array([cx, cy]) / area
+        self._axis_forms = {}
+        for h in self.hinges:
+            d = centroids[h.outer] - centroids[h.inner]
+            if not np.linalg.norm(d) > 0:
+                raise InputError(f"hinge {h.name}: faces {h.inner} and {h.outer} coincide")
+            d /= np.linalg.norm(d)
+            t = ufl.as_vector([-float(d[1]), float(d[0])])
+            tangent = ufl.dot(ufl.grad(y), t)
+            self._axis_forms[h.name] = self._int.forms([tangent[i] for i in range(3)], h.name)
+
+    def normals(self) -> dict[str, np.ndarray]:
+        """Area-weighted mean unit normal of each face region."""
+        out = {}
+        for region, forms in self._normal_forms.items():
+            n = self._int.evaluate(forms)
+            out[region] = n / np.linalg.norm(n)
+        return out
+
+    def __call__(self) -> dict[str, float]:
+        normals = self.normals()
+        angles = {}
+        for h in self.hinges:
+            a = self._int.evaluate(self._axis_forms[h.name])
+            a /= np.linalg.norm(a)
+            na, nb = normals[h.inner], normals[h.outer]
+            sin = -float(np.dot(np.cross(na, nb), a))
+            angles[h.name] = self.sense * math.atan2(sin, float(np.dot(na, nb)))
+        return angles
+
+    def degrees(self) -> dict[str, float]:
+        return {k: math.degrees(v) for k, v in self().items()}
+
+
+class RegionFrame:
+    """The rigid motion that best describes a (nearly rigid) region of the deformed plate.
+
+    Centre c = mean of y over the region, frame Q = [f₁ f₂ f₁×f₂] with (f₁ f₂) the polar
+    factor of the mean gradient. ``to_reference(p)`` = Qᵀ(p − c) + c_ref maps deformed
+    points into the region's reference placement (c_ref the reference centroid, z = 0).
+    """
+
+    def __init__(self, y: dolfinx.fem.Function, tagged: TaggedMesh, region: str):
+        self._int = RegionIntegrals(tagged)
+        x = ufl.SpatialCoordinate(tagged.mesh)
+        G = ufl.grad(y)
+        exprs = [ufl.as_ufl(1.0), x[0], x[1]] + [y[i] for i in range(3)]
+        exprs += [G[i, j] for i in range(3) for j in range(2)]
+        self._forms = self._int.forms(exprs, region)
+
+    def __call__(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(c, Q, c_ref) for the current deformation."""
+        values = self._int.evaluate(self._forms)
+        area = values[0]
+        c_ref = np.array([values[1] / area, values[2] / area, 0.0])
+        c = values[3:6] / area
+        F = values[6:12].reshape(3, 2) / area
+        U, _, Vt = np.linalg.svd(F, full_matrices=False)
+        P = U @ Vt  # polar factor: orthonormal columns f₁, f₂
+        Q = np.column_stack([P[:, 0], P[:, 1], np.cross(P[:, 0], P[:, 1])])
+        return c, Q, c_ref
+
+    def to_reference(self, points: np.ndarray) -> np.ndarray:
+        c, Q, c_ref = self()
+        return (np.asarray(points) - c) @ Q + c_ref
+
+
+def edge_nodes(
+    y: dolfinx.fem.Function, tagged: TaggedMesh, group: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """Reference positions (N×3) and deformed positions (N×3) of y's nodes on a facet group.
+
+    For the Lagrange nodes of y's (DG) space that lie on the facets of ``group`` in owned
+    cells (local arrays: reduce over ranks yourself). Nodes on an edge shared by two cells of
+    the group appear once per cell.
+    """
+    space = y.function_space
+    mesh = space.mesh
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    f2c = mesh.topology.connectivity(tdim - 1, tdim)
+    num_owned = mesh.topology.index_map(tdim).size_local
+    coords = space.tabulate_dof_coordinates()
+    facets = tagged.facets(group)
+    nodes = dolfinx.mesh.entities_to_geometry(mesh, tdim - 1, facets.astype(np.int32))
+    dofs = []
+    for facet, facet_nodes in zip(facets, nodes):
+        a, b = mesh.geometry.x[facet_nodes[:2]]  # the two vertices come first
+        length = np.linalg.norm(b - a)
+        for cell in f2c.links(facet):
+            if cell >= num_owned:
+                continue
+            cell_dofs = space.dofmap.cell_dofs(cell)
+            p = coords[cell_dofs]
+            s = np.clip((p - a) @ (b - a) / length**2, 0.0, 1.0)
+            dist = np.linalg.norm(p - (a + np.outer(s, b - a)), axis=1)
+            dofs.extend(cell_dofs[dist < 1e-8 * length].tolist())
+    dofs = np.asarray(dofs, dtype=np.int64)
+    values = y.x.array.real.reshape(-1, 3)
+    return coords[dofs], values[dofs]
+
+
+__all__ = ["FoldAngles", "Hinge", "RegionFrame", "RegionIntegrals", "edge_nodes"]
