@@ -136,6 +136,9 @@ def bounding_box(y) -> list[list[float]]:
     owned = space.dofmap.index_map.size_local
     values = y.x.array.reshape(-1, 3)[:owned]
     comm = space.mesh.comm
-    lo = comm.allreduce(values.min(axis=0) if owned else np.full(3, np.inf), op=MPI.MIN)
-    hi = comm.allreduce(values.max(axis=0) if owned else np.full(3, -np.inf), op=MPI.MAX)
-    return [list(map(float, lo)), list(map(float, hi))]
+    lo = values.min(axis=0) if owned else np.full(3, np.inf)
+    hi = values.max(axis=0) if owned else np.full(3, -np.inf)
+    glo, ghi = np.empty(3), np.empty(3)
+    comm.Allreduce(np.ascontiguousarray(lo, dtype=float), glo, op=MPI.MIN)  # element-wise
+    comm.Allreduce(np.ascontiguousarray(hi, dtype=float), ghi, op=MPI.MAX)
+    return [list(map(float, glo)), list(map(float, ghi))]

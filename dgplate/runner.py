@@ -86,6 +86,16 @@ def run_problem(
     wall0 = time.perf_counter()
     tagged = build_mesh(problem.mesh, comm)
     entry = MODELS[problem.model.name]
+    target = Path(out_dir or problem.output.dir or f"out/{problem.name}")
+    if entry.kind == "newton":
+        from dgplate.models.fvk import run_fvk
+
+        problem.model.validate(tagged)
+        summary = run_fvk(
+            tagged, problem.model, out_dir=target, comm=comm, progress=bool(problem.output.progress)
+        )
+        summary.setdefault("problem", problem.name)
+        return summary
     model = entry.build(problem.model, tagged)
     tau = max_cell_diameter(tagged) if problem.flow.tau == "h" else float(problem.flow.tau)
     settings = FlowSettings(
@@ -101,7 +111,6 @@ def run_problem(
     if problem.output.progress:
         observers.append(ProgressPrinter(comm, problem.output.progress))
     flow = GradientFlow(model.faces, model.degree, model.energy_fn, settings, observers)
-    target = Path(out_dir or problem.output.dir or f"out/{problem.name}")
     out = OutputDir(comm, target)
     print0(
         comm,

@@ -124,3 +124,19 @@ def test_cli_end_to_end(tmp_path):
     assert lo[0] == pytest.approx(0.0, abs=1e-3) and hi[2] > 0.1  # clamped edge stays, corner lifts
     rows = (out / "history.csv").read_text().strip().splitlines()
     assert rows[0].startswith("step,time,tau,energy,defect") and len(rows) == 14
+
+
+@pytest.mark.mpi
+def test_cli_in_parallel(tmp_path):
+    """`mpirun -n 2 dgplate run …`: one output directory, the same summary on every rank."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    out = Path(comm.bcast(str(tmp_path / "par"), root=0))
+    assert main(["run", str(VERTICAL), "--out", str(out), "--set", "mesh.cells=[6,6]"]) == 0
+    comm.barrier()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["ranks"] == comm.size
+    assert summary["bbox"][1][2] > 0.0
+    for name in ("history.csv", "final.png", "deformation.bp"):
+        assert (out / name).exists()

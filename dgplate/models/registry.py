@@ -7,6 +7,7 @@ from typing import Any
 
 from dgplate.errors import InputError
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
+from dgplate.models.fvk_params import FvKParameters
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
 from dgplate.schema import from_dict
 
@@ -15,12 +16,13 @@ from dgplate.schema import from_dict
 class ModelEntry:
     spec: type
     build: Any  # (spec, tagged mesh) -> FlowModel
-    kind: str = "flow"  # "flow": constrained gradient flow
+    kind: str = "flow"  # "flow": constrained gradient flow; "newton": SNES load stepping
 
 
 MODELS: dict[str, ModelEntry] = {
     "kirchhoff": ModelEntry(KirchhoffSpec, build_kirchhoff),
     "bilayer": ModelEntry(BilayerSpec, build_bilayer),
+    "fvk": ModelEntry(FvKParameters, None, kind="newton"),
 }
 
 
@@ -30,4 +32,7 @@ def model_spec(data: Any):
     name = data.get("name", "kirchhoff")
     if name not in MODELS:
         raise InputError(f"model.name must be one of {', '.join(sorted(MODELS))}, got {name!r}")
-    return from_dict(MODELS[name].spec, data, "model")
+    spec = from_dict(MODELS[name].spec, data, "model")
+    if hasattr(spec, "validate"):
+        spec.validate()
+    return spec

@@ -1,0 +1,115 @@
+"""Reference values for the Föppl–von Kármán model: published tables and exact solutions.
+
+- Linear Kirchhoff plate, uniform load q on a square of side a, centre deflection in units of
+  q a⁴/D: simply supported 0.00406, clamped 0.00126 (Timoshenko & Woinowsky-Krieger, *Theory of
+  Plates and Shells*, 2nd ed., 1959, Tables 8 and 35); the series give 0.0040624 (Navier, below)
+  and 0.0012653.
+- Large deflection: Levy, *Square plate with clamped edges under normal pressure producing large
+  deflections*, NACA Report 740 (1942), also NACA TN 847, Table 5: centre deflection w_c/t of a
+  clamped square plate against Q = p a⁴/(E t⁴), ν = 0.316, edges held against in-plane
+  displacement normal to the edge and free to slide along it. (Digits as transcribed in public
+  sources; see docs/fvk.md.)
+- Cylindrical bending of a strip clamped and held at both ends, with or without a hinge
+  (crease) in the middle: an exact FvK solution for ν = 0 (the 2D plate with free long edges is
+  then exactly one-dimensional).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+SIMPLY_SUPPORTED_PUBLISHED, CLAMPED_PUBLISHED = 0.00406, 0.00126
+CLAMPED_SERIES = 0.0012653
+
+LEVY_NU = 0.316
+LEVY_Q = (17.79, 38.3, 63.4, 95.0, 134.9, 184.0, 245.0, 318.0, 402.0)
+LEVY_W = (0.237, 0.471, 0.695, 0.912, 1.121, 1.323, 1.521, 1.714, 1.902)
+
+
+def navier_simply_supported(terms: int = 401, compression: float = 0.0) -> float:
+    """Centre deflection of the simply supported square plate in units of q a⁴/D (linear).
+
+    ``compression`` = N/N_cr adds an equibiaxial membrane compression N (N_cr = 2π²D/a², the
+    buckling load of the square under equal compression in both directions).
+    """
+    m = np.arange(1, terms + 1, 2)
+    M, N = np.meshgrid(m, m)
+    signs = (-1.0) ** ((M + N) // 2 - 1)
+    k2 = M**2 + N**2
+    return float(16 / np.pi**6 * np.sum(signs / (M * N * (k2**2 - 2 * compression * k2))))
+
+
+def _series(z, coefficients, direct):
+    """direct(z), or its Taylor series in z² where |z| < 1 (no cancellation for small z)."""
+    z = np.atleast_1d(np.asarray(z, dtype=float))
+    small = np.abs(z) < 1
+    out = np.empty_like(z)
+    out[small] = sum(c * z[small] ** (2 * i) for i, c in enumerate(coefficients))
+    out[~small] = direct(z[~small])
+    return out
+
+
+def _sinhc(z):
+    """sinh z / z"""
+    terms = [1 / math.factorial(2 * i + 1) for i in range(9)]
+    return _series(z, terms, lambda z: np.sinh(z) / z)
+
+
+def _coshc(z):
+    """2 (cosh z − 1) / z²"""
+    terms = [2 / math.factorial(2 * i + 2) for i in range(9)]
+    return _series(z, terms, lambda z: 2 * (np.cosh(z) - 1) / z**2)
+
+
+def _f3(z):
+    """(sinh z − z) / z³"""
+    terms = [1 / math.factorial(2 * i + 3) for i in range(9)]
+    return _series(z, terms, lambda z: (np.sinh(z) - z) / z**3)
+
+
+def _f4(z):
+    """(cosh z − 1 − z²/2) / z⁴"""
+    terms = [1 / math.factorial(2 * i + 4) for i in range(9)]
+    return _series(z, terms, lambda z: (np.cosh(z) - 1 - z**2 / 2) / z**4)
+
+
+def strip_centre_deflection(q: float, L: float, E: float, t: float, hinge: bool) -> float:
+    """Centre deflection of a strip (ν = 0) clamped and held (u = 0) at x = 0 and x = L.
+
+    Each half carries a tension N = D k²: D w'''' − N w'' = q, w = w' = 0 at x = 0 and, at the
+    centre x = ℓ = L/2, a hinge (w'' = 0, D w''' − N w' = 0) or symmetry (w' = 0, w''' = 0).
+    With C = (cosh kx − 1)/k², S = (sinh kx − kx)/k³ and P = (cosh kx − 1 − (kx)²/2)/k⁴,
+    w = c₂ C + c₃ S + q P/D; these are evaluated without cancellation for small kx, so beam
+    theory is the limit N → 0. The held ends fix N = (E t/L) ∫₀^ℓ w'² dx (bisection on log N).
+    """
+    D, A, ell = E * t**3 / 12, E * t, L / 2
+    x = np.linspace(0.0, ell, 4001)
+
+    def shape(N):
+        k = np.sqrt(N / D)
+        z, zl = k * x, k * ell
+        sh_k = ell * _sinhc(zl)[0]  # sinh(kℓ)/k
+        cm_k2 = ell**2 * _coshc(zl)[0] / 2  # (cosh kℓ − 1)/k²
+        ch = 1 + k**2 * cm_k2  # cosh kℓ
+        s_l = ell**3 * _f3(zl)[0]
+        if hinge:  # the shear condition gives c₃ = −qℓ/D; then w''(ℓ) = 0
+            c3 = -q * ell / D
+            c2 = -(c3 * sh_k + q * cm_k2 / D) / ch
+        else:  # w'(ℓ) = 0, w'''(ℓ) = 0
+            M = np.array([[sh_k, cm_k2], [k**2 * sh_k, ch]])
+            c2, c3 = np.linalg.solve(M, [-q * s_l / D, -q * sh_k / D])
+        w_l = c2 * cm_k2 + c3 * s_l + q * ell**4 * _f4(zl)[0] / D
+        dw = c2 * x * _sinhc(z) + c3 * x**2 * _coshc(z) / 2 + q * x**3 * _f3(z) / D
+        return w_l, dw
+
+    def excess(N):
+        dw = shape(N)[1]
+        return N - A / L * float(np.sum((dw[1:] ** 2 + dw[:-1] ** 2) / 2 * np.diff(x)))
+
+    lo, hi = 1e-14 * A, A
+    for _ in range(200):
+        mid = np.sqrt(lo * hi)
+        lo, hi = (mid, hi) if excess(mid) < 0 else (lo, mid)
+    return float(shape(np.sqrt(lo * hi))[0])
