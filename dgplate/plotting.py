@@ -138,12 +138,27 @@ def _plain_text():
 
 
 def _headless() -> None:
-    """Without a display, ask VTK for its EGL window directly (saves an X probe and a warning)."""
-    if not os.environ.get("DISPLAY") and "VTK_DEFAULT_OPENGL_WINDOW" not in os.environ:
-        from vtkmodules import vtkRenderingOpenGL2
+    """Make off-screen rendering possible without a display.
 
-        if hasattr(vtkRenderingOpenGL2, "vtkEGLRenderWindow"):
-            os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
+    VTK wheels have an EGL window: use it directly (saves an X probe and a warning). X-only VTK
+    builds (Debian's) need a virtual X server: start Xvfb when it is installed, otherwise fail
+    with a clear message instead of letting VTK abort the process.
+    """
+    if os.environ.get("DISPLAY") or "VTK_DEFAULT_OPENGL_WINDOW" in os.environ:
+        return
+    from vtkmodules import vtkRenderingOpenGL2
+
+    if hasattr(vtkRenderingOpenGL2, "vtkEGLRenderWindow"):
+        os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
+        return
+    import shutil
+
+    if shutil.which("Xvfb") is None:
+        raise RuntimeError(
+            "off-screen rendering needs a display: this VTK has no EGL support and Xvfb is not "
+            "installed (apt install xvfb), or set output.png = false"
+        )
+    pyvista.start_xvfb()
 
 
 def _publish(tmp: str, path: Path) -> None:

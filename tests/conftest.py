@@ -16,3 +16,14 @@ def rates(errors: list[float]) -> list[float]:
 
     e = np.asarray(errors)
     return list(np.log2(e[:-1] / e[1:]))
+
+
+def pytest_configure(config):
+    """Under mpirun every rank gets its own temporary directory tree (no clean-up races)."""
+    if MPI.COMM_WORLD.size > 1 and not config.option.basetemp:
+        import tempfile
+        from pathlib import Path
+
+        config.option.basetemp = (
+            Path(tempfile.gettempdir()) / f"pytest-mpi-rank{MPI.COMM_WORLD.rank}"
+        )
