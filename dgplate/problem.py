@@ -72,7 +72,14 @@ class FlowSpec:
         "degree of the isometry multiplier: 0 = cell means (published), 1 = also first moments (stronger)",
     )
 
+    projection_steps: int = option(
+        0,
+        "corrections per step restoring the nonlinear discrete constraint (0: published method; 2 drives D_h to round-off)",
+    )
+
     def __post_init__(self) -> None:
+        if self.projection_steps < 0:
+            raise InputError(f"flow.projection_steps must be >= 0, got {self.projection_steps!r}")
         if isinstance(self.tau, str):
             if self.tau != "h":
                 raise InputError(f"flow.tau must be a number > 0 or 'h', got {self.tau!r}")

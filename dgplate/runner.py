@@ -105,6 +105,7 @@ def run_problem(
         l2_metric=problem.flow.l2,
         solver_options=problem.flow.solver,
         multiplier_degree=problem.flow.multiplier_degree,
+        projection_steps=problem.flow.projection_steps,
     )
     history = _History()
     observers: list = [history]
@@ -130,8 +131,17 @@ def run_problem(
         from dgplate.plotting import plot_deformation
 
         title = f"{problem.name}: E_h = {result.energy:.4e}, D_h = {result.defect:.2e}"
+        lines = None
+        if model.faces.num_crease:  # draw the deformed crease lines (collective)
+            from dgplate.creases import crease_polylines
+
+            lines = crease_polylines(flow.y, model.faces)
         plot_deformation(
-            flow.y, out.path / "final.png", title=title, color_by=problem.output.color_by
+            flow.y,
+            out.path / "final.png",
+            title=title,
+            color_by=problem.output.color_by,
+            lines=lines,
         )
     summary["wall_time_s"] = time.perf_counter() - wall0
     write_json(comm, out.path / "summary.json", summary)
