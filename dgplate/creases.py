@@ -10,9 +10,10 @@ normal ν of the other side — the convention of the bilayer model, where Z = �
 towards +ν) and negative for a mountain fold.
 
 Summaries are over the whole crease: min, max and the length-weighted mean (weights: the
-reference facet lengths), reduced over the communicator, so every rank gets the same numbers
-and they do not depend on the number of ranks. The crease lines in deformed coordinates
-(``polylines``) are gathered to rank 0 for pictures (``plot_deformation(..., lines=...)``).
+reference facet lengths, i.e. the chords between the facet's vertices), reduced over the
+communicator, so every rank gets the same numbers and they do not depend on the number of
+ranks. The crease lines in deformed coordinates (``polylines``) are gathered to rank 0 for
+pictures (``plot_deformation(..., lines=...)``).
 
 Works for vector deformations y ∈ [DG_k]³ and for scalar deflections w (surface (x₁, x₂, w)),
 on triangles and quadrilaterals. Every function here is collective on the mesh communicator.
@@ -95,13 +96,12 @@ class CreaseMeasure:
         points = start[:, None, :] + t[None, :, None] * (end - start)[:, None, :]
         self._num_per_facet = samples + 1
         self._ref_points = points.reshape(-1, tdim)
-        mid = samples // 2
-        self._mid = np.arange(len(ref_facets)) * (samples + 1) + mid  # midpoint indices
 
         # Reference geometry of each crease facet: its vertices (in the orientation seen from
         # the first cell), length, and unit normal pointing from the first cell to the second.
         x = mesh.geometry.x[:, :2]
-        dofmap = mesh.geometry.dofmap
+        geometry = mesh.geometry  # DOLFINx 0.11 deprecates geometry.dofmap for dofmaps[0]
+        dofmap = geometry.dofmaps[0] if hasattr(geometry, "dofmaps") else geometry.dofmap
         ends = np.zeros((num, 2, 2))
         normals = np.zeros((num, 2))
         for k in range(num):
@@ -239,7 +239,9 @@ def _chain(ends: np.ndarray, points: np.ndarray) -> list[np.ndarray]:
 
     lines = []
     # start at a free end (degree 1) where there is one, so open arcs come out in one piece
-    order = sorted(range(ends.shape[0]), key=lambda k: min(len(at[tuple(keys[k, e])]) for e in (0, 1)))
+    order = sorted(
+        range(ends.shape[0]), key=lambda k: min(len(at[tuple(keys[k, e])]) for e in (0, 1))
+    )
     for k in order:
         if used[k]:
             continue
@@ -264,29 +266,152 @@ def crease_polylines(u: dolfinx.fem.Function, faces: FaceSets, samples: int = 4)
     return CreaseMeasure(u, faces, samples).polylines()
 
 
+def cell_diameter_field(mesh) -> dolfinx.fem.Function:
+    """The cell diameter as a DG0 function (the diameter of each cell's vertices)."""
+    space = dolfinx.fem.functionspace(mesh, ("DG", 0))
+    tdim = mesh.topology.dim
+    imap = mesh.topology.index_map(tdim)
+    cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+    field = dolfinx.fem.Function(space, name="h")
+    field.x.array[space.dofmap.list[cells, 0]] = mesh.h(tdim, cells)
+    return field
+
+
+def use_cell_diameter_field(faces: FaceSets) -> FaceSets:
+    """On meshes with curved cells (gmsh ``order = 2``) let ``faces.h`` be a DG0 field.
+
+    A curved crease needs curved cell edges along C: with straight chords the two sides of a
+    fold cannot meet along a curved space curve without a value jump, the γ₀ penalty resists
+    folding and the fold angle converges only slowly under refinement (a locking effect; see
+    docs/creases.md). FFCx cannot evaluate ``ufl.CellDiameter`` on curved cells, so the face
+    sets get h from ``mesh.h`` instead (the same number on affine cells). Call this before the
+    forms are built (before ``GradientFlow``); a no-op on affine meshes.
+    """
+    geometry = faces.mesh.geometry  # DOLFINx 0.11 deprecates geometry.cmap for cmaps[0]
+    cmap = geometry.cmaps[0] if hasattr(geometry, "cmaps") else geometry.cmap
+    if cmap.degree > 1:
+        faces.h = cell_diameter_field(faces.mesh)
+    return faces
+
+
 def with_fold_angles(model):
     """Wrap ``model.extras`` (a FlowModel) so that summary.json also gets the fold angles
-    along C when the model has crease faces; the model is returned unchanged otherwise."""
+    along C (``fold_angle_deg`` and ``crease``) when the model has crease faces; the model
+    is returned unchanged otherwise."""
     if not model.faces.num_crease:
         return model
     previous = model.extras
-    cache: dict = {}
 
     def extras(flow) -> dict:
         out = dict(previous(flow)) if previous is not None else {}
-        measure = cache.get(id(flow))
-        if measure is None:
-            measure = cache[id(flow)] = CreaseMeasure(flow.y, model.faces)
-        out.update(measure.summary())
+        out.update(CreaseMeasure(flow.y, model.faces).summary())
         return out
 
     model.extras = extras
     return model
 
 
+class _Series:
+    """VTX time series of the deformation every ``every`` steps and at the end."""
+
+    def __init__(self, flow, path, every: int):
+        from dgplate.vtx import DeformationWriter
+
+        self.writer, self.every = DeformationWriter(path, flow.y, comm=flow.comm), every
+        self.writer.write(0.0)
+
+    def step(self, flow, info) -> None:
+        if info.step % self.every == 0:
+            self.writer.write(info.time)
+
+    def finish(self, flow, result) -> None:
+        if result.steps % self.every:
+            self.writer.write(flow.time)
+        self.writer.close()
+
+
+def run_crease_problem(problem, out_dir=None, comm: MPI.Comm = MPI.COMM_WORLD, initial=None):
+    """:func:`dgplate.runner.run_problem` plus two things it cannot do (yet) for creases:
+
+    - start the flow from ``initial`` (a callable x ↦ y(x), e.g. the exact fold), where
+      ``run_problem`` always starts flat;
+    - meshes with curved cells along C (``mesh.parameters.order = 2``, see
+      :func:`use_cell_diameter_field`).
+
+    Writes the same outputs (summary.json with the fold angles, history.csv, deformation.bp,
+    final.png with the crease lines) and returns the summary.
+    """
+    import time
+    from pathlib import Path
+
+    from dgplate.flow import FlowSettings, GradientFlow
+    from dgplate.models.registry import MODELS
+    from dgplate.output import (
+        OutputDir,
+        ProgressPrinter,
+        print0,
+        write_history,
+        write_json,
+    )
+    from dgplate.runner import build_mesh, make_summary, max_cell_diameter
+
+    wall0 = time.perf_counter()
+    tagged = build_mesh(problem.mesh, comm)
+    model = MODELS[problem.model.name].build(problem.model, tagged)
+    use_cell_diameter_field(model.faces)
+    tau = max_cell_diameter(tagged) if problem.flow.tau == "h" else float(problem.flow.tau)
+    settings = FlowSettings(
+        tau=tau,
+        tol=problem.flow.tol,
+        max_steps=problem.flow.max_steps,
+        l2_metric=problem.flow.l2,
+        solver_options=problem.flow.solver,
+        multiplier_degree=problem.flow.multiplier_degree,
+        projection_steps=problem.flow.projection_steps,
+    )
+    observers: list = []
+    if problem.output.progress:
+        observers.append(ProgressPrinter(comm, problem.output.progress))
+    flow = GradientFlow(model.faces, model.degree, model.energy_fn, settings, observers, initial)
+    target = Path(out_dir or problem.output.dir or f"out/{problem.name}")
+    out = OutputDir(comm, target)
+    print0(
+        comm,
+        f"dgplate: {problem.name}: model {problem.model.name}, {flow.num_dofs} dofs on "
+        f"{comm.size} rank(s), τ = {tau:.4g}, output → {target}",
+    )
+    if problem.output.vtx:
+        flow.observers.append(_Series(flow, out.path / "deformation.bp", problem.output.every))
+    result = flow.run()
+    summary = make_summary(problem, flow, result, tagged, wall0)
+    if model.extras is not None:
+        summary.update(model.extras(flow))
+    write_history(comm, out.path / "history.csv", result.history)
+    if problem.output.png:
+        from dgplate.plotting import plot_deformation
+
+        lines = crease_polylines(flow.y, model.faces) if model.faces.num_crease else None
+        title = f"{problem.name}: E_h = {result.energy:.4e}, D_h = {result.defect:.2e}"
+        plot_deformation(
+            flow.y,
+            out.path / "final.png",
+            title=title,
+            color_by=problem.output.color_by,
+            lines=lines,
+        )
+    summary["wall_time_s"] = time.perf_counter() - wall0
+    write_json(comm, out.path / "summary.json", summary)
+    out.commit()
+    flow.destroy()
+    return summary
+
+
 __all__ = [
     "CreaseMeasure",
+    "cell_diameter_field",
     "crease_polylines",
     "fold_angle_summary",
+    "run_crease_problem",
+    "use_cell_diameter_field",
     "with_fold_angles",
 ]

@@ -144,7 +144,9 @@ class GradientFlow:
         dy, lam = ufl.TrialFunctions(self.W)
         v, q = ufl.TestFunctions(self.W)
         l2 = self.settings.l2_metric
-        l2 = (not faces.has_clamped) if l2 is None else l2
+        # rigid motions, or a flap that can turn freely about a crease, leave the H² metric
+        # singular: the L² product controls them
+        l2 = (not faces.has_clamped or faces.num_crease > 0) if l2 is None else l2
         hessian = ufl.derivative(ufl.derivative(self.energy.implicit, y, v), y, dy)
         a_const = (1.0 / self._tau) * h2_metric(dy, v, faces, l2=l2) + hessian
         b = linearised_isometry(v, y, lam) + linearised_isometry(dy, y, q)

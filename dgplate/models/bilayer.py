@@ -26,6 +26,7 @@ import numpy as np
 import ufl
 
 from dgplate import expressions
+from dgplate.creases import with_fold_angles
 from dgplate.dg import CLAMPED, CREASE, SMOOTH, FaceSets, Penalty, bending_energy, face_sets, jump
 from dgplate.errors import InputError
 from dgplate.models.base import Energy, clamped_data, piecewise_constant
@@ -187,4 +188,5 @@ def build_bilayer(spec: BilayerSpec, tagged) -> FlowModel:
     def energy_fn(y) -> Energy:
         return bilayer_energy(y, faces, penalty, Z, mu, load, g, Phi, spec.consistent, degree)
 
-    return FlowModel(faces, spec.degree, energy_fn, extras=lambda flow: curvature_summary(flow.y))
+    model = FlowModel(faces, spec.degree, energy_fn, extras=lambda flow: curvature_summary(flow.y))
+    return with_fold_angles(model)

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import ufl
 
 from dgplate import expressions
+from dgplate.creases import with_fold_angles
 from dgplate.dg import FaceSets, Penalty, bending_energy, face_sets
 from dgplate.errors import InputError
 from dgplate.models.base import Energy, clamped_data, piecewise_constant
@@ -103,4 +104,4 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged) -> FlowModel:
     def energy_fn(y) -> Energy:
         return kirchhoff_energy(y, faces, penalty, load=load, mu=mu, g=g, Phi=Phi)
 
-    return FlowModel(faces, spec.degree, energy_fn)
+    return with_fold_angles(FlowModel(faces, spec.degree, energy_fn))
