@@ -46,8 +46,7 @@ class HeatSource:
     ``schedule`` lists ``(t_i, s_i)`` pairs with strictly increasing times: s = s_i for
     t_i ≤ t < t_{i+1} (the last value holds for ever, s = 0 before t_0). ``regions`` names the
     cell groups that are heated (None: the whole plate). The value at a time step is taken at
-    the end of the step (implicit Euler), so a switch at t_i takes effect for the first step
-    that ends after t_i.
+    the mean over the step (:meth:`average`), exact for this piecewise constant schedule.
     """
 
     schedule: tuple[tuple[float, float], ...]
@@ -100,6 +99,21 @@ class HeatSource:
                 current = s
         return current
 
+    def average(self, t0: float, t1: float) -> float:
+        """(1/(t1 − t0)) ∫_{t0}^{t1} s dt: the exact mean of the schedule over a time step.
+
+        The heat solver uses this mean, so a switch inside (or at the end of) a step takes
+        effect with its exact weight and round-off in the times cannot move it by a step."""
+        if not t1 > t0:
+            return self.value(t1)
+        starts = [t for t, _ in self.schedule] + [math.inf]
+        total = 0.0
+        for i, (start, s) in enumerate(self.schedule):
+            lo, hi = max(start, t0), min(starts[i + 1], t1)
+            if hi > lo:
+                total += s * (hi - lo)
+        return total / (t1 - t0)
+
     @property
     def switch_times(self) -> tuple[float, ...]:
         return tuple(t for t, _ in self.schedule[1:])
@@ -109,8 +123,8 @@ class HeatSolver:
     """θ_t − κΔθ = s with implicit Euler on a (tagged) plate mesh.
 
     ``kappa`` > 0 (diffusivity), ``dt`` > 0 (time step), ``degree`` of the continuous Lagrange
-    space (1 or 2), ``theta0`` the initial temperature (a number or a callable for
-    ``Function.interpolate``). ``source`` is a :class:`HeatSource`, a callable ``(x, t)``
+    space (1 or 2), ``theta0`` the initial temperature at time ``t0`` (a number or a callable
+    for ``Function.interpolate``). ``source`` is a :class:`HeatSource`, a callable ``(x, t)``
     returning a UFL expression (``t`` is the Constant ``self.t_next``), or None (no source).
     ``solver_options`` override the PETSc options (default: MUMPS LU, factorised once).
     """
@@ -124,6 +138,7 @@ class HeatSolver:
         degree: int = 1,
         theta0: float | Callable = 0.0,
         solver_options: dict | None = None,
+        t0: float = 0.0,
     ):
         kappa = _number(kappa, "heat kappa")
         if not kappa > 0:
@@ -143,9 +158,11 @@ class HeatSolver:
             self.theta.interpolate(theta0)
         else:
             self.theta.x.array[:] = _number(theta0, "heat theta0")
-        self.time, self.steps = 0.0, 0
+        self.t0 = _number(t0, "heat t0")
+        self.last_source = 0.0  # the scheduled source's mean over the last step
+        self.time, self.steps = self.t0, 0
         self._dt = dolfinx.fem.Constant(mesh, PETSc.ScalarType(dt))
-        self.t_next = dolfinx.fem.Constant(mesh, PETSc.ScalarType(dt))
+        self.t_next = dolfinx.fem.Constant(mesh, PETSc.ScalarType(self.t0 + dt))
         self.source = source
         self._source_value = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
         x = ufl.SpatialCoordinate(mesh)
@@ -170,7 +187,8 @@ class HeatSolver:
         self.A.assemble()
         self._b_fn = dolfinx.fem.Function(self.V)  # a ghosted vector in every version
         self.b = self._b_fn.x.petsc_vec
-        self.ksp = solvers.make_ksp(self.comm, self.A, solver_options, "heat_")
+        self._solver_options = solver_options
+        self.ksp = None  # made at the first step (a constant temperature needs no solver)
         self._area = self._integral(dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0)))
         self._mean_form = dolfinx.fem.form(self.theta * ufl.dx)
 
@@ -201,15 +219,23 @@ class HeatSolver:
         return self.source.value(t) if isinstance(self.source, HeatSource) else 0.0
 
     def step(self) -> float:
-        """Advance θ by one time step; returns the new time. Collective."""
-        t_new = self.time + self.dt
+        """Advance θ by one time step; returns the new time. Collective.
+
+        A scheduled source enters with its mean over the step, a callable source at the end
+        of the step (t = tⁿ⁺¹, implicit Euler). Times are t0 + n Δt (no accumulated sums)."""
+        t_old = self.time
+        t_new = self.t0 + (self.steps + 1) * self.dt
         self.t_next.value = t_new
-        self._source_value.value = self.source_value(t_new)
+        if isinstance(self.source, HeatSource):
+            self.last_source = self.source.average(t_old, t_new)
+            self._source_value.value = self.last_source
         self._previous.x.array[:] = self.theta.x.array
         with self.b.localForm() as local:
             local.set(0.0)
         dolfinx.fem.petsc.assemble_vector(self.b, self._L)
         self.b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        if self.ksp is None:
+            self.ksp = solvers.make_ksp(self.comm, self.A, self._solver_options, "heat_")
         solvers.solve(self.ksp, self.b, self.theta.x.petsc_vec)
         self.theta.x.scatter_forward()
         self.time, self.steps = t_new, self.steps + 1
@@ -258,7 +284,8 @@ class HeatSolver:
 
     def destroy(self) -> None:
         for obj in (self.ksp, self.A):
-            obj.destroy()
+            if obj is not None:
+                obj.destroy()
 
 
 __all__ = ["HeatSolver", "HeatSource"]

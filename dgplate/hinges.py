@@ -22,11 +22,12 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from mpi4py import MPI
+
 import dolfinx.fem
 import dolfinx.mesh
 import numpy as np
 import ufl
-from mpi4py import MPI
 
 from dgplate.errors import InputError
 from dgplate.meshing import TaggedMesh
@@ -53,9 +54,7 @@ class RegionIntegrals:
         self.tagged = tagged
         self.mesh = tagged.mesh
         md = {} if quadrature_degree is None else {"quadrature_degree": quadrature_degree}
-        self.dx = ufl.Measure(
-            "dx", domain=self.mesh, subdomain_data=tagged.cell_tags, metadata=md
-        )
+        self.dx = ufl.Measure("dx", domain=self.mesh, subdomain_data=tagged.cell_tags, metadata=md)
 
     def forms(self, exprs: Sequence, region: str) -> list:
         tag = self.tagged.tag(region, self.mesh.topology.dim)
@@ -194,4 +193,40 @@ def edge_nodes(
     return coords[dofs], values[dofs]
 
 
-__all__ = ["FoldAngles", "Hinge", "RegionFrame", "RegionIntegrals", "edge_nodes"]
+def hinge_strip(comm: MPI.Comm, width: float = math.pi / 24, n: int = 4, m: int = 4) -> TaggedMesh:
+    """Two unit squares joined by a hinge strip: the test piece of a self-folding net.
+
+    ω = [0, 2 + width] × [0, 1] with cell groups ``left`` = [0, 1] × [0, 1], ``hinge`` =
+    [1, 1 + width] × [0, 1] and ``right``; structured quadrilaterals, n × n per square and
+    m × n in the hinge (the same cells as ``meshes/box_net.geo``), shared-facet ghosts.
+    """
+    from dgplate.meshing import _make_tags
+
+    if not width > 0 or n < 1 or m < 1:
+        raise InputError(f"hinge_strip needs width > 0 and n, m >= 1, got {width}, {n}, {m}")
+    cols = 2 * n + m
+    mesh = dolfinx.mesh.create_rectangle(
+        comm,
+        [np.array([0.0, 0.0]), np.array([float(cols), 1.0])],
+        [cols, n],
+        cell_type=dolfinx.mesh.CellType.quadrilateral,
+        ghost_mode=dolfinx.mesh.GhostMode.shared_facet,
+    )
+    x = mesh.geometry.x
+    s = x[:, 0].copy()  # column index → physical abscissa, piecewise linear
+    x[:, 0] = np.where(
+        s <= n, s / n, np.where(s <= n + m, 1 + (s - n) * width / m, 1 + width + (s - n - m) / n)
+    )
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    cmap = mesh.topology.index_map(tdim)
+    cells = np.arange(cmap.size_local + cmap.num_ghosts, dtype=np.int32)
+    mid = dolfinx.mesh.compute_midpoints(mesh, tdim, cells)[:, 0]
+    values = np.where(mid < 1, 1, np.where(mid < 1 + width, 2, 3)).astype(np.int32)
+    cell_tags = _make_tags(mesh, tdim, cells, values)
+    facet_tags = _make_tags(mesh, tdim - 1, np.zeros(0, np.int32), np.zeros(0, np.int32))
+    groups = {"left": (tdim, 1), "hinge": (tdim, 2), "right": (tdim, 3)}
+    return TaggedMesh(mesh, cell_tags, facet_tags, groups, f"hinge strip w={width:g} n={n} m={m}")
+
+
+__all__ = ["FoldAngles", "Hinge", "RegionFrame", "RegionIntegrals", "edge_nodes", "hinge_strip"]
