@@ -75,10 +75,14 @@ def anchor_energy(y, tagged: TaggedMesh, region: str, stiffness: float):
     if not stiffness > 0:
         raise InputError(f"anchor stiffness must be > 0, got {stiffness!r}")
     mesh = tagged.mesh
-    dx = ufl.Measure("dx", domain=mesh, subdomain_data=tagged.cell_tags)
+    # an indicator field rather than dx(tag): DOLFINx 0.9 wants one subdomain_data per
+    # integral type in a form, and the bending energy's dx carries none
+    space = dolfinx.fem.functionspace(mesh, ("DG", 0))
+    indicator = dolfinx.fem.Function(space)
+    indicator.x.array[space.dofmap.list[tagged.cells(region)].reshape(-1)] = 1.0
+    indicator.x.scatter_forward()
     g, _ = flat_identity(mesh)
-    tag = tagged.tag(region, mesh.topology.dim)
-    return 0.5 * stiffness * ufl.inner(y - g, y - g) * dx(tag)
+    return 0.5 * stiffness * indicator * ufl.inner(y - g, y - g) * ufl.dx(domain=mesh)
 
 
 def thermal_energy(
