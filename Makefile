@@ -1,7 +1,7 @@
 # dgplate: the two commands are `make demo` and `make test`; both set up .venv first.
 VENV   := .venv
 PY     := $(VENV)/bin/python
-MPIRUN := $(if $(wildcard $(VENV)/bin/mpirun),$(VENV)/bin/mpirun,mpirun)
+MPIRUN  = $(if $(wildcard $(VENV)/bin/mpirun),$(VENV)/bin/mpirun,mpirun)
 NP     ?= 2
 # The main demo: the self-folding box once it exists, else the most complete one.
 DEMO   ?= $(firstword $(wildcard demos/box_folding.py demos/vertical_load.py demos/biharmonic.py))
