@@ -24,13 +24,15 @@ test-serial: setup
 test-mpi: setup
 	$(MPIRUN) -n $(NP) $(PY) -m mpi4py -m pytest $(PYTEST_FLAGS) -p no:cacheprovider -m mpi tests
 
+LINT_DIRS = $(wildcard dgplate tests demos benchmarks)
+
 lint: setup
-	$(VENV)/bin/ruff check dgplate tests demos benchmarks
-	$(VENV)/bin/ruff format --check dgplate tests demos benchmarks
+	$(VENV)/bin/ruff check $(LINT_DIRS)
+	$(VENV)/bin/ruff format --check $(LINT_DIRS)
 
 format: setup
-	$(VENV)/bin/ruff format dgplate tests demos benchmarks
-	$(VENV)/bin/ruff check --fix dgplate tests demos benchmarks
+	$(VENV)/bin/ruff format $(LINT_DIRS)
+	$(VENV)/bin/ruff check --fix $(LINT_DIRS)
 
 # Serial tests with Debian 13's DOLFINx 0.9 in a debootstrap chroot (cached in .cache/).
 check-debian:

@@ -24,11 +24,18 @@
 # Clamping one side of the rectangle fixes the rolling axis parallel to that side. How far the
 # free part rolls is set by $a$ times its length: $aL$ radians, i.e. $aL/2\pi$ turns. This demo
 # runs the seed's grid: aspect ratios (length/clamped side) 0.5, 1, 7/4 and 10/4 times
-# $a = 1, 2, 5$. The flow starts flat, so a long plate with a large $a$ can also end in a
-# *local* minimiser: beyond a transition zone its free end may roll about the other axis
-# (along its length), which has the same energy density $\tfrac12 a^2$ — the transition costs
-# energy, so such shapes sit above $\tfrac12 a^2 |\omega|$ (the seed: "presence of local
-# minimizers (other than cylinders)").
+# $a = 1, 2, 5$.
+#
+# Two things to know when reading the results. First, the default mesh is coarse: the fitted
+# radii come out too large by about $0.45\,a h$ (8–11 % for $a = 1$, 12–15 % for $a = 2$,
+# 35–50 % for $a = 5$ with $h = 1/6$; halving $h$ halves it: 17 % for $a = 5$ on the short plate
+# with `--cells 12`), and a multi-turn roll tightens only slowly in the flow. The energies sit
+# within a few percent of $\tfrac12 a^2|\omega|$ for $a \le 2$ and 14–18 % above for $a = 5$.
+# Second, the flow starts flat and bends in every direction at first; on the coarse default
+# mesh the longest plate with $a = 5$ gets trapped in a state whose free end rolls about its
+# *length* axis (that cylinder has the same energy density $\tfrac12 a^2$; the transition
+# costs 30 %). With twice the cells (`--cells 12`) it rolls about the clamped side like the
+# others, so this is a trap of the coarse discrete flow, not a minimiser of the model.
 #
 # The rectangles are $(0, rW) \times (0, W)$, clamped on $x_1 = 0$, with the clamped side
 # $W = 1$ by default (up to two turns for $a = 5$); `--width 4` uses the sides 2, 4, 7, 10 × 4

@@ -67,7 +67,9 @@ class FlowSettings:
         if not self.tol > 0:
             raise InputError(f"flow.tol must be > 0, got {self.tol!r}")
         if not (isinstance(self.projection_steps, int) and self.projection_steps >= 0):
-            raise InputError(f"flow.projection_steps must be an integer >= 0, got {self.projection_steps!r}")
+            raise InputError(
+                f"flow.projection_steps must be an integer >= 0, got {self.projection_steps!r}"
+            )
         if not (isinstance(self.max_steps, int) and self.max_steps >= 1):
             raise InputError(f"flow.max_steps must be an integer >= 1, got {self.max_steps!r}")
 
@@ -154,7 +156,9 @@ class GradientFlow:
         self._b = dolfinx.fem.form(b)
         self._rhs = dolfinx.fem.form(-ufl.derivative(self.energy.total, y, v))
         # residual of the nonlinear constraint in the multiplier rows: ∫ (∇yᵀ∇y − I) : q
-        self._constraint_residual = dolfinx.fem.form(-ufl.inner(metric_tensor_defect(y), symmetric(q)) * ufl.dx)
+        self._constraint_residual = dolfinx.fem.form(
+            -ufl.inner(metric_tensor_defect(y), symmetric(q)) * ufl.dx
+        )
         # One sparsity pattern for the three matrices, so that K = A_const + B is a cheap axpy:
         # assemble the full form once (PETSc drops unused preallocation at assembly), then
         # duplicate the structure.
