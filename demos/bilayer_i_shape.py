@@ -21,13 +21,14 @@
 #
 # For $Z = aI$ that cylinder is not the only shape of density $\tfrac12 a^2$: rolling about any
 # other axis costs the same, and only the clamp picks the axis — near the clamp. The flow starts
-# flat and first bends the plate in all directions at once; the upper flange, 4 long and only 1
-# wide, is held by the narrow web alone, and it ends up wrapped around an axis *across* the
-# clamped side (along its own short direction): a local minimiser, a little above
-# $\tfrac12|\omega|$ because of the transition in the web. This interplay of geometry and
-# bending pattern is what seed 001 shows with the I-shaped plate.
+# flat and first bends the plate in all directions at once. With `--paper` (h = 0.125) the whole
+# I ends on the one cylinder, 2 % above $\tfrac12|\omega|$. On the coarse default mesh
+# (h = 0.25) the upper flange, 4 long, 1 wide and held by the web alone, gets trapped wrapped
+# around the *other* axis (along its own short direction), 6 % above $\tfrac12|\omega|$: a
+# trap of the coarse discrete flow, not a minimiser of the model.
 #
-# Run: `python demos/bilayer_i_shape.py` (h = 0.25), `--paper` for h = 0.125.
+# Run: `python demos/bilayer_i_shape.py` (h = 0.25, a minute or two), `--paper` for h = 0.125
+# (about ten minutes).
 # Output: `out/bilayer_i_shape/` (VTX, final.png, summary.json).
 
 # %%
