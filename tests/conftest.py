@@ -10,6 +10,15 @@ def comm():
     return MPI.COMM_WORLD
 
 
+# Rank parity of a nonlinear flow. Each step solves a saddle-point system whose condition
+# number grows like h^-4 (about 1e6 on the test meshes); a different partition changes the
+# summation order and MUMPS' pivot sequence, so the iterates may differ by cond * eps ~ 1e-10
+# per step, and a few dozen steps accumulate that. 1e-8 is far below any discretisation
+# effect (those are 1e-3 and larger) and still catches a wrong ghost or a missing reduction,
+# which show up at 1e-3 and beyond.
+PARITY_RTOL = 1e-8
+
+
 def rates(errors: list[float]) -> list[float]:
     """Observed convergence rates for a sequence of errors at halved mesh sizes."""
     import numpy as np

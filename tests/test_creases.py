@@ -16,6 +16,7 @@ import dolfinx
 import numpy as np
 import pytest
 import ufl
+from conftest import PARITY_RTOL
 
 from dgplate.cli import main
 from dgplate.creases import CreaseMeasure
@@ -229,7 +230,7 @@ def test_gmsh_crease_tags_reach_their_owners():
 @pytest.mark.mpi
 def test_mpi_parity_crease_flow():
     """COMM_WORLD against COMM_SELF in one run, 3 flow steps of the flap problem: energies,
-    defects and fold angles agree to 1e-10."""
+    defects and fold angles agree to PARITY_RTOL."""
     results = {}
     for name, comm in (("world", MPI.COMM_WORLD), ("self", MPI.COMM_SELF)):
         tagged = load_geo(comm, "straight_crease", FLAP_MESH)
@@ -254,8 +255,8 @@ def test_mpi_parity_crease_flow():
         print(f"fold angle mean {world['fold']['mean']:.6f}°")
     assert world["crease"]["facets"] == single["crease"]["facets"] == 4
     for key in ("energy", "defect"):
-        assert world[key] == pytest.approx(single[key], rel=1e-10), key
-    assert np.allclose(world["energies"], single["energies"], rtol=1e-10, atol=0)
+        assert world[key] == pytest.approx(single[key], rel=PARITY_RTOL), key
+    assert np.allclose(world["energies"], single["energies"], rtol=PARITY_RTOL, atol=0)
     for key in ("min", "max", "mean"):
-        assert world["fold"][key] == pytest.approx(single["fold"][key], rel=1e-10), key
+        assert world["fold"][key] == pytest.approx(single["fold"][key], rel=PARITY_RTOL), key
     assert world["fold"]["mean"] > 1.0  # the flap has folded

@@ -10,6 +10,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from conftest import PARITY_RTOL
 
 from dgplate.flow import FlowSettings, GradientFlow
 from dgplate.meshing import rectangle
@@ -87,5 +88,5 @@ def test_same_result_on_any_number_of_ranks():
     serial = vertical_load_flow(MPI.COMM_SELF, 16).run()
     parallel = vertical_load_flow(MPI.COMM_WORLD, 16).run()
     assert parallel.steps == serial.steps
-    assert parallel.energy == pytest.approx(serial.energy, rel=1e-10, abs=0)
-    assert parallel.defect == pytest.approx(serial.defect, rel=1e-10, abs=0)
+    assert parallel.energy == pytest.approx(serial.energy, rel=PARITY_RTOL, abs=0)
+    assert parallel.defect == pytest.approx(serial.defect, rel=PARITY_RTOL, abs=0)
