@@ -65,7 +65,9 @@ def test_bilayer_same_on_any_number_of_ranks():
     serial, _ = roll(MPI.COMM_SELF, **tagged_args)
     parallel, _ = roll(MPI.COMM_WORLD, **tagged_args)
     assert parallel.steps == serial.steps
-    assert parallel.energy == pytest.approx(serial.energy, rel=PARITY_RTOL, abs=0)
+    assert parallel.energy == pytest.approx(
+        serial.energy, rel=1e-10, abs=0
+    )  # 4x2 cells: round-off stays tiny
     # with projection D_h is round-off (1e-15): compare it absolutely
     assert parallel.defect == pytest.approx(serial.defect, rel=PARITY_RTOL, abs=1e-12)
     assert np.isfinite(parallel.energy)
