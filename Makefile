@@ -34,6 +34,18 @@ format: setup
 	$(VENV)/bin/ruff format $(LINT_DIRS)
 	$(VENV)/bin/ruff check --fix $(LINT_DIRS)
 
+# The performance study (about 30 min on 2 cores): JSON in benchmarks/results, then the plot
+# and the README's performance section. Growth and scaling use the 2-rank rows; 64² also runs
+# on 1 rank with the naive flow to the end (same step count, same E_h).
+BENCH_OUT ?= benchmarks/results
+bench: setup
+	$(PY) benchmarks/flow.py --cells 64 --compare-naive --json $(BENCH_OUT)/flow_64_np1.json
+	for n in 16 32 64 128; do \
+	  $(MPIRUN) -n 2 $(PY) benchmarks/flow.py --cells $$n --compare-naive --naive-steps 3 \
+	    --json $(BENCH_OUT)/flow_$${n}_np2.json || exit 1; \
+	done
+	$(PY) benchmarks/report.py --results $(BENCH_OUT)
+
 # Serial tests with Debian 13's DOLFINx 0.9 in a debootstrap chroot (cached in .cache/).
 check-debian:
 	bash .ci/check-debian.sh

@@ -37,16 +37,12 @@ from mpi4py import MPI
 
 from dgplate.output import print0
 from dgplate.problem import load_problem
+from dgplate.reference import BNN_TABLE1
 from dgplate.runner import run_problem
 
 PROBLEM = Path(__file__).parent / "problems" / "vertical_load.toml"
 # Published values (E_h, D_h, steps) for Q2 at τ = h.
-PUBLISHED = {
-    16: (-7.53e-3, 4.02e-3, 13),
-    32: (-5.76e-3, 1.63e-3, 28),
-    64: (-4.26e-3, 6.07e-4, 76),
-    128: (-3.30e-3, 2.28e-4, 140),
-}
+PUBLISHED = BNN_TABLE1
 
 # %%
 parser = argparse.ArgumentParser(description=__doc__)

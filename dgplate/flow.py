@@ -7,7 +7,10 @@ One step from yⁿ: find δy ∈ [DG_k]³ and a cell-wise symmetric multiplier �
 
 then yⁿ⁺¹ = yⁿ + δy. The matrix block (1/τ)(·,·)_* + D²E_impl does not depend on yⁿ: it is
 assembled once, and each step reassembles only b_n (cell integrals) and adds the two matrices,
-which share one sparsity pattern. The flow is generic: it only sees an :class:`Energy`.
+which share one sparsity pattern. Since that sum changes only through b_n, the default
+solver keeps one LU factorisation over many steps as the preconditioner of GMRES
+(:class:`dgplate.solvers.LaggedStepSolver`) and refactorises only when the iteration count
+grows. The flow is generic: it only sees an :class:`Energy`.
 """
 
 from __future__ import annotations
@@ -51,6 +54,8 @@ class FlowSettings:
     projection_steps: after each step, this many corrections restore the discrete nonlinear
     constraint ∫_T (∇yᵀ∇y − I) q = 0 (smallest correction in the norm of the step matrix,
     solved with the step's factorisation, so no new factorisation); 0 is the published method.
+    linear_solver: "lagged" (GMRES preconditioned by an earlier step's LU factors, refreshed
+    when a solve needs more than ``refactor_its`` iterations) or "direct" (LU every step).
     """
 
     tau: float
@@ -60,8 +65,18 @@ class FlowSettings:
     solver_options: dict = field(default_factory=dict)
     multiplier_degree: int = 0
     projection_steps: int = 0
+    linear_solver: str = "lagged"
+    refactor_its: int = 12
 
     def __post_init__(self) -> None:
+        if self.linear_solver not in solvers.STEP_SOLVERS:
+            raise InputError(
+                f"flow.linear_solver must be one of {solvers.STEP_SOLVERS}, got {self.linear_solver!r}"
+            )
+        if not (isinstance(self.refactor_its, int) and self.refactor_its >= 1):
+            raise InputError(
+                f"flow.refactor_its must be an integer >= 1, got {self.refactor_its!r}"
+            )
         if not (isinstance(self.tau, int | float) and self.tau > 0 and math.isfinite(self.tau)):
             raise InputError(f"flow.tau must be a number > 0, got {self.tau!r}")
         if not self.tol > 0:
@@ -87,7 +102,9 @@ class StepInfo:
     rate: float  # (E_h[yⁿ⁻¹] − E_h[yⁿ]) / τ
     seconds: float
     assembly_s: float
-    solve_s: float
+    factor_s: float  # LU factorisation (0 when the lagged solver reused its factors)
+    solve_s: float  # triangular solves and Krylov iterations
+    iterations: int  # Krylov iterations of the step solve (1 for a direct solve)
 
 
 @dataclass
@@ -162,7 +179,8 @@ class GradientFlow:
         # One sparsity pattern for the three matrices, so that K = A_const + B is a cheap axpy:
         # assemble the full form once (PETSc drops unused preallocation at assembly), then
         # duplicate the structure.
-        self.A_const = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(a_const + b))
+        self.step_form = dolfinx.fem.form(a_const + b)  # the whole step matrix, one form
+        self.A_const = dolfinx.fem.petsc.assemble_matrix(self.step_form)
         self.A_const.assemble()
         self.B = self.A_const.duplicate(copy=False)
         self.K = self.A_const.duplicate(copy=False)
@@ -170,7 +188,18 @@ class GradientFlow:
         self.rhs = self._rhs_fn.x.petsc_vec
         self.solution = dolfinx.fem.Function(self.W)
         self._assemble_constant()
-        self.ksp = solvers.make_ksp(self.comm, self.K, self.settings.solver_options, "flow_")
+        self.solver = solvers.make_step_solver(
+            self.settings.linear_solver,
+            self.comm,
+            self.K,
+            self.settings.solver_options,
+            prefix=None,
+            **(
+                {"refactor_its": self.settings.refactor_its}
+                if self.settings.linear_solver == "lagged"
+                else {}
+            ),
+        )
 
     def _assemble_constant(self) -> None:
         self.A_const.zeroEntries()
@@ -199,8 +228,8 @@ class GradientFlow:
         return float(self.comm.allreduce(local, op=MPI.SUM)) + self.energy.constant
 
     # -- one step ---------------------------------------------------------------------------
-    def step(self) -> StepInfo:
-        t0 = time.perf_counter()
+    def assemble_system(self) -> None:
+        """K = A_const + B(yⁿ) and the right-hand side −DE_h[yⁿ]."""
         self.B.zeroEntries()
         dolfinx.fem.petsc.assemble_matrix(self.B, self._b)
         self.B.assemble()
@@ -210,8 +239,12 @@ class GradientFlow:
             local.set(0.0)
         dolfinx.fem.petsc.assemble_vector(self.rhs, self._rhs)
         self.rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+
+    def step(self) -> StepInfo:
+        t0 = time.perf_counter()
+        self.assemble_system()
         t1 = time.perf_counter()
-        solvers.solve(self.ksp, self.rhs, self.solution.x.petsc_vec)
+        stats = self.solver.solve(self.rhs, self.solution.x.petsc_vec)
         self.solution.x.scatter_forward()
         t2 = time.perf_counter()
         dy = self.solution.x.array[self._vdofs].copy()
@@ -236,7 +269,9 @@ class GradientFlow:
             rate=rate,
             seconds=time.perf_counter() - t0,
             assembly_s=t1 - t0,
-            solve_s=t2 - t1,
+            factor_s=stats.factor_s,
+            solve_s=t2 - t1 - stats.factor_s,
+            iterations=stats.iterations,
         )
         return info
 
@@ -247,7 +282,7 @@ class GradientFlow:
         dolfinx.fem.petsc.assemble_vector(self.rhs, self._constraint_residual)
         self.rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         correction = dolfinx.fem.Function(self.W)
-        solvers.solve(self.ksp, self.rhs, correction.x.petsc_vec)
+        self.solver.solve(self.rhs, correction.x.petsc_vec, refactor=False)
         correction.x.scatter_forward()
         c = correction.x.array[self._vdofs]
         self.y.x.array[:] += c
@@ -304,5 +339,6 @@ class GradientFlow:
         return result
 
     def destroy(self) -> None:
-        for obj in (self.ksp, self.A_const, self.B, self.K):
+        self.solver.destroy()
+        for obj in (self.A_const, self.B, self.K):
             obj.destroy()

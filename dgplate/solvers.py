@@ -3,16 +3,22 @@
 The default is a direct LU factorisation by MUMPS: the saddle-point systems of the
 constrained gradient flow are indefinite, and MUMPS handles their zero block by pivoting.
 Options can be overridden per solver through an options prefix (``-<prefix>ksp_type`` …).
+
+The flow's step systems change a little from step to step; :class:`LaggedStepSolver` reuses
+one factorisation over many steps as a preconditioner, :class:`DirectStepSolver` factorises
+every step (the published method).
 """
 
 from __future__ import annotations
 
 import itertools
+import time
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 from petsc4py import PETSc
 
-from dgplate.errors import SolverError
+from dgplate.errors import InputError, SolverError
 
 DIRECT_MUMPS: dict[str, str | int | float] = {
     # one step of iterative refinement after the LU solve: the saddle-point systems are
@@ -34,12 +40,16 @@ _counter = itertools.count()
 
 
 def make_ksp(
-    comm, A: PETSc.Mat, options: Mapping[str, object] | None = None, prefix: str | None = None
+    comm,
+    A: PETSc.Mat,
+    options: Mapping[str, object] | None = None,
+    prefix: str | None = None,
+    defaults: Mapping[str, object] = DIRECT_MUMPS,
 ) -> PETSc.KSP:
-    """A KSP on ``A`` configured from ``DIRECT_MUMPS`` updated by ``options``."""
+    """A KSP on ``A`` configured from ``defaults`` updated by ``options``."""
     prefix = prefix or f"dgplate_{next(_counter)}_"
     opts = PETSc.Options()
-    for key, value in {**DIRECT_MUMPS, **(options or {})}.items():
+    for key, value in {**defaults, **(options or {})}.items():
         opts[f"{prefix}{key}"] = value
     ksp = PETSc.KSP().create(comm)
     ksp.setOptionsPrefix(prefix)
@@ -50,11 +60,146 @@ def make_ksp(
     return ksp
 
 
+def destroy_ksp(ksp: PETSc.KSP) -> None:
+    """Destroy a KSP made by :func:`make_ksp` and drop its options from the database."""
+    prefix = ksp.getOptionsPrefix() or ""
+    ksp.destroy()
+    if prefix.startswith("dgplate_"):
+        opts = PETSc.Options()
+        for key in [k for k in opts.getAll() if k.startswith(prefix)]:
+            opts.delValue(key)
+
+
 def solve(ksp: PETSc.KSP, b: PETSc.Vec, x: PETSc.Vec) -> int:
     """Solve and check the converged reason; returns the iteration count."""
     ksp.solve(b, x)
     reason = ksp.getConvergedReason()
     if reason < 0:
-        name = {v: k for k, v in PETSc.KSP.ConvergedReason.__dict__.items() if isinstance(v, int)}
-        raise SolverError(f"linear solve failed: KSP reason {name.get(reason, reason)}")
+        raise SolverError(f"linear solve failed: KSP reason {_reason_name(reason)}")
     return ksp.getIterationNumber()
+
+
+def _reason_name(reason: int) -> str:
+    names = {v: k for k, v in PETSc.KSP.ConvergedReason.__dict__.items() if isinstance(v, int)}
+    return str(names.get(reason, reason))
+
+
+# Lagged factorisation: GMRES on the current matrix, preconditioned by the exact LU of an
+# earlier one. The flow's matrix changes slowly (only the constraint block follows yⁿ), so the
+# old factors are an excellent preconditioner: a handful of triangular solves replace a
+# factorisation. Right preconditioning makes the stopping test use the true residual.
+LAGGED_MUMPS: dict[str, str | int | float] = {
+    **{k: v for k, v in DIRECT_MUMPS.items() if not k.startswith("ksp_")},
+    "ksp_type": "gmres",
+    "ksp_pc_side": "right",
+    "ksp_rtol": 1e-12,
+    "ksp_atol": 0.0,
+    "ksp_max_it": 30,  # a failed solve wastes at most this many; it is then refactorised
+    "ksp_gmres_restart": 30,
+}
+
+STEP_SOLVERS = ("lagged", "direct")
+
+
+@dataclass
+class SolveStats:
+    """What one linear solve cost: the factorisation (if any), the solve, the iterations."""
+
+    factorised: bool
+    iterations: int
+    factor_s: float
+    solve_s: float
+
+
+class DirectStepSolver:
+    """A fresh numeric LU factorisation of K for every solve (symbolic analysis reused)."""
+
+    def __init__(self, comm, K: PETSc.Mat, options: Mapping[str, object] | None, prefix: str):
+        self.K = K
+        self.ksp = make_ksp(comm, K, options, prefix)
+
+    def solve(self, b: PETSc.Vec, x: PETSc.Vec, refactor: bool = True) -> SolveStats:
+        t0 = time.perf_counter()
+        factorised = refactor
+        if refactor:
+            self.ksp.setOperators(self.K)  # marks the factors stale
+            self.ksp.getPC().setUp()
+        t1 = time.perf_counter()
+        its = solve(self.ksp, b, x)
+        return SolveStats(factorised, its, (t1 - t0) * factorised, time.perf_counter() - t1)
+
+    def destroy(self) -> None:
+        destroy_ksp(self.ksp)
+
+
+class LaggedStepSolver:
+    """GMRES on K preconditioned by the LU factors of a copy P of an earlier K.
+
+    P is refreshed (and refactorised) when the previous solve needed more than
+    ``refactor_its`` iterations, or when GMRES fails to converge; the failed solve is then
+    repeated with fresh factors, so every returned solution meets the tolerance.
+    """
+
+    def __init__(
+        self,
+        comm,
+        K: PETSc.Mat,
+        options: Mapping[str, object] | None,
+        prefix: str,
+        refactor_its: int = 12,
+    ):
+        if refactor_its < 1:
+            raise InputError(f"flow.refactor_its must be >= 1, got {refactor_its!r}")
+        self.K, self.refactor_its = K, refactor_its
+        self.P = K.duplicate(copy=False)
+        self.ksp = make_ksp(comm, K, options, prefix, defaults=LAGGED_MUMPS)
+        self.ksp.setOperators(K, self.P)
+        self._stale = True
+        self.factorisations = 0
+
+    def _refactor(self) -> None:
+        self.K.copy(self.P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self.ksp.setOperators(self.K, self.P)
+        self.ksp.getPC().setUp()
+        self.factorisations += 1
+        self._stale = False
+
+    def solve(self, b: PETSc.Vec, x: PETSc.Vec, refactor: bool = True) -> SolveStats:
+        """Solve K x = b; ``refactor=False`` (a re-solve with the same K) never refactorises."""
+        t0 = time.perf_counter()
+        factorised = refactor and self._stale
+        if factorised:
+            self._refactor()
+        t1 = time.perf_counter()
+        self.ksp.solve(b, x)
+        its, reason = self.ksp.getIterationNumber(), self.ksp.getConvergedReason()
+        t2 = time.perf_counter()
+        factor_s, solve_s = (t1 - t0 if factorised else 0.0), t2 - t1
+        total = its
+        if reason < 0 and not factorised:
+            self._refactor()
+            t3 = time.perf_counter()
+            its = solve(self.ksp, b, x)
+            total += its
+            factorised, factor_s = True, t3 - t2
+            solve_s += time.perf_counter() - t3
+        elif reason < 0:
+            raise SolverError(f"linear solve failed: KSP reason {_reason_name(reason)}")
+        # the count with the factors now held decides whether the next step refactorises
+        self._stale = its > self.refactor_its
+        return SolveStats(factorised, total, factor_s, solve_s)
+
+    def destroy(self) -> None:
+        destroy_ksp(self.ksp)
+        self.P.destroy()
+
+
+def make_step_solver(
+    kind: str, comm, K: PETSc.Mat, options: Mapping[str, object] | None, prefix: str, **kw
+) -> DirectStepSolver | LaggedStepSolver:
+    """The solver of the flow's step systems: ``lagged`` (default) or ``direct``."""
+    if kind == "lagged":
+        return LaggedStepSolver(comm, K, options, prefix, **kw)
+    if kind == "direct":
+        return DirectStepSolver(comm, K, options, prefix)
+    raise InputError(f"flow.linear_solver must be one of {STEP_SOLVERS}, got {kind!r}")

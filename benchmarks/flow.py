@@ -1,0 +1,203 @@
+"""Cost of the discrete H² gradient flow on the Bonito–Nochetto–Ntogkas vertical-load plate.
+
+The optimised flow (the library's default: constant block assembled once, only b_n each
+step, one LU factorisation reused as a GMRES preconditioner over many steps) runs first; with
+``--compare-naive`` the published algorithm then runs in the same process on the same problem:
+every step reassembles the whole matrix and factorises it from scratch (symbolic analysis
+included). Both use τ = h and the stopping rule (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < 1e-6.
+
+    python benchmarks/flow.py --cells 32 --compare-naive --json out.json
+    mpirun -n 2 python benchmarks/flow.py --cells 128 --json out.json
+
+Timings are wall-clock seconds of rank 0 (every step ends in a collective, so ranks agree);
+``peak_memory_mb`` is the resident-set peak, the largest rank's and the sum over ranks.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+import resource
+import sys
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+import dolfinx
+import dolfinx.fem.petsc
+import numpy as np
+from petsc4py import PETSc
+
+from dgplate import solvers
+from dgplate.flow import FlowResult, FlowSettings, GradientFlow
+from dgplate.meshing import rectangle
+from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
+from dgplate.output import print0
+from dgplate.reference import BNN_TABLE1
+
+PHASES = ("assembly", "factorisation", "solves", "other")
+
+
+class NaiveStepSolver:
+    """The published baseline: a new KSP, hence a symbolic and numeric LU, every step."""
+
+    def __init__(self, comm, K: PETSc.Mat):
+        self.comm, self.K, self.ksp = comm, K, None
+
+    def solve(self, b: PETSc.Vec, x: PETSc.Vec, refactor: bool = True) -> solvers.SolveStats:
+        t0 = time.perf_counter()
+        if self.ksp is not None:
+            solvers.destroy_ksp(self.ksp)
+        self.ksp = solvers.make_ksp(self.comm, self.K)
+        self.ksp.getPC().setUp()
+        t1 = time.perf_counter()
+        its = solvers.solve(self.ksp, b, x)
+        return solvers.SolveStats(True, its, t1 - t0, time.perf_counter() - t1)
+
+    def destroy(self) -> None:
+        if self.ksp is not None:
+            solvers.destroy_ksp(self.ksp)
+
+
+class NaiveFlow(GradientFlow):
+    """The same flow, but the whole step matrix is reassembled from the full form each step."""
+
+    def _build_forms(self) -> None:
+        super()._build_forms()
+        self.solver.destroy()
+        self.solver = NaiveStepSolver(self.comm, self.K)
+
+    def assemble_system(self) -> None:
+        self.K.zeroEntries()
+        dolfinx.fem.petsc.assemble_matrix(self.K, self.step_form)
+        self.K.assemble()
+        with self.rhs.localForm() as local:
+            local.set(0.0)
+        dolfinx.fem.petsc.assemble_vector(self.rhs, self._rhs)
+        self.rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+
+
+def bnn_flow(comm: MPI.Comm, cells: int, naive: bool = False) -> GradientFlow:
+    """The plate (0, 4)² clamped on x = 0 and y = 0, f = (0, 0, 2.5e-2), Q2, τ = h."""
+    tagged = rectangle(comm, [[0, 0], [4, 4]], [cells, cells])
+    spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
+    model = build_kirchhoff(spec, tagged)
+    settings = FlowSettings(tau=math.sqrt(2) * 4 / cells, tol=1e-6, max_steps=2000)
+    cls = NaiveFlow if naive else GradientFlow
+    return cls(model.faces, model.degree, model.energy_fn, settings)
+
+
+def peak_memory_mb(comm: MPI.Comm) -> dict[str, float]:
+    mine = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # kB on Linux
+    return {
+        "max_rank": comm.allreduce(mine, op=MPI.MAX),
+        "total": comm.allreduce(mine, op=MPI.SUM),
+    }
+
+
+def measure(comm: MPI.Comm, cells: int, naive: bool, max_steps: int | None) -> dict:
+    """Build and run one flow; the per-step phase breakdown, result and costs."""
+    comm.Barrier()
+    t0 = time.perf_counter()
+    flow = bnn_flow(comm, cells, naive)
+    setup = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    result: FlowResult = flow.run(max_steps)
+    wall = time.perf_counter() - t1
+    steps = max(result.steps, 1)
+    totals = {
+        "assembly": sum(h.assembly_s for h in result.history),
+        "factorisation": sum(h.factor_s for h in result.history),
+        "solves": sum(h.solve_s for h in result.history),
+    }
+    totals["other"] = wall - sum(totals.values())
+    record = {
+        "dofs": flow.num_dofs,
+        "setup_s": setup,
+        "wall_s": wall,
+        "steps": result.steps,
+        "converged": result.converged,
+        "per_step_s": wall / steps,
+        "breakdown_per_step_s": {k: totals[k] / steps for k in PHASES},
+        "factorisations": sum(h.factor_s > 0 for h in result.history),
+        "mean_iterations": float(np.mean([h.iterations for h in result.history])),
+        "energy": result.energy,
+        "isometry_defect": result.defect,
+    }
+    flow.destroy()
+    return record
+
+
+def machine() -> dict:
+    return {
+        "cpu": platform.processor() or platform.machine(),
+        "cores": __import__("os").cpu_count(),
+        "python": platform.python_version(),
+        "dolfinx": dolfinx.__version__,
+        "petsc": ".".join(map(str, PETSc.Sys.getVersion())),
+    }
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--cells", type=int, default=16, help="cells per side (default 16)")
+    parser.add_argument(
+        "--compare-naive", action="store_true", help="also run the published algorithm"
+    )
+    parser.add_argument(
+        "--naive-steps",
+        type=int,
+        default=None,
+        help="run the naive flow for only this many steps (its per-step cost; no step count)",
+    )
+    parser.add_argument("--max-steps", type=int, default=None, help="step budget of both runs")
+    parser.add_argument("--json", type=Path, default=None, help="write the record here")
+    args = parser.parse_args(argv)
+    comm = MPI.COMM_WORLD
+    if args.cells < 2:
+        parser.error("--cells must be >= 2")
+
+    print0(comm, f"BNN vertical load, {args.cells}² Q2 on {comm.size} rank(s): optimised flow")
+    optimised = measure(comm, args.cells, naive=False, max_steps=args.max_steps)
+    memory = peak_memory_mb(comm)  # before the naive run, so it is the optimised flow's
+    record = {
+        "problem": "BNN vertical load (M3AS 2021, Table 1)",
+        "cells": args.cells,
+        "ranks": comm.size,
+        "dofs": optimised["dofs"],
+        "tau": math.sqrt(2) * 4 / args.cells,
+        "optimized": optimised,
+        "steps": optimised["steps"],
+        "energy": optimised["energy"],
+        "isometry_defect": optimised["isometry_defect"],
+        "peak_memory_mb": memory,
+        "per_step_s": {"optimized": optimised["per_step_s"]},
+        "published": dict(zip(("energy", "isometry_defect", "steps"), BNN_TABLE1[args.cells]))
+        if args.cells in BNN_TABLE1
+        else None,
+        "machine": machine(),
+    }
+    if args.compare_naive:
+        print0(comm, "naive flow (full reassembly and a fresh factorisation every step)")
+        budget = args.naive_steps or args.max_steps
+        naive = measure(comm, args.cells, naive=True, max_steps=budget)
+        record["naive"] = naive
+        record["per_step_s"]["naive"] = naive["per_step_s"]
+        record["speedup_per_step"] = naive["per_step_s"] / optimised["per_step_s"]
+        if args.naive_steps is None:
+            record["energy_rel_diff"] = abs(optimised["energy"] / naive["energy"] - 1)
+            record["steps_agree"] = optimised["steps"] == naive["steps"]
+    print0(comm, json.dumps(record, indent=2))
+    if args.json and comm.rank == 0:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        tmp = args.json.with_suffix(".json.part")
+        tmp.write_text(json.dumps(record, indent=2) + "\n")
+        tmp.replace(args.json)
+    return record
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
