@@ -35,7 +35,7 @@ from dgplate import solvers
 from dgplate.flow import FlowResult, FlowSettings, GradientFlow
 from dgplate.meshing import rectangle
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
-from dgplate.output import print0
+from dgplate.output import ProgressPrinter, print0
 from dgplate.reference import BNN_TABLE1
 
 PHASES = ("assembly", "factorisation", "solves", "other")
@@ -80,14 +80,15 @@ class NaiveFlow(GradientFlow):
         self.rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
 
 
-def bnn_flow(comm: MPI.Comm, cells: int, naive: bool = False) -> GradientFlow:
+def bnn_flow(comm: MPI.Comm, cells: int, naive: bool = False, progress: int = 0) -> GradientFlow:
     """The plate (0, 4)² clamped on x = 0 and y = 0, f = (0, 0, 2.5e-2), Q2, τ = h."""
     tagged = rectangle(comm, [[0, 0], [4, 4]], [cells, cells])
     spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
     model = build_kirchhoff(spec, tagged)
     settings = FlowSettings(tau=math.sqrt(2) * 4 / cells, tol=1e-6, max_steps=2000)
     cls = NaiveFlow if naive else GradientFlow
-    return cls(model.faces, model.degree, model.energy_fn, settings)
+    observers = [ProgressPrinter(comm, progress)] if progress else []
+    return cls(model.faces, model.degree, model.energy_fn, settings, observers)
 
 
 def peak_memory_mb(comm: MPI.Comm) -> dict[str, float]:
@@ -98,11 +99,13 @@ def peak_memory_mb(comm: MPI.Comm) -> dict[str, float]:
     }
 
 
-def measure(comm: MPI.Comm, cells: int, naive: bool, max_steps: int | None) -> dict:
+def measure(
+    comm: MPI.Comm, cells: int, naive: bool, max_steps: int | None, progress: int = 0
+) -> dict:
     """Build and run one flow; the per-step phase breakdown, result and costs."""
     comm.Barrier()
     t0 = time.perf_counter()
-    flow = bnn_flow(comm, cells, naive)
+    flow = bnn_flow(comm, cells, naive, progress)
     setup = time.perf_counter() - t0
     t1 = time.perf_counter()
     result: FlowResult = flow.run(max_steps)
@@ -155,13 +158,16 @@ def main(argv: list[str] | None = None) -> dict:
     )
     parser.add_argument("--max-steps", type=int, default=None, help="step budget of both runs")
     parser.add_argument("--json", type=Path, default=None, help="write the record here")
+    parser.add_argument(
+        "--progress", type=int, default=10, help="print every this many steps (0: quiet)"
+    )
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     if args.cells < 2:
         parser.error("--cells must be >= 2")
 
     print0(comm, f"BNN vertical load, {args.cells}² Q2 on {comm.size} rank(s): optimised flow")
-    optimised = measure(comm, args.cells, naive=False, max_steps=args.max_steps)
+    optimised = measure(comm, args.cells, False, args.max_steps, args.progress)
     memory = peak_memory_mb(comm)  # before the naive run, so it is the optimised flow's
     record = {
         "problem": "BNN vertical load (M3AS 2021, Table 1)",
@@ -183,7 +189,7 @@ def main(argv: list[str] | None = None) -> dict:
     if args.compare_naive:
         print0(comm, "naive flow (full reassembly and a fresh factorisation every step)")
         budget = args.naive_steps or args.max_steps
-        naive = measure(comm, args.cells, naive=True, max_steps=budget)
+        naive = measure(comm, args.cells, True, budget, args.progress)
         record["naive"] = naive
         record["per_step_s"]["naive"] = naive["per_step_s"]
         record["speedup_per_step"] = naive["per_step_s"] / optimised["per_step_s"]

@@ -368,6 +368,8 @@ def run_crease_problem(problem, out_dir=None, comm: MPI.Comm = MPI.COMM_WORLD, i
         solver_options=problem.flow.solver,
         multiplier_degree=problem.flow.multiplier_degree,
         projection_steps=problem.flow.projection_steps,
+        linear_solver=problem.flow.linear_solver,
+        refactor_its=problem.flow.refactor_its,
     )
     observers: list = []
     if problem.output.progress:

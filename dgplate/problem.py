@@ -77,6 +77,14 @@ class FlowSpec:
         "corrections per step restoring the nonlinear discrete constraint (0: published method; 2 drives D_h to round-off)",
     )
 
+    linear_solver: str = option(
+        "lagged",
+        "step solver: 'lagged' (one LU reused as GMRES preconditioner, refactorised when needed) or 'direct' (LU every step)",
+    )
+    refactor_its: int = option(
+        12, "lagged solver: refactorise after a solve that needed more GMRES iterations"
+    )
+
     def __post_init__(self) -> None:
         if self.projection_steps < 0:
             raise InputError(f"flow.projection_steps must be >= 0, got {self.projection_steps!r}")

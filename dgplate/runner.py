@@ -106,6 +106,8 @@ def run_problem(
         solver_options=problem.flow.solver,
         multiplier_degree=problem.flow.multiplier_degree,
         projection_steps=problem.flow.projection_steps,
+        linear_solver=problem.flow.linear_solver,
+        refactor_its=problem.flow.refactor_its,
     )
     history = _History()
     observers: list = [history]

@@ -44,6 +44,8 @@ BAD_INPUT = {
     "crease on boundary": (["--set", "model.crease=['top']"], "crease group 'top' contains"),
     "mu not positive": (["--set", "model.mu=0"], "model.mu must be > 0"),
     "unknown mu region": (["--set", "model.mu={hinge=1.0}"], "unknown cell group 'hinge'"),
+    "unknown step solver": (["--set", "flow.linear_solver='cg'"], "flow.linear_solver must be"),
+    "refactor_its zero": (["--set", "flow.refactor_its=0"], "flow.refactor_its must be"),
 }
 
 
