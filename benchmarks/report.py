@@ -81,9 +81,12 @@ def plot(records: list[dict], fit, path: Path) -> None:
         labels = [
             f"{r['cells']}², {r['ranks']}r\n{kind}" for r in rows for kind in ("naive", "opt.")
         ]
+        totals = [r["per_step_s"][kind] for r in rows for kind in ("naive", "optimized")]
         values = {
             ph: [
-                r[kind]["breakdown_per_step_s"][ph] for r in rows for kind in ("naive", "optimized")
+                r[kind]["breakdown_per_step_s"][ph] / r["per_step_s"][kind]
+                for r in rows
+                for kind in ("naive", "optimized")
             ]
             for ph in PHASES
         }
@@ -91,11 +94,13 @@ def plot(records: list[dict], fit, path: Path) -> None:
         for ph in PHASES:
             right.bar(labels, values[ph], bottom=bottoms, label=ph)
             bottoms += np.array(values[ph])
-        right.set_yscale("log")
-        right.set_ylabel("seconds per step")
+        for i, total in enumerate(totals):
+            right.text(i, 1.01, f"{total:.2g} s", ha="center", va="bottom", fontsize=7)
+        right.set_ylim(0, 1.1)
+        right.set_ylabel("share of a step's time")
         right.legend(fontsize=8)
         right.tick_params(axis="x", labelsize=7)
-    right.set_title("where a step's time goes")
+    right.set_title("where a step's time goes (s/step on top)")
     left.set_title("cost per step (BNN vertical load, Q2)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
