@@ -87,12 +87,18 @@ def test_free_plate_balanced_load():
 
 
 @pytest.mark.mpi
-def test_same_result_on_any_number_of_ranks():
-    serial = vertical_load_flow(MPI.COMM_SELF, 16).run()
-    parallel = vertical_load_flow(MPI.COMM_WORLD, 16).run()
+@pytest.mark.parametrize(
+    "solver, rtol_energy, rtol_defect",
+    # the lagged solver stops GMRES at 1e-12 of |b|; partitions take different iterations,
+    # and D_h, a small difference of large terms, then agrees to ~1e-8 rather than round-off
+    [("direct", PARITY_RTOL, PARITY_RTOL), ("lagged", 1e-7, 1e-6)],
+)
+def test_same_result_on_any_number_of_ranks(solver, rtol_energy, rtol_defect):
+    serial = vertical_load_flow(MPI.COMM_SELF, 16, linear_solver=solver).run()
+    parallel = vertical_load_flow(MPI.COMM_WORLD, 16, linear_solver=solver).run()
     assert parallel.steps == serial.steps
-    assert parallel.energy == pytest.approx(serial.energy, rel=PARITY_RTOL, abs=0)
-    assert parallel.defect == pytest.approx(serial.defect, rel=PARITY_RTOL, abs=0)
+    assert parallel.energy == pytest.approx(serial.energy, rel=rtol_energy, abs=0)
+    assert parallel.defect == pytest.approx(serial.defect, rel=rtol_defect, abs=0)
 
 
 def test_lagged_factorisation_matches_direct_solves():
