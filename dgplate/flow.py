@@ -32,6 +32,7 @@ from petsc4py import PETSc
 
 from dgplate import compat, solvers
 from dgplate.constraint import (
+    EdgeConstraint,
     IsometryDefect,
     linearised_isometry,
     metric_tensor_defect,
@@ -56,6 +57,11 @@ class FlowSettings:
     solved with the step's factorisation, so no new factorisation); 0 is the published method.
     linear_solver: "lagged" (GMRES preconditioned by an earlier step's LU factors, refreshed
     when a solve needs more than ``refactor_its`` iterations) or "direct" (LU every step).
+    edge_constraint: also constrain two moments of the metric on free boundary facets (one
+    facet per cell; :class:`dgplate.constraint.EdgeConstraint`), linearised in the step and
+    restored by the projection. Cell moments alone let the cells along a free edge curve in
+    two directions (Gauss curvature ≠ 0), which lowers a bilayer's energy below the isometric
+    minimum; off by default (the published method).
     """
 
     tau: float
@@ -67,6 +73,7 @@ class FlowSettings:
     projection_steps: int = 0
     linear_solver: str = "lagged"
     refactor_its: int = 12
+    edge_constraint: bool = False
 
     def __post_init__(self) -> None:
         if self.linear_solver not in solvers.STEP_SOLVERS:
@@ -84,6 +91,10 @@ class FlowSettings:
         if not (isinstance(self.projection_steps, int) and self.projection_steps >= 0):
             raise InputError(
                 f"flow.projection_steps must be an integer >= 0, got {self.projection_steps!r}"
+            )
+        if not isinstance(self.edge_constraint, bool):
+            raise InputError(
+                f"flow.edge_constraint must be true or false, got {self.edge_constraint!r}"
             )
         if not (isinstance(self.max_steps, int) and self.max_steps >= 1):
             raise InputError(f"flow.max_steps must be an integer >= 1, got {self.max_steps!r}")
@@ -142,10 +153,11 @@ class GradientFlow:
         mesh = faces.mesh
         self.comm: MPI.Comm = mesh.comm
         ve = basix.ufl.element("DG", mesh.basix_cell(), degree, shape=(3,))
-        self.W = dolfinx.fem.functionspace(
-            mesh,
-            basix.ufl.mixed_element([ve, multiplier_element(mesh, settings.multiplier_degree)]),
-        )
+        elements = [ve, multiplier_element(mesh, settings.multiplier_degree)]
+        if settings.edge_constraint:
+            edge = basix.ufl.element("DG", mesh.basix_cell(), 0, shape=(EdgeConstraint.SIZE,))
+            elements.append(edge)
+        self.W = dolfinx.fem.functionspace(mesh, basix.ufl.mixed_element(elements))
         self.V, self._vdofs = compat.collapse(self.W.sub(0))
         self.y = dolfinx.fem.Function(self.V, name="deformation")
         self.y.interpolate(initial or (lambda x: np.vstack([x[0], x[1], np.zeros_like(x[0])])))
@@ -160,8 +172,8 @@ class GradientFlow:
     # -- set-up -----------------------------------------------------------------------------
     def _build_forms(self) -> None:
         y, faces = self.y, self.faces
-        dy, lam = ufl.TrialFunctions(self.W)
-        v, q = ufl.TestFunctions(self.W)
+        dy, lam, *edge_lam = ufl.TrialFunctions(self.W)
+        v, q, *edge_q = ufl.TestFunctions(self.W)
         l2 = self.settings.l2_metric
         # rigid motions, or a flap that can turn freely about a crease, leave the H² metric
         # singular: the L² product controls them
@@ -169,13 +181,19 @@ class GradientFlow:
         hessian = ufl.derivative(ufl.derivative(self.energy.implicit, y, v), y, dy)
         a_const = (1.0 / self._tau) * h2_metric(dy, v, faces, l2=l2) + hessian
         b = linearised_isometry(v, y, lam) + linearised_isometry(dy, y, q)
+        # residual of the nonlinear constraint in the multiplier rows: ∫ (∇yᵀ∇y − I) : q
+        residual = -ufl.inner(metric_tensor_defect(y), symmetric(q)) * ufl.dx
+        if self.settings.edge_constraint:
+            (mu,), (p,) = edge_lam, edge_q
+            edge = EdgeConstraint(faces)
+            b += edge.linearised(v, y, mu) + edge.linearised(dy, y, p)
+            residual -= edge.residual(y, p)
+            # cells without a free facet: their edge multipliers are pinned to zero
+            a_const += edge.interior * ufl.inner(mu, p) / faces.h * ufl.dx
         self._a_const = dolfinx.fem.form(a_const)
         self._b = dolfinx.fem.form(b)
         self._rhs = dolfinx.fem.form(-ufl.derivative(self.energy.total, y, v))
-        # residual of the nonlinear constraint in the multiplier rows: ∫ (∇yᵀ∇y − I) : q
-        self._constraint_residual = dolfinx.fem.form(
-            -ufl.inner(metric_tensor_defect(y), symmetric(q)) * ufl.dx
-        )
+        self._constraint_residual = dolfinx.fem.form(residual)
         # One sparsity pattern for the three matrices, so that K = A_const + B is a cheap axpy:
         # assemble the full form once (PETSc drops unused preallocation at assembly), then
         # duplicate the structure.
