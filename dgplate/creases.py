@@ -370,6 +370,7 @@ def run_crease_problem(problem, out_dir=None, comm: MPI.Comm = MPI.COMM_WORLD, i
         projection_steps=problem.flow.projection_steps,
         linear_solver=problem.flow.linear_solver,
         refactor_its=problem.flow.refactor_its,
+        edge_constraint=problem.flow.edge_constraint,
     )
     observers: list = []
     if problem.output.progress:

@@ -84,6 +84,10 @@ class FlowSpec:
     refactor_its: int = option(
         12, "lagged solver: refactorise after a solve that needed more GMRES iterations"
     )
+    edge_constraint: bool = option(
+        False,
+        "also constrain the metric on free boundary facets (edge length and normal stretch): keeps free edges of a bilayer from curving in two directions",
+    )
 
     def __post_init__(self) -> None:
         if self.projection_steps < 0:

@@ -108,6 +108,7 @@ def run_problem(
         projection_steps=problem.flow.projection_steps,
         linear_solver=problem.flow.linear_solver,
         refactor_its=problem.flow.refactor_its,
+        edge_constraint=problem.flow.edge_constraint,
     )
     history = _History()
     observers: list = [history]
