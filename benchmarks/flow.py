@@ -63,12 +63,14 @@ class NaiveStepSolver:
 
 
 class NaiveFlow(GradientFlow):
-    """The same flow, but the whole step matrix is reassembled from the full form each step."""
+    """The same flow, but the whole step matrix is reassembled from the full form, in DOLFINx's
+    pattern, each step."""
 
-    def _build_forms(self) -> None:
-        super()._build_forms()
-        self.solver.destroy()
-        self.solver = NaiveStepSolver(self.comm, self.K)
+    def _make_solver(self) -> NaiveStepSolver:
+        self.K.destroy()
+        self.K = dolfinx.fem.petsc.assemble_matrix(self.step_form)  # DOLFINx's full pattern
+        self.K.assemble()
+        return NaiveStepSolver(self.comm, self.K)
 
     def assemble_system(self) -> None:
         self.K.zeroEntries()

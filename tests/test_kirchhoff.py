@@ -119,3 +119,47 @@ def test_lagged_factorisation_matches_direct_solves():
     assert factorisations["lagged"] <= 3
     assert all(h.iterations >= 1 for h in lagged.history)
     assert np.mean([h.iterations for h in lagged.history]) <= 12
+
+
+@pytest.mark.mpi
+def test_step_matrix_drops_only_exact_zeros():
+    """The step matrix is stored without the constant block's exact zeros (the components of
+    y do not couple): it must equal the matrix of the step form in DOLFINx's full pattern, entry
+    for entry, with well under two thirds of its stored entries."""
+    import dolfinx.fem.petsc
+    from petsc4py import PETSc
+
+    flow = vertical_load_flow(MPI.COMM_WORLD, 6)
+    flow.step()  # b_n at a bent state: every constraint entry is filled
+    flow.assemble_system()
+    full = dolfinx.fem.petsc.assemble_matrix(flow.step_form)
+    full.assemble()
+    stored = (
+        flow.K.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"],
+        full.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"],
+    )
+    scale = full.norm(PETSc.NormType.FROBENIUS)
+    full.axpy(-1.0, flow.K, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+    assert full.norm(PETSc.NormType.FROBENIUS) <= 1e-14 * scale
+    assert stored[0] < 0.6 * stored[1]
+    flow.destroy()
+
+
+def test_compact_matrix_refuses_a_nonzero_outside_its_pattern():
+    """Zeros assembled into a dropped position are skipped; a non-zero there raises instead of
+    being dropped or silently allocated."""
+    from petsc4py import PETSc
+
+    from dgplate.sparsity import without_exact_zeros
+
+    dense = PETSc.Mat().createAIJ(size=(3, 3), nnz=3, comm=MPI.COMM_SELF)
+    lgmap = PETSc.LGMap().create(np.arange(3, dtype=PETSc.IntType), comm=MPI.COMM_SELF)
+    dense.setLGMap(lgmap, lgmap)
+    dense.setValues(range(3), range(3), np.diag([1.0, 2.0, 0.0]).ravel())
+    dense.assemble()
+    compact = without_exact_zeros(dense, np.array([False, False, True]), np.array([2]))
+    assert compact.getInfo()["nz_used"] == 7  # all but (0, 1) and (1, 0)
+    compact.setValueLocal(0, 1, 0.0, addv=PETSc.InsertMode.ADD_VALUES)  # skipped
+    compact.setValueLocal(2, 0, 3.0, addv=PETSc.InsertMode.ADD_VALUES)  # kept row
+    with pytest.raises(PETSc.Error):
+        compact.setValueLocal(0, 1, 1.0, addv=PETSc.InsertMode.ADD_VALUES)
