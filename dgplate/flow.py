@@ -245,10 +245,9 @@ class GradientFlow:
         in the displacement block only the couplings that the metric and the implicit energy
         actually have are stored (:mod:`dgplate.sparsity`).
         """
-        full = dolfinx.fem.petsc.assemble_matrix(self.step_form)  # DOLFINx's pattern
-        full.assemble()
-        full.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(full, self._a_const)
+        # DOLFINx's pattern of a_const is that of the whole step form: b_n only couples the
+        # dofs of one cell, which the cell integrals of a_const already do
+        full = dolfinx.fem.petsc.assemble_matrix(self._a_const)
         full.assemble()
         imap, bs = self.W.dofmap.index_map, self.W.dofmap.index_map_bs
         is_multiplier = np.ones((imap.size_local + imap.num_ghosts) * bs, dtype=bool)
