@@ -41,6 +41,10 @@ BAD_INPUT = {
         ["--set", "model.penalty={gamma0=-1.0, gamma1=1.0}"],
         "model.penalty.gamma0 must be",
     ),
+    "gradient power out of range": (
+        ["--set", "model.penalty={gamma0=5000.0, gamma1=1100.0, gradient_power=5}"],
+        "model.penalty.gradient_power must be in [1, 3]",
+    ),
     "crease on boundary": (["--set", "model.crease=['top']"], "crease group 'top' contains"),
     "mu not positive": (["--set", "model.mu=0"], "model.mu must be > 0"),
     "unknown mu region": (["--set", "model.mu={hinge=1.0}"], "unknown cell group 'hinge'"),

@@ -134,7 +134,7 @@ def fvk_bending_energy(w, faces: FaceSets, penalty: Penalty, D, nu, simply_suppo
         moment_n = ufl.dot(plane_stress(H, D, nu), n)
         energy += (
             -ufl.inner(moment_n, tgrad)
-            + 0.5 * penalty.gamma1 * D / h * ufl.inner(tgrad, tgrad)
+            + 0.5 * penalty.gradient_weight(h) * D * ufl.inner(tgrad, tgrad)
             + D * ufl.inner(ufl.dot(grad_laplacian(w), n), w)
             + 0.5 * penalty.gamma0 * D / h**3 * w * w
         ) * faces.ds(SIMPLY_SUPPORTED)

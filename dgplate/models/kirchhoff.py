@@ -46,7 +46,8 @@ class KirchhoffSpec:
     load: list = option([0.0, 0.0, 0.0], "body force f: three numbers or formulas in x, y")
     mu: float | dict = option(1.0, "bending rigidity: a number or {cell group = value}")
     penalty: dict = option(
-        {"gamma0": 5000.0, "gamma1": 1100.0}, "IP penalties γ₀ (h⁻³[y]) and γ₁ (h⁻¹[∇y])"
+        {"gamma0": 5000.0, "gamma1": 1100.0},
+        "IP penalties γ₀ (h⁻³[y]) and γ₁ (h⁻ᵖ[∇y]); gradient_power p (default 1, at most 3) over-penalises gradient jumps",
     )
     boundary_data: str | dict = option(
         "flat",
@@ -64,14 +65,17 @@ class KirchhoffSpec:
             raise InputError(
                 f"model.boundary_data must be 'flat' or a table {{g, Phi}}, got {self.boundary_data!r}"
             )
-        unknown = set(self.penalty) - {"gamma0", "gamma1"}
+        unknown = set(self.penalty) - {"gamma0", "gamma1", "gradient_power"}
         if unknown:
             raise InputError(
-                f"unknown key model.penalty.{sorted(unknown)[0]} (known: gamma0, gamma1)"
+                f"unknown key model.penalty.{sorted(unknown)[0]} (known: gamma0, gamma1, gradient_power)"
             )
         for key, value in self.penalty.items():
             if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
                 raise InputError(f"model.penalty.{key} must be a number > 0, got {value!r}")
+        power = self.penalty.get("gradient_power", 1.0)
+        if not 1 <= power <= 3:
+            raise InputError(f"model.penalty.gradient_power must be in [1, 3], got {power!r}")
         if not isinstance(self.load, list) or len(self.load) != 3:
             raise InputError(
                 f"model.load must be a list of 3 numbers or formulas, got {self.load!r}"

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import dolfinx.fem
 import numpy as np
@@ -291,7 +291,7 @@ def hinge_penalty(width: float, n: int, m: int, base: Penalty | None = None) -> 
     """
     base = base or Penalty()
     aspect = max(1.0, (1.0 / n) / (width / m))
-    return Penalty(base.gamma0 * aspect**3, base.gamma1 * aspect)
+    return replace(base, gamma0=base.gamma0 * aspect**3, gamma1=base.gamma1 * aspect)
 
 
 def calibrate_alpha(
