@@ -100,6 +100,26 @@ def test_over_penalised_cylinder_converges():
     assert e_fine < 0.01 and r_fine < 0.025
 
 
+def test_corkscrew_rolls_about_the_diagonal():
+    """Z₂ = [[−3, 2], [2, −3]] (eigenvalue −5 along (1, −1), −1 along (1, 1)) on a free plate:
+    the final shape bends along (1, −1), i.e. it rolls about the 45° axis (1, 1), downwards,
+    and does not follow the small eigenvalue."""
+    tagged = rectangle(MPI.COMM_SELF, [[-0.5, -0.75], [0.5, 0.75]], [4, 6])
+    spec = BilayerSpec(Z=[[-3.0, 2.0], [2.0, -3.0]])
+    model = build_bilayer(spec, tagged)
+    settings = FlowSettings(tau=0.02, tol=5e-2, max_steps=2000, multiplier_degree=1)
+    flow = GradientFlow(model.faces, 2, model.energy_fn, settings)
+    result = flow.run()
+    mean_II = np.array(model.extras(flow)["mean_second_fundamental_form"])
+    values, vectors = np.linalg.eigh(mean_II)
+    bend = vectors[:, np.argmax(np.abs(values))]
+    angle = np.degrees(np.arccos(abs(bend @ np.array([1.0, -1.0]) / np.sqrt(2.0))))
+    print(f"\ncorkscrew: mean II eigenvalues {values}, bending direction {bend}, {angle:.2f}° off")
+    assert result.converged
+    assert angle < 3.0, "bends along the eigenvector of the eigenvalue −5"
+    assert values.min() < -2.0 and abs(values.max()) < 0.3 * abs(values.min())
+
+
 @pytest.mark.parametrize("value", [[[1.0, 2.0], [0.0, 1.0]], [[1.0, "x"], ["y", 1.0]]])
 def test_non_symmetric_Z_is_refused(value, tmp_path, capsys):
     rendered = str(value).replace("'", '"')
