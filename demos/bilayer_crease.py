@@ -45,9 +45,9 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from dgplate.creases import run_crease_problem
 from dgplate.output import print0
 from dgplate.problem import problem_from_dict
+from dgplate.runner import run_problem
 
 PROBLEM = Path(__file__).parent / "problems" / "bilayer_crease.toml"
 
@@ -81,7 +81,7 @@ def run(order: int) -> dict:
     level = copy.deepcopy(data)
     level["mesh"]["parameters"].update(h=h, order=order)
     name = f"bilayer_crease_order{order}"
-    return run_crease_problem(problem_from_dict(level, name), Path(args.out) / name, comm)
+    return run_problem(problem_from_dict(level, name), Path(args.out) / name, comm)
 
 
 # %% [markdown]

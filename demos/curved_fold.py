@@ -33,7 +33,8 @@
 #
 # Run: `python demos/curved_fold.py` (h = 0.2 and 0.1, about a minute), `--paper` for h = 0.1
 # and 0.05, `--out DIR`; `mpirun -n 2 python demos/curved_fold.py` in parallel.
-# `dgplate run demos/problems/curved_fold.toml` runs the problem with straight chords.
+# `dgplate run demos/problems/curved_fold.toml` runs the problem with straight chords (its
+# comment shows the `--set` for curved cells).
 
 # %%
 import argparse
@@ -43,9 +44,9 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from dgplate.creases import run_crease_problem
 from dgplate.output import print0
 from dgplate.problem import problem_from_dict
+from dgplate.runner import run_problem
 
 PROBLEM = Path(__file__).parent / "problems" / "curved_fold.toml"
 
@@ -64,7 +65,7 @@ def run(h: float, order: int) -> dict:
     level["mesh"]["parameters"].update(h=h, order=order)
     level["flow"]["tau"] = h / 2
     name = f"curved_fold_h{h:g}_order{order}"
-    return run_crease_problem(problem_from_dict(level, name), Path(args.out) / name, comm)
+    return run_problem(problem_from_dict(level, name), Path(args.out) / name, comm)
 
 
 # %% [markdown]

@@ -311,110 +311,11 @@ def with_fold_angles(model):
     return model
 
 
-class _Series:
-    """VTX time series of the deformation every ``every`` steps and at the end."""
-
-    def __init__(self, flow, path, every: int):
-        from dgplate.vtx import DeformationWriter
-
-        self.writer, self.every = DeformationWriter(path, flow.y, comm=flow.comm), every
-        self.writer.write(0.0)
-
-    def step(self, flow, info) -> None:
-        if info.step % self.every == 0:
-            self.writer.write(info.time)
-
-    def finish(self, flow, result) -> None:
-        if result.steps % self.every:
-            self.writer.write(flow.time)
-        self.writer.close()
-
-
-def run_crease_problem(problem, out_dir=None, comm: MPI.Comm = MPI.COMM_WORLD, initial=None):
-    """:func:`dgplate.runner.run_problem` plus two things it cannot do (yet) for creases:
-
-    - start the flow from ``initial`` (a callable x ↦ y(x), e.g. the exact fold), where
-      ``run_problem`` always starts flat;
-    - meshes with curved cells along C (``mesh.parameters.order = 2``, see
-      :func:`use_cell_diameter_field`).
-
-    Writes the same outputs (summary.json with the fold angles, history.csv, deformation.bp,
-    final.png with the crease lines) and returns the summary.
-    """
-    import time
-    from pathlib import Path
-
-    from dgplate.flow import FlowSettings, GradientFlow
-    from dgplate.models.registry import MODELS
-    from dgplate.output import (
-        OutputDir,
-        ProgressPrinter,
-        print0,
-        write_history,
-        write_json,
-    )
-    from dgplate.runner import build_mesh, make_summary, max_cell_diameter
-
-    wall0 = time.perf_counter()
-    tagged = build_mesh(problem.mesh, comm)
-    model = MODELS[problem.model.name].build(problem.model, tagged)
-    use_cell_diameter_field(model.faces)
-    tau = max_cell_diameter(tagged) if problem.flow.tau == "h" else float(problem.flow.tau)
-    settings = FlowSettings(
-        tau=tau,
-        tol=problem.flow.tol,
-        max_steps=problem.flow.max_steps,
-        l2_metric=problem.flow.l2,
-        solver_options=problem.flow.solver,
-        multiplier_degree=problem.flow.multiplier_degree,
-        projection_steps=problem.flow.projection_steps,
-        linear_solver=problem.flow.linear_solver,
-        refactor_its=problem.flow.refactor_its,
-        edge_constraint=problem.flow.edge_constraint,
-    )
-    observers: list = []
-    if problem.output.progress:
-        observers.append(ProgressPrinter(comm, problem.output.progress))
-    flow = GradientFlow(model.faces, model.degree, model.energy_fn, settings, observers, initial)
-    target = Path(out_dir or problem.output.dir or f"out/{problem.name}")
-    out = OutputDir(comm, target)
-    print0(
-        comm,
-        f"dgplate: {problem.name}: model {problem.model.name}, {flow.num_dofs} dofs on "
-        f"{comm.size} rank(s), τ = {tau:.4g}, output → {target}",
-    )
-    if problem.output.vtx:
-        flow.observers.append(_Series(flow, out.path / "deformation.bp", problem.output.every))
-    result = flow.run()
-    summary = make_summary(problem, flow, result, tagged, wall0)
-    if model.extras is not None:
-        summary.update(model.extras(flow))
-    write_history(comm, out.path / "history.csv", result.history)
-    if problem.output.png:
-        from dgplate.plotting import plot_deformation
-
-        lines = crease_polylines(flow.y, model.faces) if model.faces.num_crease else None
-        title = f"{problem.name}: E_h = {result.energy:.4e}, D_h = {result.defect:.2e}"
-        plot_deformation(
-            flow.y,
-            out.path / "final.png",
-            title=title,
-            color_by=problem.output.color_by,
-            lines=lines,
-        )
-    summary["wall_time_s"] = time.perf_counter() - wall0
-    write_json(comm, out.path / "summary.json", summary)
-    out.commit()
-    flow.destroy()
-    return summary
-
-
 __all__ = [
     "CreaseMeasure",
     "cell_diameter_field",
     "crease_polylines",
     "fold_angle_summary",
-    "run_crease_problem",
     "use_cell_diameter_field",
     "with_fold_angles",
 ]

@@ -7,6 +7,7 @@ does what ``dgplate run p.toml --set flow.tau=0.1`` does.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +16,7 @@ from mpi4py import MPI
 import numpy as np
 
 from dgplate import compat
+from dgplate.creases import crease_polylines, use_cell_diameter_field
 from dgplate.flow import FlowResult, FlowSettings, GradientFlow, StepInfo
 from dgplate.meshing import TaggedMesh, load_geo, rectangle
 from dgplate.models.registry import MODELS
@@ -44,17 +46,6 @@ def max_cell_diameter(tagged: TaggedMesh) -> float:
     return float(mesh.comm.allreduce(float(local.max(initial=0.0)), op=MPI.MAX))
 
 
-class _History:
-    def __init__(self):
-        self.rows: list[StepInfo] = []
-
-    def step(self, flow, info: StepInfo) -> None:
-        self.rows.append(info)
-
-    def finish(self, flow, result) -> None:
-        pass
-
-
 class _SeriesWriter:
     """VTX time series of the deformation, every ``every`` steps and at the end."""
 
@@ -76,13 +67,20 @@ class _SeriesWriter:
 
 
 def run_problem(
-    problem: Problem, out_dir: str | Path | None = None, comm: MPI.Comm = MPI.COMM_WORLD
+    problem: Problem,
+    out_dir: str | Path | None = None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    initial: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> dict[str, Any]:
     """Solve ``problem`` and write its outputs; returns the summary (also summary.json).
 
     Everything that can be validated is validated before the output directory is created.
     A flow that does not converge still writes its outputs, with ``converged = false``.
+    ``initial`` (x ↦ y(x), e.g. an exact fold) starts the flow from a given shape instead of
+    the flat plate. Meshes with curved cells (gmsh ``order = 2``) take h from ``mesh.h``
+    (:func:`dgplate.creases.use_cell_diameter_field`).
     """
+
     wall0 = time.perf_counter()
     tagged = build_mesh(problem.mesh, comm)
     entry = MODELS[problem.model.name]
@@ -97,6 +95,7 @@ def run_problem(
         summary.setdefault("problem", problem.name)
         return summary
     model = entry.build(problem.model, tagged)
+    use_cell_diameter_field(model.faces)
     tau = max_cell_diameter(tagged) if problem.flow.tau == "h" else float(problem.flow.tau)
     settings = FlowSettings(
         tau=tau,
@@ -110,11 +109,10 @@ def run_problem(
         refactor_its=problem.flow.refactor_its,
         edge_constraint=problem.flow.edge_constraint,
     )
-    history = _History()
-    observers: list = [history]
+    observers: list = []
     if problem.output.progress:
         observers.append(ProgressPrinter(comm, problem.output.progress))
-    flow = GradientFlow(model.faces, model.degree, model.energy_fn, settings, observers)
+    flow = GradientFlow(model.faces, model.degree, model.energy_fn, settings, observers, initial)
     out = OutputDir(comm, target)
     print0(
         comm,
@@ -129,15 +127,13 @@ def run_problem(
     summary = make_summary(problem, flow, result, tagged, wall0)
     if model.extras is not None:
         summary.update(model.extras(flow))
-    write_history(comm, out.path / "history.csv", history.rows)
+    write_history(comm, out.path / "history.csv", result.history)
     if problem.output.png:
         from dgplate.plotting import plot_deformation
 
         title = f"{problem.name}: E_h = {result.energy:.4e}, D_h = {result.defect:.2e}"
         lines = None
         if model.faces.num_crease:  # draw the deformed crease lines (collective)
-            from dgplate.creases import crease_polylines
-
             lines = crease_polylines(flow.y, model.faces)
         plot_deformation(
             flow.y,
