@@ -348,10 +348,18 @@ class GradientFlow:
         self.y.x.array[:] += c
         return c
 
+    def rebase_energy(self) -> None:
+        """Measure the energy decrease from the current state again.
+
+        Call this when data of the energy changed between runs (a new temperature, a new Z):
+        otherwise the first step would count that change as the flow's own decrease.
+        """
+        self._last_energy = self.evaluate_energy()
+
     def undo(self) -> None:
         """Take back the last step (used when it produced a non-finite state)."""
         self.y.x.array[:] -= self._last_increment
-        self._last_energy = self.evaluate_energy()
+        self.rebase_energy()
 
     # -- the loop ---------------------------------------------------------------------------
     def run(self, max_steps: int | None = None) -> FlowResult:

@@ -207,9 +207,7 @@ class ThermalBilayer:
 
     def relax(self, max_steps: int | None = None) -> FlowResult:
         """Run the flow for the current θ (warm start), at most ``max_steps`` steps."""
-        # θ changed the energy: restart the decrease rate from the new energy level, or the
-        # first step would count the change of Z as an energy decrease (or increase).
-        self.flow._last_energy = self.flow.evaluate_energy()
+        self.flow.rebase_energy()  # θ changed Z, hence the energy
         self.last_result = self.flow.run(max_steps=max_steps or self.settings.flow_steps)
         return self.last_result
 
