@@ -197,13 +197,9 @@ class HeatSolver:
         """1 on the heated cell groups, 0 elsewhere (a DG0 field), or 1 for the whole plate."""
         if regions is None:
             return dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(1.0))
-        space = dolfinx.fem.functionspace(self.mesh, ("DG", 0))
-        chi = dolfinx.fem.Function(space, name="heated")
-        for name in regions:
-            cells = self.tagged.cells(name)  # InputError naming the group if unknown
-            chi.x.array[space.dofmap.list[cells].reshape(-1)] = 1.0
-        chi.x.scatter_forward()
-        return chi
+        # an unknown group raises an InputError naming it
+        heated = dict.fromkeys(regions, 1.0)
+        return self.tagged.group_function(heated, default=0.0, key="heated")
 
     def _integral(self, expr) -> float:
         local = dolfinx.fem.assemble_scalar(dolfinx.fem.form(expr * ufl.dx))

@@ -68,6 +68,47 @@ class TaggedMesh:
         assert self.cell_tags is not None
         return self.cell_tags.find(tag)
 
+    def group_function(
+        self,
+        values: Mapping[str, float | Sequence],
+        default: float | Sequence | None = None,
+        shape: tuple[int, ...] = (),
+        key: str = "value",
+    ):
+        """A DG0 function (scalar or of ``shape``) with one value per cell group.
+
+        A number stands for all entries of a ``shape``d value. Cells of no listed group get
+        ``default``; without a default every owned cell must be covered, or an InputError
+        says how many are not (``key`` names the problem-file entry). An unknown group name
+        raises an InputError that names it. Collective.
+        """
+        import dolfinx.fem
+
+        mesh = self.mesh
+        space = dolfinx.fem.functionspace(mesh, ("DG", 0, shape) if shape else ("DG", 0))
+        function = dolfinx.fem.Function(space, name=key.split(".")[-1])
+        size = int(np.prod(shape))
+        blocks = function.x.array.reshape(-1, size)
+        if default is not None:
+            blocks[:] = np.broadcast_to(np.ravel(np.asarray(default, dtype=float)), (size,))
+        cell_map = mesh.topology.index_map(mesh.topology.dim)
+        covered = np.zeros(cell_map.size_local + cell_map.num_ghosts, dtype=bool)
+        for group, value in values.items():
+            cells = self.cells(group)
+            row = np.broadcast_to(np.ravel(np.asarray(value, dtype=float)), (size,))
+            blocks[space.dofmap.list[cells].reshape(-1)] = row
+            covered[cells] = True
+        function.x.scatter_forward()
+        if default is None:
+            local = int(np.count_nonzero(~covered[: cell_map.size_local]))
+            missing = int(mesh.comm.allreduce(local))
+            if missing:
+                raise InputError(
+                    f"{key} leaves {missing} cell(s) without a value "
+                    f"(cell groups: {self.names(mesh.topology.dim)})"
+                )
+        return function
+
 
 def rectangle(
     comm: MPI.Comm,

@@ -24,6 +24,25 @@ def test_unknown_group_lists_available_names():
         tagged.facets("clampd")
 
 
+def test_group_function_values_defaults_and_gaps():
+    """One value per cell group (scalar or 2×2), a default elsewhere, and a clear error when
+    a group is missing and there is no default (annulus: inner_ring and outer_ring)."""
+    tagged = load_geo(MPI.COMM_SELF, "annulus_crease", {"h": 0.3})
+    inner, outer = tagged.cells("inner_ring"), tagged.cells("outer_ring")
+    both = tagged.group_function({"inner_ring": 2.0, "outer_ring": 5.0}, key="model.mu")
+    dofs = both.function_space.dofmap.list
+    assert np.all(both.x.array[dofs[inner].ravel()] == 2.0)
+    assert np.all(both.x.array[dofs[outer].ravel()] == 5.0)
+    Z = tagged.group_function({"outer_ring": [[1.0, 2.0], [2.0, 3.0]]}, default=0.0, shape=(2, 2))
+    blocks = Z.x.array.reshape(-1, 4)
+    assert np.all(blocks[dofs[outer].ravel()] == [1.0, 2.0, 2.0, 3.0])
+    assert np.all(blocks[dofs[inner].ravel()] == 0.0)
+    with pytest.raises(
+        InputError, match=rf"model.mu leaves {inner.size} cell\(s\) without a value"
+    ):
+        tagged.group_function({"outer_ring": 1.0}, key="model.mu")
+
+
 def test_gmsh_parameters_and_quads():
     tagged = load_geo(MPI.COMM_SELF, "rectangle", {"Lx": 2, "Ly": 1, "h": 0.25, "quads": 1})
     mesh = tagged.mesh

@@ -36,8 +36,6 @@ def flat_identity(mesh):
 
 def piecewise_constant(tagged, values, key: str):
     """μ-like data: a number, or {cell group name: number} turned into a DG0 function."""
-    import dolfinx.fem
-    import numpy as np
 
     from dgplate.errors import InputError
 
@@ -47,25 +45,10 @@ def piecewise_constant(tagged, values, key: str):
         return float(values)
     if not isinstance(values, dict) or not values:
         raise InputError(f"{key} must be a number or a table {{group = value}}, got {values!r}")
-    mesh = tagged.mesh
-    space = dolfinx.fem.functionspace(mesh, ("DG", 0))
-    field = dolfinx.fem.Function(space, name=key.split(".")[-1])
-    cmap = mesh.topology.index_map(mesh.topology.dim)
-    assigned = np.zeros(cmap.size_local + cmap.num_ghosts, dtype=bool)
     for name, value in values.items():
         if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
             raise InputError(f"{key}.{name} must be a number > 0, got {value!r}")
-        cells = tagged.cells(name)
-        dofs = space.dofmap.list[cells].reshape(-1)
-        field.x.array[dofs] = float(value)
-        assigned[cells] = True
-    missing = int(mesh.comm.allreduce(int(np.count_nonzero(~assigned[: cmap.size_local]))))
-    if missing:
-        raise InputError(
-            f"{key} leaves {missing} cell(s) without a value (cell groups: {tagged.names(mesh.topology.dim)})"
-        )
-    field.x.scatter_forward()
-    return field
+    return tagged.group_function(values, key=key)
 
 
 def clamped_data(value, mesh, key: str = "model.boundary_data"):

@@ -21,8 +21,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import dolfinx.fem
-import numpy as np
 import ufl
 
 from dgplate import expressions
@@ -127,11 +125,7 @@ def spontaneous_curvature(value, tagged, key: str = "model.Z"):
             ]
         )
     if isinstance(value, dict) and value:
-        space = dolfinx.fem.functionspace(mesh, ("DG", 0, (2, 2)))
-        field = dolfinx.fem.Function(space, name="Z")
-        cmap = mesh.topology.index_map(mesh.topology.dim)
-        assigned = np.zeros(cmap.size_local + cmap.num_ghosts, dtype=bool)
-        values = field.x.array.reshape(-1, 4)
+        matrices = {}
         for name, entry in value.items():
             sub = f"{key}.{name}"
             if isinstance(entry, int | float) and not isinstance(entry, bool):
@@ -143,17 +137,8 @@ def spontaneous_curvature(value, tagged, key: str = "model.Z"):
                 raise InputError(
                     f"{sub} must hold numbers (formulas go in a single matrix), got {entry!r}"
                 )
-            cells = tagged.cells(name)
-            dofs = space.dofmap.list[cells].reshape(-1)
-            values[dofs] = np.asarray(entry, dtype=float).reshape(4)
-            assigned[cells] = True
-        missing = int(mesh.comm.allreduce(int(np.count_nonzero(~assigned[: cmap.size_local]))))
-        if missing:
-            raise InputError(
-                f"{key} leaves {missing} cell(s) without a value (cell groups: {tagged.names(mesh.topology.dim)})"
-            )
-        field.x.scatter_forward()
-        return field
+            matrices[name] = entry
+        return tagged.group_function(matrices, shape=(2, 2), key=key)
     raise InputError(
         f"{key} must be a number, a 2×2 matrix or a table {{group = value}}, got {value!r}"
     )

@@ -52,17 +52,10 @@ def region_coefficient(tagged: TaggedMesh, values, key: str, default: float = 0.
         return float(values)
     if not isinstance(values, dict) or not values:
         raise InputError(f"{key} must be a number or a table {{group = value}}, got {values!r}")
-    mesh = tagged.mesh
-    space = dolfinx.fem.functionspace(mesh, ("DG", 0))
-    field_ = dolfinx.fem.Function(space, name=key.split(".")[-1])
-    field_.x.array[:] = default
     for name, value in values.items():
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise InputError(f"{key}.{name} must be a number, got {value!r}")
-        cells = tagged.cells(name)
-        field_.x.array[space.dofmap.list[cells].reshape(-1)] = float(value)
-    field_.x.scatter_forward()
-    return field_
+    return tagged.group_function(values, default=default, key=key)
 
 
 def thermal_curvature(theta, alpha):
@@ -77,10 +70,7 @@ def anchor_energy(y, tagged: TaggedMesh, region: str, stiffness: float):
     mesh = tagged.mesh
     # an indicator field rather than dx(tag): DOLFINx 0.9 wants one subdomain_data per
     # integral type in a form, and the bending energy's dx carries none
-    space = dolfinx.fem.functionspace(mesh, ("DG", 0))
-    indicator = dolfinx.fem.Function(space)
-    indicator.x.array[space.dofmap.list[tagged.cells(region)].reshape(-1)] = 1.0
-    indicator.x.scatter_forward()
+    indicator = tagged.group_function({region: 1.0}, default=0.0, key="anchor")
     g, _ = flat_identity(mesh)
     return 0.5 * stiffness * indicator * ufl.inner(y - g, y - g) * ufl.dx(domain=mesh)
 
