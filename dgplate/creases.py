@@ -266,34 +266,6 @@ def crease_polylines(u: dolfinx.fem.Function, faces: FaceSets, samples: int = 4)
     return CreaseMeasure(u, faces, samples).polylines()
 
 
-def cell_diameter_field(mesh) -> dolfinx.fem.Function:
-    """The cell diameter as a DG0 function (the diameter of each cell's vertices)."""
-    space = dolfinx.fem.functionspace(mesh, ("DG", 0))
-    tdim = mesh.topology.dim
-    imap = mesh.topology.index_map(tdim)
-    cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
-    field = dolfinx.fem.Function(space, name="h")
-    field.x.array[space.dofmap.list[cells, 0]] = mesh.h(tdim, cells)
-    return field
-
-
-def use_cell_diameter_field(faces: FaceSets) -> FaceSets:
-    """On meshes with curved cells (gmsh ``order = 2``) let ``faces.h`` be a DG0 field.
-
-    A curved crease needs curved cell edges along C: with straight chords the two sides of a
-    fold cannot meet along a curved space curve without a value jump, the γ₀ penalty resists
-    folding and the fold angle converges only slowly under refinement (a locking effect; see
-    docs/creases.md). FFCx cannot evaluate ``ufl.CellDiameter`` on curved cells, so the face
-    sets get h from ``mesh.h`` instead (the same number on affine cells). Call this before the
-    forms are built (before ``GradientFlow``); a no-op on affine meshes.
-    """
-    geometry = faces.mesh.geometry  # DOLFINx 0.11 deprecates geometry.cmap for cmaps[0]
-    cmap = geometry.cmaps[0] if hasattr(geometry, "cmaps") else geometry.cmap
-    if cmap.degree > 1:
-        faces.h = cell_diameter_field(faces.mesh)
-    return faces
-
-
 def with_fold_angles(model):
     """Wrap ``model.extras`` (a FlowModel) so that summary.json also gets the fold angles
     along C (``fold_angle_deg`` and ``crease``) when the model has crease faces; the model
@@ -313,9 +285,7 @@ def with_fold_angles(model):
 
 __all__ = [
     "CreaseMeasure",
-    "cell_diameter_field",
     "crease_polylines",
     "fold_angle_summary",
-    "use_cell_diameter_field",
     "with_fold_angles",
 ]

@@ -55,6 +55,25 @@ class Penalty:
         return self.gamma1 / (h if power == 1 else h**power)
 
 
+def cell_size(mesh):
+    """h of the dG forms: ``ufl.CellDiameter``, or on curved cells (gmsh ``order = 2``) a DG0
+    field of ``mesh.h``, since FFCx cannot evaluate CellDiameter there (same number on affine
+    cells). Curved creases need curved cells: see docs/creases.md."""
+    geometry = mesh.geometry  # DOLFINx 0.11 deprecates geometry.cmap for cmaps[0]
+    cmap = geometry.cmaps[0] if hasattr(geometry, "cmaps") else geometry.cmap
+    if cmap.degree == 1:
+        return ufl.CellDiameter(mesh)
+    import dolfinx.fem
+
+    space = dolfinx.fem.functionspace(mesh, ("DG", 0))
+    tdim = mesh.topology.dim
+    cell_map = mesh.topology.index_map(tdim)
+    cells = np.arange(cell_map.size_local + cell_map.num_ghosts, dtype=np.int32)
+    field = dolfinx.fem.Function(space, name="h")
+    field.x.array[space.dofmap.list[cells, 0]] = mesh.h(tdim, cells)
+    return field
+
+
 @dataclass
 class FaceSets:
     """The faces Γ_h of the dG forms, split into smooth interior, crease and clamped faces."""
@@ -69,7 +88,7 @@ class FaceSets:
         self.dS = ufl.Measure("dS", domain=self.mesh, subdomain_data=self.tags)
         self.ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.tags)
         self.n = ufl.FacetNormal(self.mesh)
-        self.h = ufl.CellDiameter(self.mesh)
+        self.h = cell_size(self.mesh)
 
     @property
     def has_clamped(self) -> bool:

@@ -16,7 +16,7 @@ from mpi4py import MPI
 import numpy as np
 
 from dgplate import compat
-from dgplate.creases import crease_polylines, use_cell_diameter_field
+from dgplate.creases import crease_polylines
 from dgplate.flow import FlowResult, FlowSettings, GradientFlow, StepInfo
 from dgplate.meshing import TaggedMesh, load_geo, rectangle
 from dgplate.models.registry import MODELS
@@ -77,10 +77,8 @@ def run_problem(
     Everything that can be validated is validated before the output directory is created.
     A flow that does not converge still writes its outputs, with ``converged = false``.
     ``initial`` (x ↦ y(x), e.g. an exact fold) starts the flow from a given shape instead of
-    the flat plate. Meshes with curved cells (gmsh ``order = 2``) take h from ``mesh.h``
-    (:func:`dgplate.creases.use_cell_diameter_field`).
+    the flat plate.
     """
-
     wall0 = time.perf_counter()
     tagged = build_mesh(problem.mesh, comm)
     entry = MODELS[problem.model.name]
@@ -95,7 +93,6 @@ def run_problem(
         summary.setdefault("problem", problem.name)
         return summary
     model = entry.build(problem.model, tagged)
-    use_cell_diameter_field(model.faces)
     tau = max_cell_diameter(tagged) if problem.flow.tau == "h" else float(problem.flow.tau)
     settings = FlowSettings(
         tau=tau,

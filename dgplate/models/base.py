@@ -36,7 +36,6 @@ def flat_identity(mesh):
 
 def piecewise_constant(tagged, values, key: str):
     """μ-like data: a number, or {cell group name: number} turned into a DG0 function."""
-
     from dgplate.errors import InputError
 
     if isinstance(values, int | float) and not isinstance(values, bool):
