@@ -10,7 +10,7 @@ assembled once, and each step reassembles only b_n (cell integrals) and adds the
 which share one sparsity pattern: DOLFINx's pattern of the step form without the constant
 block's exact zeros (the components of y do not couple, :mod:`dgplate.sparsity`). Since that
 sum changes only through b_n, the default
-solver keeps one LU factorisation over many steps as the preconditioner of GMRES
+solver keeps one LU factorisation over many steps as the preconditioner of FGMRES
 (:class:`dgplate.solvers.LaggedStepSolver`) and refactorises only when the iteration count
 grows. The flow is generic: it only sees an :class:`Energy`.
 """
@@ -57,7 +57,7 @@ class FlowSettings:
     projection_steps: after each step, this many corrections restore the discrete nonlinear
     constraint ∫_T (∇yᵀ∇y − I) q = 0 (smallest correction in the norm of the step matrix,
     solved with the step's factorisation, so no new factorisation); 0 is the published method.
-    linear_solver: "lagged" (GMRES preconditioned by an earlier step's LU factors, refreshed
+    linear_solver: "lagged" (FGMRES preconditioned by an earlier step's LU factors, refreshed
     when a solve needs more than ``refactor_its`` iterations) or "direct" (LU every step).
     edge_constraint: also constrain two moments of the metric on free boundary facets (one
     facet per cell; :class:`dgplate.constraint.EdgeConstraint`), linearised in the step and

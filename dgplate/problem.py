@@ -79,10 +79,10 @@ class FlowSpec:
 
     linear_solver: str = option(
         "lagged",
-        "step solver: 'lagged' (one LU reused as GMRES preconditioner, refactorised when needed) or 'direct' (LU every step)",
+        "step solver: 'lagged' (one LU reused as FGMRES preconditioner, refactorised when needed) or 'direct' (LU every step)",
     )
     refactor_its: int = option(
-        12, "lagged solver: refactorise after a solve that needed more GMRES iterations"
+        12, "lagged solver: refactorise after a solve that needed more FGMRES iterations"
     )
     edge_constraint: bool = option(
         False,
