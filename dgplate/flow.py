@@ -32,7 +32,7 @@ import numpy as np
 import ufl
 from petsc4py import PETSc
 
-from dgplate import compat, solvers, sparsity
+from dgplate import compat, ordering, solvers, sparsity
 from dgplate.constraint import (
     EdgeConstraint,
     IsometryDefect,
@@ -221,6 +221,7 @@ class GradientFlow:
             self.settings.solver_options,
             prefix=None,
             refactor_its=self.settings.refactor_its,
+            numbering=ordering.cellwise_numbering(self.W),
         )
 
     def _balance_constraint_rows(self) -> None:

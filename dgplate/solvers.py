@@ -161,12 +161,45 @@ class DirectStepSolver:
         destroy_ksp(self.ksp)
 
 
+class PermutedFactors:
+    """Python PC context: the LU factors of P, a copy of K in another numbering of its rows.
+
+    ``numbering`` lists, for each row of P owned here, its global index in K (see
+    :func:`dgplate.ordering.cellwise_numbering`); applying the PC scatters the vector into P's
+    numbering, applies the factors and scatters back.
+    """
+
+    def __init__(self, factor_ksp: PETSc.KSP, K: PETSc.Mat, numbering: PETSc.IS):
+        self.factor_pc = factor_ksp.getPC()
+        P = factor_ksp.getOperators()[0]
+        self.xp, self.yp = P.createVecRight(), P.createVecLeft()
+        first, last = self.xp.getOwnershipRange()
+        here = PETSc.IS().createStride(last - first, first=first, step=1, comm=K.getComm())
+        self.scatter = PETSc.Scatter().create(K.createVecRight(), numbering, self.xp, here)
+        here.destroy()
+
+    def apply(self, pc: PETSc.PC, x: PETSc.Vec, y: PETSc.Vec) -> None:
+        forward, reverse = PETSc.ScatterMode.FORWARD, PETSc.ScatterMode.REVERSE
+        self.scatter.scatter(x, self.xp, PETSc.InsertMode.INSERT, forward)
+        self.factor_pc.apply(self.xp, self.yp)
+        self.scatter.scatter(self.yp, y, PETSc.InsertMode.INSERT, reverse)
+
+    def destroy(self, pc: PETSc.PC) -> None:
+        """Called by petsc4py when the PC is destroyed."""
+        for obj in (self.scatter, self.xp, self.yp):
+            obj.destroy()
+
+
 class LaggedStepSolver:
     """FGMRES on K preconditioned by the LU factors of a copy P of an earlier K.
 
     P is refreshed (and refactorised) when the previous solve needed more than
     ``refactor_its`` iterations, or when FGMRES fails to converge; the failed solve is then
     repeated with fresh factors, so every returned solution meets the tolerance.
+
+    With a ``numbering`` (:func:`dgplate.ordering.cellwise_numbering`) and MUMPS LU (the
+    default), P holds K's rows and columns in that numbering, so that MUMPS orders the same
+    graph on any number of ranks; the Krylov solve itself stays in K's numbering.
     """
 
     def __init__(
@@ -176,13 +209,39 @@ class LaggedStepSolver:
         options: Mapping[str, object] | None,
         prefix: str | None,
         refactor_its: int = 12,
+        numbering: PETSc.IS | None = None,
     ):
         if refactor_its < 1:
             raise InputError(f"flow.refactor_its must be >= 1, got {refactor_its!r}")
         self.K, self.refactor_its = K, refactor_its
-        self.P = K.duplicate(copy=False)
-        self.ksp = make_ksp(comm, K, options, prefix, defaults=LAGGED_MUMPS)
-        self.ksp.setOperators(K, self.P)
+        merged = {**LAGGED_MUMPS, **(options or {})}
+        permuted = numbering is not None and (
+            merged.get("pc_type"),
+            merged.get("pc_factor_mat_solver_type"),
+        ) == ("lu", "mumps")
+        self.numbering = numbering if permuted else None
+        self._context: PermutedFactors | None = None
+        if self.numbering is None:
+            self.P = K.duplicate(copy=False)
+            self.ksp = make_ksp(comm, K, merged, prefix, defaults={})
+            self.factor_ksp = self.ksp
+            self.ksp.setOperators(K, self.P)
+        else:
+            krylov = {k: v for k, v in merged.items() if k.startswith("ksp_")}
+            factor = {k: v for k, v in merged.items() if not k.startswith("ksp_")}
+            self.P = K.createSubMatrix(self.numbering, self.numbering)
+            self.ksp = make_ksp(comm, K, krylov, prefix, defaults={})
+            self.factor_ksp = make_ksp(
+                comm,
+                self.P,
+                {**factor, "ksp_type": "preonly"},
+                f"{self.ksp.getOptionsPrefix()}factor_",
+                defaults={},
+            )
+            self._context = PermutedFactors(self.factor_ksp, K, self.numbering)
+            pc = self.ksp.getPC()
+            pc.setType(PETSc.PC.Type.PYTHON)
+            pc.setPythonContext(self._context)
         # Start from the caller's x, the previous step's (δy, λ): λ changes little from step
         # to step, so the initial residual is far below ‖b‖ and the solution's absolute error,
         # which the stopping test ties to ‖b‖, becomes small next to δy even as δy → 0.
@@ -191,9 +250,13 @@ class LaggedStepSolver:
         self.factorisations = 0
 
     def _refactor(self) -> None:
-        self.K.copy(self.P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        self.ksp.setOperators(self.K, self.P)
-        factorise(self.ksp)
+        if self.numbering is None:
+            self.K.copy(self.P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            self.ksp.setOperators(self.K, self.P)
+        else:
+            self.K.createSubMatrix(self.numbering, self.numbering, submat=self.P)
+            self.factor_ksp.setOperators(self.P)
+        factorise(self.factor_ksp)
         self.factorisations += 1
         self._stale = False
 
@@ -223,7 +286,9 @@ class LaggedStepSolver:
         return SolveStats(factorised, total, factor_s, solve_s)
 
     def destroy(self) -> None:
-        destroy_ksp(self.ksp)
+        if self._context is not None:
+            destroy_ksp(self.factor_ksp)
+        destroy_ksp(self.ksp)  # destroys the PC context's scatter and vectors
         self.P.destroy()
 
 
@@ -237,11 +302,12 @@ def make_step_solver(
     options: Mapping[str, object] | None,
     prefix: str | None,
     refactor_its: int = 12,
+    numbering: PETSc.IS | None = None,
 ) -> StepSolver:
     """The solver of the flow's step systems: ``lagged`` (default) or ``direct``;
-    ``refactor_its`` is the lagged solver's refactorisation threshold (ignored by ``direct``)."""
+    ``refactor_its`` and ``numbering`` configure the lagged solver (ignored by ``direct``)."""
     if kind == "lagged":
-        return LaggedStepSolver(comm, K, options, prefix, refactor_its)
+        return LaggedStepSolver(comm, K, options, prefix, refactor_its, numbering)
     if kind == "direct":
         return DirectStepSolver(comm, K, options, prefix)
     raise InputError(f"flow.linear_solver must be one of {STEP_SOLVERS}, got {kind!r}")
