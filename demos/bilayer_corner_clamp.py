@@ -33,23 +33,18 @@
 # Output: `out/bilayer_corner_clamp/` (VTX, final.png, summary.json).
 
 # %%
-import argparse
-import shutil
 from pathlib import Path
 
 from mpi4py import MPI
 
+from dgplate.demo_support import copy_figure, demo_arguments, report_run
 from dgplate.output import print0
 from dgplate.problem import load_problem
 from dgplate.runner import run_problem
 
 PROBLEM = Path(__file__).parent / "problems" / "bilayer_corner_clamp.toml"
 
-parser = argparse.ArgumentParser(description=__doc__)
-parser.add_argument("--paper", action="store_true", help="a finer mesh, h = 0.25")
-parser.add_argument("--out", default="out/bilayer_corner_clamp", help="output directory")
-parser.add_argument("--figure", default=None, help="also copy final.png to this path")
-args, _ = parser.parse_known_args()
+args = demo_arguments(__doc__, "out/bilayer_corner_clamp", "a finer mesh, h = 0.25")
 comm = MPI.COMM_WORLD
 
 # %%
@@ -69,12 +64,7 @@ summary = run_problem(problem, args.out, comm)
 
 # %%
 curv = summary["principal_curvatures"]
-print0(
-    comm,
-    f"E_h = {summary['energy']:.4f} (unclamped bound ½∫α² = 4), "
-    f"D_h = {summary['isometry_defect']:.3e}, steps = {summary['steps']}, "
-    f"converged = {summary['converged']}",
-)
+report_run(comm, summary, "unclamped bound ½∫α² = 4")
 print0(
     comm,
     f"principal curvatures: mean κ1 = {curv['kappa1_mean']:.3f}, mean κ2 = "
@@ -82,6 +72,4 @@ print0(
     f"{curv['kappa2_min']:.3f}; fitted axis "
     f"({', '.join(f'{c:+.3f}' for c in summary['cylinder_fit']['axis'])})",
 )
-if args.figure and comm.rank == 0:
-    Path(args.figure).parent.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(Path(args.out) / "final.png", args.figure)
+copy_figure(comm, args.out, args.figure)

@@ -25,24 +25,19 @@
 # turns; h = 0.15, τ = 0.00625: long). Output: `out/bilayer_hole/` (VTX, final.png, summary.json).
 
 # %%
-import argparse
 import math
-import shutil
 from pathlib import Path
 
 from mpi4py import MPI
 
+from dgplate.demo_support import copy_figure, demo_arguments, describe_cylinder, report_run
 from dgplate.output import print0
 from dgplate.problem import load_problem
 from dgplate.runner import run_problem
 
 PROBLEM = Path(__file__).parent / "problems" / "bilayer_hole.toml"
 
-parser = argparse.ArgumentParser(description=__doc__)
-parser.add_argument("--paper", action="store_true", help="the 10 × 4 plate, h = 0.15 (long)")
-parser.add_argument("--out", default="out/bilayer_hole", help="output directory")
-parser.add_argument("--figure", default=None, help="also copy final.png to this path")
-args, _ = parser.parse_known_args()
+args = demo_arguments(__doc__, "out/bilayer_hole", "the 10 × 4 plate, h = 0.15 (long)")
 comm = MPI.COMM_WORLD
 
 # %%
@@ -69,17 +64,6 @@ p = problem.mesh.parameters
 alpha = float(problem.model.Z)
 area = p["Lx"] * p["Ly"] - math.pi * p["R"] ** 2
 fit = summary["cylinder_fit"]
-print0(
-    comm,
-    f"E_h = {summary['energy']:.4f} (cylinder: ½α²|ω| = {0.5 * alpha**2 * area:.4f}), "
-    f"D_h = {summary['isometry_defect']:.3e}, steps = {summary['steps']}, "
-    f"converged = {summary['converged']}",
-)
-print0(
-    comm,
-    f"fitted radius {fit['radius']:.4f} (1/α = {1 / alpha:.4f}), axis "
-    f"({', '.join(f'{c:+.3f}' for c in fit['axis'])}), rms distance {fit['rms_residual']:.2e}",
-)
-if args.figure and comm.rank == 0:
-    Path(args.figure).parent.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(Path(args.out) / "final.png", args.figure)
+report_run(comm, summary, f"cylinder: ½α²|ω| = {0.5 * alpha**2 * area:.4f}")
+print0(comm, describe_cylinder(fit, alpha))
+copy_figure(comm, args.out, args.figure)

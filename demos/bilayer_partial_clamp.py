@@ -32,23 +32,18 @@
 # Output: `out/bilayer_partial_clamp/` (VTX, final.png, summary.json).
 
 # %%
-import argparse
-import shutil
 from pathlib import Path
 
 from mpi4py import MPI
 
+from dgplate.demo_support import copy_figure, demo_arguments, describe_cylinder, report_run
 from dgplate.output import print0
 from dgplate.problem import load_problem
 from dgplate.runner import run_problem
 
 PROBLEM = Path(__file__).parent / "problems" / "bilayer_partial_clamp.toml"
 
-parser = argparse.ArgumentParser(description=__doc__)
-parser.add_argument("--paper", action="store_true", help="the seed's plate, h = 0.25 (long)")
-parser.add_argument("--out", default="out/bilayer_partial_clamp", help="output directory")
-parser.add_argument("--figure", default=None, help="also copy final.png to this path")
-args, _ = parser.parse_known_args()
+args = demo_arguments(__doc__, "out/bilayer_partial_clamp", "the seed's plate, h = 0.25 (long)")
 comm = MPI.COMM_WORLD
 
 # %%
@@ -76,18 +71,10 @@ alpha = float(problem.model.Z)
 area = p["W"] * p["L"]
 fit = summary["cylinder_fit"]
 curv = summary["principal_curvatures"]
-print0(
-    comm,
-    f"E_h = {summary['energy']:.4f} (cylinder: ½α²|ω| = {0.5 * alpha**2 * area:.4f}), "
-    f"D_h = {summary['isometry_defect']:.3e}, steps = {summary['steps']}, "
-    f"converged = {summary['converged']}",
-)
+report_run(comm, summary, f"cylinder: ½α²|ω| = {0.5 * alpha**2 * area:.4f}")
 print0(
     comm,
     f"principal curvatures: mean κ1 = {curv['kappa1_mean']:.3f}, mean κ2 = "
-    f"{curv['kappa2_mean']:.3f}; fitted radius {fit['radius']:.4f}, axis "
-    f"({', '.join(f'{c:+.3f}' for c in fit['axis'])}), rms distance {fit['rms_residual']:.2e}",
+    f"{curv['kappa2_mean']:.3f}; {describe_cylinder(fit)}",
 )
-if args.figure and comm.rank == 0:
-    Path(args.figure).parent.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(Path(args.out) / "final.png", args.figure)
+copy_figure(comm, args.out, args.figure)
