@@ -1,7 +1,7 @@
 """Cost of the discrete H² gradient flow on the Bonito–Nochetto–Ntogkas vertical-load plate.
 
 The optimised flow (the library's default: constant block assembled once, only b_n each
-step, one LU factorisation reused as a GMRES preconditioner over many steps) runs first; with
+step, one LU factorisation reused as an FGMRES preconditioner over many steps) runs first; with
 ``--compare-naive`` the published algorithm then runs in the same process on the same problem:
 every step reassembles the whole matrix and factorises it from scratch (symbolic analysis
 included). Both use τ = h and the stopping rule (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < 1e-6.
@@ -159,6 +159,13 @@ def main(argv: list[str] | None = None) -> dict:
         help="run the naive flow for only this many steps (its per-step cost; no step count)",
     )
     parser.add_argument("--max-steps", type=int, default=None, help="step budget of both runs")
+    parser.add_argument(
+        "--repeat",
+        type=int,
+        default=1,
+        help="run the optimised flow this many times and keep the run of median wall time "
+        "(a 2-core machine's timings vary by a few per cent from run to run)",
+    )
     parser.add_argument("--json", type=Path, default=None, help="write the record here")
     parser.add_argument(
         "--progress", type=int, default=10, help="print every this many steps (0: quiet)"
@@ -168,8 +175,15 @@ def main(argv: list[str] | None = None) -> dict:
     if args.cells < 2:
         parser.error("--cells must be >= 2")
 
+    if args.repeat < 1:
+        parser.error("--repeat must be >= 1")
+
     print0(comm, f"BNN vertical load, {args.cells}² Q2 on {comm.size} rank(s): optimised flow")
-    optimised = measure(comm, args.cells, False, args.max_steps, args.progress)
+    runs = [measure(comm, args.cells, False, args.max_steps, args.progress)]
+    for _ in range(args.repeat - 1):
+        runs.append(measure(comm, args.cells, False, args.max_steps, 0))
+    optimised = sorted(runs, key=lambda run: run["wall_s"])[(len(runs) - 1) // 2]
+    optimised["repeats_wall_s"] = [run["wall_s"] for run in runs]
     memory = peak_memory_mb(comm)  # before the naive run, so it is the optimised flow's
     record = {
         "problem": "BNN vertical load (M3AS 2021, Table 1)",
