@@ -44,10 +44,13 @@ def cellwise_numbering(space: dolfinx.fem.FunctionSpace) -> PETSc.IS | None:
     owned = imap.size_local * bs
     if per_cell * cells.size_global != imap.size_global * bs:
         return None  # some unknown is shared between cells
-    # each owned cell holds only owned unknowns, and all of them: the rows this rank owns
-    local_ok = dofs.size == owned and (dofs.size == 0 or int(dofs.max()) < owned)
     original = np.asarray(mesh.topology.original_cell_index[: cells.size_local], dtype=np.int64)
-    local_ok = local_ok and len(original) == cells.size_local
+    # each owned cell holds only owned unknowns, and all of them: the rows this rank owns
+    local_ok = (
+        dofs.size == owned
+        and (dofs.size == 0 or int(dofs.max()) < owned)
+        and len(original) == cells.size_local
+    )
     largest = comm.allreduce(int(original.max(initial=-1)), op=MPI.MAX)
     if not comm.allreduce(local_ok, op=MPI.LAND) or largest != cells.size_global - 1:
         return None  # no usable original cell indices (a mesh built in an unusual way)

@@ -220,7 +220,6 @@ class LaggedStepSolver:
             merged.get("pc_factor_mat_solver_type"),
         ) == ("lu", "mumps")
         self.numbering = numbering if permuted else None
-        self._context: PermutedFactors | None = None
         if self.numbering is None:
             self.P = K.duplicate(copy=False)
             self.ksp = make_ksp(comm, K, merged, prefix, defaults={})
@@ -238,10 +237,9 @@ class LaggedStepSolver:
                 f"{self.ksp.getOptionsPrefix()}factor_",
                 defaults={},
             )
-            self._context = PermutedFactors(self.factor_ksp, K, self.numbering)
             pc = self.ksp.getPC()
             pc.setType(PETSc.PC.Type.PYTHON)
-            pc.setPythonContext(self._context)
+            pc.setPythonContext(PermutedFactors(self.factor_ksp, K, self.numbering))
         # Start from the caller's x, the previous step's (δy, λ): λ changes little from step
         # to step, so the initial residual is far below ‖b‖ and the solution's absolute error,
         # which the stopping test ties to ‖b‖, becomes small next to δy even as δy → 0.
@@ -286,7 +284,7 @@ class LaggedStepSolver:
         return SolveStats(factorised, total, factor_s, solve_s)
 
     def destroy(self) -> None:
-        if self._context is not None:
+        if self.numbering is not None:
             # PCReset frees MUMPS's factors now: without it the 2-rank factors outlived the
             # solver (about 300 MB per 32² flow stayed allocated)
             self.factor_ksp.getPC().reset()
