@@ -1,17 +1,25 @@
-"""Command line: ``dgplate run PROBLEM.toml [--out DIR] [--set key=value ...]``.
+"""Command line: ``dgplate run PROBLEM.toml [--out DIR] [--force] [--resume] [--set k=v ...]``.
 
-Exit codes: 0 success, 1 the solve did not converge (outputs are written), 2 bad input (a
-one-line message on stderr, nothing written).
+Exit codes: 0 success; 1 the solve did not converge, or failed (outputs are written, with the
+reason); 2 bad input (a one-line message on stderr, nothing written); 130 and 143 the run was
+interrupted by SIGINT or SIGTERM (outputs and a checkpoint are written; ``--resume`` goes on).
+Under MPI an error on some ranks ends all of them within seconds (:func:`end_together`).
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+import time
+import traceback
 
 from mpi4py import MPI
 
+from dgplate import interrupt
 from dgplate.errors import InputError, UnsupportedVersionError
+
+AGREE_SECONDS = 10.0
+"""How long ranks that failed wait for the others before aborting the whole job."""
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -22,6 +30,16 @@ def _parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="solve a problem file and write its outputs")
     run.add_argument("problem", help="a TOML problem file (see `dgplate schema`)")
     run.add_argument("--out", help="output directory (default: output.dir or out/<name>)")
+    run.add_argument(
+        "--force",
+        action="store_true",
+        help="write into a non-empty folder that dgplate did not write (its files are kept)",
+    )
+    run.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue from the checkpoint in the output folder (same problem, any ranks)",
+    )
     run.add_argument(
         "--set",
         dest="overrides",
@@ -42,6 +60,7 @@ class _ArgumentError(Exception):
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit code (the same on every rank)."""
     parser = _parser()
     parser.exit = _exit  # type: ignore[method-assign]
     comm = MPI.COMM_WORLD
@@ -52,18 +71,41 @@ def main(argv: list[str] | None = None) -> int:
         if message and comm.rank == 0:
             sys.stderr.write(message)
         return code
+    # a separate communicator for the error agreement: it can never match a collective of
+    # the run that some rank is still waiting in
+    errors = comm.Dup() if comm.size > 1 else comm
     try:
-        if args.command == "schema":
-            return _schema(args.model)
-        from dgplate.problem import load_problem
-        from dgplate.runner import run_problem
-
-        problem = load_problem(args.problem, args.overrides)
-        summary = run_problem(problem, args.out, comm)
+        return _command(args, comm)
     except (InputError, UnsupportedVersionError) as err:
+        return end_together(errors, 2, f"dgplate: error: {err}")
+    except KeyboardInterrupt:
+        return end_together(errors, 130, "dgplate: interrupted (SIGINT)")
+    except Exception as err:
+        detail = "".join(traceback.format_exception(err)).rstrip()
+        return end_together(errors, 1, f"{detail}\ndgplate: error: {type(err).__name__}: {err}")
+    finally:
+        if errors is not comm:
+            errors.Free()
+
+
+def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
+    if args.command == "schema":
+        return _schema(args.model)
+    from dgplate.problem import load_problem
+    from dgplate.runner import run_problem
+
+    problem = load_problem(args.problem, args.overrides)
+    with interrupt.StopOnSignal():
+        summary = run_problem(problem, args.out, comm, force=args.force, resume=args.resume)
+    if summary.get("interrupted"):
         if comm.rank == 0:
-            print(f"dgplate: error: {err}", file=sys.stderr, flush=True)
-        return 2
+            print(
+                f"dgplate: {summary['reason']}: outputs and a checkpoint are in the output "
+                "folder; run again with --resume to continue",
+                file=sys.stderr,
+                flush=True,
+            )
+        return interrupt.exit_code(summary["interrupted"])
     if not summary["converged"]:
         if comm.rank == 0:
             print(
@@ -73,6 +115,28 @@ def main(argv: list[str] | None = None) -> int:
             )
         return 1
     return 0
+
+
+def end_together(comm: MPI.Comm, code: int, message: str) -> int:
+    """End a failed command on every rank with ``code``, printing ``message`` once.
+
+    When every rank failed (bad input is detected on all of them), they meet in a
+    non-blocking barrier within ``AGREE_SECONDS``, rank 0 prints and all return ``code``.
+    When some rank did not fail, it waits in a collective of the run that will never
+    complete: the failed ranks then print and abort the whole job with ``code``, instead of
+    leaving it to hang until a cluster's time limit.
+    """
+    if comm.size > 1:
+        request = comm.Ibarrier()
+        deadline = time.monotonic() + AGREE_SECONDS
+        while not request.Test():
+            if time.monotonic() > deadline:
+                print(f"{message} (rank {comm.rank})", file=sys.stderr, flush=True)
+                comm.Abort(code)
+            time.sleep(0.01)
+    if comm.rank == 0:
+        print(message, file=sys.stderr, flush=True)
+    return code
 
 
 def _exit(status: int = 0, message: str | None = None):

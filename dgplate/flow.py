@@ -32,7 +32,7 @@ import numpy as np
 import ufl
 from petsc4py import PETSc
 
-from dgplate import compat, ordering, solvers, sparsity
+from dgplate import compat, interrupt, ordering, solvers, sparsity
 from dgplate.constraint import (
     EdgeConstraint,
     IsometryDefect,
@@ -129,6 +129,7 @@ class FlowResult:
     defect: float
     history: list[StepInfo]
     energy_increases: list[int]  # steps at which the energy went up
+    interrupted: int = 0  # the signal (SIGINT, SIGTERM) that stopped the run; 0: none
 
 
 class Observer(Protocol):
@@ -357,6 +358,20 @@ class GradientFlow:
         """
         self._last_energy = self.evaluate_energy()
 
+    def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function]:
+        """The functions a checkpoint must hold to continue the flow exactly: the state and
+        the last step's solution (the next step solve's initial guess)."""
+        return {"y": self.y, "step_solution": self.solution}
+
+    def checkpoint_state(self) -> dict[str, float | int]:
+        """The counters a checkpoint must hold (with :meth:`checkpoint_fields`)."""
+        return {"step": self.step_count, "time": self.time, "energy": self._last_energy}
+
+    def restore_state(self, state: dict) -> None:
+        """Continue from a checkpoint's counters (after its fields were restored)."""
+        self.step_count, self.time = int(state["step"]), float(state["time"])
+        self._last_energy = float(state["energy"])
+
     def undo(self) -> None:
         """Take back the last step (used when it produced a non-finite state)."""
         self.y.x.array[:] -= self._last_increment
@@ -372,6 +387,7 @@ class GradientFlow:
             False,
             f"step budget of {budget} steps spent before (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < {self.settings.tol:g}",
         )
+        signum = 0
         for _ in range(budget):
             try:
                 info = self.step()
@@ -393,6 +409,10 @@ class GradientFlow:
                     f"(E_h[yⁿ⁻¹] − E_h[yⁿ])/τ = {info.rate:.3e} < {self.settings.tol:g}",
                 )
                 break
+            signum = interrupt.requested(self.comm)  # collective: every rank stops together
+            if signum:
+                reason = interrupt.reason(signum)
+                break
         last = history[-1] if history else None
         result = FlowResult(
             converged=converged,
@@ -402,6 +422,7 @@ class GradientFlow:
             defect=last.defect if last else self.defect(),
             history=history,
             energy_increases=increases,
+            interrupted=signum,
         )
         for obs in self.observers:
             obs.finish(self, result)

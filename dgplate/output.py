@@ -1,9 +1,11 @@
-"""Run outputs: staged output directory, progress, history.csv and summary.json.
+"""Run outputs: the output folder, progress, history.csv and summary.json.
 
-Files are written into a staging directory next to the target and moved into place at the end,
-so an output directory is never half-written: bad input creates nothing, and a failed solve
-still leaves a complete record of what it computed (with ``converged = false``). File writes
-happen on rank 0; everything collective runs on all ranks.
+Results are written into a staging folder inside the output folder and moved into place at
+the end, so an output folder is never half-written: bad input creates nothing, and a failed,
+stalled or interrupted solve still leaves a complete record of what it computed (with
+``converged = false``). A folder is reused only if dgplate wrote it (its marker file), and
+files dgplate did not write are never deleted. File writes happen on rank 0; every decision is
+taken on rank 0 and broadcast, so that all ranks raise the same error or none.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import os
 import shutil
 import sys
 import tempfile
+from collections.abc import Callable
 from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any
@@ -22,6 +25,7 @@ from mpi4py import MPI
 
 import numpy as np
 
+from dgplate.errors import InputError
 from dgplate.flow import FlowResult, GradientFlow, StepInfo
 
 
@@ -31,33 +35,140 @@ def print0(comm: MPI.Comm, *args, **kwargs) -> None:
         print(*args, **kwargs, flush=True)
 
 
-class OutputDir:
-    """A staging directory that becomes ``target`` on ``commit()``."""
+MARKER = ".dgplate-output"
+"""The file that marks a folder as written by dgplate: it may be replaced by a later run."""
+CHECKPOINT = "checkpoint"
+_STAGING = ".staging-"
 
-    def __init__(self, comm: MPI.Comm, target: Path):
-        self.comm, self.target = comm, Path(target).resolve()
+
+def _decide(comm: MPI.Comm, check: Callable[[], str | None]) -> None:
+    """Run ``check`` on rank 0 and raise its message as an ``InputError`` on every rank.
+
+    File-system checks then give the same answer on every rank (no rank waits in a collective
+    for one that raised), whatever each rank's view of a shared file system.
+    """
+    message = None
+    if comm.rank == 0:
+        try:
+            message = check()
+        except OSError as err:
+            message = f"output directory: {err.strerror or err}: {err.filename}"
+    message = comm.bcast(message, root=0)
+    if message:
+        raise InputError(message)
+
+
+def is_dgplate_output(path: Path) -> bool:
+    """True for a folder that a dgplate run wrote (it holds the marker file)."""
+    return (path / MARKER).is_file()
+
+
+def target_problem(target: Path, force: bool = False, resume: bool = False) -> str | None:
+    """Why ``target`` cannot receive a run's outputs (None when it can). Reads, never writes.
+
+    A missing or empty folder, or a previous dgplate output, may be used; any other folder
+    holds a user's files and is refused unless ``force`` (dgplate then adds its files and
+    deletes none of the others); a file is always refused. ``resume`` needs a checkpoint.
+    """
+    if target.exists() and not target.is_dir():
+        return f"--out {target} is a file, not a directory"
+    if resume:
+        if not is_dgplate_output(target):
+            return f"--resume: {target} is not a dgplate output directory"
+        if not (target / CHECKPOINT / "state.npz").is_file():
+            return f"--resume: {target} holds no checkpoint (set flow.checkpoint_every)"
+        return None
+    if target.is_dir() and any(target.iterdir()) and not is_dgplate_output(target) and not force:
+        return (
+            f"--out {target} is a non-empty folder that dgplate did not write; "
+            "choose another or pass --force (dgplate then adds its files and deletes none)"
+        )
+    parent = target
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        return f"--out {target}: {parent} is a file, not a directory"
+    if not os.access(parent, os.W_OK | os.X_OK):
+        return f"--out {target}: no permission to write in {parent}"
+    return None
+
+
+class OutputDir:
+    """An output folder whose results appear together, at ``commit()``.
+
+    Collective. ``check`` (done first, on every rank, before anything is written) refuses a
+    file, a folder of a user's files (unless ``force``) and, with ``resume``, a folder without
+    a checkpoint; the constructor then creates the folder with dgplate's marker and a staging
+    folder inside it, where the results are written. ``commit()`` moves them in (summary.json
+    last, so that a complete summary means a complete output) and removes what an earlier
+    dgplate run wrote there and this one did not; files dgplate did not write are never
+    deleted. Checkpoints are written straight into ``checkpoint/``, where a killed run leaves
+    them for ``--resume``.
+    """
+
+    def __init__(
+        self, comm: MPI.Comm, target: Path, force: bool = False, resume: bool = False
+    ) -> None:
+        self.comm, self.target = comm, Path(target).absolute()
+        self.check(comm, self.target, force, resume)
         staging = None
         if comm.rank == 0:
-            self.target.parent.mkdir(parents=True, exist_ok=True)
-            staging = tempfile.mkdtemp(
-                prefix=f".{self.target.name}.partial-", dir=self.target.parent
-            )
+            self.target.mkdir(parents=True, exist_ok=True)
+            if is_dgplate_output(self.target):
+                for stale in self.target.glob(f"{_STAGING}*"):  # left by a killed run of ours
+                    shutil.rmtree(stale, ignore_errors=True)
+            else:
+                self._write_marker([])
+            staging = tempfile.mkdtemp(prefix=_STAGING, dir=self.target)
             os.chmod(staging, 0o755)  # mkdtemp makes it private; outputs are for everyone
+            (self.target / CHECKPOINT).mkdir(exist_ok=True)
         self.path = Path(comm.bcast(staging, root=0))
+        self.checkpoint_dir = self.target / CHECKPOINT
+
+    @staticmethod
+    def check(comm: MPI.Comm, target: Path, force: bool = False, resume: bool = False) -> None:
+        """Raise ``InputError`` (on every rank) if ``target`` may not receive outputs."""
+        _decide(comm, lambda: target_problem(Path(target).absolute(), force, resume))
+
+    def _write_marker(self, files: list[str]) -> None:
+        record = {"written_by": "dgplate", "files": sorted(files)}
+        tmp = self.target / f"{MARKER}.tmp"
+        tmp.write_text(json.dumps(record, indent=1) + "\n")
+        os.replace(tmp, self.target / MARKER)
+
+    def _previous_files(self) -> list[str]:
+        try:
+            return list(json.loads((self.target / MARKER).read_text()).get("files", []))
+        except (OSError, ValueError, AttributeError):
+            return []
 
     def commit(self) -> Path:
+        """Move the staged results into the folder (collective); returns the folder."""
         self.comm.barrier()
         if self.comm.rank == 0:
-            if self.target.exists():
-                shutil.rmtree(self.target)
-            os.replace(self.path, self.target)
+            new = sorted(p.name for p in self.path.iterdir())
+            for name in sorted(set(self._previous_files()) - set(new) - {CHECKPOINT}):
+                _remove(self.target / name)  # an earlier run's output that this one replaces
+            for name in sorted(new, key=lambda n: n == "summary.json"):
+                _remove(self.target / name)
+                os.replace(self.path / name, self.target / name)
+            self._write_marker([*new, CHECKPOINT])
+            self.path.rmdir()
         self.comm.barrier()
         return self.target
 
     def discard(self) -> None:
+        """Remove the staged results (an aborted run); the folder keeps its checkpoints."""
         self.comm.barrier()
         if self.comm.rank == 0:
             shutil.rmtree(self.path, ignore_errors=True)
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
+    elif path.exists() or path.is_symlink():
+        path.unlink()
 
 
 def write_json(comm: MPI.Comm, path: Path, data: dict[str, Any]) -> None:

@@ -88,6 +88,10 @@ class FlowSpec:
         False,
         "also constrain the metric on free boundary facets (edge length and normal stretch): keeps free edges of a bilayer from curving in two directions",
     )
+    checkpoint_every: int = option(
+        25,
+        "write a checkpoint (for --resume) every n steps, and always at the end; 0: only at the end",
+    )
 
     def __post_init__(self) -> None:
         if self.projection_steps < 0:
@@ -101,6 +105,8 @@ class FlowSpec:
             raise InputError(f"flow.tol must be > 0, got {self.tol!r}")
         if self.max_steps < 1:
             raise InputError(f"flow.max_steps must be >= 1, got {self.max_steps!r}")
+        if self.checkpoint_every < 0:
+            raise InputError(f"flow.checkpoint_every must be >= 0, got {self.checkpoint_every!r}")
         if self.multiplier_degree not in (0, 1):
             raise InputError(
                 f"flow.multiplier_degree must be 0 or 1, got {self.multiplier_degree!r}"

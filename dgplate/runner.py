@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -15,12 +16,14 @@ from mpi4py import MPI
 
 import numpy as np
 
-from dgplate import compat
+from dgplate import checkpoint, compat, interrupt
 from dgplate.creases import crease_polylines
+from dgplate.errors import InputError
 from dgplate.flow import FlowResult, FlowSettings, GradientFlow, StepInfo
 from dgplate.meshing import TaggedMesh, load_geo, rectangle
 from dgplate.models.registry import MODELS
 from dgplate.output import (
+    CHECKPOINT,
     OutputDir,
     ProgressPrinter,
     bounding_box,
@@ -54,7 +57,7 @@ class _SeriesWriter:
 
         self.writer = DeformationWriter(path, flow.y, comm=flow.comm)
         self.every = every
-        self.writer.write(0.0)
+        self.writer.write(flow.time)
 
     def step(self, flow: GradientFlow, info: StepInfo) -> None:
         if info.step % self.every == 0:
@@ -66,33 +69,114 @@ class _SeriesWriter:
         self.writer.close()
 
 
+class FlowCheckpoints:
+    """Checkpoints of a flow every ``every`` steps (0: none on the way) and on ``save()``.
+
+    The state holds the problem's fingerprint and the whole history so far (``earlier``, from
+    the checkpoint a run resumed from, and this run's steps), so that a resumed run reports
+    every step.
+    """
+
+    def __init__(
+        self,
+        directory: Path,
+        every: int,
+        fingerprint: str,
+        earlier: list[StepInfo] | None = None,
+        increases: list[int] | None = None,
+    ):
+        self.directory, self.every, self.fingerprint = directory, every, fingerprint
+        self.history: list[StepInfo] = list(earlier or [])
+        self.increases: list[int] = list(increases or [])
+
+    def step(self, flow: GradientFlow, info: StepInfo) -> None:
+        self.history.append(info)
+        if self.every and info.step % self.every == 0:
+            self.save(flow)
+
+    def finish(self, flow: GradientFlow, result: FlowResult) -> None:
+        self.increases += result.energy_increases
+
+    def save(self, flow: GradientFlow, finished: bool = False) -> None:
+        """Write the checkpoint now (collective)."""
+        state = {
+            "fingerprint": self.fingerprint,
+            "flow": flow.checkpoint_state(),
+            "history": [asdict(info) for info in self.history],
+            "energy_increases": self.increases,
+            "finished": finished,
+        }
+        checkpoint.save(self.directory, flow.comm, flow.checkpoint_fields(), state)
+
+
+def _resume_point(problem: Problem, target: Path, comm: MPI.Comm) -> checkpoint.Checkpoint:
+    """The checkpoint to continue from; refuses another problem's or a finished run's."""
+    found = checkpoint.load(target / CHECKPOINT, comm, checkpoint.fingerprint(problem.raw))
+    done = int(found.state["flow"]["step"])
+    if found.state.get("finished"):
+        raise InputError(
+            f"--resume: the run in {target} converged at step {done}; nothing to resume"
+        )
+    if done >= problem.flow.max_steps:
+        raise InputError(
+            f"--resume: the run in {target} spent flow.max_steps = {problem.flow.max_steps} "
+            f"steps already ({done}); raise flow.max_steps to continue it"
+        )
+    return found
+
+
 def run_problem(
     problem: Problem,
     out_dir: str | Path | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
     initial: Callable[[np.ndarray], np.ndarray] | None = None,
+    force: bool = False,
+    resume: bool = False,
 ) -> dict[str, Any]:
     """Solve ``problem`` and write its outputs; returns the summary (also summary.json).
 
-    Everything that can be validated is validated before the output directory is created.
-    A flow that does not converge still writes its outputs, with ``converged = false``.
-    ``initial`` (x ↦ y(x), e.g. an exact fold) starts the flow from a given shape instead of
-    the flat plate.
+    Everything that can be validated is validated before the output directory is created;
+    the output folder is checked before anything is computed (:class:`OutputDir`: ``force``
+    writes into a folder of a user's files, deleting none of them). A flow that does not
+    converge, or is interrupted by SIGINT/SIGTERM, still writes its outputs, with
+    ``converged = false`` and the reason, and a checkpoint; ``resume`` continues from the
+    checkpoint in the output folder, on any number of ranks. ``initial`` (x ↦ y(x), e.g. an
+    exact fold) starts the flow from a given shape instead of the flat plate.
     """
     wall0 = time.perf_counter()
-    tagged = build_mesh(problem.mesh, comm)
-    entry = MODELS[problem.model.name]
     target = Path(out_dir or problem.output.dir or f"out/{problem.name}")
-    if entry.kind == "newton":
-        from dgplate.models.fvk import run_fvk
+    OutputDir.check(comm, target, force, resume)
+    start = _resume_point(problem, target, comm) if resume else None
+    with interrupt.StopOnSignal():
+        tagged = build_mesh(problem.mesh, comm)
+        entry = MODELS[problem.model.name]
+        if entry.kind == "newton":
+            from dgplate.models.fvk import run_fvk
 
-        problem.model.validate(tagged)
-        summary = run_fvk(
-            tagged, problem.model, out_dir=target, comm=comm, progress=bool(problem.output.progress)
-        )
-        summary.setdefault("problem", problem.name)
-        return summary
-    model = entry.build(problem.model, tagged)
+            problem.model.validate(tagged)
+            summary = run_fvk(
+                tagged,
+                problem.model,
+                out_dir=target,
+                comm=comm,
+                progress=bool(problem.output.progress),
+            )
+            summary.setdefault("problem", problem.name)
+            return summary
+        return _run_flow(problem, tagged, target, comm, initial, force, start, wall0)
+
+
+def _run_flow(
+    problem: Problem,
+    tagged: TaggedMesh,
+    target: Path,
+    comm: MPI.Comm,
+    initial: Callable[[np.ndarray], np.ndarray] | None,
+    force: bool,
+    start: checkpoint.Checkpoint | None,
+    wall0: float,
+) -> dict[str, Any]:
+    model = MODELS[problem.model.name].build(problem.model, tagged)
     tau = max_cell_diameter(tagged) if problem.flow.tau == "h" else float(problem.flow.tau)
     settings = FlowSettings(
         tau=tau,
@@ -110,17 +194,40 @@ def run_problem(
     if problem.output.progress:
         observers.append(ProgressPrinter(comm, problem.output.progress))
     flow = GradientFlow(model.faces, model.degree, model.energy_fn, settings, observers, initial)
-    out = OutputDir(comm, target)
+    earlier: list[StepInfo] = []
+    increases: list[int] = []
+    if start is not None:
+        start.restore(flow.checkpoint_fields())
+        flow.restore_state(start.state["flow"])
+        earlier = [StepInfo(**row) for row in start.state["history"]]
+        increases = list(start.state["energy_increases"])
+    out = OutputDir(comm, target, force, resume=start is not None)
+    resumed = f", resumed at step {flow.step_count}" if start is not None else ""
     print0(
         comm,
         f"dgplate: {problem.name}: model {problem.model.name}, {flow.num_dofs} dofs on "
-        f"{comm.size} rank(s), τ = {tau:.4g}, output → {target}",
+        f"{comm.size} rank(s), τ = {tau:.4g}{resumed}, output → {out.target}",
     )
+    checkpoints = FlowCheckpoints(
+        out.checkpoint_dir,
+        problem.flow.checkpoint_every,
+        checkpoint.fingerprint(problem.raw),
+        earlier,
+        increases,
+    )
+    flow.observers.append(checkpoints)
     if problem.output.vtx:
         flow.observers.append(
             _SeriesWriter(flow, out.path / "deformation.bp", problem.output.every)
         )
-    result = flow.run()
+    try:
+        result = flow.run(problem.flow.max_steps - flow.step_count)
+    except BaseException:
+        out.discard()  # the checkpoints stay
+        raise
+    checkpoints.save(flow, finished=result.converged)
+    result.history, result.energy_increases = checkpoints.history, checkpoints.increases
+    result.steps = len(result.history)
     summary = make_summary(problem, flow, result, tagged, wall0)
     if model.extras is not None:
         summary.update(model.extras(flow))
@@ -160,6 +267,7 @@ def make_summary(
         "steps": result.steps,
         "converged": result.converged,
         "reason": result.reason,
+        "interrupted": result.interrupted,
         "energy": result.energy,
         "isometry_defect": result.defect,
         "bbox": bounding_box(flow.y),

@@ -1,0 +1,161 @@
+"""Checkpoints that a run can resume from, on the same or another number of ranks.
+
+A checkpoint is one ``.npz`` file holding, for every saved function, a table with one row per
+cell of the mesh, in the mesh's original (input) cell order, of the values of that cell's
+unknowns; and, as JSON, the driver's counters, its history so far and the fingerprint of the
+problem it solves. The mesh is rebuilt from the problem file, so the original cell index and
+the cell's local unknown name every value independently of the partition: a run checkpointed
+on 1 rank resumes on 2. Unknowns shared between cells (continuous spaces) appear in each of
+their cells' rows, with equal values.
+
+Why not adios4dolfinx: its releases follow DOLFINx minor versions one to one and it needs
+ADIOS2's Python bindings, which neither the PyPI DOLFINx wheel nor Debian 13 provides; the
+per-cell table needs nothing beyond NumPy and is all that resuming a run takes (the mesh is
+not stored: it is a function of the problem file).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+import dolfinx
+import numpy as np
+
+from dgplate.errors import InputError
+
+STATE_FILE = "state.npz"
+
+
+def fingerprint(data: Mapping[str, Any]) -> str:
+    """A hash of the problem's validated input without [output] and the step budget keys.
+
+    Two problems with the same fingerprint compute the same states step by step: a resumed
+    run may change where and how often it writes, or extend its budget, nothing else.
+    """
+    relevant = {k: v for k, v in data.items() if k != "output"}
+    flow = dict(relevant.get("flow", {}))
+    for key in ("max_steps", "checkpoint_every"):
+        flow.pop(key, None)
+    relevant["flow"] = flow
+    text = json.dumps(relevant, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _cell_layout(space: dolfinx.fem.FunctionSpace) -> tuple[np.ndarray, np.ndarray]:
+    """Original indices of the owned cells, and their unknowns' positions in ``x.array``."""
+    mesh = space.mesh
+    owned = mesh.topology.index_map(mesh.topology.dim).size_local
+    bs = space.dofmap.index_map_bs
+    dofs = np.asarray(space.dofmap.list[:owned], dtype=np.int64)
+    rows = (dofs[:, :, None] * bs + np.arange(bs)).reshape(owned, -1)
+    original = np.asarray(mesh.topology.original_cell_index[:owned], dtype=np.int64)
+    return original, rows
+
+
+def gather_cells(function: dolfinx.fem.Function) -> np.ndarray | None:
+    """The per-cell table of ``function`` on rank 0 (None elsewhere). Collective."""
+    space = function.function_space
+    comm = space.mesh.comm
+    original, rows = _cell_layout(space)
+    parts = comm.gather((original, function.x.array[rows]), root=0)
+    if comm.rank != 0:
+        return None
+    cells = sum(len(o) for o, _ in parts)
+    table = np.zeros((cells, rows.shape[1]), dtype=function.x.array.dtype)
+    for index, values in parts:
+        table[index] = values
+    return table
+
+
+def scatter_cells(function: dolfinx.fem.Function, table: np.ndarray, name: str) -> None:
+    """Set ``function`` from a per-cell table (on every rank) and update its ghosts."""
+    original, rows = _cell_layout(function.function_space)
+    if table.shape[1] != rows.shape[1] or (len(original) and original.max() >= len(table)):
+        raise InputError(
+            f"checkpoint field {name!r} does not fit this problem's mesh or space "
+            f"({table.shape} against {rows.shape[1]} unknowns per cell)"
+        )
+    function.x.array[rows] = table[original]
+    function.x.scatter_forward()
+
+
+@dataclass
+class Checkpoint:
+    """What a checkpoint holds: per-cell tables of functions and the driver's JSON state."""
+
+    tables: dict[str, np.ndarray]
+    state: dict[str, Any]
+
+    def restore(self, functions: Mapping[str, dolfinx.fem.Function]) -> None:
+        """Set each named function from its table (collective only in the ghost update)."""
+        for name, function in functions.items():
+            if name not in self.tables:
+                raise InputError(f"the checkpoint holds no field {name!r}")
+            scatter_cells(function, self.tables[name], name)
+
+
+def save(
+    directory: Path,
+    comm: MPI.Comm,
+    functions: Mapping[str, dolfinx.fem.Function],
+    state: Mapping[str, Any],
+) -> None:
+    """Write a checkpoint atomically (a temporary file renamed): collective.
+
+    A run killed while writing keeps its previous checkpoint.
+    """
+    tables = {name: gather_cells(f) for name, f in functions.items()}
+    if comm.rank != 0:
+        return
+    directory.mkdir(parents=True, exist_ok=True)
+    buffer = io.BytesIO()
+    meta = np.frombuffer(json.dumps(dict(state), default=_plain).encode(), dtype=np.uint8)
+    np.savez(buffer, __state__=meta, **{f"field_{k}": v for k, v in tables.items()})
+    tmp = directory / f".{STATE_FILE}.tmp"
+    with open(tmp, "wb") as handle:
+        handle.write(buffer.getvalue())
+        handle.flush()
+        os.fsync(handle.fileno())
+    os.replace(tmp, directory / STATE_FILE)
+
+
+def load(directory: Path, comm: MPI.Comm, expected_fingerprint: str | None = None) -> Checkpoint:
+    """Read the checkpoint (rank 0 reads, every rank gets it); refuse another problem's."""
+    data, message = None, None
+    if comm.rank == 0:
+        try:
+            with np.load(directory / STATE_FILE) as npz:
+                state = json.loads(bytes(npz["__state__"]).decode())
+                tables = {k[6:]: npz[k] for k in npz.files if k.startswith("field_")}
+            data = Checkpoint(tables, state)
+        except (OSError, ValueError, KeyError) as err:
+            message = f"--resume: cannot read the checkpoint in {directory}: {err}"
+    data, message = comm.bcast((data, message), root=0)
+    if message:
+        raise InputError(message)
+    assert data is not None
+    found = data.state.get("fingerprint")
+    if expected_fingerprint is not None and found != expected_fingerprint:
+        raise InputError(
+            f"--resume: the checkpoint in {directory} belongs to another problem "
+            "(the problem file or --set values differ from the run that wrote it; only "
+            "[output], flow.max_steps and flow.checkpoint_every may change)"
+        )
+    return data
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
