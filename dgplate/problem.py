@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from dgplate.errors import InputError
+from dgplate.errors import InputError, read_user_text
 from dgplate.schema import from_dict, option
 
 SECTIONS = ("mesh", "model", "flow", "output")
@@ -184,10 +184,8 @@ def apply_overrides(data: dict, overrides: Sequence[str]) -> dict:
 def load_problem(path: str | Path, overrides: Sequence[str] = ()) -> Problem:
     """Read, override and validate a problem file. Raises ``InputError`` on any bad input."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"problem file not found: {path}")
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(read_user_text(path, "problem file"))
     except tomllib.TOMLDecodeError as err:
         raise InputError(f"{path}: invalid TOML: {err}") from None
     return problem_from_dict(data, path.stem, overrides)
