@@ -16,9 +16,10 @@ from pathlib import Path
 from typing import Any
 
 from dgplate.errors import InputError, read_user_text
-from dgplate.schema import from_dict, option
+from dgplate.schema import from_dict, option, require_finite
 
 SECTIONS = ("mesh", "model", "flow", "output")
+_OPTION = re.compile(r"^[A-Za-z0-9_]+$")
 
 
 @dataclass
@@ -109,6 +110,16 @@ class FlowSpec:
             raise InputError(
                 f"flow.l2_metric must be true, false or 'auto', got {self.l2_metric!r}"
             )
+        for key, value in self.solver.items():
+            if not _OPTION.match(key):
+                raise InputError(
+                    f"flow.solver.{key} is not a PETSc option name (letters, digits and _, "
+                    "without the leading '-', e.g. ksp_type)"
+                )
+            if not isinstance(value, str | int | float):
+                raise InputError(
+                    f"flow.solver.{key} must be a string, a number or a boolean, got {value!r}"
+                )
 
     @property
     def l2(self) -> bool | None:
@@ -201,6 +212,7 @@ def problem_from_dict(data: dict, name: str, overrides: Sequence[str] = ()) -> P
     for section in data:
         if section not in SECTIONS:
             raise InputError(f"unknown section [{section}] (known: {', '.join(SECTIONS)})")
+        require_finite(data[section], section)
     mesh = from_dict(MeshSpec, data.get("mesh"), "mesh")
     model = model_spec(data.get("model"))
     flow = from_dict(FlowSpec, data.get("flow"), "flow")

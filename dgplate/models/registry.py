@@ -28,9 +28,11 @@ MODELS: dict[str, ModelEntry] = {
 
 def model_spec(data: Any):
     """Validate the [model] table with the spec of the model it names."""
+    if data is not None and not isinstance(data, dict):
+        raise InputError(f"[model] must be a table, got {data!r}")
     data = dict(data or {})
     name = data.get("name", "kirchhoff")
-    if name not in MODELS:
+    if not isinstance(name, str) or name not in MODELS:
         raise InputError(f"model.name must be one of {', '.join(sorted(MODELS))}, got {name!r}")
     spec = from_dict(MODELS[name].spec, data, "model")
     if hasattr(spec, "validate"):
