@@ -206,7 +206,7 @@ def problem_from_dict(data: dict, name: str, overrides: Sequence[str] = ()) -> P
     """Validate a problem given as a dict (the Python API's entry point)."""
     import copy
 
-    from dgplate.models.registry import model_spec
+    from dgplate.models.registry import MODELS, model_spec
 
     data = apply_overrides(copy.deepcopy(data), overrides)
     for section in data:
@@ -215,6 +215,7 @@ def problem_from_dict(data: dict, name: str, overrides: Sequence[str] = ()) -> P
         require_finite(data[section], section)
     mesh = from_dict(MeshSpec, data.get("mesh"), "mesh")
     model = model_spec(data.get("model"))
+    MODELS[model.name].reject_ignored(data, model.name)
     flow = from_dict(FlowSpec, data.get("flow"), "flow")
     output = from_dict(OutputSpec, data.get("output"), "output")
     if flow.l2 is False and not getattr(model, "clamped", True):
