@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 
 from mpi4py import MPI
 
@@ -63,6 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     except (InputError, UnsupportedVersionError) as err:
         if comm.rank == 0:
             print(f"dgplate: error: {err}", file=sys.stderr, flush=True)
+        _wait_for_rank0(comm)
         return 2
     if not summary["converged"]:
         if comm.rank == 0:
@@ -73,6 +75,21 @@ def main(argv: list[str] | None = None) -> int:
             )
         return 1
     return 0
+
+
+def _wait_for_rank0(comm: MPI.Comm, timeout: float = 10.0) -> None:
+    """Let rank 0 print its message before any rank exits with an error code.
+
+    Under ``python -m mpi4py`` the first rank that exits non-zero aborts the whole job, which
+    can kill rank 0 before it has printed. Input errors are raised on every rank, so a barrier
+    would do; a non-blocking one with a deadline also ends if some rank never gets here.
+    """
+    if comm.size == 1:
+        return
+    request = comm.Ibarrier()
+    deadline = time.monotonic() + timeout
+    while not request.Test() and time.monotonic() < deadline:
+        time.sleep(0.005)
 
 
 def _exit(status: int = 0, message: str | None = None):
