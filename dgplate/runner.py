@@ -15,7 +15,7 @@ from mpi4py import MPI
 
 import numpy as np
 
-from dgplate import compat
+from dgplate import advice, compat
 from dgplate.creases import crease_polylines
 from dgplate.flow import FlowResult, FlowSettings, GradientFlow, StepInfo
 from dgplate.meshing import TaggedMesh, load_geo, rectangle
@@ -110,6 +110,7 @@ def run_problem(
     if problem.output.progress:
         observers.append(ProgressPrinter(comm, problem.output.progress))
     flow = GradientFlow(model.faces, model.degree, model.energy_fn, settings, observers, initial)
+    advice.warn(comm, advice.before_flow(problem, tagged, initial))
     out = OutputDir(comm, target)
     print0(
         comm,
@@ -122,6 +123,7 @@ def run_problem(
         )
     result = flow.run()
     summary = make_summary(problem, flow, result, tagged, wall0)
+    advice.warn(comm, advice.after_flow(flow, summary))
     if model.extras is not None:
         summary.update(model.extras(flow))
     write_history(comm, out.path / "history.csv", result.history)
