@@ -120,22 +120,24 @@ def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
 def end_together(comm: MPI.Comm, code: int, message: str) -> int:
     """End a failed command on every rank with ``code``, printing ``message`` once.
 
-    When every rank failed (bad input is detected on all of them), they meet in a
-    non-blocking barrier within ``AGREE_SECONDS``, rank 0 prints and all return ``code``.
-    When some rank did not fail, it waits in a collective of the run that will never
-    complete: the failed ranks then print and abort the whole job with ``code``, instead of
-    leaving it to hang until a cluster's time limit.
+    Rank 0 prints first: under ``python -m mpi4py`` the first rank that exits non-zero
+    aborts the job. When every rank failed (bad input is detected on all of them), they then
+    meet in a non-blocking barrier within ``AGREE_SECONDS`` and all return ``code``. When some
+    rank did not fail, it waits in a collective of the run that will never complete: the
+    failed ranks then abort the whole job with ``code`` (printing the message if rank 0 could
+    not), instead of leaving it to hang until a cluster's time limit.
     """
+    if comm.rank == 0:
+        print(message, file=sys.stderr, flush=True)
     if comm.size > 1:
         request = comm.Ibarrier()
         deadline = time.monotonic() + AGREE_SECONDS
         while not request.Test():
             if time.monotonic() > deadline:
-                print(f"{message} (rank {comm.rank})", file=sys.stderr, flush=True)
+                if comm.rank != 0:
+                    print(f"{message} (rank {comm.rank})", file=sys.stderr, flush=True)
                 comm.Abort(code)
             time.sleep(0.01)
-    if comm.rank == 0:
-        print(message, file=sys.stderr, flush=True)
     return code
 
 

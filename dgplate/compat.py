@@ -98,5 +98,11 @@ def collapse(subspace):
     return space, np.asarray(dofs, dtype=np.int32).reshape(-1)
 
 
+def geometry_dofmap(mesh):
+    """The cell → geometry node array: 0.11 deprecates ``geometry.dofmap`` for ``dofmaps[0]``."""
+    geometry = mesh.geometry
+    return geometry.dofmaps[0] if hasattr(geometry, "dofmaps") else geometry.dofmap
+
+
 def version_string() -> str:
     return dolfinx.__version__

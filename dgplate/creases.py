@@ -30,6 +30,7 @@ import dolfinx.fem
 import numpy as np
 import ufl
 
+from dgplate import compat
 from dgplate.dg import CREASE, FaceSets
 
 
@@ -100,8 +101,7 @@ class CreaseMeasure:
         # Reference geometry of each crease facet: its vertices (in the orientation seen from
         # the first cell), length, and unit normal pointing from the first cell to the second.
         x = mesh.geometry.x[:, :2]
-        geometry = mesh.geometry  # DOLFINx 0.11 deprecates geometry.dofmap for dofmaps[0]
-        dofmap = geometry.dofmaps[0] if hasattr(geometry, "dofmaps") else geometry.dofmap
+        dofmap = compat.geometry_dofmap(mesh)
         ends = np.zeros((num, 2, 2))
         normals = np.zeros((num, 2))
         for k in range(num):

@@ -20,7 +20,7 @@ import dolfinx.mesh
 import numpy as np
 
 from dgplate import compat
-from dgplate.errors import InputError
+from dgplate.errors import InputError, read_user_text
 
 MESH_DIR = Path(__file__).resolve().parent.parent / "meshes"
 
@@ -187,7 +187,7 @@ def resolve_geo(name: str | Path) -> Path:
 
 def geo_parameters(path: Path) -> dict[str, str]:
     """The ``DefineConstant`` parameters of a .geo file, name -> default value as written."""
-    text = path.read_text()
+    text = read_user_text(path, "mesh file")
     params: dict[str, str] = {}
     for block in re.findall(r"DefineConstant\s*\[(.*?)\]\s*;", text, flags=re.S):
         for match in re.finditer(r"(\w+)\s*=\s*\{\s*([^,}]+)", block):

@@ -15,10 +15,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from dgplate.errors import InputError
-from dgplate.schema import from_dict, option
+from dgplate.errors import InputError, read_user_text
+from dgplate.schema import from_dict, option, require_finite
 
 SECTIONS = ("mesh", "model", "flow", "output")
+_OPTION = re.compile(r"^[A-Za-z0-9_]+$")
 
 
 @dataclass
@@ -115,6 +116,16 @@ class FlowSpec:
             raise InputError(
                 f"flow.l2_metric must be true, false or 'auto', got {self.l2_metric!r}"
             )
+        for key, value in self.solver.items():
+            if not _OPTION.match(key):
+                raise InputError(
+                    f"flow.solver.{key} is not a PETSc option name (letters, digits and _, "
+                    "without the leading '-', e.g. ksp_type)"
+                )
+            if not isinstance(value, str | int | float):
+                raise InputError(
+                    f"flow.solver.{key} must be a string, a number or a boolean, got {value!r}"
+                )
 
     @property
     def l2(self) -> bool | None:
@@ -190,10 +201,8 @@ def apply_overrides(data: dict, overrides: Sequence[str]) -> dict:
 def load_problem(path: str | Path, overrides: Sequence[str] = ()) -> Problem:
     """Read, override and validate a problem file. Raises ``InputError`` on any bad input."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"problem file not found: {path}")
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(read_user_text(path, "problem file"))
     except tomllib.TOMLDecodeError as err:
         raise InputError(f"{path}: invalid TOML: {err}") from None
     return problem_from_dict(data, path.stem, overrides)
@@ -203,14 +212,16 @@ def problem_from_dict(data: dict, name: str, overrides: Sequence[str] = ()) -> P
     """Validate a problem given as a dict (the Python API's entry point)."""
     import copy
 
-    from dgplate.models.registry import model_spec
+    from dgplate.models.registry import MODELS, model_spec
 
     data = apply_overrides(copy.deepcopy(data), overrides)
     for section in data:
         if section not in SECTIONS:
             raise InputError(f"unknown section [{section}] (known: {', '.join(SECTIONS)})")
+        require_finite(data[section], section)
     mesh = from_dict(MeshSpec, data.get("mesh"), "mesh")
     model = model_spec(data.get("model"))
+    MODELS[model.name].reject_ignored(data, model.name)
     flow = from_dict(FlowSpec, data.get("flow"), "flow")
     output = from_dict(OutputSpec, data.get("output"), "output")
     if flow.l2 is False and not getattr(model, "clamped", True):

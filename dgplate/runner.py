@@ -16,7 +16,7 @@ from mpi4py import MPI
 
 import numpy as np
 
-from dgplate import checkpoint, compat, interrupt
+from dgplate import advice, checkpoint, compat, interrupt
 from dgplate.creases import crease_polylines
 from dgplate.errors import InputError
 from dgplate.flow import FlowResult, FlowSettings, GradientFlow, StepInfo
@@ -194,6 +194,8 @@ def _run_flow(
     if problem.output.progress:
         observers.append(ProgressPrinter(comm, problem.output.progress))
     flow = GradientFlow(model.faces, model.degree, model.energy_fn, settings, observers, initial)
+    if start is None:
+        advice.warn(comm, advice.before_flow(problem, tagged, initial))
     earlier: list[StepInfo] = []
     increases: list[int] = []
     if start is not None:
@@ -229,6 +231,7 @@ def _run_flow(
     result.history, result.energy_increases = checkpoints.history, checkpoints.increases
     result.steps = len(result.history)
     summary = make_summary(problem, flow, result, tagged, wall0)
+    advice.warn(comm, advice.after_flow(flow, summary))
     if model.extras is not None:
         summary.update(model.extras(flow))
     write_history(comm, out.path / "history.csv", result.history)

@@ -9,6 +9,7 @@ string. :func:`from_dict` rejects unknown keys and wrong types with a one-line
 from __future__ import annotations
 
 import dataclasses
+import math
 import types
 import typing
 from typing import Any, TypeVar
@@ -108,3 +109,27 @@ def _toml(value: Any) -> str:
     if value is None:
         return '"auto"'
     return repr(value)
+
+
+#: Integers in problem files end up in C ints (mesh sizes, PETSc options): larger ones are
+#: refused here rather than as an OverflowError deep inside DOLFINx or PETSc.
+INT_MAX = 2**31 - 1
+
+
+def require_finite(value: Any, key: str) -> None:
+    """Every number in ``value`` (nested tables and lists) must be finite and fit a C int.
+
+    One check for the whole input instead of one per key: NaN and ±inf (TOML's ``nan``,
+    ``inf``) would otherwise reach the forms. The message names the dotted key, e.g.
+    ``model.load[2]``.
+    """
+    if isinstance(value, dict):
+        for name, entry in value.items():
+            require_finite(entry, f"{key}.{name}")
+    elif isinstance(value, list | tuple):
+        for i, entry in enumerate(value):
+            require_finite(entry, f"{key}[{i}]")
+    elif isinstance(value, float) and not math.isfinite(value):
+        raise InputError(f"{key} must be a finite number, got {value!r}")
+    elif isinstance(value, int) and not isinstance(value, bool) and abs(value) > INT_MAX:
+        raise InputError(f"{key} must be at most {INT_MAX} in magnitude, got {value}")

@@ -65,8 +65,7 @@ def clamped_data(value, mesh, key: str = "model.boundary_data"):
         raise InputError(
             f"{key} must be 'flat' or a table {{g = [..3..], Phi = [[..2..] x3]}}, got {value!r}"
         )
-    x = ufl.SpatialCoordinate(mesh)
-    g = expressions.parse_vector(value["g"], x, f"{key}.g", 3)
+    g = expressions.parse_vector(value["g"], mesh, f"{key}.g", 3)
     if "Phi" not in value:
         return g, ufl.grad(g)
     rows = value["Phi"]
@@ -78,7 +77,7 @@ def clamped_data(value, mesh, key: str = "model.boundary_data"):
         raise InputError(f"{key}.Phi must be a 3×2 matrix [[..], [..], [..]], got {rows!r}")
     Phi = ufl.as_matrix(
         [
-            [expressions.parse(rows[i][j], x, f"{key}.Phi[{i}][{j}]") for j in range(2)]
+            [expressions.parse(rows[i][j], mesh, f"{key}.Phi[{i}][{j}]") for j in range(2)]
             for i in range(3)
         ]
     )

@@ -112,15 +112,13 @@ def _check_symmetric(matrix, key: str) -> None:
 def spontaneous_curvature(value, tagged, key: str = "model.Z"):
     """Z from a problem file: a number α (Z = αI), a 2×2 matrix of numbers or formulas in x, y,
     or {cell group = number or matrix} (piecewise constant)."""
-    mesh = tagged.mesh
-    x = ufl.SpatialCoordinate(mesh)
     if isinstance(value, int | float) and not isinstance(value, bool):
         return float(value) * ufl.Identity(2)
     if isinstance(value, list):
         _check_symmetric(value, key)
         return ufl.as_matrix(
             [
-                [expressions.parse(value[i][j], x, f"{key}[{i}][{j}]") for j in range(2)]
+                [expressions.parse(value[i][j], tagged.mesh, f"{key}[{i}][{j}]") for j in range(2)]
                 for i in range(2)
             ]
         )
@@ -157,13 +155,17 @@ class BilayerSpec(KirchhoffSpec):
         True, "include the face terms of the distributional Hessian in the Z coupling"
     )
 
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if isinstance(self.Z, list):  # formulas are checked now; the shape when it is built
+            expressions.check(self.Z, "model.Z")
+
 
 def build_bilayer(spec: BilayerSpec, tagged) -> FlowModel:
     from dgplate.analysis import curvature_summary
 
     faces = face_sets(tagged, clamped=spec.clamped, crease=spec.crease)
-    x = ufl.SpatialCoordinate(tagged.mesh)
-    load = expressions.parse_vector(spec.load, x, "model.load", 3)
+    load = expressions.parse_vector(spec.load, tagged.mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     Z = spontaneous_curvature(spec.Z, tagged)
     g, Phi = clamped_data(spec.boundary_data, tagged.mesh)

@@ -80,6 +80,11 @@ class KirchhoffSpec:
             raise InputError(
                 f"model.load must be a list of 3 numbers or formulas, got {self.load!r}"
             )
+        expressions.check(self.load, "model.load")
+        if isinstance(self.boundary_data, dict):
+            for name in ("g", "Phi"):
+                if name in self.boundary_data:
+                    expressions.check(self.boundary_data[name], f"model.boundary_data.{name}")
 
     @property
     def penalty_params(self) -> Penalty:
@@ -99,8 +104,7 @@ class FlowModel:
 def build_kirchhoff(spec: KirchhoffSpec, tagged) -> FlowModel:
     """Face sets and the energy of a Kirchhoff problem (validates group names)."""
     faces = face_sets(tagged, clamped=spec.clamped, crease=spec.crease)
-    x = ufl.SpatialCoordinate(tagged.mesh)
-    load = expressions.parse_vector(spec.load, x, "model.load", 3)
+    load = expressions.parse_vector(spec.load, tagged.mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     g, Phi = clamped_data(spec.boundary_data, tagged.mesh)
     penalty = spec.penalty_params

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 from dgplate.errors import InputError
@@ -17,20 +18,52 @@ class ModelEntry:
     spec: type
     build: Any  # (spec, tagged mesh) -> FlowModel
     kind: str = "flow"  # "flow": constrained gradient flow; "newton": SNES load stepping
+    # keys that do nothing for this model ("section" for a whole table, or "section.key"),
+    # with the reason: giving one is an input error rather than a silently ignored setting
+    ignores: Mapping[str, str] = field(default_factory=dict)
 
+    def reject_ignored(self, data: Mapping[str, Any], name: str) -> None:
+        """InputError naming the first key of ``data`` (a problem) that this model ignores."""
+        for path, why in self.ignores.items():
+            section, _, key = path.partition(".")
+            table = data.get(section)
+            if not isinstance(table, dict):
+                continue
+            given = sorted(table) if not key else [key] if key in table else []
+            if given:
+                raise InputError(
+                    f"{section}.{given[0]} has no effect with model.name = {name!r}: {why}; "
+                    "remove it"
+                )
+
+
+_FVK_OUTPUT = "the fvk model always writes fvk.bp (every load step) and final.png (deflection w)"
 
 MODELS: dict[str, ModelEntry] = {
     "kirchhoff": ModelEntry(KirchhoffSpec, build_kirchhoff),
     "bilayer": ModelEntry(BilayerSpec, build_bilayer),
-    "fvk": ModelEntry(FvKParameters, None, kind="newton"),
+    "fvk": ModelEntry(
+        FvKParameters,
+        None,
+        kind="newton",
+        ignores={
+            "flow": "the fvk model is solved by Newton's method over load steps "
+            "(model.load_steps, model.snes), not by the gradient flow",
+            **dict.fromkeys(
+                ("output.vtx", "output.every", "output.png", "output.color_by"), _FVK_OUTPUT
+            ),
+        },
+    ),
 }
 
 
 def model_spec(data: Any):
     """Validate the [model] table with the spec of the model it names."""
+    if data is not None and not isinstance(data, dict):
+        raise InputError(f"[model] must be a table, got {data!r}")
     data = dict(data or {})
     name = data.get("name", "kirchhoff")
-    if name not in MODELS:
+    if not isinstance(name, str) or name not in MODELS:
         raise InputError(f"model.name must be one of {', '.join(sorted(MODELS))}, got {name!r}")
     spec = from_dict(MODELS[name].spec, data, "model")
     if hasattr(spec, "validate"):

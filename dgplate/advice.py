@@ -1,0 +1,242 @@
+"""Warnings for input that is accepted but pointless, and for results that cannot be trusted.
+
+Each function returns the warnings as one-line messages; :func:`warn` prints them on rank 0 as
+``dgplate: warning: <message>`` on stderr. The runner calls :func:`before_flow` once the input
+is fully validated (and h known) and :func:`after_flow` once the flow has stopped; a run goes
+on after a warning (bad input is an ``InputError`` instead, see :mod:`dgplate.problem`).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+import sys
+from collections.abc import Callable, Iterable, Mapping
+from typing import Any
+
+from mpi4py import MPI
+
+from petsc4py import PETSc
+
+from dgplate import expressions
+from dgplate.errors import InputError
+
+#: τ above this many h: the energy bound of the isometry defect, D_h ≤ C τ E_h[y⁰], is then
+#: a thousand times the O(h) defect of the published runs (τ = h), i.e. of order one on any
+#: mesh with h ≥ 10⁻³; the step is close to a plain Newton step of the linearised problem, and
+#: the stopping test (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < tol, divided by a huge τ, holds almost at once
+#: whatever the state (τ = 1e300 "converges" in one step).
+TAU_MAX_PER_H = 1e3
+#: τ below this many h²: the flow reaches the minimiser at a pseudo-time of order one, i.e.
+#: after more than 10⁶/h² steps, and near the stopping test a step lowers E_h by τ·tol, which
+#: for tol = 10⁻⁶ and h ≈ 10⁻² is 10⁻¹⁶, the round-off of E_h: the test then compares noise.
+TAU_MIN_PER_H2 = 1e-6
+#: D_h per unit reference area above which a state is not an approximate isometry: the
+#: mean of |∇yᵀ∇y − I| over the plate is then of order one.
+DEFECT_LIMIT = 0.1
+
+
+def warn(comm: MPI.Comm, messages: Iterable[str]) -> None:
+    """Print each message as one ``dgplate: warning:`` line on stderr, on rank 0 only."""
+    if comm.rank == 0:
+        for message in messages:
+            print(f"dgplate: warning: {' '.join(message.split())}", file=sys.stderr, flush=True)
+
+
+# -- before the run ------------------------------------------------------------------------------
+def before_flow(problem, tagged, initial: Callable | None = None) -> list[str]:
+    """Warnings about a gradient-flow problem once it is fully validated (its flow built, so
+    that a warning never precedes an input error): nothing to solve, τ far from h."""
+    from dgplate.runner import max_cell_diameter
+
+    messages = [nothing_to_solve(problem, tagged.mesh, starts_flat=initial is None)]
+    if problem.flow.tau != "h":
+        messages.append(tau_scale(float(problem.flow.tau), max_cell_diameter(tagged)))
+    return [m for m in messages if m]
+
+
+def nothing_to_solve(problem, mesh, starts_flat: bool = True) -> str | None:
+    """A warning when the flat start already minimises a Kirchhoff or bilayer plate: no load,
+    no clamped data other than flat, Z = 0 (bilayer). Collective on ``mesh``.
+
+    An empty problem file (no [model]) is the first case. None for other models.
+    """
+    spec = problem.model
+    if not starts_flat or spec.name not in ("kirchhoff", "bilayer"):
+        return None
+    if not all(_agree(f, 0.0, mesh) for f in spec.load):
+        return None
+    if spec.clamped and not _flat_data(spec.boundary_data, mesh):
+        return None
+    if spec.name == "bilayer" and not _zero(spec.Z, mesh):
+        return None
+    what = "model.load and model.Z are zero" if spec.name == "bilayer" else "model.load is zero"
+    message = (
+        f"nothing to solve: {what} and the plate is free or clamped flat, so the flat start "
+        "is already the minimiser (E_h = 0) and the flow stops at once"
+    )
+    if not problem.raw.get("model"):
+        message = f"no [model] given (a free kirchhoff plate without load); {message}"
+    return message
+
+
+_FLAT = {"g": ["x", "y", 0.0], "Phi": [[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]]}
+
+
+def _flat_data(value, mesh) -> bool:
+    """Clamped data g = (x, y, 0), Φ = [I₂; 0]: 'flat', or numbers and formulas equal to it."""
+    if value == "flat":
+        return True
+    if not isinstance(value, dict) or "g" not in value:
+        return False
+    return _same_shape_and_values(value["g"], _FLAT["g"], mesh) and _same_shape_and_values(
+        value.get("Phi", _FLAT["Phi"]), _FLAT["Phi"], mesh
+    )
+
+
+def _same_shape_and_values(value, flat, mesh) -> bool:
+    if isinstance(flat, list):
+        return (
+            isinstance(value, list)
+            and len(value) == len(flat)
+            and all(_same_shape_and_values(v, f, mesh) for v, f in zip(value, flat))
+        )
+    return _agree(value, flat, mesh)
+
+
+def _zero(value, mesh) -> bool:
+    """Z = 0 everywhere: a zero number, a matrix of zeros, or {group = zero} for every group."""
+    if isinstance(value, dict):
+        return all(_zero(entry, mesh) for entry in value.values())
+    if isinstance(value, list):
+        return all(_zero(entry, mesh) for entry in value)
+    return _agree(value, 0.0, mesh)
+
+
+def _agree(value, reference, mesh) -> bool:
+    """expressions.agree, False for a value that is no number or formula (the build says so)."""
+    try:
+        return expressions.agree(value, reference, mesh)
+    except InputError:
+        return False
+
+
+def tau_scale(tau: float, h: float) -> str | None:
+    """A warning when τ is absurdly large (> 10³ h) or small (< 10⁻⁶ h²) for the mesh size h."""
+    if tau > TAU_MAX_PER_H * h:
+        return (
+            f"flow.tau = {tau:g} is more than {TAU_MAX_PER_H:g} h (h = {h:.3g}): the isometry "
+            "defect grows like τ, and the stopping test (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < tol divides "
+            "by τ, so it holds almost at once whatever the state; use flow.tau = 'h' or a "
+            "value near h"
+        )
+    if tau < TAU_MIN_PER_H2 * h * h:
+        return (
+            f"flow.tau = {tau:g} is less than {TAU_MIN_PER_H2:g} h² (h = {h:.3g}): each step "
+            f"advances the flow by τ, so reaching pseudo-time 1 takes {1 / tau:.1e} steps, and "
+            "the energy decrease per step is lost in round-off; use flow.tau = 'h' or a value "
+            "near h"
+        )
+    return None
+
+
+# -- after the flow ------------------------------------------------------------------------------
+def after_flow(flow, summary: Mapping[str, Any]) -> list[str]:
+    """Warnings once the flow has stopped (before ``flow.destroy()``): PETSc options that
+    were never read, and a final state far from an isometry."""
+    return unused_solver_options(flow) + advise_result(summary, reference_area(flow))
+
+
+def reference_area(flow) -> float:
+    """|Ω|, the area of the reference plate (the sum of the owned cell volumes)."""
+    owned = flow.defect.volumes[: flow.defect.num_owned]
+    return float(flow.comm.allreduce(float(owned.sum()), op=MPI.SUM))
+
+
+def advise_result(summary: Mapping[str, Any], area: float = 1.0) -> list[str]:
+    """A warning when the final isometry defect per unit area D_h/|Ω| exceeds DEFECT_LIMIT.
+
+    The flow imposes the linearised constraint only; a state with D_h of order one (a bilayer
+    on a 4×4 mesh reports converged with D_h = 5.8) is no approximate isometry at all.
+    """
+    defect = summary.get("isometry_defect")
+    if defect is None or not area > 0 or not defect / area > DEFECT_LIMIT:
+        return []
+    state = "converged" if summary.get("converged") else "final"
+    tau = summary.get("tau")
+    tau_text = f" (now {tau:.3g})" if isinstance(tau, float) else ""
+    return [
+        f"the {state} state has isometry defect D_h = {defect:.3g} on an area of {area:.3g} "
+        f"(D_h/|Ω| = {defect / area:.2g} > {DEFECT_LIMIT:g}): the linearisation of "
+        "∇yᵀ∇y = I is not valid that far from an isometry, so the shape cannot be trusted; "
+        f"use a smaller flow.tau{tau_text} or flow.projection_steps = 2"
+    ]
+
+
+def unused_solver_options(flow) -> list[str]:
+    """Warnings for ``flow.solver`` keys that PETSc never read (misspelt, or not used by the
+    chosen solver); collective. Call after the flow ran: MUMPS reads its options only at the
+    first factorisation."""
+    given = list(flow.settings.solver_options)
+    if not given:
+        return []
+    attributes = getattr(flow.solver, "__dict__", {}).values()
+    solvers = [obj for obj in attributes if isinstance(obj, PETSc.KSP)]
+    prefixes = sorted({ksp.getOptionsPrefix() or "" for ksp in solvers})
+    present = PETSc.Options().getAll()
+    unused = []
+    for key in given:
+        names = [p + key for p in prefixes if p + key in present]
+        used = [option_used(name) for name in names]
+        if None in used:  # this petsc4py cannot tell: no warning rather than a wrong one
+            return []
+        if not any(used):
+            unused.append(key)
+    everywhere = set.intersection(*map(set, flow.comm.allgather(unused)))
+    where = " or ".join(f"-{p}" for p in prefixes)
+    return [
+        f"flow.solver.{key} was never read by PETSc (options prefix {where}): a misspelt "
+        "option, or one that the chosen solver does not use"
+        for key in unused
+        if key in everywhere
+    ]
+
+
+def option_used(name: str) -> bool | None:
+    """Whether PETSc has read the option ``name`` (given without '-'); None if unknowable.
+
+    petsc4py ≥ 3.24 has ``Options.used``; older ones (Debian 13's 3.22) have no Python API
+    for it, and :func:`c_option_used` asks PETSc itself.
+    """
+    options = PETSc.Options()
+    if hasattr(options, "used"):
+        return bool(options.used(name))
+    return c_option_used(name)
+
+
+def c_option_used(name: str) -> bool | None:
+    """``PetscOptionsUsed`` through ctypes, on the global options database; None if absent.
+
+    The function is looked up via the petsc4py extension module (dlsym searches the libpetsc
+    it links), so the very library petsc4py uses answers. Its flag is read as a C int: the
+    PetscBool of PETSc < 3.24, the versions that need this path (3.24 made it a one-byte
+    bool, which a zeroed int also reads correctly on little-endian machines).
+    """
+    function = _petsc_options_used()
+    if function is None:
+        return None
+    flag = ctypes.c_int(0)
+    if function(None, name.encode(), ctypes.byref(flag)) != 0:
+        return None
+    return bool(flag.value)
+
+
+@functools.cache
+def _petsc_options_used():
+    try:
+        function = ctypes.CDLL(PETSc.__file__).PetscOptionsUsed
+    except (OSError, AttributeError, TypeError):
+        return None
+    function.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.POINTER(ctypes.c_int)]
+    function.restype = ctypes.c_int
+    return function

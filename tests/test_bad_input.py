@@ -1,0 +1,441 @@
+"""Bad input is one line ``dgplate: error: <message naming the key>`` on stderr, exit code 2 and
+nothing written, serially and under ``mpirun -n 2``; accepted but pointless input is one
+``dgplate: warning:`` line per warning, and the run goes on."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from mpi4py import MPI
+
+import pytest
+
+from dgplate import advice, expressions
+from dgplate.cli import main
+from dgplate.errors import InputError
+from dgplate.meshing import rectangle
+from dgplate.problem import problem_from_dict
+
+ROOT = Path(__file__).resolve().parent.parent
+PROBLEMS = ROOT / "demos" / "problems"
+VERTICAL = PROBLEMS / "vertical_load.toml"
+BILAYER = PROBLEMS / "bilayer_cylinder.toml"
+FVK = PROBLEMS / "fvk_square.toml"
+
+SMALL = ("mesh.cells=[4,4]", "output.png=false", "output.vtx=false", "output.progress=0")
+FVK_SMALL = ("mesh.cells=[4,4]",)  # the FvK model refuses output keys it ignores
+MISSING, DIRECTORY = "<missing file>", "<directory>"
+
+
+@dataclass(frozen=True)
+class Case:
+    """One bad input: ``--set`` overrides on a problem, and text the error must contain."""
+
+    sets: tuple[str, ...]
+    expected: str
+    problem: Path | str | bytes = VERTICAL  # a file, MISSING, DIRECTORY, or the file's bytes
+    base: tuple[str, ...] = SMALL
+
+
+def bad_load(formula: str, expected: str) -> Case:
+    return Case((f"model.load=[0,0,'{formula}']",), f"model.load[2]{expected}")
+
+
+BAD_INPUT = {
+    # -- keys, types and ranges -----------------------------------------------------------------
+    "unknown key": Case(("flow.tua=0.1",), "unknown key flow.tua"),
+    "wrong type": Case(("mesh.cells='many'",), "mesh.cells must be list"),
+    "tau zero": Case(("flow.tau=0",), "flow.tau must be > 0"),
+    "tau negative": Case(("flow.tau=-0.5",), "flow.tau must be > 0"),
+    "tau word": Case(("flow.tau=big",), "flow.tau must be a number > 0 or 'h'"),
+    "degree 1": Case(("model.degree=1",), "model.degree must be >= 2"),
+    "missing mesh file": Case(
+        ("mesh.type=gmsh", "mesh.file='nosuch.geo'"), "mesh file not found: nosuch.geo"
+    ),
+    "unknown group": Case(("model.clamped=['left','botom']",), "unknown facet group 'botom'"),
+    "empty clamped set": Case(
+        ("model.clamped=[]", "flow.l2_metric=false"),
+        "model.clamped is empty but flow.l2_metric = false",
+    ),
+    "malformed set, no '='": Case(("flow.tau",), "malformed --set 'flow.tau'"),
+    "malformed set, bad value": Case(("mesh.cells=[4,4",), "malformed --set"),
+    "malformed set, bad key": Case(("tau=0.1",), "the key must be section.name"),
+    "unknown section": Case(("solver.type=lu",), "unknown section [solver]"),
+    "unknown model": Case(("model.name=kirchof",), "model.name must be one of"),
+    "empty model name": Case(("model.name=''",), "model.name must be one of"),
+    "model name not a string": Case(("model.name=[1]",), "model.name must be one of"),
+    "penalty not positive": Case(
+        ("model.penalty={gamma0=-1.0, gamma1=1.0}",), "model.penalty.gamma0 must be"
+    ),
+    "gradient power out of range": Case(
+        ("model.penalty={gamma0=5000.0, gamma1=1100.0, gradient_power=5}",),
+        "model.penalty.gradient_power must be in [1, 3]",
+    ),
+    "crease on boundary": Case(("model.crease=['top']",), "crease group 'top' contains"),
+    "mu not positive": Case(("model.mu=0",), "model.mu must be > 0"),
+    "unknown mu region": Case(("model.mu={hinge=1.0}",), "unknown cell group 'hinge'"),
+    "unknown step solver": Case(("flow.linear_solver='cg'",), "flow.linear_solver must be"),
+    "refactor_its zero": Case(("flow.refactor_its=0",), "flow.refactor_its must be"),
+    # a warning (τ ≫ h, nothing to solve) never comes before the error
+    "absurd tau and a bad solver": Case(
+        ("flow.tau=1e300", "flow.linear_solver='cg'"), "flow.linear_solver must be"
+    ),
+    "no load and an unknown group": Case(
+        ("model.load=[0,0,0]", "model.clamped=['left','botom']"), "unknown facet group 'botom'"
+    ),
+    "load not a list": Case(("model.load={a=1}",), "model.load must be list"),
+    "load entry a boolean": Case(
+        ("model.load=[0,0,true]",), "model.load[2] must be a number or a formula string"
+    ),
+    "huge integer": Case(("mesh.cells=[99999999999,4]",), "mesh.cells[0] must be at most"),
+    "solver option name": Case(
+        ("flow.solver={'ksp type'='cg'}",), "flow.solver.ksp type is not a PETSc option name"
+    ),
+    "solver option table": Case(
+        ("flow.solver={ksp_type={a=1}}",), "flow.solver.ksp_type must be a string, a number"
+    ),
+    # -- non-finite numbers ---------------------------------------------------------------------
+    "load inf": Case(("model.load=[0,0,inf]",), "model.load[2] must be a finite number, got inf"),
+    "load nan": Case(("model.load=[0,0,nan]",), "model.load[2] must be a finite number, got nan"),
+    "load -inf": Case(("model.load=[-inf,0,0]",), "model.load[0] must be a finite number"),
+    "penalty nan": Case(
+        ("model.penalty={gamma0=nan, gamma1=1100.0}",),
+        "model.penalty.gamma0 must be a finite number, got nan",
+    ),
+    "penalty inf": Case(
+        ("model.penalty={gamma0=inf, gamma1=1100.0}",),
+        "model.penalty.gamma0 must be a finite number, got inf",
+    ),
+    "penalty -inf": Case(
+        ("model.penalty={gamma0=5000.0, gamma1=-inf}",),
+        "model.penalty.gamma1 must be a finite number, got -inf",
+    ),
+    "tau inf": Case(("flow.tau=inf",), "flow.tau must be a finite number, got inf"),
+    "tau nan": Case(("flow.tau=nan",), "flow.tau must be a finite number, got nan"),
+    "corner inf": Case(("mesh.corners=[[0,0],[inf,1]]",), "mesh.corners[1][0] must be a finite"),
+    "mu nan": Case(("model.mu=nan",), "model.mu must be a finite number"),
+    "solver option nan": Case(("flow.solver={ksp_rtol=nan}",), "flow.solver.ksp_rtol must be"),
+    "nan in the file": Case(
+        (), "model.load[0] must be a finite number", b"[model]\nload = [nan, 0, 0]\n"
+    ),
+    "inf in the file": Case((), "flow.tau must be a finite number", b"[flow]\ntau = inf\n"),
+    "fvk modulus inf": Case(("model.E=inf",), "model.E must be a finite number", FVK, FVK_SMALL),
+    # -- formulas ---------------------------------------------------------------------------------
+    "division by zero": bad_load("sin(x)/0", ": formula 'sin(x)/0' divides by zero"),
+    "overflow": bad_load("9**9**9**9", ": formula '9**9**9**9' overflows"),
+    "huge literal": bad_load("1e999", ": formula '1e999' overflows"),
+    "constant not finite": bad_load("exp(1000)", ": formula 'exp(1000)' is not finite"),
+    "constant part not finite": bad_load("sqrt(-1)*x", ": formula 'sqrt(-1)*x' is not finite"),
+    "not real": bad_load("(-8)**(1/3)", ": formula '(-8)**(1/3)' is not a real number"),
+    "nan on the plate": bad_load("sqrt(-1-x)", ": formula 'sqrt(-1-x)' is not finite on the plate"),
+    "log of negative on the plate": bad_load("ln(x-5)", ": formula 'ln(x-5)' is not finite on"),
+    "zero denominator on the plate": bad_load("x/(0*x)", ": formula 'x/(0*x)' is not finite on"),
+    "import call": bad_load('__import__("os")', ": calling '__import__' is not allowed"),
+    "lambda call": bad_load("(lambda: 1)()", ": calling a lambda is not allowed"),
+    "method call": bad_load('os.system("ls")', ": calling 'os.system' is not allowed"),
+    "attribute access": bad_load("x.real", ": attribute access 'x.real' is not allowed"),
+    "unknown name": bad_load("z*x", ": unknown name 'z'"),
+    "syntax error": bad_load("x +", ": cannot parse formula 'x +'"),
+    "condition not a comparison": bad_load("where(x, 1, 0)", ": a condition that is not a"),
+    "comparison as a value": bad_load("1 + (x < 1)", ": a comparison outside the condition"),
+    "wrong arity": bad_load("sin(x, y)", ": sin() with 2 argument(s) (it takes 1)"),
+    "keyword argument": bad_load("sin(x=1)", ": a keyword or starred argument"),
+    "deep nesting": bad_load("-" * 50000 + "x", ": nesting this deep is not allowed"),
+    "clamped data formula": Case(
+        ("model.boundary_data={g=['x','y','1/0']}",),
+        "model.boundary_data.g[2]: formula '1/0' divides by zero",
+    ),
+    "curvature not finite on the plate": Case(
+        ("model.Z=[[1,0],[0,'sqrt(-1-y)']]",),
+        "model.Z[1][1]: formula 'sqrt(-1-y)' is not finite on the plate",
+        BILAYER,
+    ),
+    # -- keys that do nothing for the model ---------------------------------------------------------
+    "fvk with flow keys": Case(
+        ("flow.tau=0.1",), "flow.tau has no effect with model.name = 'fvk'", FVK, FVK_SMALL
+    ),
+    "fvk with an ignored output key": Case(
+        ("output.png=false",), "output.png has no effect with model.name = 'fvk'", FVK, FVK_SMALL
+    ),
+    # -- the problem file itself ------------------------------------------------------------------
+    "missing problem file": Case((), "problem file not found", MISSING),
+    "problem file is a directory": Case((), "is a directory, not a file", DIRECTORY),
+    "problem file not UTF-8": Case(
+        (), "is not UTF-8 text (byte 0xff at offset 6)", b"[mesh]\xff\xfe\ncells = [4, 4]\n"
+    ),
+    "invalid TOML": Case((), "invalid TOML", b"[mesh\ncells = 3"),
+    "mesh file not UTF-8": Case(
+        (),
+        "binary.geo is not UTF-8 text",
+        b'[mesh]\ntype = "gmsh"\nfile = "{inputs}/binary.geo"\n',
+        base=(),
+    ),
+}
+
+#: Cases that also run under mpirun -n 2 (validation, and collective checks on the mesh).
+MPI_CASES = [
+    "load inf",
+    "load nan",
+    "penalty nan",
+    "division by zero",
+    "overflow",
+    "nan on the plate",
+    "log of negative on the plate",
+    "curvature not finite on the plate",
+    "import call",
+    "lambda call",
+    "unknown group",
+    "empty model name",
+    "fvk with flow keys",
+    "problem file not UTF-8",
+    "problem file is a directory",
+]
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory) -> Path:
+    """A folder for the problem files that cases write, apart from each test's tmp_path."""
+    folder = tmp_path_factory.mktemp("inputs")
+    (folder / "binary.geo").write_bytes(bytes(range(256)))
+    (folder / "folder.toml").mkdir()
+    return folder
+
+
+def problem_file(case: Case, inputs: Path, name: str) -> Path:
+    if case.problem == MISSING:
+        return inputs / "none.toml"
+    if case.problem == DIRECTORY:
+        return inputs / "folder.toml"
+    if isinstance(case.problem, bytes):
+        path = inputs / f"{name.replace(' ', '_')}.toml"
+        path.write_bytes(case.problem.replace(b"{inputs}", str(inputs).encode()))
+        return path
+    return Path(case.problem)
+
+
+def command(case: Case, problem: Path, out: Path) -> list[str]:
+    sets = [arg for value in (*case.base, *case.sets) for arg in ("--set", value)]
+    return ["run", str(problem), "--out", str(out), *sets]
+
+
+def assert_nothing_written(run_dir: Path) -> None:
+    assert sorted(p.name for p in run_dir.iterdir()) == ["keep.txt"], "nothing may be written"
+    assert (run_dir / "keep.txt").read_text() == "user data"
+
+
+def assert_one_error(err: str, expected: str) -> None:
+    lines = err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("dgplate: error: "), err
+    assert expected in lines[0], err
+
+
+def test_matrix_size():
+    assert len(BAD_INPUT) >= 40 and len(MPI_CASES) >= 10
+    assert set(MPI_CASES) <= set(BAD_INPUT)
+
+
+@pytest.mark.parametrize("name", list(BAD_INPUT))
+def test_bad_input_is_one_line_naming_the_key(name, inputs, tmp_path, capsys):
+    case = BAD_INPUT[name]
+    (tmp_path / "keep.txt").write_text("user data")
+    code = main(command(case, problem_file(case, inputs, name), tmp_path / "out"))
+    captured = capsys.readouterr()
+    assert code == 2, captured.err
+    assert_one_error(captured.err, case.expected)
+    assert_nothing_written(tmp_path)
+
+
+def _mpirun() -> str | None:
+    beside = Path(sys.executable).parent / "mpirun"
+    return str(beside) if beside.exists() else shutil.which("mpirun")
+
+
+@pytest.mark.skipif(_mpirun() is None, reason="no mpirun")
+@pytest.mark.parametrize("name", MPI_CASES)
+def test_bad_input_under_mpirun(name, inputs, tmp_path):
+    """Two ranks: exit code 2, the one message printed by rank 0 only, and no hang."""
+    case = BAD_INPUT[name]
+    (tmp_path / "keep.txt").write_text("user data")
+    problem = problem_file(case, inputs, name)
+    args = [_mpirun(), "-n", "2", sys.executable, "-m", "mpi4py", "-m", "dgplate"]
+    paths = [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(paths)}
+    proc = subprocess.run(
+        [*args, *command(case, problem, tmp_path / "out")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=env,
+    )
+    assert proc.returncode == 2, proc.stderr
+    # besides dgplate's line, only the launcher's notice that mpi4py aborted the job with
+    # the exit code of a rank (MPICH: "Abort(2) on node 1 ...")
+    ours = [line for line in proc.stderr.splitlines() if "dgplate" in line]
+    assert_one_error("\n".join(ours), case.expected)
+    assert "Traceback" not in proc.stderr, proc.stderr
+    assert_nothing_written(tmp_path)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("name", ["load inf", "nan on the plate", "unknown group"])
+def test_bad_input_in_parallel_in_process(name, inputs, tmp_path, capsys):
+    """Under ``mpirun -n 2 pytest``: every rank returns 2, rank 0 alone prints."""
+    comm = MPI.COMM_WORLD
+    case = BAD_INPUT[name]
+    out = Path(comm.bcast(str(tmp_path / "out"), root=0))
+    assert main(command(case, problem_file(case, inputs, name), out)) == 2
+    err = capsys.readouterr().err
+    if comm.rank == 0:
+        assert_one_error(err, case.expected)
+    else:
+        assert err == ""
+    comm.barrier()
+    assert not out.exists()
+
+
+# -- warnings: accepted but pointless input --------------------------------------------------------
+def run_warned(tmp_path, capsys, problem: Path, *sets: str, base=SMALL) -> tuple[int, list[str]]:
+    """Run in-process; the exit code and the warning lines (each one line)."""
+    out = Path(MPI.COMM_WORLD.bcast(str(tmp_path / "out"), root=0))
+    code = main(
+        ["run", str(problem), "--out", str(out)]
+        + [arg for value in (*base, *sets) for arg in ("--set", value)]
+    )
+    err = capsys.readouterr().err
+    assert (out / "summary.json").exists(), err
+    return code, [line for line in err.splitlines() if line.startswith("dgplate: warning:")]
+
+
+def test_warning_nothing_to_solve_empty_problem(tmp_path, capsys):
+    empty = tmp_path / "empty.toml"
+    empty.write_text("")
+    code, warnings = run_warned(tmp_path, capsys, empty, "flow.max_steps=5")
+    assert code == 0
+    assert len(warnings) == 1, warnings
+    assert "nothing to solve" in warnings[0] and "no [model] given" in warnings[0]
+
+
+@pytest.mark.mpi
+def test_warning_unused_solver_option(tmp_path, capsys):
+    """A misspelt option is named; options PETSc read (MUMPS' at the factorisation) are not."""
+    code, warnings = run_warned(
+        tmp_path,
+        capsys,
+        VERTICAL,
+        "flow.solver={ksp_typ='cg', ksp_rtol=1e-10, mat_mumps_icntl_14=90}",
+    )
+    assert code == 0
+    if MPI.COMM_WORLD.rank == 0:
+        assert len(warnings) == 1, warnings
+        assert "flow.solver.ksp_typ was never read by PETSc" in warnings[0]
+    else:
+        assert warnings == []
+
+
+def test_warning_tau_too_large(tmp_path, capsys):
+    code, warnings = run_warned(tmp_path, capsys, VERTICAL, "flow.tau=1e300")
+    assert code == 0
+    assert len(warnings) == 1 and "flow.tau = 1e+300 is more than 1000 h" in warnings[0]
+
+
+def test_warning_tau_too_small(tmp_path, capsys):
+    code, warnings = run_warned(tmp_path, capsys, VERTICAL, "flow.tau=1e-12", "flow.max_steps=1")
+    assert code == 1  # the step budget: the run still writes its outputs
+    assert len(warnings) == 1 and "flow.tau = 1e-12 is less than 1e-06 h²" in warnings[0]
+
+
+def test_warning_isometry_defect_of_order_one(tmp_path, capsys):
+    """A bilayer on 4×4 cells with τ = 0.5 and no projection: converged, D_h/|Ω| ≈ 0.17.
+
+    The energy is test_bilayer's cylinder (γ₁ = 1100, p = 1), so its forms are compiled once.
+    """
+    code, warnings = run_warned(
+        tmp_path,
+        capsys,
+        BILAYER,
+        "model.penalty={gamma0=5000.0, gamma1=1100.0}",
+        "flow.tau=0.5",
+        "flow.tol=1e-2",
+        "flow.projection_steps=0",
+        "flow.edge_constraint=false",
+    )
+    assert code == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["converged"] and summary["isometry_defect"] > 0.2
+    assert len(warnings) == 1, warnings
+    assert "the converged state has isometry defect D_h" in warnings[0]
+    assert "smaller flow.tau (now 0.5)" in warnings[0]
+
+
+# -- the advice functions themselves ---------------------------------------------------------------
+def test_tau_bounds():
+    h = 0.25
+    assert advice.tau_scale(h, h) is None
+    assert advice.tau_scale(0.99e3 * h, h) is None and advice.tau_scale(1.01e3 * h, h)
+    assert advice.tau_scale(1.01e-6 * h * h, h) is None and advice.tau_scale(0.99e-6 * h * h, h)
+
+
+def test_advise_result():
+    summary = {"isometry_defect": 0.3, "converged": True, "tau": 0.5}
+    assert advice.advise_result(summary, area=4.0) == []  # D_h/|Ω| = 0.075
+    (message,) = advice.advise_result(summary, area=2.0)
+    assert "D_h = 0.3" in message and "(now 0.5)" in message
+    assert advice.advise_result({"converged": True}) == []  # FvK summaries have no D_h
+
+
+NOTHING = "nothing to solve"
+
+
+@pytest.mark.parametrize(
+    ("model", "nothing"),
+    [
+        ({}, True),
+        ({"load": [0, 0, "0*x"]}, True),
+        ({"load": [0, 0, "where(x > 100, 1, 0)"]}, True),  # zero on the plate [0, 1]²
+        ({"load": [0, 0, "0.1*sin(pi*x)"]}, False),
+        ({"clamped": ["left"], "boundary_data": {"g": ["x", "y", 0]}}, True),
+        ({"clamped": ["left"], "boundary_data": {"g": ["x", "y", "0.1*x"]}}, False),
+        ({"name": "bilayer", "Z": 0.0}, True),
+        ({"name": "bilayer", "Z": {"plate": 0.0}}, True),
+        ({"name": "bilayer", "Z": [[0, 0], [0, "x"]]}, False),
+        ({"name": "fvk", "clamped": ["left"]}, False),  # not a gradient-flow model
+    ],
+)
+def test_nothing_to_solve(model, nothing):
+    problem = problem_from_dict({"model": model} if model else {}, "p")
+    tagged = rectangle(MPI.COMM_WORLD, [[0, 0], [1, 1]], [4, 4], "quadrilateral", "right")
+    message = advice.nothing_to_solve(problem, tagged.mesh)
+    assert (message is not None and NOTHING in message) == nothing, message
+    assert advice.nothing_to_solve(problem, tagged.mesh, starts_flat=False) is None
+
+
+def test_option_used_through_ctypes_agrees_with_petsc4py():
+    """The ctypes path (petsc4py < 3.24) answers like Options.used where both exist."""
+    from petsc4py import PETSc
+
+    options = PETSc.Options()
+    prefix = "dgplate_test_used_"
+    options[f"{prefix}ksp_type"] = "cg"
+    options[f"{prefix}ksp_typ"] = "cg"
+    ksp = PETSc.KSP().create(MPI.COMM_SELF)
+    try:
+        ksp.setOptionsPrefix(prefix)
+        ksp.setFromOptions()
+        assert advice.c_option_used(f"{prefix}ksp_type") is True
+        assert advice.c_option_used(f"{prefix}ksp_typ") is False
+        if hasattr(options, "used"):
+            assert options.used(f"{prefix}ksp_typ") is False
+    finally:
+        ksp.destroy()
+        for key in ("ksp_type", "ksp_typ"):
+            options.delValue(f"{prefix}{key}")
+
+
+def test_check_formulas_without_a_mesh():
+    expressions.check([0, "0.1*sin(pi*x)", "where(x < 0.5, 1, -1)"], "model.load")
+    with pytest.raises(InputError, match=r"model\.Z\[0\]\[1\]: formula '1/0' divides by zero"):
+        expressions.check([[1, "1/0"], [0, 1]], "model.Z")
