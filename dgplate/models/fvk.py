@@ -61,7 +61,7 @@ import numpy as np
 import ufl
 from petsc4py import PETSc
 
-from dgplate import compat, solvers
+from dgplate import compat, solvers, values
 from dgplate.dg import (
     FREE,
     FaceSets,
@@ -113,6 +113,7 @@ def plane_stress(eps, stiffness, nu):
 def fvk_bending_energy(w, faces: FaceSets, penalty: Penalty, D, nu, simply_supported: bool):
     """½a_h(w, w) with the Poisson part and simply supported faces (module docstring)."""
     n, h = faces.n, faces.h
+    gamma0, gamma1 = penalty.constants(faces.mesh)
     H = hessian(w)
     zero = ufl.as_vector((0.0, 0.0))
     energy = bending_energy(w, faces, penalty, mu=D, g=0.0, Phi=zero)
@@ -134,9 +135,9 @@ def fvk_bending_energy(w, faces: FaceSets, penalty: Penalty, D, nu, simply_suppo
         moment_n = ufl.dot(plane_stress(H, D, nu), n)
         energy += (
             -ufl.inner(moment_n, tgrad)
-            + 0.5 * penalty.gradient_weight(h) * D * ufl.inner(tgrad, tgrad)
+            + 0.5 * penalty.gradient_weight(h, gamma1) * D * ufl.inner(tgrad, tgrad)
             + D * ufl.inner(ufl.dot(grad_laplacian(w), n), w)
-            + 0.5 * penalty.gamma0 * D / h**3 * w * w
+            + 0.5 * gamma0 * D / h**3 * w * w
         ) * faces.ds(SIMPLY_SUPPORTED)
     return energy
 
@@ -200,8 +201,8 @@ class FvKProblem:
         self.state = dolfinx.fem.Function(self.W, name="state")
         w, u = ufl.split(self.state)
 
-        def const(value):
-            return dolfinx.fem.Constant(mesh, PETSc.ScalarType(value))
+        def const(value: float) -> dolfinx.fem.Constant:
+            return values.constant(mesh, value)  # values, not literals: see dgplate.values
 
         self.lam = const(0.0)
         E, nu, t = const(params.E), const(params.nu), const(params.thickness)
