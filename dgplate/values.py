@@ -2,7 +2,7 @@
 
 FFCx compiles a form into a C module named by the form's signature, and a literal number is
 part of that signature: with numbers baked in, a load of 0.025 and one of 0.05 are two modules,
-and every new value of a sweep paid 25–35 s of compilation. Numbers from problem files (loads,
+and every new value of a sweep paid tens of seconds of compilation. Numbers from problem files (loads,
 Z, μ, the penalties γ₀ and γ₁, α, anchor stiffness, FvK data, …) therefore enter the forms as
 :class:`dolfinx.fem.Constant` (scalars, vectors, 2×2 matrices) or as DG0 functions (tables per
 cell group), whose values the generated code reads at assembly time.
@@ -10,8 +10,7 @@ cell group), whose values the generated code reads at assembly time.
 The signature, and so the cache, still tells problem *shapes* apart: the model and its terms,
 degrees, elements and cell types, the face sets, the power p of h⁻ᵖ, and the text of formulas
 in x, y. A formula such as ``"0.1*sin(pi*x)"`` stays symbolic, numbers in it included: it is a
-piece of the form, not a value (a sweep over its amplitude should write ``a*sin(pi*x)`` with a
-number ``a`` elsewhere, or recompile).
+piece of the form, not a value, so a sweep over its amplitude compiles once per amplitude.
 """
 
 from __future__ import annotations

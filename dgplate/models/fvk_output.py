@@ -1,7 +1,8 @@
 """Outputs of an FvK run: summary.json, history.csv, a VTX series and a PNG of the deflection.
 
 Built on the shared blocks: ``dgplate.output.OutputDir`` (files appear only once the run is
-over, also when a load step failed: then with ``converged = false``), ``dgplate.vtx.DeformationWriter`` (VTX, or XDMF without ADIOS2) and
+over, also when a load step failed: then with ``converged = false``),
+``dgplate.vtx.DeformationWriter`` (VTX, or XDMF without ADIOS2) and
 ``dgplate.fields.surface_grid`` + ``dgplate.plotting.render_png`` (off-screen picture). The
 plate's deformation is y = (x₁ + u₁, x₂ + u₂, w) in [DG_k]³, so ParaView shows FvK runs like
 every other model. Collective calls run on every rank; rank 0 writes the small files.
