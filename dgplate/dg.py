@@ -22,6 +22,7 @@ import dolfinx.mesh
 import numpy as np
 import ufl
 
+from dgplate import values
 from dgplate.errors import InputError
 from dgplate.meshing import TaggedMesh, _make_tags
 
@@ -36,6 +37,8 @@ class Penalty:
     ``gradient_power`` p = 1 is the standard interior-penalty method. p > 1 over-penalises the
     gradient jumps: still consistent (smooth solutions have none), and it keeps a one-cell
     layer along free edges from trading metric error for energy (docs/bilayer.md, cylinder).
+    In the forms γ₀ and γ₁ are Constants (:meth:`constants`, values: no recompilation when
+    they change), p a literal (it chooses the form, see :mod:`dgplate.values`).
     """
 
     gamma0: float = 5000.0
@@ -49,10 +52,14 @@ class Penalty:
         if not 1.0 <= self.gradient_power <= 3.0:
             raise InputError(f"penalty gradient_power must be in [1, 3], got {self.gradient_power}")
 
-    def gradient_weight(self, h):
-        """γ₁ h⁻ᵖ, the weight of ½[∇y]:[∇y] on a face of size h."""
+    def constants(self, mesh) -> tuple[dolfinx.fem.Constant, dolfinx.fem.Constant]:
+        """γ₀ and γ₁ as Constants of ``mesh``, for the forms."""
+        return values.constant(mesh, self.gamma0), values.constant(mesh, self.gamma1)
+
+    def gradient_weight(self, h, gamma1):
+        """γ₁ h⁻ᵖ, the weight of ½[∇y]:[∇y] on a face of size h (γ₁ from :meth:`constants`)."""
         power = self.gradient_power
-        return self.gamma1 / (h if power == 1 else h**power)
+        return gamma1 / (h if power == 1 else h**power)
 
 
 def cell_size(mesh):
@@ -185,15 +192,16 @@ def bending_energy(
     """
     mu = 1.0 if mu is None else mu
     n, h = faces.n, faces.h
+    gamma0, gamma1 = penalty.constants(faces.mesh)
     D2, G3 = hessian(y), grad_laplacian(y)
     energy = 0.5 * mu * ufl.inner(D2, D2) * faces.dx
 
     # smooth interior faces: gradient-jump consistency and penalty
     jgrad = jump(ufl.grad(y))
     moment_n = ufl.dot(ufl.avg(mu * D2), n("+"))
+    weight = penalty.gradient_weight(faces.h_interior, gamma1)
     energy += (
-        -ufl.inner(moment_n, jgrad)
-        + 0.5 * penalty.gradient_weight(faces.h_interior) * ufl.avg(mu) * ufl.inner(jgrad, jgrad)
+        -ufl.inner(moment_n, jgrad) + 0.5 * weight * ufl.avg(mu) * ufl.inner(jgrad, jgrad)
     ) * faces.dS_smooth()
 
     # all interior faces (creases included): value-jump consistency and penalty
@@ -201,7 +209,7 @@ def bending_energy(
     shear_n = ufl.dot(ufl.avg(mu * G3), n("+"))
     energy += (
         ufl.inner(shear_n, jval)
-        + 0.5 * penalty.gamma0 * ufl.avg(mu) / faces.h_interior**3 * ufl.inner(jval, jval)
+        + 0.5 * gamma0 * ufl.avg(mu) / faces.h_interior**3 * ufl.inner(jval, jval)
     ) * faces.dS_all()
 
     if faces.has_clamped:
@@ -211,9 +219,9 @@ def bending_energy(
         bval = y - g
         energy += (
             -ufl.inner(mu * ufl.dot(D2, n), bgrad)
-            + 0.5 * penalty.gradient_weight(h) * mu * ufl.inner(bgrad, bgrad)
+            + 0.5 * penalty.gradient_weight(h, gamma1) * mu * ufl.inner(bgrad, bgrad)
             + ufl.inner(mu * ufl.dot(G3, n), bval)
-            + 0.5 * penalty.gamma0 * mu / h**3 * ufl.inner(bval, bval)
+            + 0.5 * gamma0 * mu / h**3 * ufl.inner(bval, bval)
         ) * faces.ds_clamped()
     return energy
 

@@ -118,6 +118,7 @@ class StepInfo:
     factor_s: float  # LU factorisation (0 when the lagged solver reused its factors)
     solve_s: float  # triangular solves and Krylov iterations
     iterations: int  # Krylov iterations of the step solve (1 for a direct solve)
+    fallbacks: int = 0  # failed lagged solves redone (fresh factors, then direct LU)
 
 
 @dataclass
@@ -312,7 +313,7 @@ class GradientFlow:
         dy = self.solution.x.array[self._vdofs].copy()
         self.y.x.array[:] += dy
         for _ in range(self.settings.projection_steps):
-            dy += self._project()
+            dy += self._project(stats)
         self._last_increment = dy
         owned = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
         increment = self.comm.allreduce(float(np.max(np.abs(dy[:owned]), initial=0.0)), op=MPI.MAX)
@@ -334,17 +335,20 @@ class GradientFlow:
             factor_s=stats.factor_s,
             solve_s=t2 - t1 - stats.factor_s,
             iterations=stats.iterations,
+            fallbacks=stats.fallbacks,
         )
         return info
 
-    def _project(self):
-        """One correction towards ∫_T (∇yᵀ∇y − I) q = 0, reusing the step's factorisation."""
+    def _project(self, stats: solvers.SolveStats):
+        """One correction towards ∫_T (∇yᵀ∇y − I) q = 0, reusing the step's factorisation;
+        its fall-backs are added to the step's ``stats``."""
         with self.rhs.localForm() as local:
             local.set(0.0)
         dolfinx.fem.petsc.assemble_vector(self.rhs, self._constraint_residual)
         self.rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         correction = dolfinx.fem.Function(self.W)
-        self.solver.solve(self.rhs, correction.x.petsc_vec, refactor=False)
+        more = self.solver.solve(self.rhs, correction.x.petsc_vec, refactor=False)
+        stats.fallbacks += more.fallbacks
         correction.x.scatter_forward()
         c = correction.x.array[self._vdofs]
         self.y.x.array[:] += c

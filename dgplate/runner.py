@@ -276,6 +276,7 @@ def make_summary(
         "bbox": bounding_box(flow.y),
         "tau": flow.tau,
         "energy_increases": result.energy_increases,
+        "solver_fallbacks": sum(info.fallbacks for info in result.history),
         "wall_time_s": time.perf_counter() - wall0,
         "dolfinx_version": compat.version_string(),
         "input": problem.raw,

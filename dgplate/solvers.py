@@ -6,12 +6,14 @@ Options can be overridden per solver through an options prefix (``-<prefix>ksp_t
 
 The flow's step systems change a little from step to step; :class:`LaggedStepSolver` reuses
 one factorisation over many steps as a preconditioner, :class:`DirectStepSolver` factorises
-every step (the published method).
+every step (the published method). A lagged solve that fails is redone with fresh factors,
+then by a direct solve, so the default never fails where the direct solver succeeds.
 """
 
 from __future__ import annotations
 
 import itertools
+import logging
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -37,6 +39,7 @@ DIRECT_MUMPS: dict[str, str | int | float] = {
 }
 
 _counter = itertools.count()
+_log = logging.getLogger(__name__)
 
 
 def make_ksp(
@@ -135,6 +138,7 @@ class SolveStats:
     iterations: int
     factor_s: float
     solve_s: float
+    fallbacks: int = 0  # re-solves after a failed lagged solve (fresh factors, then direct LU)
 
 
 class DirectStepSolver:
@@ -194,8 +198,13 @@ class LaggedStepSolver:
     """FGMRES on K preconditioned by the LU factors of a copy P of an earlier K.
 
     P is refreshed (and refactorised) when the previous solve needed more than
-    ``refactor_its`` iterations, or when FGMRES fails to converge; the failed solve is then
-    repeated with fresh factors, so every returned solution meets the tolerance.
+    ``refactor_its`` iterations. A solve that stalls or diverges is redone with fresh factors
+    from a zero initial guess, and if that fails too, by a fresh LU solve of K as
+    :class:`DirectStepSolver` does it; each fall-back is logged (rank 0) and counted in
+    :attr:`SolveStats.fallbacks`. The zero guess matters: after a large rotation the previous
+    step's (δy, λ) violates the new linearised constraint, whose rows are scaled by
+    ~‖A_const‖/‖b_n‖, so that ‖b − K x₀‖ can exceed 10⁴‖b‖, and PETSc's default test then
+    declares DIVERGED_DTOL at iteration 0, before any factors are applied.
 
     With a ``numbering`` (:func:`dgplate.ordering.cellwise_numbering`) and MUMPS LU (the
     default), P holds K's rows and columns in that numbering, so that MUMPS orders the same
@@ -214,6 +223,10 @@ class LaggedStepSolver:
         if refactor_its < 1:
             raise InputError(f"flow.refactor_its must be >= 1, got {refactor_its!r}")
         self.K, self.refactor_its = K, refactor_its
+        # the direct fall-back keeps the caller's factorisation options, not the Krylov ones
+        self._direct_options = {
+            k: v for k, v in (options or {}).items() if not str(k).startswith("ksp_")
+        }
         merged = {**LAGGED_MUMPS, **(options or {})}
         permuted = numbering is not None and (
             merged.get("pc_type"),
@@ -259,29 +272,67 @@ class LaggedStepSolver:
         self._stale = False
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec, refactor: bool = True) -> SolveStats:
-        """Solve K x = b; ``refactor=False`` (a re-solve with the same K) never refactorises."""
-        t0 = time.perf_counter()
-        factorised = refactor and self._stale
-        if factorised:
-            self._refactor()
-        t1 = time.perf_counter()
-        self.ksp.solve(b, x)
-        its, reason = self.ksp.getIterationNumber(), self.ksp.getConvergedReason()
-        t2 = time.perf_counter()
-        factor_s, solve_s = (t1 - t0 if factorised else 0.0), t2 - t1
-        total = its
-        if reason < 0 and not factorised:
-            self._refactor()
-            t3 = time.perf_counter()
-            its = solve(self.ksp, b, x)
-            total += its
-            factorised, factor_s = True, t3 - t2
-            solve_s += time.perf_counter() - t3
-        elif reason < 0:
-            raise SolverError(f"linear solve failed: KSP reason {_reason_name(reason)}")
+        """Solve K x = b from the guess x; ``refactor=False`` (a re-solve with the same K)
+        refactorises only to redo a failed solve."""
+        stats = SolveStats(False, 0, 0.0, 0.0)
+        if refactor and self._stale:
+            self._timed_refactor(stats)
+        reason = self._krylov(b, x, stats)
+        if reason < 0:
+            self._fall_back(stats, reason, "", "redone with fresh factors from a zero guess")
+            if not stats.factorised:  # factors made for this K are fresh already
+                self._timed_refactor(stats)
+            x.zeroEntries()
+            reason = self._krylov(b, x, stats)
+        if reason < 0:
+            self._fall_back(stats, reason, " with fresh factors", "redone by a direct LU solve")
+            self._direct_solve(b, x, stats)
+            self._stale = True
+            return stats
         # the count with the factors now held decides whether the next step refactorises
-        self._stale = its > self.refactor_its
-        return SolveStats(factorised, total, factor_s, solve_s)
+        self._stale = self.ksp.getIterationNumber() > self.refactor_its
+        return stats
+
+    def _timed_refactor(self, stats: SolveStats) -> None:
+        t0 = time.perf_counter()
+        self._refactor()
+        stats.factorised = True
+        stats.factor_s += time.perf_counter() - t0
+
+    def _krylov(self, b: PETSc.Vec, x: PETSc.Vec, stats: SolveStats) -> int:
+        """One FGMRES solve; adds its time and iterations to ``stats``, returns the reason."""
+        t0 = time.perf_counter()
+        self.ksp.solve(b, x)
+        stats.solve_s += time.perf_counter() - t0
+        stats.iterations += self.ksp.getIterationNumber()
+        return self.ksp.getConvergedReason()
+
+    def _fall_back(self, stats: SolveStats, reason: int, which: str, action: str) -> None:
+        """Count a fall-back and say why on one line (rank 0)."""
+        stats.fallbacks += 1
+        if self.K.getComm().getRank() == 0:
+            _log.warning(
+                "dgplate: lagged step solve%s failed (KSP reason %s after %d iterations); %s",
+                which,
+                _reason_name(reason),
+                self.ksp.getIterationNumber(),
+                action,
+            )
+
+    def _direct_solve(self, b: PETSc.Vec, x: PETSc.Vec, stats: SolveStats) -> None:
+        """Solve by a fresh LU factorisation of K from a zero guess; its factors are freed
+        right away (a failure here is rare, and they would double the memory held)."""
+        prefix = f"{self.ksp.getOptionsPrefix()}direct_"
+        direct = DirectStepSolver(self.K.getComm(), self.K, self._direct_options, prefix)
+        try:
+            x.zeroEntries()
+            more = direct.solve(b, x)
+        finally:
+            direct.destroy()
+        stats.factorised = True
+        stats.iterations += more.iterations
+        stats.factor_s += more.factor_s
+        stats.solve_s += more.solve_s
 
     def destroy(self) -> None:
         if self.numbering is not None:

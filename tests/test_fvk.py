@@ -8,6 +8,9 @@ along themselves, ν = 0.316); see docs/fvk.md.
 
 import itertools
 import json
+import subprocess
+import sys
+from pathlib import Path
 
 from mpi4py import MPI
 
@@ -18,6 +21,7 @@ from conftest import PARITY_RTOL
 from dgplate.errors import InputError, SolverError
 from dgplate.meshing import RECTANGLE_SIDES, load_geo, rectangle
 from dgplate.models.fvk import FvKParameters, FvKProblem, run_fvk
+from dgplate.models.fvk_output import HISTORY_COLUMNS
 from dgplate.models.fvk_reference import (
     CLAMPED_SERIES,
     LEVY_NU,
@@ -28,6 +32,7 @@ from dgplate.models.fvk_reference import (
 )
 
 E, NU, T = 1.0, 0.3, 0.01
+FVK_SQUARE = Path(__file__).resolve().parent.parent / "demos" / "problems" / "fvk_square.toml"
 D = E * T**3 / (12 * (1 - NU**2))
 
 
@@ -196,16 +201,46 @@ def test_run_fvk_writes_outputs(tmp_path):
     assert (out / "final.png").stat().st_size > 1000
 
 
-def test_failed_step_raises_with_snes_reason(tmp_path):
+def test_failed_step_keeps_outputs_with_snes_reason(tmp_path):
+    """A Newton failure ends the schedule like a flow that does not converge: the outputs
+    hold the converged steps, with converged = false and the SNES reason."""
     tagged = rectangle(MPI.COMM_SELF, [[0, 0], [1, 1]], [4, 4])
     params = FvKParameters(
-        thickness=T, pressure=400 * T**4, clamped=list(RECTANGLE_SIDES), load_steps=1,
-        snes={"snes_max_it": 1},
+        thickness=T, pressure=400 * T**4, clamped=list(RECTANGLE_SIDES), load_steps=[0.01, 1.0],
+        snes={"snes_max_it": 3},
     )  # fmt: skip
     with pytest.raises(SolverError, match="DIVERGED_MAX_IT"):
-        run_fvk(tagged, params, out_dir=tmp_path / "out")
-    assert not (tmp_path / "out" / "summary.json").exists()
-    assert not any((tmp_path / "out").glob("fvk.bp*"))
+        FvKProblem(tagged, params).solve_step(1.0)  # Newton needs more than 3 iterations
+    summary = run_fvk(tagged, params, out_dir=tmp_path / "out")
+    out = tmp_path / "out"
+    written = json.loads((out / "summary.json").read_text())
+    assert written == json.loads(json.dumps(summary))
+    assert summary["converged"] is False
+    assert "load step 2 (load factor 1)" in summary["reason"]
+    assert "DIVERGED_MAX_IT" in summary["reason"]
+    assert summary["steps"] == 1 and summary["load_steps"] == 2
+    assert summary["load"] == pytest.approx(0.01 * 400 * T**4) and summary["w_max"] > 0
+    rows = (out / "history.csv").read_text().splitlines()
+    assert len(rows) == 2 and rows[1].startswith("1,0.01,")
+    assert (out / "fvk.bp").is_dir() and (out / "final.png").stat().st_size > 1000
+
+
+def test_cli_failed_fvk_exits_1_with_outputs_and_no_traceback(tmp_path):
+    out = tmp_path / "out"
+    settings = ["mesh.cells=[4,4]", "model.load_steps=1", "model.snes={snes_max_it=1}"]
+    proc = subprocess.run(
+        [sys.executable, "-m", "dgplate", "run", str(FVK_SQUARE), "--out", str(out)]
+        + [arg for s in settings for arg in ("--set", s)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert proc.returncode == 1, proc.stderr
+    assert "Traceback" not in proc.stderr and "DIVERGED_MAX_IT" in proc.stderr, proc.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["converged"] is False and "DIVERGED_MAX_IT" in summary["reason"]
+    assert summary["steps"] == 0 and summary["w_max"] is None
+    assert (out / "history.csv").read_text().splitlines() == [",".join(HISTORY_COLUMNS)]
 
 
 @pytest.mark.parametrize(
@@ -253,10 +288,8 @@ def test_misplaced_groups():
 def test_problem_file_is_valid():
     """demos/problems/fvk_square.toml: a valid [model] table and Levy's problem."""
     import tomllib
-    from pathlib import Path
 
-    path = Path(__file__).resolve().parent.parent / "demos" / "problems" / "fvk_square.toml"
-    data = tomllib.loads(path.read_text())
+    data = tomllib.loads(FVK_SQUARE.read_text())
     params = FvKParameters.from_dict(data["model"])
     assert params.nu == LEVY_NU and params.pressure == pytest.approx(LEVY_Q[-1] * T**4)
     assert data["mesh"]["type"] == "rectangle" and set(params.membrane) == set(params.clamped)

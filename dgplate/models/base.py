@@ -35,13 +35,15 @@ def flat_identity(mesh):
 
 
 def piecewise_constant(tagged, values, key: str):
-    """μ-like data: a number, or {cell group name: number} turned into a DG0 function."""
+    """μ-like data: a number (a Constant), or {cell group name: number} turned into a DG0
+    function; either way a value of the forms, not part of their code (:mod:`dgplate.values`)."""
     from dgplate.errors import InputError
+    from dgplate.values import constant
 
     if isinstance(values, int | float) and not isinstance(values, bool):
         if not values > 0:
             raise InputError(f"{key} must be > 0, got {values}")
-        return float(values)
+        return constant(tagged.mesh, values)
     if not isinstance(values, dict) or not values:
         raise InputError(f"{key} must be a number or a table {{group = value}}, got {values!r}")
     for name, value in values.items():
@@ -54,9 +56,10 @@ def clamped_data(value, mesh, key: str = "model.boundary_data"):
     """Nitsche data (g, Φ) on clamped faces from a problem file.
 
     ``"flat"``: g = (x, y, 0), Φ = [I₂; 0]. A table ``{g = [3 formulas], Phi = [[2], [2], [2]]}``
-    gives any data, e.g. a folded sheet; Φ defaults to ∇g.
+    gives any data, e.g. a folded sheet; Φ defaults to ∇g. Numbers in the table are Constants
+    (:mod:`dgplate.values`).
     """
-    from dgplate import expressions
+    from dgplate import values
     from dgplate.errors import InputError
 
     if value == "flat":
@@ -65,7 +68,7 @@ def clamped_data(value, mesh, key: str = "model.boundary_data"):
         raise InputError(
             f"{key} must be 'flat' or a table {{g = [..3..], Phi = [[..2..] x3]}}, got {value!r}"
         )
-    g = expressions.parse_vector(value["g"], mesh, f"{key}.g", 3)
+    g = values.vector(value["g"], mesh, f"{key}.g", 3)
     if "Phi" not in value:
         return g, ufl.grad(g)
     rows = value["Phi"]
@@ -75,10 +78,4 @@ def clamped_data(value, mesh, key: str = "model.boundary_data"):
         and all(isinstance(r, list) and len(r) == 2 for r in rows)
     ):
         raise InputError(f"{key}.Phi must be a 3×2 matrix [[..], [..], [..]], got {rows!r}")
-    Phi = ufl.as_matrix(
-        [
-            [expressions.parse(rows[i][j], mesh, f"{key}.Phi[{i}][{j}]") for j in range(2)]
-            for i in range(3)
-        ]
-    )
-    return g, Phi
+    return g, values.array(rows, mesh, f"{key}.Phi")

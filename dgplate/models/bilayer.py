@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import ufl
 
-from dgplate import expressions
+from dgplate import expressions, values
 from dgplate.creases import with_fold_angles
 from dgplate.dg import CLAMPED, CREASE, SMOOTH, FaceSets, Penalty, bending_energy, face_sets, jump
 from dgplate.errors import InputError
@@ -111,17 +111,14 @@ def _check_symmetric(matrix, key: str) -> None:
 
 def spontaneous_curvature(value, tagged, key: str = "model.Z"):
     """Z from a problem file: a number α (Z = αI), a 2×2 matrix of numbers or formulas in x, y,
-    or {cell group = number or matrix} (piecewise constant)."""
+    or {cell group = number or matrix} (piecewise constant). Numbers are Constants, tables DG0
+    functions (:mod:`dgplate.values`)."""
+    mesh = tagged.mesh
     if isinstance(value, int | float) and not isinstance(value, bool):
-        return float(value) * ufl.Identity(2)
+        return values.constant(mesh, value) * ufl.Identity(2)
     if isinstance(value, list):
         _check_symmetric(value, key)
-        return ufl.as_matrix(
-            [
-                [expressions.parse(value[i][j], tagged.mesh, f"{key}[{i}][{j}]") for j in range(2)]
-                for i in range(2)
-            ]
-        )
+        return values.array(value, mesh, key)
     if isinstance(value, dict) and value:
         matrices = {}
         for name, entry in value.items():
@@ -165,7 +162,7 @@ def build_bilayer(spec: BilayerSpec, tagged) -> FlowModel:
     from dgplate.analysis import curvature_summary
 
     faces = face_sets(tagged, clamped=spec.clamped, crease=spec.crease)
-    load = expressions.parse_vector(spec.load, tagged.mesh, "model.load", 3)
+    load = values.vector(spec.load, tagged.mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     Z = spontaneous_curvature(spec.Z, tagged)
     g, Phi = clamped_data(spec.boundary_data, tagged.mesh)

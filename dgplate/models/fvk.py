@@ -41,7 +41,9 @@ the secant extrapolation of the two previous states and is solved by SNES newton
 and the affine-covariant NLEQ-ERR line search (Deuflhard): it damps by the Newton correction,
 not by a residual norm that mixes membrane and bending units, and takes full steps near the
 solution, so convergence is quadratic there. A step that does not converge raises SolverError
-with the SNES reason. Iterations and residual norms of every step are recorded.
+with the SNES reason and keeps the last converged state; ``run_fvk`` then ends the schedule and
+writes the outputs of the converged steps with ``converged = false`` and that reason, as the
+gradient flow does. Iterations and residual norms of every step are recorded.
 """
 
 from __future__ import annotations
@@ -61,7 +63,7 @@ import numpy as np
 import ufl
 from petsc4py import PETSc
 
-from dgplate import compat, solvers
+from dgplate import compat, solvers, values
 from dgplate.dg import (
     FREE,
     FaceSets,
@@ -113,6 +115,7 @@ def plane_stress(eps, stiffness, nu):
 def fvk_bending_energy(w, faces: FaceSets, penalty: Penalty, D, nu, simply_supported: bool):
     """½a_h(w, w) with the Poisson part and simply supported faces (module docstring)."""
     n, h = faces.n, faces.h
+    gamma0, gamma1 = penalty.constants(faces.mesh)
     H = hessian(w)
     zero = ufl.as_vector((0.0, 0.0))
     energy = bending_energy(w, faces, penalty, mu=D, g=0.0, Phi=zero)
@@ -134,9 +137,9 @@ def fvk_bending_energy(w, faces: FaceSets, penalty: Penalty, D, nu, simply_suppo
         moment_n = ufl.dot(plane_stress(H, D, nu), n)
         energy += (
             -ufl.inner(moment_n, tgrad)
-            + 0.5 * penalty.gradient_weight(h) * D * ufl.inner(tgrad, tgrad)
+            + 0.5 * penalty.gradient_weight(h, gamma1) * D * ufl.inner(tgrad, tgrad)
             + D * ufl.inner(ufl.dot(grad_laplacian(w), n), w)
-            + 0.5 * penalty.gamma0 * D / h**3 * w * w
+            + 0.5 * gamma0 * D / h**3 * w * w
         ) * faces.ds(SIMPLY_SUPPORTED)
     return energy
 
@@ -200,8 +203,8 @@ class FvKProblem:
         self.state = dolfinx.fem.Function(self.W, name="state")
         w, u = ufl.split(self.state)
 
-        def const(value):
-            return dolfinx.fem.Constant(mesh, PETSc.ScalarType(value))
+        def const(value: float) -> dolfinx.fem.Constant:
+            return values.constant(mesh, value)  # values, not literals: see dgplate.values
 
         self.lam = const(0.0)
         E, nu, t = const(params.E), const(params.nu), const(params.thickness)
@@ -304,7 +307,10 @@ class FvKProblem:
             constant.value = lam * value
 
     def solve_step(self, lam: float) -> dict:
-        """Solve at load factor ``lam`` from a secant predictor; returns the step record."""
+        """Solve at load factor ``lam`` from a secant predictor; returns the step record.
+
+        Raises SolverError (the SNES reason) when Newton fails; the state and the load factor
+        are then those of the last converged step (or the unloaded plate)."""
         (l0, x0), (l1, x1) = ([(0.0, None), *self._states])[-2:]
         if x0 is not None and l1 > l0:
             self.state.x.array[:] = x1 + (lam - l1) / (l1 - l0) * (x1 - x0)
@@ -317,6 +323,9 @@ class FvKProblem:
         self._update(self._x)
         step = len(self.history) + 1
         if reason < 0:
+            last_lam, last_state = self._states[-1]
+            self.state.x.array[:] = last_state
+            self.set_load(last_lam)
             raise SolverError(
                 f"FvK Newton failed at load step {step} (load factor {lam:g}): SNES reason "
                 f"{_REASONS.get(reason, reason)} after {its} iterations; try more "
@@ -386,8 +395,10 @@ def run_fvk(
     """Solve the load schedule; returns the summary (written with the outputs to ``out_dir``).
 
     Collective on the mesh communicator; ``comm`` defaults to it. Rank 0 prints (``progress``)
-    and writes files. Raises SolverError when a load step does not converge (nothing is left in
-    ``out_dir`` then but what was there before).
+    and writes files. A load step that does not converge ends the schedule: the summary says
+    ``converged = false`` with the SNES reason, and the outputs (summary.json, history.csv, the
+    series and the picture) hold the converged steps, as for a gradient flow. Any other error
+    leaves nothing in ``out_dir`` but what was there before.
     """
     from dgplate.models import fvk_output
 
@@ -395,9 +406,14 @@ def run_fvk(
     start = time.perf_counter()
     problem = FvKProblem(tagged, params)
     writer = fvk_output.Writer(problem, out_dir) if out_dir is not None else None
+    failure = None
     try:
         for lam in params.load_factors():
-            rec = problem.solve_step(lam)
+            try:
+                rec = problem.solve_step(lam)
+            except SolverError as err:  # collective: the SNES reason is the same on all ranks
+                failure = f"{err}; the last converged state is kept"
+                break
             if writer:
                 writer.write_step(lam)
             if progress and comm.rank == 0:
@@ -406,7 +422,7 @@ def run_fvk(
                     f"{rec['w_center']:.6g}  Newton its {rec['iterations']}",
                     flush=True,
                 )
-        summary = fvk_output.summary(problem, time.perf_counter() - start)
+        summary = fvk_output.summary(problem, time.perf_counter() - start, failure)
         if writer:
             writer.finish(summary)
     except BaseException:

@@ -1,7 +1,8 @@
 """Outputs of an FvK run: summary.json, history.csv, a VTX series and a PNG of the deflection.
 
-Built on the shared blocks: ``dgplate.output.OutputDir`` (files appear only when the run
-succeeds), ``dgplate.vtx.DeformationWriter`` (VTX, or XDMF without ADIOS2) and
+Built on the shared blocks: ``dgplate.output.OutputDir`` (files appear only once the run is
+over, also when a load step failed: then with ``converged = false``),
+``dgplate.vtx.DeformationWriter`` (VTX, or XDMF without ADIOS2) and
 ``dgplate.fields.surface_grid`` + ``dgplate.plotting.render_png`` (off-screen picture). The
 plate's deformation is y = (x₁ + u₁, x₂ + u₂, w) in [DG_k]³, so ParaView shows FvK runs like
 every other model. Collective calls run on every rank; rank 0 writes the small files.
@@ -48,26 +49,32 @@ def deformed_bbox(y: dolfinx.fem.Function) -> list[list[float]]:
     return [lo.tolist(), hi.tolist()]
 
 
-def summary(problem, wall_time: float) -> dict:
-    """The run's figures for summary.json (DESIGN.md §7 plus the FvK ones). Collective."""
+def summary(problem, wall_time: float, failure: str | None = None) -> dict:
+    """The run's figures for summary.json (DESIGN.md §7 plus the FvK ones). Collective.
+
+    ``failure`` (the SolverError's message) makes it ``converged = false`` with that reason;
+    the figures are then those of the last converged load step (None if there is none).
+    """
     p, hist = problem.params, problem.history
     y, expr = deformation(problem)
     y.interpolate(expr)
-    last = hist[-1]
+    last = hist[-1] if hist else dict.fromkeys(("load", "w_max", "w_center", "energy"))
+    w_center = last["w_center"]
     return {
         "model": "fvk",
         "dofs": int(problem.dofs),
         "ranks": int(problem.comm.size),
         "steps": len(hist),
-        "load_steps": len(hist),
+        "load_steps": len(p.load_factors()),
         "load_factors": [h["load_factor"] for h in hist],
-        "converged": True,
+        "converged": failure is None,
+        "reason": failure or f"all {len(hist)} load steps converged",
         "load": last["load"],
         "pressure": p.pressure,
         "w_max": last["w_max"],
-        "w_center": last["w_center"],
+        "w_center": w_center,
         "probe": [float(c) for c in problem.probe],
-        "w_center_over_thickness": last["w_center"] / p.thickness,
+        "w_center_over_thickness": None if w_center is None else w_center / p.thickness,
         "D": p.D,
         "history": [{c: h[c] for c in HISTORY_COLUMNS} for h in hist],
         "snes_iterations": [h["iterations"] for h in hist],

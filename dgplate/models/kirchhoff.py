@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import ufl
 
-from dgplate import expressions
+from dgplate import expressions, values
 from dgplate.creases import with_fold_angles
 from dgplate.dg import FaceSets, Penalty, bending_energy, face_sets
 from dgplate.errors import InputError
@@ -104,7 +104,7 @@ class FlowModel:
 def build_kirchhoff(spec: KirchhoffSpec, tagged) -> FlowModel:
     """Face sets and the energy of a Kirchhoff problem (validates group names)."""
     faces = face_sets(tagged, clamped=spec.clamped, crease=spec.crease)
-    load = expressions.parse_vector(spec.load, tagged.mesh, "model.load", 3)
+    load = values.vector(spec.load, tagged.mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     g, Phi = clamped_data(spec.boundary_data, tagged.mesh)
     penalty = spec.penalty_params

@@ -43,13 +43,15 @@ from dgplate.heat import HeatSolver
 from dgplate.meshing import TaggedMesh
 from dgplate.models.base import Energy, flat_identity, piecewise_constant
 from dgplate.models.bilayer import bilayer_energy
+from dgplate.values import constant
 
 
 def region_coefficient(tagged: TaggedMesh, values, key: str, default: float = 0.0):
-    """A coefficient that may vanish: a number (everywhere), or {cell group: number} with
-    ``default`` on the cells of no listed group (a DG0 field). Unlike μ it may be 0 or < 0."""
+    """A coefficient that may vanish: a number (everywhere, a Constant), or {cell group: number}
+    with ``default`` on the cells of no listed group (a DG0 field). Unlike μ it may be 0 or < 0.
+    """
     if isinstance(values, int | float) and not isinstance(values, bool):
-        return float(values)
+        return constant(tagged.mesh, values)
     if not isinstance(values, dict) or not values:
         raise InputError(f"{key} must be a number or a table {{group = value}}, got {values!r}")
     for name, value in values.items():
@@ -72,7 +74,8 @@ def anchor_energy(y, tagged: TaggedMesh, region: str, stiffness: float):
     # integral type in a form, and the bending energy's dx carries none
     indicator = tagged.group_function({region: 1.0}, default=0.0, key="anchor")
     g, _ = flat_identity(mesh)
-    return 0.5 * stiffness * indicator * ufl.inner(y - g, y - g) * ufl.dx(domain=mesh)
+    k = constant(mesh, stiffness)
+    return 0.5 * k * indicator * ufl.inner(y - g, y - g) * ufl.dx(domain=mesh)
 
 
 def thermal_energy(

@@ -1,0 +1,63 @@
+"""Numbers of a problem enter the forms as values, so that forms compile once per problem shape.
+
+FFCx compiles a form into a C module named by the form's signature, and a literal number is
+part of that signature: with numbers baked in, a load of 0.025 and one of 0.05 are two modules,
+and every new value of a sweep paid tens of seconds of compilation. Numbers from problem files (loads,
+Z, μ, the penalties γ₀ and γ₁, α, anchor stiffness, FvK data, …) therefore enter the forms as
+:class:`dolfinx.fem.Constant` (scalars, vectors, 2×2 matrices) or as DG0 functions (tables per
+cell group), whose values the generated code reads at assembly time.
+
+The signature, and so the cache, still tells problem *shapes* apart: the model and its terms,
+degrees, elements and cell types, the face sets, the power p of h⁻ᵖ, and the text of formulas
+in x, y. A formula such as ``"0.1*sin(pi*x)"`` stays symbolic, numbers in it included: it is a
+piece of the form, not a value, so a sweep over its amplitude compiles once per amplitude.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import dolfinx.fem
+import numpy as np
+import ufl
+from petsc4py import PETSc
+
+from dgplate import expressions
+
+
+def constant(mesh, value) -> dolfinx.fem.Constant:
+    """``value`` (a number or an array of numbers) as a Constant of the DOLFINx ``mesh``, in
+    PETSc's scalar type like every form of dgplate."""
+    return dolfinx.fem.Constant(mesh, np.asarray(value, dtype=PETSc.ScalarType))
+
+
+def _map(values, key: str, leaf: Callable[[Any, str], Any]):
+    """``leaf(value, key[i][j])`` on every entry of nested lists."""
+    if isinstance(values, list | tuple):
+        return [_map(v, f"{key}[{i}]", leaf) for i, v in enumerate(values)]
+    return leaf(values, key)
+
+
+def array(values, mesh, key: str):
+    """A number, a formula, or nested lists of them (shape checked by the caller) as UFL.
+
+    Numbers only: one Constant of their shape. With formulas: a UFL tensor whose numeric
+    entries are scalar Constants. Entries are checked by :func:`dgplate.expressions.parse`.
+    """
+    if expressions.is_constant(values):
+        return constant(mesh, _map(values, key, lambda v, k: expressions.parse(v, mesh, k)))
+
+    def leaf(value, k: str):
+        if isinstance(value, str):
+            return expressions.parse(value, mesh, k)
+        return constant(mesh, expressions.parse(value, mesh, k))
+
+    entries = _map(values, key, leaf)
+    return ufl.as_tensor(entries) if isinstance(entries, list) else entries
+
+
+def vector(values, mesh, key: str, size: int):
+    """:func:`dgplate.expressions.parse_vector`'s checks and messages, numbers as Constants."""
+    expressions.parse_vector(values, mesh, key, size)  # checks only
+    return array(values, mesh, key)

@@ -1,0 +1,93 @@
+"""Step solvers: the default (lagged) solver must not fail where direct LU solves succeed.
+
+A one-side-clamped strip with Z = [[−5, 0], [0, 0]], a coarse mesh and τ = 1 rolls up by
+large rotations in its first steps. The previous step's (δy, λ) is then a guess whose residual
+is ~10⁵‖b‖ (it violates the new linearised constraint), PETSc stops FGMRES with DIVERGED_DTOL
+before the first iteration, and without a fall-back from a zero guess the flow stopped at
+step 2. Both tests are ``mpi``: under mpirun every rank takes the same path and only rank 0
+logs.
+"""
+
+import logging
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+from dgplate.flow import FlowSettings, GradientFlow
+from dgplate.meshing import rectangle
+from dgplate.models.bilayer import BilayerSpec, build_bilayer
+from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
+from dgplate.output import bounding_box
+
+
+def rolling_strip(comm: MPI.Comm, linear_solver: str):
+    """The 2×1 strip, clamped at x = 0, rolling about the y axis (radius 0.2: 1.6 turns)."""
+    tagged = rectangle(comm, [[0, 0], [2, 1]], [8, 4])
+    model = build_bilayer(BilayerSpec(clamped=["left"], Z=[[-5.0, 0.0], [0.0, 0.0]]), tagged)
+    settings = FlowSettings(
+        tau=1.0,
+        max_steps=300,
+        multiplier_degree=1,
+        projection_steps=1,
+        linear_solver=linear_solver,
+    )
+    flow = GradientFlow(model.faces, 2, model.energy_fn, settings)
+    result = flow.run()
+    box = bounding_box(flow.y)
+    flow.destroy()
+    return result, box
+
+
+def logged(caplog) -> list[str]:
+    return [r.getMessage() for r in caplog.records if r.name == "dgplate.solvers"]
+
+
+@pytest.mark.mpi
+def test_rolling_strip_default_solver_falls_back_and_matches_direct(comm, caplog):
+    with caplog.at_level(logging.WARNING, logger="dgplate.solvers"):
+        lagged, box = rolling_strip(comm, "lagged")
+    direct, _ = rolling_strip(comm, "direct")
+    assert direct.converged, direct.reason
+    assert lagged.converged, lagged.reason
+    fallbacks = [info.fallbacks for info in lagged.history]
+    print(
+        f"\nrolling strip: lagged {lagged.steps} steps, E_h = {lagged.energy:.10e}, "
+        f"{sum(fallbacks)} fall-back(s) at steps "
+        f"{[i + 1 for i, n in enumerate(fallbacks) if n]}; direct {direct.steps} steps, "
+        f"E_h = {direct.energy:.10e}; x-extent {box[1][0] - box[0][0]:.3f}"
+    )
+    assert lagged.energy == pytest.approx(direct.energy, rel=1e-8)
+    assert lagged.steps == direct.steps
+    assert lagged.defect < 1e-10
+    assert box[1][0] - box[0][0] < 0.7, "the strip of length 2 rolls up (radius 0.2)"
+    assert box[0][2] < -0.5, "it rolls downwards (Z₁₁ < 0) and over the clamped edge"
+    assert fallbacks[1] >= 1, "step 2 is the one the old guess made fail"
+    messages = logged(caplog)
+    assert len(messages) == (sum(fallbacks) if comm.rank == 0 else 0)
+    assert comm.rank or "DIVERGED_DTOL after 0 iterations" in messages[0]
+
+
+@pytest.mark.mpi
+def test_failed_fresh_factors_fall_back_to_a_direct_solve(comm, caplog):
+    """FGMRES limited to one iteration at an unreachable tolerance fails with any factors:
+    every solve then ends in the direct LU solve, which gives the direct solver's flow."""
+    tagged = rectangle(comm, [[0, 0], [4, 4]], [4, 4])
+    spec = KirchhoffSpec(clamped=["left", "bottom"], load=[0.0, 0.0, 0.025])
+    model = build_kirchhoff(spec, tagged)
+    results = {}
+    for kind, options in (("direct", {}), ("lagged", {"ksp_max_it": 1, "ksp_rtol": 1e-30})):
+        settings = FlowSettings(tau=1.0, max_steps=3, linear_solver=kind, solver_options=options)
+        flow = GradientFlow(model.faces, 2, model.energy_fn, settings)
+        with caplog.at_level(logging.WARNING, logger="dgplate.solvers"):
+            results[kind] = flow.run()
+        flow.destroy()
+    lagged, direct = results["lagged"], results["direct"]
+    assert [info.fallbacks for info in lagged.history] == [2, 2, 2]
+    messages = logged(caplog)
+    assert len(messages) == (6 if comm.rank == 0 else 0)
+    assert comm.rank or "with fresh factors failed" in messages[-1]
+    assert np.allclose(
+        [h.energy for h in lagged.history], [h.energy for h in direct.history], rtol=1e-12
+    )
