@@ -28,11 +28,12 @@ def _handler(signum: int, _frame: FrameType | None) -> None:
     if _received:
         os._exit(128 + signum)  # the second signal: no clean-up, now
     _received = signum
-    sys.stderr.write(
-        f"dgplate: {signal.Signals(signum).name} received: stopping at the next step "
-        "(send it again to stop at once)\n"
-    )
-    sys.stderr.flush()
+    if MPI.COMM_WORLD.rank == 0:  # mpirun forwards the signal to every rank: say it once
+        sys.stderr.write(
+            f"dgplate: {signal.Signals(signum).name} received: stopping at the next step "
+            "(send it again to stop at once)\n"
+        )
+        sys.stderr.flush()
 
 
 class StopOnSignal:

@@ -101,6 +101,7 @@ class FlowCheckpoints:
         """Write the checkpoint now (collective)."""
         state = {
             "fingerprint": self.fingerprint,
+            "step": flow.step_count,
             "flow": flow.checkpoint_state(),
             "history": [asdict(info) for info in self.history],
             "energy_increases": self.increases,
@@ -112,12 +113,12 @@ class FlowCheckpoints:
 def _resume_point(problem: Problem, target: Path, comm: MPI.Comm) -> checkpoint.Checkpoint:
     """The checkpoint to continue from; refuses another problem's or a finished run's."""
     found = checkpoint.load(target / CHECKPOINT, comm, checkpoint.fingerprint(problem.raw))
-    done = int(found.state["flow"]["step"])
+    done = int(found.state["step"])
     if found.state.get("finished"):
         raise InputError(
             f"--resume: the run in {target} converged at step {done}; nothing to resume"
         )
-    if done >= problem.flow.max_steps:
+    if MODELS[problem.model.name].kind == "flow" and done >= problem.flow.max_steps:
         raise InputError(
             f"--resume: the run in {target} spent flow.max_steps = {problem.flow.max_steps} "
             f"steps already ({done}); raise flow.max_steps to continue it"
@@ -160,6 +161,9 @@ def run_problem(
                 out_dir=target,
                 comm=comm,
                 progress=bool(problem.output.progress),
+                force=force,
+                start=start,
+                fingerprint=checkpoint.fingerprint(problem.raw),
             )
             summary.setdefault("problem", problem.name)
             return summary

@@ -63,7 +63,7 @@ import numpy as np
 import ufl
 from petsc4py import PETSc
 
-from dgplate import compat, solvers, values
+from dgplate import checkpoint, compat, interrupt, solvers, values
 from dgplate.dg import (
     FREE,
     FaceSets,
@@ -347,6 +347,26 @@ class FvKProblem:
         self.history.append(record)
         return record
 
+    def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function]:
+        """The state and the one before it (the secant predictor's two points)."""
+        previous = dolfinx.fem.Function(self.W)
+        previous.x.array[:] = self._states[0][1]
+        return {"state": self.state, "previous": previous}
+
+    def checkpoint_state(self) -> dict:
+        """The load steps done (their records) and the two load factors of the predictor."""
+        return {"history": self.history, "loads": [lam for lam, _ in self._states]}
+
+    def restore(self, found: checkpoint.Checkpoint) -> None:
+        """Continue from a checkpoint written by :meth:`checkpoint_fields`/``_state``."""
+        fields = self.checkpoint_fields()
+        found.restore(fields)
+        state = found.state["fvk"]
+        self.history = list(state["history"])
+        arrays = [fields["previous"].x.array.copy(), self.state.x.array.copy()]
+        self._states = list(zip(state["loads"], arrays[-len(state["loads"]) :]))
+        self.set_load(state["loads"][-1])
+
     def collapse_w(self) -> dolfinx.fem.Function:
         self.w.x.array[:] = self.state.x.array[self._w_dofs]
         return self.w
@@ -391,24 +411,33 @@ def run_fvk(
     out_dir=None,
     comm: MPI.Comm | None = None,
     progress: bool = False,
+    force: bool = False,
+    start: checkpoint.Checkpoint | None = None,
+    fingerprint: str = "",
 ) -> dict:
     """Solve the load schedule; returns the summary (written with the outputs to ``out_dir``).
 
     Collective on the mesh communicator; ``comm`` defaults to it. Rank 0 prints (``progress``)
-    and writes files. A load step that does not converge ends the schedule: the summary says
-    ``converged = false`` with the SNES reason, and the outputs (summary.json, history.csv, the
-    series and the picture) hold the converged steps, as for a gradient flow. Any other error
-    leaves nothing in ``out_dir`` but what was there before.
+    and writes files. A load step that does not converge, or SIGINT/SIGTERM, ends the
+    schedule: the summary says ``converged = false`` with the SNES reason (or the signal),
+    and the outputs (summary.json, history.csv, the series and the picture) hold the
+    converged steps, as for a gradient flow. A checkpoint is written after every load step;
+    ``start`` continues from one. Any other error leaves nothing in ``out_dir`` but what was
+    there before and the checkpoints.
     """
     from dgplate.models import fvk_output
 
     comm = comm or tagged.comm
-    start = time.perf_counter()
+    wall0 = time.perf_counter()
     problem = FvKProblem(tagged, params)
-    writer = fvk_output.Writer(problem, out_dir) if out_dir is not None else None
-    failure = None
+    if start is not None:
+        problem.restore(start)
+    writer = None
+    if out_dir is not None:
+        writer = fvk_output.Writer(problem, out_dir, force, resume=start is not None)
+    failure, signum = None, 0
     try:
-        for lam in params.load_factors():
+        for lam in params.load_factors()[len(problem.history) :]:
             try:
                 rec = problem.solve_step(lam)
             except SolverError as err:  # collective: the SNES reason is the same on all ranks
@@ -416,14 +445,21 @@ def run_fvk(
                 break
             if writer:
                 writer.write_step(lam)
+                _save_checkpoint(problem, writer.stage.checkpoint_dir, fingerprint, False)
             if progress and comm.rank == 0:
                 print(
                     f"fvk step {rec['step']:3d}  load {rec['load']:.4g}  w_center "
                     f"{rec['w_center']:.6g}  Newton its {rec['iterations']}",
                     flush=True,
                 )
-        summary = fvk_output.summary(problem, time.perf_counter() - start, failure)
+            signum = interrupt.requested(comm)
+            if signum:
+                failure = interrupt.reason(signum)
+                break
+        summary = fvk_output.summary(problem, time.perf_counter() - wall0, failure)
+        summary["interrupted"] = signum
         if writer:
+            _save_checkpoint(problem, writer.stage.checkpoint_dir, fingerprint, failure is None)
             writer.finish(summary)
     except BaseException:
         if writer:
@@ -432,6 +468,16 @@ def run_fvk(
     finally:
         problem.close()
     return summary
+
+
+def _save_checkpoint(problem: FvKProblem, directory, fingerprint: str, finished: bool) -> None:
+    state = {
+        "fingerprint": fingerprint,
+        "step": len(problem.history),
+        "finished": finished,
+        "fvk": problem.checkpoint_state(),
+    }
+    checkpoint.save(directory, problem.comm, problem.checkpoint_fields(), state)
 
 
 __all__ = [

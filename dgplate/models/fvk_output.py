@@ -106,9 +106,9 @@ def plot_deflection(problem, path: Path) -> None:
 class Writer:
     """The output directory of one run, staged until ``finish``."""
 
-    def __init__(self, problem, out_dir):
+    def __init__(self, problem, out_dir, force: bool = False, resume: bool = False):
         self.problem, self.comm = problem, problem.comm
-        self.stage = OutputDir(self.comm, Path(out_dir))
+        self.stage = OutputDir(self.comm, Path(out_dir), force, resume)
         self.y, self.expr = deformation(problem)
         self.series = DeformationWriter(self.stage.path / "fvk.bp", self.y, comm=self.comm)
 
