@@ -42,6 +42,7 @@ import atexit
 import csv
 import math
 import shutil
+import sys
 import time
 from pathlib import Path
 
@@ -50,7 +51,7 @@ from mpi4py import MPI
 import dolfinx.fem
 import numpy as np
 
-from dgplate import compat
+from dgplate import checkpoint, compat, interrupt
 from dgplate.flow import FlowSettings
 from dgplate.heat import HeatSolver, HeatSource
 from dgplate.hinges import FoldAngles, Hinge, RegionFrame, edge_nodes
@@ -87,10 +88,17 @@ parser.add_argument(
 parser.add_argument(
     "--frames", type=int, help="a picture every N heat steps (1, paper 24; 0: none)"
 )
+parser.add_argument("--force", action="store_true", help="write into a folder of other files")
+parser.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
 args, _ = parser.parse_known_args()
 comm = MPI.COMM_WORLD
 wall0 = time.perf_counter()
 committed = False
+OutputDir.check(comm, Path(args.out), args.force, args.resume)  # before any computation
+# the run's parameters: a checkpoint of other parameters is refused by --resume
+parameters = {k: v for k, v in vars(args).items() if k not in ("out", "force", "resume", "frames")}
+FINGERPRINT = checkpoint.fingerprint({"box_folding": parameters})
+stop = interrupt.StopOnSignal().__enter__()  # SIGINT/SIGTERM: stop after a step, keep outputs
 
 
 def discard_unless_committed(out) -> None:
@@ -207,6 +215,9 @@ settings = ThermalSettings(
     penalty=hinge_penalty(W, opts["n"], opts["m"]),
 )
 model = ThermalBilayer(tagged, heat, flow_settings, settings)
+if args.resume:
+    model.restore(checkpoint.load(Path(args.out) / "checkpoint", comm, FINGERPRINT))
+    print0(comm, f"resumed at t = {heat.time:.2f} (heat step {heat.steps})")
 angles = FoldAngles(model.y, tagged, HINGES, sense=-1 if alpha > 0 else 1)
 base_frame = RegionFrame(model.y, tagged, "base")
 
@@ -254,7 +265,7 @@ model.measure = measure
 # below the base) and coloured by θ, with one camera for all frames.
 
 # %%
-out = OutputDir(comm, Path(args.out))
+out = OutputDir(comm, Path(args.out), args.force, args.resume)
 atexit.register(discard_unless_committed, out)
 writer = DeformationWriter(out.path / "box.bp", model.y, extras=(model.theta,), comm=comm)
 frames: list[Path] = []
@@ -297,7 +308,7 @@ def picture(path: Path, title: str) -> None:
 
 
 theta_max_expected = 1.02 * max(theta_hinges.values()) + 0.5
-rows: list[dict] = []
+rows: list[dict] = [record.row() for record in model.records]  # those before a resume
 t_start = time.perf_counter()
 
 
@@ -316,8 +327,54 @@ def report(record, label: str = "") -> None:
     )
 
 
+def save_checkpoint() -> None:
+    checkpoint.save(
+        out.checkpoint_dir,
+        comm,
+        model.checkpoint_fields(),
+        {"fingerprint": FINGERPRINT, **model.checkpoint_state()},
+    )
+
+
+def stop_if_interrupted() -> None:
+    """After SIGINT/SIGTERM: keep the history, a summary saying so and a checkpoint; exit."""
+    signum = model.interrupted
+    if not signum:
+        return
+    if model.records[-1].hold:
+        model.records.pop()  # an interrupted hold is done again on --resume
+    save_checkpoint()
+    writer.close()
+    write_history_csv()
+    summary = {
+        "model": "thermal_bilayer",
+        "converged": False,
+        "reason": interrupt.reason(signum),
+        "interrupted": signum,
+        "heat_steps": heat.steps,
+        "time": heat.time,
+        "steps": model.flow.step_count,
+        "energy": model.flow.evaluate_energy(),
+        "isometry_defect": model.flow.defect(),
+    }
+    write_json(comm, out.path / "summary.json", summary)
+    out.commit()
+    print0(comm, f"{summary['reason']} at t = {heat.time:.2f}: run again with --resume")
+    sys.exit(interrupt.exit_code(signum))
+
+
+def write_history_csv() -> None:
+    if comm.rank == 0 and rows:
+        with open(out.path / "history.csv", "w", newline="") as handle:
+            columns = list(dict.fromkeys(key for row in rows for key in row))
+            writer_csv = csv.DictWriter(handle, fieldnames=columns)
+            writer_csv.writeheader()
+            writer_csv.writerows(rows)
+
+
 def after_step(_model, record) -> None:
     report(record)
+    save_checkpoint()
     writer.write(record.time)
     if opts["frames"] and heat.steps % opts["frames"] == 0:
         path = out.path / "frames" / f"frame_{heat.steps:04d}.png"
@@ -338,20 +395,28 @@ writer.write(0.0)
 # flow's tolerance or the hold budget: that is the closed box.
 
 # %%
-model.run(T_SWITCH, after_step)
-switch_record = model.hold(opts["hold_steps"], tau=args.hold_tau)
-hold = model.last_result
-report(switch_record, "  ← switch: relaxed at the peak temperature")
-writer.write(switch_record.time)
+holds = [record for record in model.records if record.hold]  # done before a resume
+if not holds:
+    model.run(T_SWITCH, after_step)
+    stop_if_interrupted()
+    switch_record = model.hold(opts["hold_steps"], tau=args.hold_tau)
+    stop_if_interrupted()
+    # the base's spring: ½k∫_base |y − (x, 0)|², zero if the base is flat and in place
+    anchor_form = dolfinx.fem.form(
+        anchor_energy(model.y, tagged, settings.anchor, settings.anchor_stiffness)
+    )
+    anchor = comm.allreduce(dolfinx.fem.assemble_scalar(anchor_form), op=MPI.SUM)
+    switch_record.figures["anchor_energy"] = anchor
+    report(switch_record, "  ← switch: relaxed at the peak temperature")
+    writer.write(switch_record.time)
+    save_checkpoint()
+    picture(out.path / "closed.png", f"closed at the switch, t = {T_SWITCH}")
+    frames.append(out.path / "closed.png")
+else:
+    switch_record = holds[0]
 at_switch = {k[6:]: v for k, v in switch_record.figures.items() if k.startswith("angle_")}
-# the base's spring: ½k∫_base |y − (x, 0)|², zero if the base is flat and in place
-anchor_form = dolfinx.fem.form(
-    anchor_energy(model.y, tagged, settings.anchor, settings.anchor_stiffness)
-)
-anchor_at_switch = comm.allreduce(dolfinx.fem.assemble_scalar(anchor_form), op=MPI.SUM)
+anchor_at_switch = switch_record.figures["anchor_energy"]
 gap_at_switch = switch_record.figures["closure_gap"]
-picture(out.path / "closed.png", f"closed at the switch, t = {T_SWITCH}")
-frames.append(out.path / "closed.png")
 
 # %% [markdown]
 # ## Cooling: unfold
@@ -361,7 +426,9 @@ frames.append(out.path / "closed.png")
 
 # %%
 model.run(args.t_end, after_step)
+stop_if_interrupted()
 final_record = model.hold(opts["hold_steps"], tau=args.hold_tau)
+stop_if_interrupted()
 final = model.last_result
 report(final_record, "  ← end: relaxed")
 writer.write(final_record.time)
@@ -377,7 +444,8 @@ if frames:
     from dgplate.plotting import frames_to_gif
 
     frames_to_gif([*frames, out.path / "final.png"], out.path / "folding.gif", 4, comm)
-cut = frames.index(out.path / "closed.png")
+closed = out.path / "closed.png"
+cut = frames.index(closed) if closed in frames else 0  # no pictures before a resume
 heating, cooling = frames[:cut], frames[cut + 1 :]
 if comm.rank == 0 and len(heating) >= 3 and cooling:  # six stills: 3 heating, closed, 2 cooling
     from PIL import Image
@@ -389,11 +457,8 @@ if comm.rank == 0 and len(heating) >= 3 and cooling:  # six stills: 3 heating, c
     for i, tile in enumerate(tiles):
         sheet.paste(tile, ((i % 3) * 450, (i // 3) * 360))
     sheet.save(out.path / "folding.png")
+write_history_csv()
 if comm.rank == 0:
-    with open(out.path / "history.csv", "w", newline="") as handle:
-        writer_csv = csv.DictWriter(handle, fieldnames=list(rows[0]))
-        writer_csv.writeheader()
-        writer_csv.writerows(rows)
     try:
         import matplotlib
 
@@ -424,8 +489,8 @@ summary = {
     "ranks": comm.size,
     "steps": model.flow.step_count,
     "heat_steps": heat.steps,
-    "converged": bool(hold.converged and final.converged),
-    "converged_at_switch": hold.converged,
+    "converged": bool(switch_record.flow_converged and final.converged),
+    "converged_at_switch": switch_record.flow_converged,
     "energy": final.energy,
     "isometry_defect": final.defect,
     "bbox": bounding_box(model.y),
@@ -436,9 +501,9 @@ summary = {
     "closure_gap_at_switch": gap_at_switch,
     "closure_gap_definition": "max distance of the lid's free-edge nodes from (x1, 0, ±(1+2r)) "
     "in the base frame, r = 2w/π (the ideal closed box)",
-    "energy_at_switch": hold.energy,
+    "energy_at_switch": switch_record.energy,
     "anchor_energy_at_switch": anchor_at_switch,
-    "isometry_defect_at_switch": hold.defect,
+    "isometry_defect_at_switch": switch_record.defect,
     "alpha": alpha,
     "alpha_cw": alpha_cw,
     "alpha_rule": args.alpha,

@@ -237,6 +237,15 @@ class HeatSolver:
         self.time, self.steps = t_new, self.steps + 1
         return t_new
 
+    def checkpoint_state(self) -> dict:
+        """The counters that continue the heat equation from θ (a checkpoint's part)."""
+        return {"steps": self.steps, "time": self.time, "last_source": self.last_source}
+
+    def restore_state(self, state: dict) -> None:
+        """Continue from :meth:`checkpoint_state` (θ itself is restored as a field)."""
+        self.steps, self.time = int(state["steps"]), float(state["time"])
+        self.last_source = float(state["last_source"])
+
     def advance_to(self, t_end: float) -> int:
         """Step until ``time`` reaches ``t_end`` (to within 1e-9 Δt); returns the step count."""
         count = 0

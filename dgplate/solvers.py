@@ -279,7 +279,12 @@ class LaggedStepSolver:
             self._timed_refactor(stats)
         reason = self._krylov(b, x, stats)
         if reason < 0:
-            self._fall_back(stats, reason, "", "redone with fresh factors from a zero guess")
+            # old factors that no longer precondition well are the lagged method's normal
+            # case (refactorise and go on); anything else is worth a line
+            expected = reason == PETSc.KSP.ConvergedReason.DIVERGED_MAX_IT and not stats.factorised
+            self._fall_back(
+                stats, reason, "", "redone with fresh factors from a zero guess", quiet=expected
+            )
             if not stats.factorised:  # factors made for this K are fresh already
                 self._timed_refactor(stats)
             x.zeroEntries()
@@ -307,10 +312,12 @@ class LaggedStepSolver:
         stats.iterations += self.ksp.getIterationNumber()
         return self.ksp.getConvergedReason()
 
-    def _fall_back(self, stats: SolveStats, reason: int, which: str, action: str) -> None:
-        """Count a fall-back and say why on one line (rank 0)."""
+    def _fall_back(
+        self, stats: SolveStats, reason: int, which: str, action: str, quiet: bool = False
+    ) -> None:
+        """Count a fall-back and say why on one line (rank 0, unless ``quiet``)."""
         stats.fallbacks += 1
-        if self.K.getComm().getRank() == 0:
+        if not quiet and self.K.getComm().getRank() == 0:
             _log.warning(
                 "dgplate: lagged step solve%s failed (KSP reason %s after %d iterations); %s",
                 which,

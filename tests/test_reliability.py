@@ -177,21 +177,33 @@ KILL_AT_STEP = textwrap.dedent(
     from mpi4py import MPI
     from dgplate import flow
     from dgplate.cli import main
-    from dgplate.models import fvk
+    from dgplate.models import fvk, thermal
 
-    at = int(os.environ["DGPLATE_TEST_KILL_AT"])
+    driver, at = os.environ["DGPLATE_TEST_KILL_AT"].split(":")
+    at = int(at)
     step, load_step = flow.GradientFlow.step, fvk.FvKProblem.solve_step
     def step_then_die(self):
-        if self.step_count == at:
+        if self.step_count == at and driver == "flow":
             os.kill(os.getpid(), signal.SIGKILL)  # no clean-up at all, as kill -9
         return step(self)
     def load_step_then_die(self, lam):
-        if len(self.history) == at:
+        if len(self.history) == at and driver == "fvk":
             os.kill(os.getpid(), signal.SIGKILL)
         return load_step(self, lam)
+    def advance_then_die(self, max_steps=None):
+        if self.heat.steps == at and driver == "heat":
+            os.kill(os.getpid(), signal.SIGKILL)
+        return advance(self, max_steps)
     flow.GradientFlow.step = step_then_die
     fvk.FvKProblem.solve_step = load_step_then_die
-    sys.exit(main(sys.argv[1:]))
+    advance = thermal.ThermalBilayer.advance
+    thermal.ThermalBilayer.advance = advance_then_die
+    if sys.argv[1].endswith(".py"):  # a demo script
+        import runpy
+        sys.argv = sys.argv[1:]
+        runpy.run_path(sys.argv[0], run_name="__main__")
+    else:
+        sys.exit(main(sys.argv[1:]))
     """
 )
 
@@ -206,7 +218,8 @@ def killed_then_resumed(
 ) -> dict:
     """Run until SIGKILL after step ``at`` (checkpoint at 15), then ``--resume``."""
     args = ["run", str(problem), "--out", str(out), *base, *extra]
-    env = {**os.environ, "DGPLATE_TEST_KILL_AT": str(at)}
+    driver = "fvk" if "fvk" in problem.name else "flow"
+    env = {**os.environ, "DGPLATE_TEST_KILL_AT": f"{driver}:{at}"}
     killed = subprocess.run(
         [sys.executable, "-c", KILL_AT_STEP, *args], env=env, capture_output=True, timeout=300
     )
@@ -254,3 +267,37 @@ def test_killed_fvk_schedule_resumes_on_two_ranks(tmp_path):
     assert np.isclose(summary["w_center"], expected["w_center"], rtol=1e-9, atol=0)
     assert np.isclose(summary["energy"], expected["energy"], rtol=1e-9, atol=0)
     assert len(summary["history"]) == 6
+
+
+def test_killed_box_resumes_to_the_same_state(tmp_path):
+    """The thermal box on a short schedule (4 heat steps to the switch, 4 back): killed in
+    the cooling phase, after the switch's hold, and resumed; the final state is the same."""
+    demo = ROOT / "demos" / "box_folding.py"
+    short = ["--n", "2", "--m", "2", "--dt", "7.05", "--hold-steps", "40", "--flow-steps", "30"]
+    short += ["--frames", "0", "--alpha", "cw"]
+
+    def box(out: Path, *more: str, env=None) -> subprocess.CompletedProcess:
+        command = [sys.executable, str(demo), "--out", str(out), *short, *more]
+        return subprocess.run(command, capture_output=True, text=True, timeout=600, env=env)
+
+    assert box(tmp_path / "reference").returncode == 0
+    expected = summary_of(tmp_path / "reference")
+    out = tmp_path / "resumed"
+    env = {**os.environ, "DGPLATE_TEST_KILL_AT": "heat:6"}
+    killed = subprocess.run(
+        [sys.executable, "-c", KILL_AT_STEP, str(demo), "--out", str(out), *short],
+        env=env,
+        capture_output=True,
+        timeout=600,
+    )
+    assert killed.returncode == -signal.SIGKILL, killed.stderr
+    resumed = box(out, "--resume")
+    assert resumed.returncode == 0, resumed.stderr
+    assert "resumed at t = 42.30 (heat step 6)" in resumed.stdout
+    summary = summary_of(out)
+    assert summary["heat_steps"] == expected["heat_steps"] == 8
+    assert summary["steps"] == expected["steps"]
+    for key in ("energy", "isometry_defect", "energy_at_switch", "closure_gap_at_switch"):
+        assert np.isclose(summary[key], expected[key], rtol=1e-8, atol=1e-14), key
+    rows = (out / "history.csv").read_text().splitlines()
+    assert len(rows) == len((tmp_path / "reference" / "history.csv").read_text().splitlines())

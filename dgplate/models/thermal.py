@@ -30,12 +30,13 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 
 import dolfinx.fem
 import numpy as np
 import ufl
 
+from dgplate.checkpoint import Checkpoint
 from dgplate.dg import FaceSets, Penalty, face_sets
 from dgplate.errors import InputError
 from dgplate.flow import FlowResult, FlowSettings, GradientFlow
@@ -252,14 +253,42 @@ class ThermalBilayer:
         t_end: float,
         callback: Callable[[ThermalBilayer, HeatStepRecord], None] | None = None,
     ) -> list[HeatStepRecord]:
-        """Heat steps until ``t_end``; ``callback(self, record)`` after each."""
+        """Heat steps until ``t_end``; ``callback(self, record)`` after each.
+
+        Stops early when the flow was interrupted (SIGINT/SIGTERM, see :attr:`interrupted`).
+        """
         out = []
-        while self.heat.time < t_end - 1e-9 * self.heat.dt:
+        while self.heat.time < t_end - 1e-9 * self.heat.dt and not self.interrupted:
             record = self.advance()
             out.append(record)
             if callback is not None:
                 callback(self, record)
         return out
+
+    @property
+    def interrupted(self) -> int:
+        """The signal that stopped the last relaxation (0: none)."""
+        return self.last_result.interrupted if self.last_result is not None else 0
+
+    def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function]:
+        """The plate's and the heat equation's state (see :mod:`dgplate.checkpoint`)."""
+        return {**self.flow.checkpoint_fields(), "theta": self.heat.theta}
+
+    def checkpoint_state(self) -> dict:
+        """The counters and the records so far."""
+        return {
+            "step": self.heat.steps,
+            "flow": self.flow.checkpoint_state(),
+            "heat": self.heat.checkpoint_state(),
+            "records": [asdict(r) for r in self.records],
+        }
+
+    def restore(self, found: Checkpoint) -> None:
+        """Continue from a checkpoint written from :meth:`checkpoint_fields` and ``_state``."""
+        found.restore(self.checkpoint_fields())
+        self.flow.restore_state(found.state["flow"])
+        self.heat.restore_state(found.state["heat"])
+        self.records = [HeatStepRecord(**r) for r in found.state["records"]]
 
     def energy_parts(self) -> dict[str, float]:
         """Total energy and isometry defect of the current shape."""
