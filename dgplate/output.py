@@ -158,8 +158,11 @@ class OutputDir:
         return self.target
 
     def discard(self) -> None:
-        """Remove the staged results (an aborted run); the folder keeps its checkpoints."""
-        self.comm.barrier()
+        """Remove the staged results (an aborted run); the folder keeps its checkpoints.
+
+        Not collective: an error on one rank must not wait for the others (they may be in
+        a collective of the run); rank 0 removes, another rank's error leaves the staging
+        folder, which the next run into this folder removes."""
         if self.comm.rank == 0:
             shutil.rmtree(self.path, ignore_errors=True)
 

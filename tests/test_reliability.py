@@ -301,3 +301,34 @@ def test_killed_box_resumes_to_the_same_state(tmp_path):
         assert np.isclose(summary[key], expected[key], rtol=1e-8, atol=1e-14), key
     rows = (out / "history.csv").read_text().splitlines()
     assert len(rows) == len((tmp_path / "reference" / "history.csv").read_text().splitlines())
+
+
+ONE_RANK_FAILS = textwrap.dedent(
+    """
+    import sys
+    from mpi4py import MPI
+    from dgplate import flow
+    from dgplate.cli import main
+
+    step = flow.GradientFlow.step
+    def step_or_fail(self):
+        if self.step_count == 2 and MPI.COMM_WORLD.rank == 1:
+            raise RuntimeError("a failure on rank 1 only")
+        return step(self)
+    flow.GradientFlow.step = step_or_fail
+    sys.exit(main(sys.argv[1:]))
+    """
+)
+
+
+@pytest.mark.skipif(_mpirun() is None, reason="no mpirun")
+def test_error_on_one_rank_ends_every_rank(tmp_path):
+    """Rank 0 waits in a collective of step 3 that rank 1 never joins: without the agreement
+    of cli.end_together the job would hang until killed; with it, it ends with exit 1."""
+    out = tmp_path / "out"
+    args = ["run", str(VERTICAL), "--out", str(out), *SMALL, "--set", "output.progress=0"]
+    command = [_mpirun(), "-n", "2", sys.executable, "-c", ONE_RANK_FAILS, *args]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 1, done.stderr
+    assert "RuntimeError: a failure on rank 1 only (rank 1)" in done.stderr
+    assert not (out / "summary.json").exists()

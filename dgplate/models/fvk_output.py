@@ -131,5 +131,5 @@ class Writer:
         return self.stage.commit()
 
     def abort(self) -> None:
-        self.series.close()
+        """Drop the staged results; not collective (see :meth:`OutputDir.discard`)."""
         self.stage.discard()
