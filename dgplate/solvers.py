@@ -315,9 +315,12 @@ class LaggedStepSolver:
     def _fall_back(
         self, stats: SolveStats, reason: int, which: str, action: str, quiet: bool = False
     ) -> None:
-        """Count a fall-back and say why on one line (rank 0, unless ``quiet``)."""
+        """Count a fall-back and say why on one line (rank 0); ``quiet``: neither (the
+        lagged method's ordinary refactorisation)."""
+        if quiet:
+            return
         stats.fallbacks += 1
-        if not quiet and self.K.getComm().getRank() == 0:
+        if self.K.getComm().getRank() == 0:
             _log.warning(
                 "dgplate: lagged step solve%s failed (KSP reason %s after %d iterations); %s",
                 which,
