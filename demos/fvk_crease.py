@@ -11,7 +11,7 @@
 #
 # A crease is a line along which the plate stays continuous but may fold: the bending energy
 # is integrated over ω∖C, so the dG form keeps the value-jump terms on the crease faces and
-# drops the gradient-jump terms (DESIGN.md §1, "Folding along arcs"). A crease therefore acts
+# drops the gradient-jump terms (docs/design.md §1, "Folding along arcs"). A crease therefore acts
 # as a hinge: it carries no bending moment. Stretching is not affected: the membrane energy is
 # integrated everywhere.
 #

@@ -12,7 +12,7 @@
 # continuous but its gradient may jump: the bending energy is ½∫_{ω∖C} |D²y|². In the
 # interior-penalty dG method this means that on the faces of C the gradient-jump terms
 # (consistency −{D²y n}:[∇y] and penalty γ₁h⁻¹|[∇y]|²) are dropped while the value-jump terms
-# stay (DESIGN.md §1–§2).
+# stay (docs/design.md §1–§2).
 #
 # The left and right edges are clamped with the data of the sheet folded by φ about C:
 #

@@ -1,6 +1,6 @@
 """Linear clamped biharmonic problem Δ²u = f, the verification case of the dG core.
 
-The discrete problem minimises ½ a_h(u, u) − (f, u) with Nitsche data (DESIGN.md §2); the
+The discrete problem minimises ½ a_h(u, u) − (f, u) with Nitsche data (docs/design.md §2); the
 matrix and right-hand side are the second and first derivatives of that functional, so this
 module exercises exactly the code that the nonlinear plate models use.
 """

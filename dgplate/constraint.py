@@ -1,4 +1,4 @@
-"""The linearised isometry constraint and the isometry defect (DESIGN.md §2–§3).
+"""The linearised isometry constraint and the isometry defect (docs/design.md §2–§3).
 
 The multiplier λ is a symmetric 2×2 matrix per cell (DG0, three values: λ₁₁, λ₁₂, λ₂₂), so the
 linearised constraint ∇δyᵀ∇yⁿ + ∇yⁿᵀ∇δy = 0 holds for the integral mean over each cell.

@@ -1,4 +1,4 @@
-"""Measurements along a crease C: fold angles and the deformed crease lines (DESIGN.md §1).
+"""Measurements along a crease C: fold angles and the deformed crease lines (docs/design.md §1).
 
 A crease is a union of interior facets (the faces tagged ``CREASE`` by
 :func:`dgplate.dg.face_sets`). The deformation is continuous across C but its gradient may

@@ -1,6 +1,6 @@
 """Interior-penalty dG building blocks for fourth-order (bending) problems.
 
-Notation (DESIGN.md §2): jumps ``[v] = v⁺ − v⁻`` with ``n = n⁺``; averages ``{v}``;
+Notation (docs/design.md §2): jumps ``[v] = v⁺ − v⁻`` with ``n = n⁺``; averages ``{v}``;
 ``h_e`` the mean cell diameter of the two cells of an interior face and the cell diameter on a
 boundary face. On clamped faces the jumps carry the Nitsche data, ``[v] = v − g`` and
 ``[∇v] = ∇v − Φ``, and averages are one-sided. Faces tagged ``crease`` keep the value-jump
@@ -184,7 +184,7 @@ def bending_energy(
     g=None,
     Phi=None,
 ):
-    """½ a_h(y, y) of DESIGN.md §2 as a UFL functional, Nitsche data g, Φ on clamped faces.
+    """½ a_h(y, y) of docs/design.md §2 as a UFL functional, Nitsche data g, Φ on clamped faces.
 
     ``mu`` (cell-wise rigidity, UFL scalar) weights every term; averages use {μ ·} and the
     penalties {μ}. ``ufl.derivative`` of this functional gives the symmetric interior-penalty
@@ -227,7 +227,7 @@ def bending_energy(
 
 
 def h2_metric(w, v, faces: FaceSets, l2: bool = False):
-    """The discrete H² inner product (w, v)_* with homogeneous jumps (DESIGN.md §3).
+    """The discrete H² inner product (w, v)_* with homogeneous jumps (docs/design.md §3).
 
     Gradient jumps are left out on creases, as in the energy. ``l2`` adds the L² product,
     needed when nothing is clamped (rigid motions).

@@ -1,4 +1,4 @@
-"""Discrete H² gradient flow with a linearised isometry constraint (DESIGN.md §3).
+"""Discrete H² gradient flow with a linearised isometry constraint (docs/design.md §3).
 
 One step from yⁿ: find δy ∈ [DG_k]³ and a cell-wise symmetric multiplier λ with
 

@@ -1,4 +1,4 @@
-"""Heat equation on the flat reference domain: θ_t − κΔθ = s(x, t) (DESIGN.md §1).
+"""Heat equation on the flat reference domain: θ_t − κΔθ = s(x, t) (docs/design.md §1).
 
 Implicit Euler in time, continuous Lagrange (P1 or P2, Q1 or Q2 on quadrilaterals) in space,
 homogeneous Neumann conditions (∂θ/∂n = 0: the plate exchanges no heat through its edges).

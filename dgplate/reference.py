@@ -1,4 +1,7 @@
-"""Published reference values that demos, tests and benchmarks compare against."""
+"""Published reference values that demos, tests and benchmarks compare against.
+
+Sources and set-ups: docs/design.md §8.
+"""
 
 # Bonito, Nochetto, Ntogkas (M3AS 2021), Table 1: the plate (0, 4)² clamped on two
 # perpendicular edges under f = (0, 0, 2.5e-2), Q2, γ₀ = 5000, γ₁ = 1100, τ = h, tol 1e-6.

@@ -1,4 +1,4 @@
-"""Creases: folds along prescribed arcs (DESIGN.md §1 "Folding along arcs", §2).
+"""Creases: folds along prescribed arcs (docs/design.md §1 "Folding along arcs", §2).
 
 On crease faces the gradient-jump terms are dropped and the value-jump terms kept. A sheet
 clamped on both sides with the data of a straight fold is then reproduced exactly: the folded

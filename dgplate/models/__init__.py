@@ -1,1 +1,1 @@
-"""Plate models: one module per energy (DESIGN.md §6)."""
+"""Plate models: one module per energy (docs/design.md §6)."""

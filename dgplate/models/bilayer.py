@@ -1,4 +1,4 @@
-"""Bilayer plates with spontaneous curvature Z (DESIGN.md §1).
+"""Bilayer plates with spontaneous curvature Z (docs/design.md §1).
 
 E[y] = ½∫μ|II(y) − Z|² − ∫f·y under the isometry constraint. For isometries |II| = |D²y|, so
 

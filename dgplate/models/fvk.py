@@ -1,6 +1,6 @@
 """Föppl–von Kármán plates: stretching + bending, solved by Newton (PETSc SNES) with load steps.
 
-Model (DESIGN.md §1). In-plane displacement u: ω → ℝ², deflection w: ω → ℝ, and the energy
+Model (docs/design.md §1). In-plane displacement u: ω → ℝ², deflection w: ω → ℝ, and the energy
 
     Π(u, w) = ½∫ N(ε):ε + ½ a_h(w, w) − ∫ p w,     ε = sym∇u + ½∇w⊗∇w − ε₀ I,
     N = A[(1−ν)ε + ν tr(ε) I],  A = E t/(1−ν²),  M = D[(1−ν)κ + ν tr(κ) I],  D = E t³/(12(1−ν²)).

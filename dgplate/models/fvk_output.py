@@ -50,7 +50,7 @@ def deformed_bbox(y: dolfinx.fem.Function) -> list[list[float]]:
 
 
 def summary(problem, wall_time: float, failure: str | None = None) -> dict:
-    """The run's figures for summary.json (DESIGN.md §7 plus the FvK ones). Collective.
+    """The run's figures for summary.json (docs/design.md §7 plus the FvK ones). Collective.
 
     ``failure`` (the SolverError's message) makes it ``converged = false`` with that reason;
     the figures are then those of the last converged load step (None if there is none).

@@ -1,4 +1,4 @@
-"""Isometry-constrained Kirchhoff plate: E_h[y] = ½ a_h(y, y) − ∫ f·y (DESIGN.md §1–§2).
+"""Isometry-constrained Kirchhoff plate: E_h[y] = ½ a_h(y, y) − ∫ f·y (docs/design.md §1–§2).
 
 The bending part is the interior-penalty form of :mod:`dgplate.dg` with rigidity μ (a cell-wise
 coefficient) and Nitsche data g, Φ on clamped faces. The isometry constraint is not part of the

@@ -1,4 +1,4 @@
-"""Heat-coupled thermal bilayer (DESIGN.md §1, "Thermal bilayer"; seed 001 "Thermal Actuation").
+"""Heat-coupled thermal bilayer (docs/design.md §1, "Thermal bilayer").
 
 A bilayer whose layers expand differently with temperature θ has the spontaneous curvature
 
