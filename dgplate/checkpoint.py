@@ -50,14 +50,20 @@ def fingerprint(data: Mapping[str, Any]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def _cell_layout(space: dolfinx.fem.FunctionSpace) -> tuple[np.ndarray, np.ndarray]:
-    """Original indices of the owned cells, and their unknowns' positions in ``x.array``."""
+def _cell_layout(
+    space: dolfinx.fem.FunctionSpace, ghosts: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
+    """Original indices of the owned cells (``ghosts``: and of the ghost cells, where the
+    mesh records theirs), and their unknowns' positions in ``x.array``."""
     mesh = space.mesh
-    owned = mesh.topology.index_map(mesh.topology.dim).size_local
+    cells = mesh.topology.index_map(mesh.topology.dim)
+    count = cells.size_local
+    if ghosts and len(mesh.topology.original_cell_index) >= count + cells.num_ghosts:
+        count += cells.num_ghosts
     bs = space.dofmap.index_map_bs
-    dofs = np.asarray(space.dofmap.list[:owned], dtype=np.int64)
-    rows = (dofs[:, :, None] * bs + np.arange(bs)).reshape(owned, -1)
-    original = np.asarray(mesh.topology.original_cell_index[:owned], dtype=np.int64)
+    dofs = np.asarray(space.dofmap.list[:count], dtype=np.int64)
+    rows = (dofs[:, :, None] * bs + np.arange(bs)).reshape(count, -1)
+    original = np.asarray(mesh.topology.original_cell_index[:count], dtype=np.int64)
     return original, rows
 
 
@@ -77,8 +83,12 @@ def gather_cells(function: dolfinx.fem.Function) -> np.ndarray | None:
 
 
 def scatter_cells(function: dolfinx.fem.Function, table: np.ndarray, name: str) -> None:
-    """Set ``function`` from a per-cell table (on every rank) and update its ghosts."""
-    original, rows = _cell_layout(function.function_space)
+    """Set ``function`` from a per-cell table (on every rank) and update its ghosts.
+
+    Ghost cells are set too: an unknown shared between cells (a continuous space) may be
+    owned here but lie in no cell owned here, only in ghost cells (DOLFINx 0.9 does that).
+    """
+    original, rows = _cell_layout(function.function_space, ghosts=True)
     if table.shape[1] != rows.shape[1] or (len(original) and original.max() >= len(table)):
         raise InputError(
             f"checkpoint field {name!r} does not fit this problem's mesh or space "

@@ -18,6 +18,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+from mpi4py import MPI
+
 import numpy as np
 import pytest
 
@@ -44,6 +46,13 @@ RESUMABLE = [
 def _mpirun() -> str | None:
     beside = Path(sys.executable).parent / "mpirun"
     return str(beside) if beside.exists() else shutil.which("mpirun")
+
+
+#: Open MPI's launcher (Debian's route) ends the job itself on SIGTERM instead of leaving the
+#: ranks to stop (MPICH's forwards the signal; Slurm's srun signals the ranks directly); and
+#: FvK on 2 ranks of Debian's DOLFINx 0.9 / Open MPI stops with a floating-point exception
+#: inside PETSc, with or without a checkpoint (the 2-rank FvK tests run with MPICH).
+OPEN_MPI = MPI.Get_library_version().startswith("Open MPI")
 
 
 def dgplate(*args: str, ranks: int = 1, timeout: float = 300) -> subprocess.CompletedProcess:
@@ -142,8 +151,8 @@ def test_output_refusals_do_not_hang_under_mpirun(where, tmp_path):
 # -- interrupts -----------------------------------------------------------------------------
 @pytest.mark.parametrize("ranks", [1, 2])
 def test_sigterm_keeps_outputs_and_exits_143(ranks, tmp_path):
-    if ranks > 1 and _mpirun() is None:
-        pytest.skip("no mpirun")
+    if ranks > 1 and (_mpirun() is None or OPEN_MPI):
+        pytest.skip("no mpirun, or Open MPI's, which ends the job itself on SIGTERM")
     out = tmp_path / "run"
     never = ["--set", "flow.tol=1e-30", "--set", "flow.max_steps=100000"]
     args = ["run", str(VERTICAL), "--out", str(out), *SMALL, *never, "--set", "output.progress=1"]
@@ -251,18 +260,19 @@ def test_killed_run_resumes_to_the_same_state(ranks_after, tmp_path):
     assert len(history) == expected["steps"] + 1  # every step, before and after the kill
 
 
-def test_killed_fvk_schedule_resumes_on_two_ranks(tmp_path):
+@pytest.mark.parametrize("ranks_after", [1, 2])
+def test_killed_fvk_schedule_resumes(ranks_after, tmp_path):
     """FvK load stepping: the checkpoint after each load step holds the load factor and the
-    secant predictor's two states; 1 rank killed after 3 of 6 load steps, resumed on 2."""
-    if _mpirun() is None:
-        pytest.skip("no mpirun")
+    secant predictor's two states; 1 rank killed after 3 of 6 load steps, resumed on 1 or 2."""
+    if ranks_after > 1 and (_mpirun() is None or OPEN_MPI):
+        pytest.skip("no mpirun, or Open MPI (see OPEN_MPI)")
     problem = ROOT / "demos" / "problems" / "fvk_square.toml"
     small = ["--set", "mesh.cells=[6,6]", "--set", "model.load_steps=6"]
     small += ["--set", "output.progress=0"]
     reference = tmp_path / "reference"
     assert dgplate("run", str(problem), "--out", str(reference), *small).returncode == 0
     expected = summary_of(reference)
-    summary = killed_then_resumed(tmp_path / "resumed", [], 2, problem, 3, small)
+    summary = killed_then_resumed(tmp_path / "resumed", [], ranks_after, problem, 3, small)
     assert summary["steps"] == expected["steps"] == 6 and summary["converged"]
     assert np.isclose(summary["w_center"], expected["w_center"], rtol=1e-9, atol=0)
     assert np.isclose(summary["energy"], expected["energy"], rtol=1e-9, atol=0)
