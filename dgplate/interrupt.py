@@ -65,11 +65,6 @@ class StopOnSignal:
             signal.signal(sig, previous)  # type: ignore[arg-type]
 
 
-def received() -> int:
-    """The signal received on this rank (0: none). Not collective."""
-    return _received
-
-
 def requested(comm: MPI.Comm) -> int:
     """The signal any rank received (0: none). Collective: call it on every rank."""
     return int(comm.allreduce(_received, op=MPI.MAX))
