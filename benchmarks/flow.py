@@ -31,12 +31,12 @@ import dolfinx.fem.petsc
 import numpy as np
 from petsc4py import PETSc
 
-from dgplate import solvers
-from dgplate.flow import FlowResult, FlowSettings, GradientFlow
-from dgplate.meshing import rectangle
+from dgplate.io.output import ProgressPrinter, print0
+from dgplate.mesh.tagged import rectangle
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
-from dgplate.output import ProgressPrinter, print0
-from dgplate.reference import BNN_TABLE1
+from dgplate.reference.bnn import BNN_TABLE1
+from dgplate.solvers import linear as solvers
+from dgplate.solvers.flow import FlowResult, FlowSettings, GradientFlow
 
 PHASES = ("assembly", "factorisation", "solves", "other")
 

@@ -34,11 +34,11 @@ import numpy as np
 import ufl
 
 from dgplate import compat
-from dgplate.biharmonic import solve_biharmonic
-from dgplate.dg import Penalty, face_sets
-from dgplate.meshing import RECTANGLE_SIDES, rectangle
-from dgplate.output import OutputDir, print0, write_json
-from dgplate.plotting import plot_deformation
+from dgplate.dg.forms import Penalty, face_sets
+from dgplate.io.output import OutputDir, print0, write_json
+from dgplate.io.plotting import plot_deformation
+from dgplate.mesh.tagged import RECTANGLE_SIDES, rectangle
+from dgplate.solvers.biharmonic import solve_biharmonic
 
 parser = argparse.ArgumentParser(description=__doc__)
 parser.add_argument("--degree", type=int, default=2)

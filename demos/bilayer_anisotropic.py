@@ -49,9 +49,9 @@ from mpi4py import MPI
 
 import numpy as np
 
-from dgplate.output import print0
-from dgplate.problem import load_problem
-from dgplate.runner import run_problem
+from dgplate.io.output import print0
+from dgplate.problems.runner import run_problem
+from dgplate.problems.specs import load_problem
 
 PROBLEM = Path(__file__).parent / "problems" / "bilayer_anisotropic.toml"
 CASES = {"Z1": [[-5.0, 0.0], [0.0, -1.0]], "Z2": [[-3.0, 2.0], [2.0, -3.0]]}

@@ -45,9 +45,9 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from dgplate.output import print0
-from dgplate.problem import problem_from_dict
-from dgplate.runner import run_problem
+from dgplate.io.output import print0
+from dgplate.problems.runner import run_problem
+from dgplate.problems.specs import problem_from_dict
 
 PROBLEM = Path(__file__).parent / "problems" / "bilayer_crease.toml"
 
@@ -98,7 +98,7 @@ chords = run(1)
 # (52.9° at h = 0.2, 51.4° at h = 0.1, against 53.13°) and E_h is small compared with the flat
 # sheet's ½∫|Z|² = 8.0e−2 (1.3e−2 and 8.5e−3). With chords the same flow stops at a much
 # smaller fold (12° and 18.5°) with a larger energy: the crease locks. The signed fold angle
-# is negative (a mountain fold in the convention of `dgplate.creases`: the + inside C bends the
+# is negative (a mountain fold in the convention of `dgplate.measure.creases`: the + inside C bends the
 # inner side towards −ν).
 
 # %%

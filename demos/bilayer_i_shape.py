@@ -36,10 +36,10 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from dgplate.demo_support import copy_figure, demo_arguments, describe_cylinder, report_run
-from dgplate.output import print0
-from dgplate.problem import load_problem
-from dgplate.runner import run_problem
+from dgplate.io.demo_support import copy_figure, demo_arguments, describe_cylinder, report_run
+from dgplate.io.output import print0
+from dgplate.problems.runner import run_problem
+from dgplate.problems.specs import load_problem
 
 PROBLEM = Path(__file__).parent / "problems" / "bilayer_i_shape.toml"
 

@@ -51,11 +51,13 @@ from mpi4py import MPI
 import dolfinx.fem
 import numpy as np
 
-from dgplate import checkpoint, compat, interrupt
-from dgplate.flow import FlowSettings
-from dgplate.heat import HeatSolver, HeatSource
-from dgplate.hinges import FoldAngles, Hinge, RegionFrame, edge_nodes
-from dgplate.meshing import load_geo
+from dgplate import compat, interrupt
+from dgplate.coupling.heat import HeatSolver, HeatSource
+from dgplate.io import checkpoint
+from dgplate.io.output import OutputDir, bounding_box, print0, write_json
+from dgplate.io.vtx import DeformationWriter
+from dgplate.measure.hinges import FoldAngles, Hinge, RegionFrame, edge_nodes
+from dgplate.mesh.tagged import load_geo
 from dgplate.models.thermal import (
     ThermalBilayer,
     ThermalSettings,
@@ -63,8 +65,7 @@ from dgplate.models.thermal import (
     calibrate_alpha,
     hinge_penalty,
 )
-from dgplate.output import OutputDir, bounding_box, print0, write_json
-from dgplate.vtx import DeformationWriter
+from dgplate.solvers.flow import FlowSettings
 
 parser = argparse.ArgumentParser(description="Self-folding box driven by heat (seed 001).")
 parser.add_argument("--out", default="out/box_folding", help="output directory")
@@ -273,7 +274,7 @@ frames: list[Path] = []
 
 def picture(path: Path, title: str) -> None:
     """Collective: gather the surface with θ, render on rank 0 with a fixed camera."""
-    from dgplate.fields import surface_grid
+    from dgplate.measure.fields import surface_grid
 
     grid = surface_grid(model.y, point_values={"temperature": model.theta})
     c, Q, c_ref = base_frame()  # collective: before the rank-0 branch
@@ -281,7 +282,7 @@ def picture(path: Path, title: str) -> None:
         return
     import pyvista
 
-    from dgplate.plotting import _headless
+    from dgplate.io.plotting import _headless
 
     _headless()
     flip = np.diag([1.0, -1.0, -1.0]) if SIDE < 0 else np.eye(3)
@@ -441,7 +442,7 @@ final_angles = {k[6:]: v for k, v in final_record.figures.items() if k.startswit
 # %%
 picture(out.path / "final.png", f"t = {final_record.time:.1f}: opened again")
 if frames:
-    from dgplate.plotting import frames_to_gif
+    from dgplate.io.plotting import frames_to_gif
 
     frames_to_gif([*frames, out.path / "final.png"], out.path / "folding.gif", 4, comm)
 closed = out.path / "closed.png"

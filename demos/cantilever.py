@@ -23,9 +23,9 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from dgplate.output import print0
-from dgplate.problem import load_problem
-from dgplate.runner import run_problem
+from dgplate.io.output import print0
+from dgplate.problems.runner import run_problem
+from dgplate.problems.specs import load_problem
 
 PROBLEM = Path(__file__).parent / "problems" / "cantilever.toml"
 

@@ -44,9 +44,9 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from dgplate.output import print0
-from dgplate.problem import problem_from_dict
-from dgplate.runner import run_problem
+from dgplate.io.output import print0
+from dgplate.problems.runner import run_problem
+from dgplate.problems.specs import problem_from_dict
 
 PROBLEM = Path(__file__).parent / "problems" / "curved_fold.toml"
 

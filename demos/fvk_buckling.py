@@ -39,7 +39,7 @@ from mpi4py import MPI
 
 import numpy as np
 
-from dgplate.meshing import rectangle
+from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk import FvKParameters, run_fvk
 
 parser = argparse.ArgumentParser()

@@ -21,7 +21,7 @@
 # equations have a closed-form solution for a given tension N: D w'''' − N w'' = q, w = w' = 0
 # at the clamped end and, at the centre, a hinge (w'' = 0, D w''' − N w' = 0) or, without the
 # crease, symmetry (w' = 0, w''' = 0); the held ends fix N = (E t/L)∫₀^{L/2} w'² dx
-# (`dgplate.models.fvk_reference.strip_centre_deflection`). Small loads reproduce beam theory:
+# (`dgplate.reference.fvk.strip_centre_deflection`). Small loads reproduce beam theory:
 # with the hinge each half is a cantilever, w_c = q (L/2)⁴/(8D); without it w_c = q L⁴/(384D).
 # Large loads: the tension carries more and more of the load and the crease matters less.
 #
@@ -36,9 +36,9 @@ from mpi4py import MPI
 
 import numpy as np
 
-from dgplate.meshing import load_geo
+from dgplate.mesh.tagged import load_geo
 from dgplate.models.fvk import FvKParameters, run_fvk
-from dgplate.models.fvk_reference import strip_centre_deflection
+from dgplate.reference.fvk import strip_centre_deflection
 
 parser = argparse.ArgumentParser()
 parser.add_argument("--fine", "--paper", action="store_true", help="finer mesh")

@@ -42,9 +42,9 @@ from mpi4py import MPI
 
 import numpy as np
 
-from dgplate.meshing import RECTANGLE_SIDES, rectangle
-from dgplate.models import fvk_reference as ref
+from dgplate.mesh.tagged import RECTANGLE_SIDES, rectangle
 from dgplate.models.fvk import FvKParameters, FvKProblem, run_fvk
+from dgplate.reference import fvk as ref
 
 LEVY_Q, LEVY_W = ref.LEVY_Q, ref.LEVY_W
 LINEAR = {

@@ -39,14 +39,14 @@ from mpi4py import MPI
 import numpy as np
 
 from dgplate import compat
-from dgplate.analysis import curvature_summary
-from dgplate.flow import FlowSettings
-from dgplate.heat import HeatSolver, HeatSource
-from dgplate.hinges import RegionFrame, edge_nodes
-from dgplate.meshing import load_geo
+from dgplate.coupling.heat import HeatSolver, HeatSource
+from dgplate.io.output import OutputDir, bounding_box, print0, write_json
+from dgplate.io.vtx import DeformationWriter
+from dgplate.measure.analysis import curvature_summary
+from dgplate.measure.hinges import RegionFrame, edge_nodes
+from dgplate.mesh.tagged import load_geo
 from dgplate.models.thermal import ThermalBilayer, ThermalSettings
-from dgplate.output import OutputDir, bounding_box, print0, write_json
-from dgplate.vtx import DeformationWriter
+from dgplate.solvers.flow import FlowSettings
 
 parser = argparse.ArgumentParser(description="Self-folding microcapsule (seed 001).")
 parser.add_argument("--out", default="out/microcapsule", help="output directory")
@@ -123,7 +123,7 @@ frames: list[Path] = []
 def picture(path: Path, title: str, close: bool = False) -> None:
     """Collective: gather the surface, render on rank 0 in the centre's frame (``close``:
     a nearer camera for the curled shape; the frames share one camera that fits the star)."""
-    from dgplate.fields import bending_density, surface_grid
+    from dgplate.measure.fields import bending_density, surface_grid
 
     grid = surface_grid(model.y, cell_values={"curvature": bending_density(model.y)})
     c, Q, c_ref = centre()  # collective: before the rank-0 branch
@@ -131,7 +131,7 @@ def picture(path: Path, title: str, close: bool = False) -> None:
         return
     import pyvista
 
-    from dgplate.plotting import _headless
+    from dgplate.io.plotting import _headless
 
     _headless()
     grid.points = (np.asarray(grid.points) - c) @ Q + c_ref
@@ -206,7 +206,7 @@ writer.close()
 # %%
 picture(out.path / "final.png", f"Z = {args.Z:g} I: the flaps curl over the centre", True)
 if frames:
-    from dgplate.plotting import frames_to_gif
+    from dgplate.io.plotting import frames_to_gif
 
     frames_to_gif(frames, out.path / "curling.gif", 4, comm)
 if comm.rank == 0:

@@ -35,10 +35,10 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from dgplate.output import print0
-from dgplate.problem import load_problem
-from dgplate.reference import BNN_TABLE1
-from dgplate.runner import run_problem
+from dgplate.io.output import print0
+from dgplate.problems.runner import run_problem
+from dgplate.problems.specs import load_problem
+from dgplate.reference.bnn import BNN_TABLE1
 
 PROBLEM = Path(__file__).parent / "problems" / "vertical_load.toml"
 # Published values (E_h, D_h, steps) for Q2 at τ = h.

@@ -91,8 +91,8 @@ def main(argv: list[str] | None = None) -> int:
 def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
     if args.command == "schema":
         return _schema(args.model)
-    from dgplate.problem import load_problem
-    from dgplate.runner import run_problem
+    from dgplate.problems.runner import run_problem
+    from dgplate.problems.specs import load_problem
 
     problem = load_problem(args.problem, args.overrides)
     with interrupt.StopOnSignal():
@@ -146,8 +146,8 @@ def _exit(status: int = 0, message: str | None = None):
 
 
 def _schema(model: str) -> int:
-    from dgplate.models.registry import MODELS
-    from dgplate.problem import FlowSpec, MeshSpec, OutputSpec
+    from dgplate.problems.registry import MODELS
+    from dgplate.problems.specs import FlowSpec, MeshSpec, OutputSpec
     from dgplate.schema import describe
 
     if model not in MODELS:

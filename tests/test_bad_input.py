@@ -14,11 +14,12 @@ from mpi4py import MPI
 
 import pytest
 
-from dgplate import advice, expressions
+from dgplate import expressions
 from dgplate.cli import main
 from dgplate.errors import InputError
-from dgplate.meshing import rectangle
-from dgplate.problem import problem_from_dict
+from dgplate.mesh.tagged import rectangle
+from dgplate.problems import advice
+from dgplate.problems.specs import problem_from_dict
 
 ROOT = Path(__file__).resolve().parent.parent
 PROBLEMS = ROOT / "demos" / "problems"

@@ -12,9 +12,9 @@ import pytest
 import ufl
 from conftest import rates
 
-from dgplate.biharmonic import solve_biharmonic
-from dgplate.dg import Penalty, face_sets
-from dgplate.meshing import RECTANGLE_SIDES, load_geo, rectangle
+from dgplate.dg.forms import Penalty, face_sets
+from dgplate.mesh.tagged import RECTANGLE_SIDES, load_geo, rectangle
+from dgplate.solvers.biharmonic import solve_biharmonic
 
 LEVELS = [4, 8, 16, 32, 64]
 

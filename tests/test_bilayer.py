@@ -10,9 +10,9 @@ import pytest
 from conftest import PARITY_RTOL
 
 from dgplate.cli import main
-from dgplate.flow import FlowSettings, GradientFlow
-from dgplate.meshing import rectangle
+from dgplate.mesh.tagged import rectangle
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
+from dgplate.solvers.flow import FlowSettings, GradientFlow
 
 CYLINDER = Path(__file__).resolve().parent.parent / "demos" / "problems" / "bilayer_cylinder.toml"
 

@@ -19,13 +19,13 @@ import ufl
 from conftest import PARITY_RTOL
 
 from dgplate.cli import main
-from dgplate.creases import CreaseMeasure
-from dgplate.dg import CREASE, face_sets
-from dgplate.flow import FlowSettings, GradientFlow
-from dgplate.meshing import load_geo
-from dgplate.models.registry import MODELS
-from dgplate.problem import load_problem
-from dgplate.runner import build_mesh, run_problem
+from dgplate.dg.forms import CREASE, face_sets
+from dgplate.measure.creases import CreaseMeasure
+from dgplate.mesh.tagged import load_geo
+from dgplate.problems.registry import MODELS
+from dgplate.problems.runner import build_mesh, run_problem
+from dgplate.problems.specs import load_problem
+from dgplate.solvers.flow import FlowSettings, GradientFlow
 
 ROOT = Path(__file__).resolve().parent.parent
 STRAIGHT = ROOT / "demos" / "problems" / "straight_fold.toml"

@@ -19,10 +19,10 @@ import pytest
 from conftest import PARITY_RTOL
 
 from dgplate.errors import InputError, SolverError
-from dgplate.meshing import RECTANGLE_SIDES, load_geo, rectangle
+from dgplate.mesh.tagged import RECTANGLE_SIDES, load_geo, rectangle
 from dgplate.models.fvk import FvKParameters, FvKProblem, run_fvk
 from dgplate.models.fvk_output import HISTORY_COLUMNS
-from dgplate.models.fvk_reference import (
+from dgplate.reference.fvk import (
     CLAMPED_SERIES,
     LEVY_NU,
     LEVY_Q,

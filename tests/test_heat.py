@@ -14,9 +14,9 @@ import pytest
 import ufl
 from conftest import rates
 
+from dgplate.coupling.heat import HeatSolver, HeatSource
 from dgplate.errors import InputError
-from dgplate.heat import HeatSolver, HeatSource
-from dgplate.meshing import rectangle
+from dgplate.mesh.tagged import rectangle
 
 KAPPA = 1.0
 

@@ -17,9 +17,9 @@ from mpi4py import MPI
 import dolfinx.fem
 import pytest
 
-from dgplate.dg import Penalty, face_sets
-from dgplate.hinges import hinge_strip
-from dgplate.meshing import rectangle
+from dgplate.dg.forms import Penalty, face_sets
+from dgplate.measure.hinges import hinge_strip
+from dgplate.mesh.tagged import rectangle
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.fvk import fvk_bending_energy
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 from conftest import PARITY_RTOL
 
-from dgplate.flow import FlowSettings, GradientFlow
-from dgplate.meshing import rectangle
+from dgplate.mesh.tagged import rectangle
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
-from dgplate.reference import BNN_TABLE1
+from dgplate.reference.bnn import BNN_TABLE1
+from dgplate.solvers.flow import FlowSettings, GradientFlow
 
 TABLE1 = BNN_TABLE1
 
@@ -150,7 +150,7 @@ def test_compact_matrix_refuses_a_nonzero_outside_its_pattern():
     being dropped or silently allocated."""
     from petsc4py import PETSc
 
-    from dgplate.sparsity import without_exact_zeros
+    from dgplate.solvers.sparsity import without_exact_zeros
 
     dense = PETSc.Mat().createAIJ(size=(3, 3), nnz=3, comm=MPI.COMM_SELF)
     lgmap = PETSc.LGMap().create(np.arange(3, dtype=PETSc.IntType), comm=MPI.COMM_SELF)

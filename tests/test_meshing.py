@@ -6,9 +6,9 @@ import dolfinx
 import numpy as np
 import pytest
 
-from dgplate.dg import CLAMPED, CREASE, SMOOTH, face_sets
+from dgplate.dg.forms import CLAMPED, CREASE, SMOOTH, face_sets
 from dgplate.errors import InputError
-from dgplate.meshing import load_geo, rectangle
+from dgplate.mesh.tagged import load_geo, rectangle
 
 
 def test_rectangle_groups_and_counts():

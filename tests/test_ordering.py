@@ -9,8 +9,8 @@ import pytest
 from petsc4py import PETSc
 from test_kirchhoff import vertical_load_flow
 
-from dgplate.meshing import rectangle
-from dgplate.ordering import cellwise_numbering
+from dgplate.mesh.tagged import rectangle
+from dgplate.solvers.ordering import cellwise_numbering
 
 
 def _cellwise_step_matrix(comm) -> tuple[PETSc.Mat, PETSc.IS]:

@@ -15,12 +15,12 @@ import pytest
 from PIL import Image
 
 from dgplate import compat
-from dgplate.constraint import multiplier_element
 from dgplate.errors import InputError
-from dgplate.fields import bending_density, cell_field, defect_density, dg0_dofs_to_cells
-from dgplate.meshing import rectangle
-from dgplate.plotting import REFERENCE, frames_to_gif, plot_deformation, render_png, surface_grid
-from dgplate.vtx import DeformationWriter, bp_variables
+from dgplate.io.plotting import REFERENCE, frames_to_gif, plot_deformation, render_png, surface_grid
+from dgplate.io.vtx import DeformationWriter, bp_variables
+from dgplate.measure.fields import bending_density, cell_field, defect_density, dg0_dofs_to_cells
+from dgplate.mesh.tagged import rectangle
+from dgplate.solvers.constraint import multiplier_element
 
 CELL_TYPES = ["quadrilateral", "triangle"]
 SMALL = (400, 300)

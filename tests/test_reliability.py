@@ -184,7 +184,7 @@ KILL_AT_STEP = textwrap.dedent(
     """
     import os, signal, sys
     from mpi4py import MPI
-    from dgplate import flow
+    from dgplate.solvers import flow
     from dgplate.cli import main
     from dgplate.models import fvk, thermal
 
@@ -317,7 +317,7 @@ ONE_RANK_FAILS = textwrap.dedent(
     """
     import sys
     from mpi4py import MPI
-    from dgplate import flow
+    from dgplate.solvers import flow
     from dgplate.cli import main
 
     step = flow.GradientFlow.step

@@ -15,11 +15,11 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 
-from dgplate.flow import FlowSettings, GradientFlow
-from dgplate.meshing import rectangle
+from dgplate.io.output import bounding_box
+from dgplate.mesh.tagged import rectangle
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
-from dgplate.output import bounding_box
+from dgplate.solvers.flow import FlowSettings, GradientFlow
 
 
 def rolling_strip(comm: MPI.Comm, linear_solver: str):
@@ -41,12 +41,12 @@ def rolling_strip(comm: MPI.Comm, linear_solver: str):
 
 
 def logged(caplog) -> list[str]:
-    return [r.getMessage() for r in caplog.records if r.name == "dgplate.solvers"]
+    return [r.getMessage() for r in caplog.records if r.name == "dgplate.solvers.linear"]
 
 
 @pytest.mark.mpi
 def test_rolling_strip_default_solver_falls_back_and_matches_direct(comm, caplog):
-    with caplog.at_level(logging.WARNING, logger="dgplate.solvers"):
+    with caplog.at_level(logging.WARNING, logger="dgplate.solvers.linear"):
         lagged, box = rolling_strip(comm, "lagged")
     direct, _ = rolling_strip(comm, "direct")
     assert direct.converged, direct.reason
@@ -80,7 +80,7 @@ def test_failed_fresh_factors_fall_back_to_a_direct_solve(comm, caplog):
     for kind, options in (("direct", {}), ("lagged", {"ksp_max_it": 1, "ksp_rtol": 1e-30})):
         settings = FlowSettings(tau=1.0, max_steps=3, linear_solver=kind, solver_options=options)
         flow = GradientFlow(model.faces, 2, model.energy_fn, settings)
-        with caplog.at_level(logging.WARNING, logger="dgplate.solvers"):
+        with caplog.at_level(logging.WARNING, logger="dgplate.solvers.linear"):
             results[kind] = flow.run()
         flow.destroy()
     lagged, direct = results["lagged"], results["direct"]

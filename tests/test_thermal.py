@@ -10,17 +10,24 @@ import pytest
 import ufl
 from conftest import PARITY_RTOL
 
+from dgplate.coupling.heat import HeatSolver, HeatSource
 from dgplate.errors import InputError
-from dgplate.flow import FlowSettings
-from dgplate.heat import HeatSolver, HeatSource
-from dgplate.hinges import FoldAngles, Hinge, RegionFrame, RegionIntegrals, edge_nodes, hinge_strip
-from dgplate.meshing import load_geo
+from dgplate.measure.hinges import (
+    FoldAngles,
+    Hinge,
+    RegionFrame,
+    RegionIntegrals,
+    edge_nodes,
+    hinge_strip,
+)
+from dgplate.mesh.tagged import load_geo
 from dgplate.models.thermal import (
     ThermalBilayer,
     ThermalSettings,
     calibrate_alpha,
     hinge_penalty,
 )
+from dgplate.solvers.flow import FlowSettings
 
 W = math.pi / 24
 

@@ -4,7 +4,7 @@ E[y] = ½∫μ|II(y) − Z|² − ∫f·y under the isometry constraint. For iso
 
     E[y] = ½∫μ|D²y|² − ∫μ Z : (D²y·ν) + ½∫μ|Z|² − ∫f·y,      ν = ∂₁y × ∂₂y / |∂₁y × ∂₂y|.
 
-The first term is the interior-penalty bending energy of :mod:`dgplate.dg`. The coupling term
+The first term is the interior-penalty bending energy of :mod:`dgplate.dg.forms`. The coupling term
 uses the *distributional* Hessian H(y) of the broken field, so that the smooth minimiser
 satisfies the discrete equations (consistency):
 
@@ -24,9 +24,18 @@ from dataclasses import dataclass
 import ufl
 
 from dgplate import expressions, values
-from dgplate.creases import with_fold_angles
-from dgplate.dg import CLAMPED, CREASE, SMOOTH, FaceSets, Penalty, bending_energy, face_sets, jump
+from dgplate.dg.forms import (
+    CLAMPED,
+    CREASE,
+    SMOOTH,
+    FaceSets,
+    Penalty,
+    bending_energy,
+    face_sets,
+    jump,
+)
 from dgplate.errors import InputError
+from dgplate.measure.creases import with_fold_angles
 from dgplate.models.base import Energy, clamped_data, piecewise_constant
 from dgplate.models.kirchhoff import FlowModel, KirchhoffSpec
 from dgplate.schema import option
@@ -159,7 +168,7 @@ class BilayerSpec(KirchhoffSpec):
 
 
 def build_bilayer(spec: BilayerSpec, tagged) -> FlowModel:
-    from dgplate.analysis import curvature_summary
+    from dgplate.measure.analysis import curvature_summary
 
     faces = face_sets(tagged, clamped=spec.clamped, crease=spec.crease)
     load = values.vector(spec.load, tagged.mesh, "model.load", 3)

@@ -7,7 +7,7 @@ Model (docs/design.md §1). In-plane displacement u: ω → ℝ², deflection w:
 
 Residual and Jacobian are ``ufl.derivative`` of Π; nothing else is written by hand.
 
-Bending. ½a_h(w, w) is :func:`dgplate.dg.bending_energy` on the scalar w with μ = D (clamped
+Bending. ½a_h(w, w) is :func:`dgplate.dg.forms.bending_energy` on the scalar w with μ = D (clamped
 faces: Nitsche data w = 0, ∇w = 0; crease faces: no gradient-jump terms), plus the Poisson part
 νD[∫det D²w − Σ_e∫{cof(D²w) n}·[∇w]], cof(H) = tr(H) I − H. Together the cell terms are ½∫M:κ,
 and the face terms are the consistent symmetric IP terms of the moment M: div cof(D²w) = 0, so
@@ -63,8 +63,8 @@ import numpy as np
 import ufl
 from petsc4py import PETSc
 
-from dgplate import checkpoint, compat, interrupt, solvers, values
-from dgplate.dg import (
+from dgplate import compat, interrupt, values
+from dgplate.dg.forms import (
     FREE,
     FaceSets,
     Penalty,
@@ -75,8 +75,10 @@ from dgplate.dg import (
     jump,
 )
 from dgplate.errors import InputError, SolverError
-from dgplate.meshing import TaggedMesh
+from dgplate.io import checkpoint
+from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.fvk_params import FvKParameters
+from dgplate.solvers import linear as solvers
 
 #: Face-set id of simply supported boundary faces (beside dg.SMOOTH … dg.FREE = 1 … 4).
 SIMPLY_SUPPORTED = 5

@@ -1,9 +1,9 @@
 """Outputs of an FvK run: summary.json, history.csv, a VTX series and a PNG of the deflection.
 
-Built on the shared blocks: ``dgplate.output.OutputDir`` (files appear only once the run is
+Built on the shared blocks: ``dgplate.io.output.OutputDir`` (files appear only once the run is
 over, also when a load step failed: then with ``converged = false``),
-``dgplate.vtx.DeformationWriter`` (VTX, or XDMF without ADIOS2) and
-``dgplate.fields.surface_grid`` + ``dgplate.plotting.render_png`` (off-screen picture). The
+``dgplate.io.vtx.DeformationWriter`` (VTX, or XDMF without ADIOS2) and
+``dgplate.measure.fields.surface_grid`` + ``dgplate.io.plotting.render_png`` (off-screen picture). The
 plate's deformation is y = (x₁ + u₁, x₂ + u₂, w) in [DG_k]³, so ParaView shows FvK runs like
 every other model. Collective calls run on every rank; rank 0 writes the small files.
 """
@@ -20,11 +20,11 @@ import numpy as np
 import ufl
 
 from dgplate import compat
-from dgplate.fields import surface_grid
+from dgplate.io.output import OutputDir, write_json
+from dgplate.io.plotting import render_png
+from dgplate.io.vtx import DeformationWriter
+from dgplate.measure.fields import surface_grid
 from dgplate.models.fvk import allreduce_array
-from dgplate.output import OutputDir, write_json
-from dgplate.plotting import render_png
-from dgplate.vtx import DeformationWriter
 
 HISTORY_COLUMNS = ("step", "load_factor", "load", "w_max", "w_center", "iterations", "energy")
 

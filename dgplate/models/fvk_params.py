@@ -10,9 +10,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dgplate.dg import Penalty
+from dgplate.dg.forms import Penalty
 from dgplate.errors import InputError
-from dgplate.meshing import TaggedMesh
+from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import from_dict, option
 
 #: Default penalties, used for the results in docs/fvk.md (Q2 and P3 cells).

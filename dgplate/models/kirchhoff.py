@@ -1,8 +1,8 @@
 """Isometry-constrained Kirchhoff plate: E_h[y] = ½ a_h(y, y) − ∫ f·y (docs/design.md §1–§2).
 
-The bending part is the interior-penalty form of :mod:`dgplate.dg` with rigidity μ (a cell-wise
+The bending part is the interior-penalty form of :mod:`dgplate.dg.forms` with rigidity μ (a cell-wise
 coefficient) and Nitsche data g, Φ on clamped faces. The isometry constraint is not part of the
-energy: the gradient flow imposes its linearisation (:mod:`dgplate.constraint`).
+energy: the gradient flow imposes its linearisation (:mod:`dgplate.solvers.constraint`).
 """
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ from dataclasses import dataclass
 import ufl
 
 from dgplate import expressions, values
-from dgplate.creases import with_fold_angles
-from dgplate.dg import FaceSets, Penalty, bending_energy, face_sets
+from dgplate.dg.forms import FaceSets, Penalty, bending_energy, face_sets
 from dgplate.errors import InputError
+from dgplate.measure.creases import with_fold_angles
 from dgplate.models.base import Energy, clamped_data, piecewise_constant
 from dgplate.schema import option
 

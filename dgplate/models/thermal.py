@@ -10,8 +10,8 @@ bending rigidity. Both are piecewise constant over cell groups: soft bilayer hin
 with Z on a face too, the face pays ½μ|II − Z|² = μ|Z|² flat but only ½μ|Z|² rolled to a
 cylinder of curvature |Z| (isometries can match one principal curvature), so any μ lets it
 roll. θ solves the heat equation of
-:mod:`dgplate.heat`; the coupling is quasi-static and one-way: after each heat time step the
-plate is relaxed by the constrained H² gradient flow of :mod:`dgplate.flow`, warm-started from
+:mod:`dgplate.coupling.heat`; the coupling is quasi-static and one-way: after each heat time step the
+plate is relaxed by the constrained H² gradient flow of :mod:`dgplate.solvers.flow`, warm-started from
 the previous shape, until the flow's stopping rule ((E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < ``tol``) holds or
 the step budget ``flow_steps`` is spent. The compiled energy references the temperature
 Function, so a heat step changes Z without recompiling anything; the flow's constant matrix
@@ -36,14 +36,14 @@ import dolfinx.fem
 import numpy as np
 import ufl
 
-from dgplate.checkpoint import Checkpoint
-from dgplate.dg import FaceSets, Penalty, face_sets
+from dgplate.coupling.heat import HeatSolver
+from dgplate.dg.forms import FaceSets, Penalty, face_sets
 from dgplate.errors import InputError
-from dgplate.flow import FlowResult, FlowSettings, GradientFlow
-from dgplate.heat import HeatSolver
-from dgplate.meshing import TaggedMesh
+from dgplate.io.checkpoint import Checkpoint
+from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import Energy, flat_identity, piecewise_constant
 from dgplate.models.bilayer import bilayer_energy
+from dgplate.solvers.flow import FlowResult, FlowSettings, GradientFlow
 from dgplate.values import constant
 
 
@@ -271,7 +271,7 @@ class ThermalBilayer:
         return self.last_result.interrupted if self.last_result is not None else 0
 
     def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function]:
-        """The plate's and the heat equation's state (see :mod:`dgplate.checkpoint`)."""
+        """The plate's and the heat equation's state (see :mod:`dgplate.io.checkpoint`)."""
         return {**self.flow.checkpoint_fields(), "theta": self.heat.theta}
 
     def checkpoint_state(self) -> dict:
@@ -334,7 +334,7 @@ def calibrate_alpha(
     the hinge edges. This relaxes that strip at θ with α_cw and corrects α by one secant step
     (the fold angle is linear in α): α = α_cw · target / φ_h. Returns α and the figures.
     """
-    from dgplate.hinges import FoldAngles, Hinge, hinge_strip
+    from dgplate.measure.hinges import FoldAngles, Hinge, hinge_strip
 
     alpha_cw = target / (width * theta)
     tagged = hinge_strip(comm, width, n, m)
@@ -365,7 +365,7 @@ def calibrate_alpha(
 
 def cell_group_mean(tagged: TaggedMesh, expr, region: str) -> float:
     """Area-weighted mean of a scalar UFL expression over a cell group (collective)."""
-    from dgplate.hinges import RegionIntegrals
+    from dgplate.measure.hinges import RegionIntegrals
 
     area, total = RegionIntegrals(tagged)([ufl.as_ufl(1.0), expr], region)
     return float(total / area) if area else float(np.nan)

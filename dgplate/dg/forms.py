@@ -24,7 +24,7 @@ import ufl
 
 from dgplate import values
 from dgplate.errors import InputError
-from dgplate.meshing import TaggedMesh, _make_tags
+from dgplate.mesh.tagged import TaggedMesh, _make_tags
 
 #: Face-set ids of the measure ``FaceSets.dS`` / ``FaceSets.ds``.
 SMOOTH, CREASE, CLAMPED, FREE = 1, 2, 3, 4

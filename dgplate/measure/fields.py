@@ -79,7 +79,7 @@ def defect_density(y: dolfinx.fem.Function) -> np.ndarray:
     """Isometry-defect density |∫_T (∇yᵀ∇y − I)| / |T| per owned cell (owned-cell order)."""
     if y.ufl_shape != (3,):
         raise ValueError("the isometry defect needs a deformation y with three components")
-    from dgplate.constraint import IsometryDefect
+    from dgplate.solvers.constraint import IsometryDefect
 
     defect = IsometryDefect(y)
     # density() is indexed by the owned dofs of the defect's DG0 space, not by cell.

@@ -3,7 +3,7 @@
 Each function returns the warnings as one-line messages; :func:`warn` prints them on rank 0 as
 ``dgplate: warning: <message>`` on stderr. The runner calls :func:`before_flow` once the input
 is fully validated (and h known) and :func:`after_flow` once the flow has stopped; a run goes
-on after a warning (bad input is an ``InputError`` instead, see :mod:`dgplate.problem`).
+on after a warning (bad input is an ``InputError`` instead, see :mod:`dgplate.problems.specs`).
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ def warn(comm: MPI.Comm, messages: Iterable[str]) -> None:
 def before_flow(problem, tagged, initial: Callable | None = None) -> list[str]:
     """Warnings about a gradient-flow problem once it is fully validated (its flow built, so
     that a warning never precedes an input error): nothing to solve, τ far from h."""
-    from dgplate.runner import max_cell_diameter
+    from dgplate.problems.runner import max_cell_diameter
 
     messages = [nothing_to_solve(problem, tagged.mesh, starts_flat=initial is None)]
     if problem.flow.tau != "h":

@@ -26,7 +26,7 @@ from mpi4py import MPI
 import numpy as np
 
 from dgplate.errors import InputError
-from dgplate.flow import FlowResult, GradientFlow, StepInfo
+from dgplate.solvers.flow import FlowResult, GradientFlow, StepInfo
 
 
 def print0(comm: MPI.Comm, *args, **kwargs) -> None:

@@ -28,9 +28,9 @@ import numpy as np
 import ufl
 from petsc4py import PETSc
 
-from dgplate import solvers
 from dgplate.errors import InputError
-from dgplate.meshing import TaggedMesh
+from dgplate.mesh.tagged import TaggedMesh
+from dgplate.solvers import linear as solvers
 
 
 def _number(value, key: str) -> float:

@@ -2,7 +2,7 @@
 
 ``load_problem(path, overrides)`` reads a file, applies ``--set dotted.key=value`` overrides and
 validates every section before anything is computed or written. The model section is checked
-by the model named in ``model.name`` (see :mod:`dgplate.models.registry`).
+by the model named in ``model.name`` (see :mod:`dgplate.problems.registry`).
 """
 
 from __future__ import annotations
@@ -212,7 +212,7 @@ def problem_from_dict(data: dict, name: str, overrides: Sequence[str] = ()) -> P
     """Validate a problem given as a dict (the Python API's entry point)."""
     import copy
 
-    from dgplate.models.registry import MODELS, model_spec
+    from dgplate.problems.registry import MODELS, model_spec
 
     data = apply_overrides(copy.deepcopy(data), overrides)
     for section in data:

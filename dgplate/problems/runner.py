@@ -16,13 +16,10 @@ from mpi4py import MPI
 
 import numpy as np
 
-from dgplate import advice, checkpoint, compat, interrupt
-from dgplate.creases import crease_polylines
+from dgplate import compat, interrupt
 from dgplate.errors import InputError
-from dgplate.flow import FlowResult, FlowSettings, GradientFlow, StepInfo
-from dgplate.meshing import TaggedMesh, load_geo, rectangle
-from dgplate.models.registry import MODELS
-from dgplate.output import (
+from dgplate.io import checkpoint
+from dgplate.io.output import (
     CHECKPOINT,
     OutputDir,
     ProgressPrinter,
@@ -31,7 +28,12 @@ from dgplate.output import (
     write_history,
     write_json,
 )
-from dgplate.problem import MeshSpec, Problem
+from dgplate.measure.creases import crease_polylines
+from dgplate.mesh.tagged import TaggedMesh, load_geo, rectangle
+from dgplate.problems import advice
+from dgplate.problems.registry import MODELS
+from dgplate.problems.specs import MeshSpec, Problem
+from dgplate.solvers.flow import FlowResult, FlowSettings, GradientFlow, StepInfo
 
 
 def build_mesh(spec: MeshSpec, comm: MPI.Comm) -> TaggedMesh:
@@ -53,7 +55,7 @@ class _SeriesWriter:
     """VTX time series of the deformation, every ``every`` steps and at the end."""
 
     def __init__(self, flow: GradientFlow, path: Path, every: int):
-        from dgplate.vtx import DeformationWriter
+        from dgplate.io.vtx import DeformationWriter
 
         self.writer = DeformationWriter(path, flow.y, comm=flow.comm)
         self.every = every
@@ -240,7 +242,7 @@ def _run_flow(
         summary.update(model.extras(flow))
     write_history(comm, out.path / "history.csv", result.history)
     if problem.output.png:
-        from dgplate.plotting import plot_deformation
+        from dgplate.io.plotting import plot_deformation
 
         title = f"{problem.name}: E_h = {result.energy:.4e}, D_h = {result.defect:.2e}"
         lines = None

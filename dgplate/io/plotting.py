@@ -1,6 +1,6 @@
 """Pictures of the deformed plate: gather the DG surface to rank 0, render it off-screen.
 
-``surface_grid`` (from :mod:`dgplate.fields`) gathers the surface as VTK Lagrange cells;
+``surface_grid`` (from :mod:`dgplate.measure.fields`) gathers the surface as VTK Lagrange cells;
 ``render_png`` draws it with pyvista without a display; ``plot_deformation`` does both for a
 deformation coloured by bending or isometry defect; ``frames_to_gif`` makes an animation.
 Functions taking a DOLFINx function are collective; only rank 0 renders and writes.
@@ -20,7 +20,7 @@ import dolfinx.fem
 import numpy as np
 import pyvista
 
-from dgplate.fields import REFERENCE, bending_density, defect_density, surface_grid
+from dgplate.measure.fields import REFERENCE, bending_density, defect_density, surface_grid
 
 #: Scalar-bar labels of the fields ``plot_deformation`` can colour by.
 COLOR_LABELS = {"curvature": "bending |D²y|", "defect": "isometry defect density"}

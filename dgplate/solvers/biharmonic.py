@@ -14,8 +14,8 @@ import dolfinx.fem.petsc
 import ufl
 from petsc4py import PETSc
 
-from dgplate import solvers
-from dgplate.dg import FaceSets, Penalty, bending_energy, broken_norms
+from dgplate.dg.forms import FaceSets, Penalty, bending_energy, broken_norms
+from dgplate.solvers import linear as solvers
 
 
 @dataclass

@@ -1,6 +1,6 @@
 """What the problem-file demos share: their command line, their report, their picture.
 
-Each such demo loads a problem file, runs it with :func:`dgplate.runner.run_problem` and prints
+Each such demo loads a problem file, runs it with :func:`dgplate.problems.runner.run_problem` and prints
 what to compare with the theory; these helpers keep those scripts to the physics.
 """
 
@@ -13,7 +13,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from dgplate.output import print0
+from dgplate.io.output import print0
 
 
 def demo_arguments(description: str | None, out: str, paper: str) -> argparse.Namespace:

@@ -20,7 +20,7 @@ import dolfinx.fem
 import dolfinx.io
 
 from dgplate.errors import InputError
-from dgplate.fields import output_element, set_displacement, to_output_space
+from dgplate.measure.fields import output_element, set_displacement, to_output_space
 
 BACKENDS = ("auto", "vtx", "xdmf")
 

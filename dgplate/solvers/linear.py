@@ -169,7 +169,7 @@ class PermutedFactors:
     """Python PC context: the LU factors of P, a copy of K in another numbering of its rows.
 
     ``numbering`` lists, for each row of P owned here, its global index in K (see
-    :func:`dgplate.ordering.cellwise_numbering`); applying the PC scatters the vector into P's
+    :func:`dgplate.solvers.ordering.cellwise_numbering`); applying the PC scatters the vector into P's
     numbering, applies the factors and scatters back.
     """
 
@@ -206,7 +206,7 @@ class LaggedStepSolver:
     ~‖A_const‖/‖b_n‖, so that ‖b − K x₀‖ can exceed 10⁴‖b‖, and PETSc's default test then
     declares DIVERGED_DTOL at iteration 0, before any factors are applied.
 
-    With a ``numbering`` (:func:`dgplate.ordering.cellwise_numbering`) and MUMPS LU (the
+    With a ``numbering`` (:func:`dgplate.solvers.ordering.cellwise_numbering`) and MUMPS LU (the
     default), P holds K's rows and columns in that numbering, so that MUMPS orders the same
     graph on any number of ranks; the Krylov solve itself stays in K's numbering.
     """

@@ -64,7 +64,7 @@ class EdgeConstraint:
     SIZE = 2
 
     def __init__(self, faces):
-        from dgplate.dg import FREE
+        from dgplate.dg.forms import FREE
 
         mesh = faces.mesh
         tdim, fdim = mesh.topology.dim, mesh.topology.dim - 1

@@ -10,7 +10,7 @@ from mpi4py import MPI
 import numpy as np
 import ufl
 
-from dgplate.fields import cell_field, dg0_dofs_to_cells
+from dgplate.measure.fields import cell_field, dg0_dofs_to_cells
 
 
 def _unit_normal(y):

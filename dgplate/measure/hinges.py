@@ -30,7 +30,7 @@ import numpy as np
 import ufl
 
 from dgplate.errors import InputError
-from dgplate.meshing import TaggedMesh
+from dgplate.mesh.tagged import TaggedMesh
 
 
 @dataclass(frozen=True)
@@ -200,7 +200,7 @@ def hinge_strip(comm: MPI.Comm, width: float = math.pi / 24, n: int = 4, m: int 
     [1, 1 + width] × [0, 1] and ``right``; structured quadrilaterals, n × n per square and
     m × n in the hinge (the same cells as ``meshes/box_net.geo``), shared-facet ghosts.
     """
-    from dgplate.meshing import _make_tags
+    from dgplate.mesh.tagged import _make_tags
 
     if not width > 0 or n < 1 or m < 1:
         raise InputError(f"hinge_strip needs width > 0 and n, m >= 1, got {width}, {n}, {m}")

@@ -1,7 +1,7 @@
 """Measurements along a crease C: fold angles and the deformed crease lines (docs/design.md §1).
 
 A crease is a union of interior facets (the faces tagged ``CREASE`` by
-:func:`dgplate.dg.face_sets`). The deformation is continuous across C but its gradient may
+:func:`dgplate.dg.forms.face_sets`). The deformation is continuous across C but its gradient may
 jump, so the deformed surface has a kink there. For each crease facet the *fold angle* is the
 angle between the unit normals ν = ∂₁y × ∂₂y / |∂₁y × ∂₂y| of the two adjacent cells, evaluated
 at the facet midpoint: 0° for a flat sheet, 180° for a sheet folded flat onto itself. The
@@ -31,7 +31,7 @@ import numpy as np
 import ufl
 
 from dgplate import compat
-from dgplate.dg import CREASE, FaceSets
+from dgplate.dg.forms import CREASE, FaceSets
 
 
 def _surface(u):

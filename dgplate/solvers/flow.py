@@ -8,10 +8,10 @@ One step from yⁿ: find δy ∈ [DG_k]³ and a cell-wise symmetric multiplier �
 then yⁿ⁺¹ = yⁿ + δy. The matrix block (1/τ)(·,·)_* + D²E_impl does not depend on yⁿ: it is
 assembled once, and each step reassembles only b_n (cell integrals) and adds the two matrices,
 which share one sparsity pattern: DOLFINx's pattern of the step form without the constant
-block's exact zeros (the components of y do not couple, :mod:`dgplate.sparsity`). Since that
+block's exact zeros (the components of y do not couple, :mod:`dgplate.solvers.sparsity`). Since that
 sum changes only through b_n, the default
 solver keeps one LU factorisation over many steps as the preconditioner of FGMRES
-(:class:`dgplate.solvers.LaggedStepSolver`) and refactorises only when the iteration count
+(:class:`dgplate.solvers.linear.LaggedStepSolver`) and refactorises only when the iteration count
 grows. The flow is generic: it only sees an :class:`Energy`.
 """
 
@@ -32,8 +32,13 @@ import numpy as np
 import ufl
 from petsc4py import PETSc
 
-from dgplate import compat, interrupt, ordering, solvers, sparsity
-from dgplate.constraint import (
+from dgplate import compat, interrupt
+from dgplate.dg.forms import FaceSets, h2_metric
+from dgplate.errors import InputError, SolverError
+from dgplate.models.base import Energy
+from dgplate.solvers import linear as solvers
+from dgplate.solvers import ordering, sparsity
+from dgplate.solvers.constraint import (
     EdgeConstraint,
     IsometryDefect,
     linearised_isometry,
@@ -41,9 +46,6 @@ from dgplate.constraint import (
     multiplier_element,
     symmetric,
 )
-from dgplate.dg import FaceSets, h2_metric
-from dgplate.errors import InputError, SolverError
-from dgplate.models.base import Energy
 
 
 @dataclass
@@ -60,7 +62,7 @@ class FlowSettings:
     linear_solver: "lagged" (FGMRES preconditioned by an earlier step's LU factors, refreshed
     when a solve needs more than ``refactor_its`` iterations) or "direct" (LU every step).
     edge_constraint: also constrain two moments of the metric on free boundary facets (one
-    facet per cell; :class:`dgplate.constraint.EdgeConstraint`), linearised in the step and
+    facet per cell; :class:`dgplate.solvers.constraint.EdgeConstraint`), linearised in the step and
     restored by the projection. Cell moments alone let the cells along a free edge curve in
     two directions (Gauss curvature ≠ 0), which lowers a bilayer's energy below the isometric
     minimum; off by default (the published method).
@@ -215,7 +217,7 @@ class GradientFlow:
         self.solver = self._make_solver()
 
     def _make_solver(self) -> solvers.StepSolver:
-        """The solver of the step systems K x = b (see :mod:`dgplate.solvers`)."""
+        """The solver of the step systems K x = b (see :mod:`dgplate.solvers.linear`)."""
         return solvers.make_step_solver(
             self.settings.linear_solver,
             self.comm,
@@ -246,7 +248,7 @@ class GradientFlow:
 
         The multiplier rows and columns keep DOLFINx's pattern (b_n fills them as yⁿ moves);
         in the displacement block only the couplings that the metric and the implicit energy
-        actually have are stored (:mod:`dgplate.sparsity`).
+        actually have are stored (:mod:`dgplate.solvers.sparsity`).
         """
         # DOLFINx's pattern of a_const is that of the whole step form: b_n only couples the
         # dofs of one cell, which the cell integrals of a_const already do
