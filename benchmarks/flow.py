@@ -90,7 +90,7 @@ def bnn_flow(comm: MPI.Comm, cells: int, naive: bool = False, progress: int = 0)
     settings = FlowSettings(tau=math.sqrt(2) * 4 / cells, tol=1e-6, max_steps=2000)
     cls = NaiveFlow if naive else GradientFlow
     observers = [ProgressPrinter(comm, progress)] if progress else []
-    return cls(model.faces, model.degree, model.energy_fn, settings, observers)
+    return cls(model.facets, model.degree, model.energy, settings, observers)
 
 
 def peak_memory_mb(comm: MPI.Comm) -> dict[str, float]:

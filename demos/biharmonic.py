@@ -34,7 +34,7 @@ import numpy as np
 import ufl
 
 from dgplate import compat
-from dgplate.dg.forms import Penalty, face_sets
+from dgplate.dg.forms import Penalty, facet_sets
 from dgplate.io.output import OutputDir, print0, write_json
 from dgplate.io.plotting import plot_deformation
 from dgplate.mesh.tagged import RECTANGLE_SIDES, rectangle
@@ -63,7 +63,7 @@ t0 = time.perf_counter()
 rows = []
 for n in levels:
     tagged = rectangle(comm, [[0, 0], [1, 1]], [n, n], args.cell)
-    faces = face_sets(tagged, clamped=RECTANGLE_SIDES)
+    faces = facet_sets(tagged, clamped=RECTANGLE_SIDES)
     x = ufl.SpatialCoordinate(tagged.mesh)
     exact = x[0] ** 2 * (1 - x[0]) ** 2 * x[1] ** 2 * (1 - x[1]) ** 2
     result = solve_biharmonic(faces, args.degree, exact, penalty)

@@ -12,7 +12,7 @@ import pytest
 import ufl
 from conftest import rates
 
-from dgplate.dg.forms import Penalty, face_sets
+from dgplate.dg.forms import Penalty, facet_sets
 from dgplate.mesh.tagged import RECTANGLE_SIDES, load_geo, rectangle
 from dgplate.solvers.biharmonic import solve_biharmonic
 
@@ -38,7 +38,7 @@ def exact_solution(mesh, shape=()):
 
 def solve_on(comm, n, cell_type, degree, penalty, shape=()):
     tagged = rectangle(comm, [[0, 0], [1, 1]], [n, n], cell_type)
-    faces = face_sets(tagged, clamped=RECTANGLE_SIDES)
+    faces = facet_sets(tagged, clamped=RECTANGLE_SIDES)
     return solve_biharmonic(faces, degree, exact_solution(tagged.mesh, shape), penalty, shape)
 
 
@@ -83,7 +83,7 @@ def test_errors_independent_of_ranks(source):
         if source == "builtin":
             return solve_on(comm, 8, "quadrilateral", 2, Penalty(100.0, 100.0)).errors
         tagged = load_geo(comm, "rectangle", {"Lx": 1, "Ly": 1, "h": 0.15})
-        faces = face_sets(tagged, clamped=RECTANGLE_SIDES)
+        faces = facet_sets(tagged, clamped=RECTANGLE_SIDES)
         penalty = Penalty(10.0, 10.0)
         return solve_biharmonic(faces, 2, exact_solution(tagged.mesh), penalty).errors
 

@@ -42,9 +42,9 @@ def roll(
         linear_solver=linear_solver,
         edge_constraint=edge_constraint,
     )
-    flow = GradientFlow(model.faces, 2, model.energy_fn, settings)
+    flow = GradientFlow(model.facets, 2, model.energy, settings)
     result = flow.run()
-    return result, model.extras(flow)
+    return result, model.figures(flow)
 
 
 def test_cylinder_alpha_1():
@@ -108,9 +108,9 @@ def test_corkscrew_rolls_about_the_diagonal():
     spec = BilayerSpec(Z=[[-3.0, 2.0], [2.0, -3.0]])
     model = build_bilayer(spec, tagged)
     settings = FlowSettings(tau=0.02, tol=5e-2, max_steps=2000, multiplier_degree=1)
-    flow = GradientFlow(model.faces, 2, model.energy_fn, settings)
+    flow = GradientFlow(model.facets, 2, model.energy, settings)
     result = flow.run()
-    mean_II = np.array(model.extras(flow)["mean_second_fundamental_form"])
+    mean_II = np.array(model.figures(flow)["mean_second_fundamental_form"])
     values, vectors = np.linalg.eigh(mean_II)
     bend = vectors[:, np.argmax(np.abs(values))]
     angle = np.degrees(np.arccos(abs(bend @ np.array([1.0, -1.0]) / np.sqrt(2.0))))

@@ -19,7 +19,7 @@ import ufl
 from conftest import PARITY_RTOL
 
 from dgplate.cli import main
-from dgplate.dg.forms import CREASE, face_sets
+from dgplate.dg.forms import CREASE, facet_sets
 from dgplate.measure.creases import CreaseMeasure
 from dgplate.mesh.tagged import load_geo
 from dgplate.problems.registry import MODELS
@@ -50,13 +50,13 @@ def straight_fold_flow(comm, overrides=()):
     tagged = build_mesh(problem.mesh, comm)
     model = MODELS["kirchhoff"].build(problem.model, tagged)
     settings = FlowSettings(tau=0.25, max_steps=5)
-    flow = GradientFlow(model.faces, model.degree, model.energy_fn, settings, initial=folded)
+    flow = GradientFlow(model.facets, model.degree, model.energy, settings, initial=folded)
     return flow, model, problem
 
 
 def test_straight_fold_is_exact_and_kept_gradient_jumps_cost_energy(tmp_path):
     flow, model, problem = straight_fold_flow(MPI.COMM_SELF)
-    assert problem.model.crease == ["crease"] and model.faces.num_crease == 4
+    assert problem.model.crease == ["crease"] and model.facets.num_crease == 4
     # the exact fold: E_h = 0 (Nitsche data inside the jumps), D_h = 0, and a fixed point
     assert abs(flow.evaluate_energy()) < 1e-10
     assert flow.defect() < 1e-10
@@ -65,7 +65,7 @@ def test_straight_fold_is_exact_and_kept_gradient_jumps_cost_energy(tmp_path):
     assert result.converged and result.steps == 1
     assert abs(result.energy) < 1e-10 and result.defect < 1e-10
     assert result.history[0].increment < 1e-10
-    stats = CreaseMeasure(flow.y, model.faces).summary()
+    stats = CreaseMeasure(flow.y, model.facets).summary()
     for key in ("min", "max", "mean"):
         assert stats["fold_angle_deg"][key] == pytest.approx(60.0, abs=1e-8)
         assert stats["crease"]["signed_fold_angle_deg"][key] == pytest.approx(60.0, abs=1e-8)
@@ -85,11 +85,11 @@ def test_straight_fold_is_exact_and_kept_gradient_jumps_cost_energy(tmp_path):
     problem = load_problem(STRAIGHT, [*QUIET, "model.crease=[]"])
     tagged = build_mesh(problem.mesh, MPI.COMM_SELF)
     model = MODELS["kirchhoff"].build(problem.model, tagged)
-    assert model.faces.num_crease == 0
+    assert model.facets.num_crease == 0
     mesh = tagged.mesh
     y = dolfinx.fem.Function(dolfinx.fem.functionspace(mesh, ("DG", 2, (3,))))
     y.interpolate(folded)
-    energy = dolfinx.fem.assemble_scalar(dolfinx.fem.form(model.energy_fn(y).total))
+    energy = dolfinx.fem.assemble_scalar(dolfinx.fem.form(model.energy(y).total))
     mesh.topology.create_connectivity(1, 2)
     mesh.topology.create_connectivity(1, 0)
     f_to_c, f_to_v = mesh.topology.connectivity(1, 2), mesh.topology.connectivity(1, 0)
@@ -107,7 +107,7 @@ def test_straight_fold_is_exact_and_kept_gradient_jumps_cost_energy(tmp_path):
 def test_mountain_fold_has_negative_signed_angle():
     flow, model, _ = straight_fold_flow(MPI.COMM_SELF)
     flow.y.interpolate(lambda x: folded(x, sign=-1.0))
-    stats = CreaseMeasure(flow.y, model.faces).summary()
+    stats = CreaseMeasure(flow.y, model.facets).summary()
     assert stats["fold_angle_deg"]["mean"] == pytest.approx(60.0, abs=1e-8)
     assert stats["crease"]["signed_fold_angle_deg"]["max"] == pytest.approx(-60.0, abs=1e-8)
     flow.destroy()
@@ -118,7 +118,7 @@ def identity_on(tagged):
     V = dolfinx.fem.functionspace(tagged.mesh, ("DG", 2, (3,)))
     y = dolfinx.fem.Function(V)
     y.interpolate(lambda x: np.vstack([x[0], x[1], np.zeros_like(x[0])]))
-    return y, face_sets(tagged, crease=["crease"])
+    return y, facet_sets(tagged, crease=["crease"])
 
 
 def test_crease_polylines_closed_and_open():
@@ -236,9 +236,9 @@ def test_cli_runs_a_mesh_with_curved_cells(tmp_path):
 
 
 def crease_tags(comm, name, parameters):
-    """Global crease facet count (owned facets, via face_sets) and ∫_C 1 ds."""
+    """Global crease facet count (owned facets, via facet_sets) and ∫_C 1 ds."""
     tagged = load_geo(comm, name, parameters)
-    faces = face_sets(tagged, crease=["crease"])
+    faces = facet_sets(tagged, crease=["crease"])
     local = dolfinx.fem.assemble_scalar(dolfinx.fem.form(ufl.as_ufl(1.0) * faces.dS(CREASE)))
     return faces.num_crease, comm.allreduce(local, op=MPI.SUM)
 
@@ -262,9 +262,9 @@ def test_mpi_parity_crease_flow():
         tagged = load_geo(comm, "straight_crease", FLAP_MESH)
         model = MODELS["kirchhoff"].build(MODELS["kirchhoff"].spec(**FLAP), tagged)
         settings = FlowSettings(tau=0.05, max_steps=3, l2_metric=True)
-        flow = GradientFlow(model.faces, 2, model.energy_fn, settings)
+        flow = GradientFlow(model.facets, 2, model.energy, settings)
         result = flow.run()
-        extras = model.extras(flow)
+        extras = model.figures(flow)
         results[name] = {
             "energy": result.energy,
             "defect": result.defect,

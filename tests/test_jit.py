@@ -17,7 +17,7 @@ from mpi4py import MPI
 import dolfinx.fem
 import pytest
 
-from dgplate.dg.forms import Penalty, face_sets
+from dgplate.dg.forms import Penalty, facet_sets
 from dgplate.measure.hinges import hinge_strip
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
@@ -74,7 +74,7 @@ def deformation(tagged, shape=(3,)):
 
 
 def signature(build, spec, tagged) -> str:
-    return build(spec, tagged).energy_fn(deformation(tagged)).total.signature()
+    return build(spec, tagged).energy(deformation(tagged)).total.signature()
 
 
 BOUNDARY = {"g": ["x", "y", 0.0], "Phi": [[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]]}
@@ -125,7 +125,7 @@ def test_numbers_do_not_change_the_signature(strip, build, spec, other, formula)
 
 def test_thermal_and_fvk_numbers_do_not_change_the_signature():
     tagged = hinge_strip(MPI.COMM_SELF, 0.2, 2, 2)
-    faces = face_sets(tagged)
+    faces = facet_sets(tagged)
     y, w = deformation(tagged), deformation(tagged, ())
     theta = dolfinx.fem.Function(dolfinx.fem.functionspace(tagged.mesh, ("Lagrange", 1)))
 

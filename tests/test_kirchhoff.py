@@ -27,7 +27,7 @@ def vertical_load_flow(
     spec = KirchhoffSpec(degree=degree, clamped=["left", "bottom"], load=[0, 0, 2.5e-2], **spec)
     model = build_kirchhoff(spec, tagged)
     settings = FlowSettings(tau=tau or math.sqrt(2) * 4 / n, linear_solver=linear_solver)
-    return GradientFlow(model.faces, model.degree, model.energy_fn, settings)
+    return GradientFlow(model.facets, model.degree, model.energy, settings)
 
 
 @pytest.mark.parametrize("n", [16, 32])
@@ -77,8 +77,8 @@ def test_free_plate_balanced_load():
     # zero net force and zero net moment: symmetric about x = 2 with zero mean
     spec = KirchhoffSpec(clamped=[], load=[0, 0, "0.01*((x - 2)**2 - 4/3)"])
     model = build_kirchhoff(spec, tagged)
-    assert not model.faces.has_clamped
-    flow = GradientFlow(model.faces, 2, model.energy_fn, FlowSettings(tau=0.1, max_steps=400))
+    assert not model.facets.has_clamped
+    flow = GradientFlow(model.facets, 2, model.energy, FlowSettings(tau=0.1, max_steps=400))
     result = flow.run()
     assert result.converged, result.reason
     assert result.energy < 0 and np.isfinite(result.energy)

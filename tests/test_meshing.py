@@ -6,7 +6,7 @@ import dolfinx
 import numpy as np
 import pytest
 
-from dgplate.dg.forms import CLAMPED, CREASE, SMOOTH, face_sets
+from dgplate.dg.forms import CLAMPED, CREASE, SMOOTH, facet_sets
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import load_geo, rectangle
 
@@ -64,18 +64,18 @@ def test_unknown_gmsh_parameter():
 
 def test_face_sets_classify_and_validate():
     tagged = rectangle(MPI.COMM_SELF, [[0, 0], [1, 1]], [4, 4])
-    faces = face_sets(tagged, clamped=["left"])
+    faces = facet_sets(tagged, clamped=["left"])
     values = faces.tags.values
     assert np.count_nonzero(values == CLAMPED) == 4
     assert np.count_nonzero(values == SMOOTH) == 3 * 4 * 2  # interior facets of a 4x4 grid
     with pytest.raises(InputError, match="crease group 'left' contains 4 boundary"):
-        face_sets(tagged, crease=["left"])
+        facet_sets(tagged, crease=["left"])
 
 
 def test_crease_facets_are_tagged():
     tagged = load_geo(MPI.COMM_SELF, "rectangle", {"h": 1.0})
     # a clamped group made of interior facets is refused as well
-    faces = face_sets(tagged, clamped=["left", "right"])
+    faces = facet_sets(tagged, clamped=["left", "right"])
     assert faces.num_clamped > 0
     assert np.count_nonzero(faces.tags.values == CREASE) == 0
 

@@ -33,7 +33,7 @@ def rolling_strip(comm: MPI.Comm, linear_solver: str):
         projection_steps=1,
         linear_solver=linear_solver,
     )
-    flow = GradientFlow(model.faces, 2, model.energy_fn, settings)
+    flow = GradientFlow(model.facets, 2, model.energy, settings)
     result = flow.run()
     box = bounding_box(flow.y)
     flow.destroy()
@@ -79,7 +79,7 @@ def test_failed_fresh_factors_fall_back_to_a_direct_solve(comm, caplog):
     results = {}
     for kind, options in (("direct", {}), ("lagged", {"ksp_max_it": 1, "ksp_rtol": 1e-30})):
         settings = FlowSettings(tau=1.0, max_steps=3, linear_solver=kind, solver_options=options)
-        flow = GradientFlow(model.faces, 2, model.energy_fn, settings)
+        flow = GradientFlow(model.facets, 2, model.energy, settings)
         with caplog.at_level(logging.WARNING, logger="dgplate.solvers.linear"):
             results[kind] = flow.run()
         flow.destroy()

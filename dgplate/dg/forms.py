@@ -26,7 +26,7 @@ from dgplate import values
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh, _make_tags
 
-#: Face-set ids of the measure ``FaceSets.dS`` / ``FaceSets.ds``.
+#: Face-set ids of the measure ``FacetSets.dS`` / ``FacetSets.ds``.
 SMOOTH, CREASE, CLAMPED, FREE = 1, 2, 3, 4
 
 
@@ -82,7 +82,7 @@ def cell_size(mesh):
 
 
 @dataclass
-class FaceSets:
+class FacetSets:
     """The faces Γ_h of the dG forms, split into smooth interior, crease and clamped faces."""
 
     mesh: dolfinx.mesh.Mesh
@@ -117,9 +117,9 @@ class FaceSets:
         return self.ds(CLAMPED)
 
 
-def face_sets(
+def facet_sets(
     tagged: TaggedMesh, clamped: Sequence[str] = (), crease: Sequence[str] = ()
-) -> FaceSets:
+) -> FacetSets:
     """Classify the facets of ``tagged`` by the named clamped and crease groups.
 
     Clamped groups must lie on the boundary, crease groups in the interior: anything else is an
@@ -159,7 +159,7 @@ def face_sets(
     num_clamped = check(clamped, True, "clamped")
     num_crease = check(crease, False, "crease")
     tags = _make_tags(mesh, fdim, np.arange(num_local, dtype=np.int32), values)
-    return FaceSets(mesh, tags, num_clamped, num_crease)
+    return FacetSets(mesh, tags, num_clamped, num_crease)
 
 
 def hessian(v):
@@ -178,7 +178,7 @@ def jump(v):
 
 def bending_energy(
     y,
-    faces: FaceSets,
+    faces: FacetSets,
     penalty: Penalty,
     mu=None,
     g=None,
@@ -226,7 +226,7 @@ def bending_energy(
     return energy
 
 
-def h2_metric(w, v, faces: FaceSets, l2: bool = False):
+def h2_metric(w, v, faces: FacetSets, l2: bool = False):
     """The discrete H² inner product (w, v)_* with homogeneous jumps (docs/design.md §3).
 
     Gradient jumps are left out on creases, as in the energy. ``l2`` adds the L² product,
@@ -245,7 +245,7 @@ def h2_metric(w, v, faces: FaceSets, l2: bool = False):
     return form
 
 
-def broken_norms(error, faces: FaceSets, degree: int | None = None) -> dict[str, float]:
+def broken_norms(error, faces: FacetSets, degree: int | None = None) -> dict[str, float]:
     """Broken H², H¹ and L² (semi)norms of a UFL expression, summed over the communicator."""
     from dolfinx.fem import assemble_scalar, form
 

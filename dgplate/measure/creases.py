@@ -1,7 +1,7 @@
 """Measurements along a crease C: fold angles and the deformed crease lines (docs/design.md §1).
 
 A crease is a union of interior facets (the faces tagged ``CREASE`` by
-:func:`dgplate.dg.forms.face_sets`). The deformation is continuous across C but its gradient may
+:func:`dgplate.dg.forms.facet_sets`). The deformation is continuous across C but its gradient may
 jump, so the deformed surface has a kink there. For each crease facet the *fold angle* is the
 angle between the unit normals ν = ∂₁y × ∂₂y / |∂₁y × ∂₂y| of the two adjacent cells, evaluated
 at the facet midpoint: 0° for a flat sheet, 180° for a sheet folded flat onto itself. The
@@ -31,7 +31,7 @@ import numpy as np
 import ufl
 
 from dgplate import compat
-from dgplate.dg.forms import CREASE, FaceSets
+from dgplate.dg.forms import CREASE, FacetSets
 
 
 def _surface(u):
@@ -60,7 +60,7 @@ class CreaseMeasure:
     ``samples`` is the number of segments each crease facet is drawn with.
     """
 
-    def __init__(self, u: dolfinx.fem.Function, faces: FaceSets, samples: int = 4):
+    def __init__(self, u: dolfinx.fem.Function, faces: FacetSets, samples: int = 4):
         mesh = faces.mesh
         self.mesh, self.comm, self.u = mesh, mesh.comm, u
         tdim = mesh.topology.dim
@@ -256,36 +256,18 @@ def _chain(ends: np.ndarray, points: np.ndarray) -> list[np.ndarray]:
     return lines
 
 
-def fold_angle_summary(u: dolfinx.fem.Function, faces: FaceSets) -> dict:
+def fold_angle_summary(u: dolfinx.fem.Function, faces: FacetSets) -> dict:
     """``CreaseMeasure(u, faces).summary()``: fold angles over C for summary.json."""
     return CreaseMeasure(u, faces).summary()
 
 
-def crease_polylines(u: dolfinx.fem.Function, faces: FaceSets, samples: int = 4) -> list:
+def crease_polylines(u: dolfinx.fem.Function, faces: FacetSets, samples: int = 4) -> list:
     """The deformed crease lines on rank 0 ([] elsewhere), for ``plot_deformation(lines=)``."""
     return CreaseMeasure(u, faces, samples).polylines()
-
-
-def with_fold_angles(model):
-    """Wrap ``model.extras`` (a FlowModel) so that summary.json also gets the fold angles
-    along C (``fold_angle_deg`` and ``crease``) when the model has crease faces; the model
-    is returned unchanged otherwise."""
-    if not model.faces.num_crease:
-        return model
-    previous = model.extras
-
-    def extras(flow) -> dict:
-        out = dict(previous(flow)) if previous is not None else {}
-        out.update(CreaseMeasure(flow.y, model.faces).summary())
-        return out
-
-    model.extras = extras
-    return model
 
 
 __all__ = [
     "CreaseMeasure",
     "crease_polylines",
     "fold_angle_summary",
-    "with_fold_angles",
 ]

@@ -22,7 +22,7 @@ import numpy as np
 from dgplate import compat
 from dgplate.errors import InputError, read_user_text
 
-MESH_DIR = Path(__file__).resolve().parent.parent / "meshes"
+MESH_DIR = Path(__file__).resolve().parents[2] / "meshes"
 
 #: Facet-group names of the built-in rectangle.
 RECTANGLE_SIDES = ("left", "right", "bottom", "top")

@@ -1,29 +1,82 @@
-"""What every plate model returns: an energy split for the semi-implicit gradient flow."""
+"""The one model shape: what a registered model builds from its spec and the mesh.
+
+A model is an energy written once in UFL plus what its driver needs. :class:`Model` is the
+protocol the runner sees; :class:`PlateModel` is the shape of every isometry-constrained plate
+(Kirchhoff, bilayer, foundation, …): facets, degree and the energy of the deformation, run by the
+constrained gradient flow. Models with another state or driver (FvK: Newton over a load
+schedule; thermal: heat steps coupled to the flow) implement :class:`Model` themselves.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
 
+import dolfinx.fem
+import numpy as np
 import ufl
+
+from dgplate.dg.energy import Energy
+from dgplate.dg.forms import FacetSets
+from dgplate.measure.creases import crease_polylines, fold_angle_summary
+from dgplate.solvers.driver import Driver, Observer
+from dgplate.solvers.flow import FlowSettings, GradientFlow
+
+Initial = Callable[[np.ndarray], np.ndarray]
+
+
+class Model(Protocol):
+    """What the runner needs of a model (all methods collective)."""
+
+    def driver(
+        self, flow: FlowSettings, observers: Sequence[Observer], initial: Initial | None
+    ) -> Driver:
+        """The driver that solves this model; ``flow`` is the problem's [flow] section."""
+        ...
+
+    def figures(self, driver: Any) -> dict[str, Any]:
+        """Model-specific numbers for ``summary.json`` (e.g. fold angles)."""
+        ...
+
+    def lines(self, driver: Any) -> list[np.ndarray]:
+        """Polylines drawn on the picture of the final shape (e.g. deformed creases)."""
+        ...
 
 
 @dataclass
-class Energy:
-    """A discrete energy E_h = implicit + explicit.
+class PlateModel:
+    """An isometry-constrained plate: the energy of y ∈ [DG_k]³, run by the gradient flow.
 
-    ``implicit`` is quadratic in the deformation: its Hessian is the constant flow matrix, so it
-    is assembled once per run. ``explicit`` holds nonlinear terms (the bilayer's ν term, an
-    obstacle's concave part); the flow evaluates their derivative at the previous iterate.
-    ``constant`` is added to reported energies only (e.g. ½∫μ|Z|² of a bilayer).
+    ``measures`` add numbers of the final deformation to ``summary.json``; fold angles of
+    crease facets are always reported.
     """
 
-    implicit: ufl.Form
-    explicit: ufl.Form | None = None
-    constant: float = 0.0
+    facets: FacetSets
+    degree: int
+    energy: Callable[[dolfinx.fem.Function], Energy]
+    measures: Sequence[Callable[[dolfinx.fem.Function], dict[str, Any]]] = field(
+        default_factory=tuple
+    )
 
-    @property
-    def total(self) -> ufl.Form:
-        return self.implicit if self.explicit is None else self.implicit + self.explicit
+    def driver(
+        self, flow: FlowSettings, observers: Sequence[Observer], initial: Initial | None
+    ) -> GradientFlow:
+        """The constrained gradient flow of :attr:`energy`."""
+        return GradientFlow(self.facets, self.degree, self.energy, flow, observers, initial)
+
+    def figures(self, driver: GradientFlow) -> dict[str, Any]:
+        """Fold angles along creases and the numbers of :attr:`measures`."""
+        out: dict[str, Any] = {}
+        if self.facets.num_crease:
+            out.update(fold_angle_summary(driver.y, self.facets))
+        for measure in self.measures:
+            out.update(measure(driver.y))
+        return out
+
+    def lines(self, driver: GradientFlow) -> list[np.ndarray]:
+        """The deformed crease lines."""
+        return crease_polylines(driver.y, self.facets) if self.facets.num_crease else []
 
 
 def flat_identity(mesh):

@@ -24,20 +24,20 @@ from dataclasses import dataclass
 import ufl
 
 from dgplate import expressions, values
+from dgplate.dg.energy import Energy
 from dgplate.dg.forms import (
     CLAMPED,
     CREASE,
     SMOOTH,
-    FaceSets,
+    FacetSets,
     Penalty,
     bending_energy,
-    face_sets,
+    facet_sets,
     jump,
 )
 from dgplate.errors import InputError
-from dgplate.measure.creases import with_fold_angles
-from dgplate.models.base import Energy, clamped_data, piecewise_constant
-from dgplate.models.kirchhoff import FlowModel, KirchhoffSpec
+from dgplate.models.base import PlateModel, clamped_data, piecewise_constant
+from dgplate.models.kirchhoff import KirchhoffSpec
 from dgplate.schema import option
 
 
@@ -54,7 +54,7 @@ def second_fundamental_form(y):
 
 
 def curvature_coupling(
-    y, faces: FaceSets, Z, mu=1.0, g=None, Phi=None, consistent=True, degree=None
+    y, faces: FacetSets, Z, mu=1.0, g=None, Phi=None, consistent=True, degree=None
 ):
     """−⟨H(y), μ ν⊗Z⟩: the spontaneous-curvature term of the energy (see module docstring)."""
     md = {} if degree is None else {"quadrature_degree": degree}
@@ -78,7 +78,7 @@ def curvature_coupling(
 
 def bilayer_energy(
     y,
-    faces: FaceSets,
+    faces: FacetSets,
     penalty: Penalty,
     Z,
     mu=None,
@@ -167,10 +167,10 @@ class BilayerSpec(KirchhoffSpec):
             expressions.check(self.Z, "model.Z")
 
 
-def build_bilayer(spec: BilayerSpec, tagged) -> FlowModel:
+def build_bilayer(spec: BilayerSpec, tagged) -> PlateModel:
     from dgplate.measure.analysis import curvature_summary
 
-    faces = face_sets(tagged, clamped=spec.clamped, crease=spec.crease)
+    faces = facet_sets(tagged, clamped=spec.clamped, crease=spec.crease)
     load = values.vector(spec.load, tagged.mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     Z = spontaneous_curvature(spec.Z, tagged)
@@ -181,5 +181,4 @@ def build_bilayer(spec: BilayerSpec, tagged) -> FlowModel:
     def energy_fn(y) -> Energy:
         return bilayer_energy(y, faces, penalty, Z, mu, load, g, Phi, spec.consistent, degree)
 
-    model = FlowModel(faces, spec.degree, energy_fn, extras=lambda flow: curvature_summary(flow.y))
-    return with_fold_angles(model)
+    return PlateModel(faces, spec.degree, energy_fn, measures=[curvature_summary])

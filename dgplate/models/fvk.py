@@ -66,10 +66,10 @@ from petsc4py import PETSc
 from dgplate import compat, interrupt, values
 from dgplate.dg.forms import (
     FREE,
-    FaceSets,
+    FacetSets,
     Penalty,
     bending_energy,
-    face_sets,
+    facet_sets,
     grad_laplacian,
     hessian,
     jump,
@@ -114,7 +114,7 @@ def plane_stress(eps, stiffness, nu):
     return stiffness * ((1 - nu) * eps + nu * ufl.tr(eps) * ufl.Identity(2))
 
 
-def fvk_bending_energy(w, faces: FaceSets, penalty: Penalty, D, nu, simply_supported: bool):
+def fvk_bending_energy(w, faces: FacetSets, penalty: Penalty, D, nu, simply_supported: bool):
     """½a_h(w, w) with the Poisson part and simply supported faces (module docstring)."""
     n, h = faces.n, faces.h
     gamma0, gamma1 = penalty.constants(faces.mesh)
@@ -146,9 +146,9 @@ def fvk_bending_energy(w, faces: FaceSets, penalty: Penalty, D, nu, simply_suppo
     return energy
 
 
-def fvk_face_sets(tagged: TaggedMesh, params: FvKParameters) -> FaceSets:
-    """dg.face_sets plus the simply supported faces (id SIMPLY_SUPPORTED), all in one tag."""
-    faces = face_sets(tagged, clamped=params.clamped, crease=params.crease)
+def fvk_facet_sets(tagged: TaggedMesh, params: FvKParameters) -> FacetSets:
+    """dg.facet_sets plus the simply supported faces (id SIMPLY_SUPPORTED), all in one tag."""
+    faces = facet_sets(tagged, clamped=params.clamped, crease=params.crease)
     if not params.simply_supported:
         return faces
     mesh, fdim = tagged.mesh, tagged.mesh.topology.dim - 1
@@ -168,7 +168,7 @@ def fvk_face_sets(tagged: TaggedMesh, params: FvKParameters) -> FaceSets:
             )
         values[position[facets]] = SIMPLY_SUPPORTED
     tags = dolfinx.mesh.meshtags(mesh, fdim, faces.tags.indices, values)
-    return FaceSets(mesh, tags, faces.num_clamped, faces.num_crease)
+    return FacetSets(mesh, tags, faces.num_clamped, faces.num_crease)
 
 
 def _edge_axis(tagged: TaggedMesh, group: str) -> int:
@@ -195,7 +195,7 @@ class FvKProblem:
         self.tagged, self.params = tagged, params
         mesh = self.mesh = tagged.mesh
         self.comm = mesh.comm
-        self.faces = fvk_face_sets(tagged, params)
+        self.faces = fvk_facet_sets(tagged, params)
         k, cell = params.degree, mesh.basix_cell()
         elements = [
             basix.ufl.element("DG", cell, k),
@@ -487,7 +487,7 @@ __all__ = [
     "FvKParameters",
     "FvKProblem",
     "fvk_bending_energy",
-    "fvk_face_sets",
+    "fvk_facet_sets",
     "membrane_strain",
     "plane_stress",
     "run_fvk",

@@ -12,16 +12,16 @@ from dataclasses import dataclass
 import ufl
 
 from dgplate import expressions, values
-from dgplate.dg.forms import FaceSets, Penalty, bending_energy, face_sets
+from dgplate.dg.energy import Energy
+from dgplate.dg.forms import FacetSets, Penalty, bending_energy, facet_sets
 from dgplate.errors import InputError
-from dgplate.measure.creases import with_fold_angles
-from dgplate.models.base import Energy, clamped_data, piecewise_constant
+from dgplate.models.base import PlateModel, clamped_data, piecewise_constant
 from dgplate.schema import option
 
 
 def kirchhoff_energy(
     y,
-    faces: FaceSets,
+    faces: FacetSets,
     penalty: Penalty,
     load=None,
     mu=None,
@@ -91,19 +91,9 @@ class KirchhoffSpec:
         return Penalty(**{k: float(v) for k, v in self.penalty.items()})
 
 
-@dataclass
-class FlowModel:
-    """What the runner needs of a gradient-flow model."""
-
-    faces: FaceSets
-    degree: int
-    energy_fn: object  # Callable[[Function], Energy]
-    extras: object = None  # Callable[[GradientFlow], dict] for summary.json
-
-
-def build_kirchhoff(spec: KirchhoffSpec, tagged) -> FlowModel:
+def build_kirchhoff(spec: KirchhoffSpec, tagged) -> PlateModel:
     """Face sets and the energy of a Kirchhoff problem (validates group names)."""
-    faces = face_sets(tagged, clamped=spec.clamped, crease=spec.crease)
+    faces = facet_sets(tagged, clamped=spec.clamped, crease=spec.crease)
     load = values.vector(spec.load, tagged.mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     g, Phi = clamped_data(spec.boundary_data, tagged.mesh)
@@ -112,4 +102,4 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged) -> FlowModel:
     def energy_fn(y) -> Energy:
         return kirchhoff_energy(y, faces, penalty, load=load, mu=mu, g=g, Phi=Phi)
 
-    return with_fold_angles(FlowModel(faces, spec.degree, energy_fn))
+    return PlateModel(faces, spec.degree, energy_fn)

@@ -37,11 +37,12 @@ import numpy as np
 import ufl
 
 from dgplate.coupling.heat import HeatSolver
-from dgplate.dg.forms import FaceSets, Penalty, face_sets
+from dgplate.dg.energy import Energy
+from dgplate.dg.forms import FacetSets, Penalty, facet_sets
 from dgplate.errors import InputError
 from dgplate.io.checkpoint import Checkpoint
 from dgplate.mesh.tagged import TaggedMesh
-from dgplate.models.base import Energy, flat_identity, piecewise_constant
+from dgplate.models.base import flat_identity, piecewise_constant
 from dgplate.models.bilayer import bilayer_energy
 from dgplate.solvers.flow import FlowResult, FlowSettings, GradientFlow
 from dgplate.values import constant
@@ -81,7 +82,7 @@ def anchor_energy(y, tagged: TaggedMesh, region: str, stiffness: float):
 
 def thermal_energy(
     y,
-    faces: FaceSets,
+    faces: FacetSets,
     penalty: Penalty,
     theta,
     alpha,
@@ -170,7 +171,7 @@ class ThermalBilayer:
         if heat.mesh is not tagged.mesh:
             raise InputError("the heat solver and the plate must live on the same mesh")
         self.tagged, self.heat, self.settings, self.measure = tagged, heat, settings, measure
-        self.faces = face_sets(tagged, clamped=list(settings.clamped))
+        self.faces = facet_sets(tagged, clamped=list(settings.clamped))
         self.alpha = region_coefficient(tagged, settings.alpha, "thermal.alpha")
         self.mu = piecewise_constant(tagged, settings.mu, "thermal.mu")
         degree = 3 * settings.degree + 2

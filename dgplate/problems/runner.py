@@ -28,7 +28,6 @@ from dgplate.io.output import (
     write_history,
     write_json,
 )
-from dgplate.measure.creases import crease_polylines
 from dgplate.mesh.tagged import TaggedMesh, load_geo, rectangle
 from dgplate.problems import advice
 from dgplate.problems.registry import MODELS
@@ -199,7 +198,7 @@ def _run_flow(
     observers: list = []
     if problem.output.progress:
         observers.append(ProgressPrinter(comm, problem.output.progress))
-    flow = GradientFlow(model.faces, model.degree, model.energy_fn, settings, observers, initial)
+    flow = model.driver(settings, observers, initial)
     if start is None:
         advice.warn(comm, advice.before_flow(problem, tagged, initial))
     earlier: list[StepInfo] = []
@@ -238,16 +237,13 @@ def _run_flow(
     result.steps = len(result.history)
     summary = make_summary(problem, flow, result, tagged, wall0)
     advice.warn(comm, advice.after_flow(flow, summary))
-    if model.extras is not None:
-        summary.update(model.extras(flow))
+    summary.update(model.figures(flow))
     write_history(comm, out.path / "history.csv", result.history)
     if problem.output.png:
         from dgplate.io.plotting import plot_deformation
 
         title = f"{problem.name}: E_h = {result.energy:.4e}, D_h = {result.defect:.2e}"
-        lines = None
-        if model.faces.num_crease:  # draw the deformed crease lines (collective)
-            lines = crease_polylines(flow.y, model.faces)
+        lines = model.lines(flow)  # collective
         plot_deformation(
             flow.y,
             out.path / "final.png",

@@ -14,7 +14,7 @@ import dolfinx.fem.petsc
 import ufl
 from petsc4py import PETSc
 
-from dgplate.dg.forms import FaceSets, Penalty, bending_energy, broken_norms
+from dgplate.dg.forms import FacetSets, Penalty, bending_energy, broken_norms
 from dgplate.solvers import linear as solvers
 
 
@@ -26,7 +26,7 @@ class BiharmonicResult:
 
 
 def solve_biharmonic(
-    faces: FaceSets,
+    faces: FacetSets,
     degree: int,
     exact,
     penalty: Penalty,

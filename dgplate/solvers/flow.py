@@ -33,9 +33,9 @@ import ufl
 from petsc4py import PETSc
 
 from dgplate import compat, interrupt
-from dgplate.dg.forms import FaceSets, h2_metric
+from dgplate.dg.energy import Energy
+from dgplate.dg.forms import FacetSets, h2_metric
 from dgplate.errors import InputError, SolverError
-from dgplate.models.base import Energy
 from dgplate.solvers import linear as solvers
 from dgplate.solvers import ordering, sparsity
 from dgplate.solvers.constraint import (
@@ -146,7 +146,7 @@ class GradientFlow:
 
     def __init__(
         self,
-        faces: FaceSets,
+        faces: FacetSets,
         degree: int,
         energy_fn: Callable[[dolfinx.fem.Function], Energy],
         settings: FlowSettings,
