@@ -1,9 +1,56 @@
-"""dgplate: large bending deformations of thin plates by interior-penalty dG in DOLFINx."""
+"""dgplate: large bending deformations of thin plates by interior-penalty dG in DOLFINx.
+
+The Python API in two calls::
+
+    import dgplate
+
+    problem = dgplate.load_problem("demos/problems/vertical_load.toml", {"mesh.cells": [8, 8]})
+    result = dgplate.run(problem, out="out/vertical_load")
+    result["energy"], result.shape  # summary.json's numbers and the final deformation
+
+``run`` does what ``dgplate run`` does: it validates, writes the same outputs and returns a
+:class:`~dgplate.problems.runner.Result`.
+"""
+
+from typing import TYPE_CHECKING, Any
 
 from mpi4py import MPI  # noqa: F401  (MPI must be initialised before dolfinx is imported)
 
 from dgplate.errors import DgplateError, InputError, SolverError, UnsupportedVersionError
 
+if TYPE_CHECKING:
+    from dgplate.problems.runner import Result, run
+    from dgplate.problems.specs import Problem, load_problem, problem_from_dict
+
 __version__ = "0.1.0"
 
-__all__ = ["DgplateError", "InputError", "SolverError", "UnsupportedVersionError", "__version__"]
+_LAZY = {
+    "load_problem": "dgplate.problems.specs",
+    "problem_from_dict": "dgplate.problems.specs",
+    "Problem": "dgplate.problems.specs",
+    "run": "dgplate.problems.runner",
+    "Result": "dgplate.problems.runner",
+}
+
+
+def __getattr__(name: str) -> Any:
+    """Import the API on first use, so that ``import dgplate`` does not load DOLFINx."""
+    if name in _LAZY:
+        import importlib
+
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'dgplate' has no attribute {name!r}")
+
+
+__all__ = [
+    "DgplateError",
+    "InputError",
+    "Problem",
+    "Result",
+    "SolverError",
+    "UnsupportedVersionError",
+    "__version__",
+    "load_problem",
+    "problem_from_dict",
+    "run",
+]

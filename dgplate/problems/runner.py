@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import asdict
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 from mpi4py import MPI
 
+import dolfinx.fem
 import numpy as np
 
 from dgplate import compat, interrupt
@@ -125,6 +126,42 @@ def _resume_point(problem: Problem, target: Path, comm: MPI.Comm) -> checkpoint.
             f"steps already ({done}); raise flow.max_steps to continue it"
         )
     return found
+
+
+@dataclass
+class Result:
+    """What :func:`run` returns: the summary (also ``summary.json``) and the final state.
+
+    ``result["energy"]`` reads the summary. ``shape`` is the final deformation y: ω → ℝ³;
+    ``fields`` holds every function of the final state (those a checkpoint stores).
+    """
+
+    summary: dict[str, Any]
+    shape: dolfinx.fem.Function | None = None
+    fields: dict[str, dolfinx.fem.Function] = field(default_factory=dict)
+    history: list[Any] = field(default_factory=list)
+
+    def __getitem__(self, key: str) -> Any:
+        return self.summary[key]
+
+    def get(self, key: str, default: Any = None) -> Any:
+        """``summary.get``."""
+        return self.summary.get(key, default)
+
+
+def run(
+    problem: Problem,
+    out: str | Path | None = None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    initial: Callable[[np.ndarray], np.ndarray] | None = None,
+    force: bool = False,
+    resume: bool = False,
+) -> Result:
+    """Solve ``problem`` and write its outputs to ``out`` (default: ``output.dir``).
+
+    What ``dgplate run`` does, from Python: see :func:`run_problem`.
+    """
+    return run_problem(problem, out, comm, initial, force, resume)
 
 
 def run_problem(

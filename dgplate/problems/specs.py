@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import re
 import tomllib
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -185,21 +185,39 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     return key.split("."), parsed
 
 
-def apply_overrides(data: dict, overrides: Sequence[str]) -> dict:
-    for text in overrides:
-        path, value = parse_override(text)
+Overrides = Sequence[str] | Mapping[str, Any]
+
+
+def apply_overrides(data: dict, overrides: Overrides) -> dict:
+    """Set dotted keys of ``data``: ``["flow.tau=0.1"]`` (``--set`` texts, values in TOML) or
+    ``{"flow.tau": 0.1, "mesh.cells": [32, 32]}`` (Python values)."""
+    if isinstance(overrides, Mapping):
+        items = [(_dotted(key), value) for key, value in overrides.items()]
+    else:
+        items = [parse_override(text) for text in overrides]
+    for path, value in items:
         node = data
         for part in path[:-1]:
             child = node.setdefault(part, {})
             if not isinstance(child, dict):
-                raise InputError(f"--set {text!r}: {part} is not a table")
+                raise InputError(f"override {'.'.join(path)}: {part} is not a table")
             node = child
         node[path[-1]] = value
     return data
 
 
-def load_problem(path: str | Path, overrides: Sequence[str] = ()) -> Problem:
-    """Read, override and validate a problem file. Raises ``InputError`` on any bad input."""
+def _dotted(key: Any) -> list[str]:
+    if not isinstance(key, str) or not _KEY.match(key) or "." not in key:
+        raise InputError(f"override key {key!r} must be section.name, e.g. 'flow.tau'")
+    return key.split(".")
+
+
+def load_problem(path: str | Path, overrides: Overrides = ()) -> Problem:
+    """Read, override and validate a problem file. Raises ``InputError`` on any bad input.
+
+    ``overrides``: ``{"mesh.cells": [32, 32]}`` (Python values) or ``["mesh.cells=[32, 32]"]``
+    (the CLI's ``--set`` texts).
+    """
     path = Path(path)
     try:
         data = tomllib.loads(read_user_text(path, "problem file"))
@@ -208,7 +226,7 @@ def load_problem(path: str | Path, overrides: Sequence[str] = ()) -> Problem:
     return problem_from_dict(data, path.stem, overrides)
 
 
-def problem_from_dict(data: dict, name: str, overrides: Sequence[str] = ()) -> Problem:
+def problem_from_dict(data: dict, name: str, overrides: Overrides = ()) -> Problem:
     """Validate a problem given as a dict (the Python API's entry point)."""
     import copy
 
