@@ -147,8 +147,9 @@ def _exit(status: int = 0, message: str | None = None):
 
 def _schema(model: str) -> int:
     from dgplate.problems.registry import MODELS
-    from dgplate.problems.specs import FlowSpec, MeshSpec, OutputSpec
+    from dgplate.problems.specs import MeshSpec, OutputSpec
     from dgplate.schema import describe
+    from dgplate.solvers.flow import FlowSettings
 
     if model not in MODELS:
         print(
@@ -158,7 +159,7 @@ def _schema(model: str) -> int:
     parts = [
         describe(MeshSpec, "mesh"),
         describe(MODELS[model].spec, "model"),
-        describe(FlowSpec, "flow"),
+        describe(FlowSettings, "flow"),
         describe(OutputSpec, "output"),
     ]
     if MPI.COMM_WORLD.rank == 0:

@@ -78,7 +78,7 @@ def test_failed_fresh_factors_fall_back_to_a_direct_solve(comm, caplog):
     model = build_kirchhoff(spec, tagged)
     results = {}
     for kind, options in (("direct", {}), ("lagged", {"ksp_max_it": 1, "ksp_rtol": 1e-30})):
-        settings = FlowSettings(tau=1.0, max_steps=3, linear_solver=kind, solver_options=options)
+        settings = FlowSettings(tau=1.0, max_steps=3, linear_solver=kind, solver=options)
         flow = GradientFlow(model.facets, 2, model.energy, settings)
         with caplog.at_level(logging.WARNING, logger="dgplate.solvers.linear"):
             results[kind] = flow.run()

@@ -16,17 +16,15 @@ import os
 import shutil
 import sys
 import tempfile
-from collections.abc import Callable
-from dataclasses import asdict, fields
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 from mpi4py import MPI
 
 import numpy as np
 
 from dgplate.errors import InputError
-from dgplate.solvers.flow import FlowResult, GradientFlow, StepInfo
 
 
 def print0(comm: MPI.Comm, *args, **kwargs) -> None:
@@ -196,52 +194,38 @@ def _jsonable(value):
 
 
 class ProgressPrinter:
-    """Rank-0 progress lines: step, pseudo-time, τ, energy, defect, decrease rate, time/step."""
+    """Rank-0 progress: each record's line every ``every`` steps, and how the run ended."""
 
-    def __init__(self, comm: MPI.Comm, every: int = 1, stream=None):
+    def __init__(self, comm: MPI.Comm, every: int = 1, stream: TextIO | None = None):
         self.comm, self.every, self.stream = comm, every, stream or sys.stdout
 
-    def step(self, flow: GradientFlow, info: StepInfo) -> None:
-        if self.every and info.step % self.every == 0:
-            print0(
-                self.comm,
-                f"step {info.step:5d}  t = {info.time:9.4f}  τ = {info.tau:.3e}  "
-                f"E_h = {info.energy:+.6e}  D_h = {info.defect:.3e}  "
-                f"ΔE/τ = {info.rate:.2e}  {info.seconds:.2f} s/step",
-                file=self.stream,
-            )
+    def step(self, driver: Any, record: Any) -> None:
+        """Print ``record.line()`` every ``every`` steps."""
+        if self.every and record.step % self.every == 0:
+            print0(self.comm, record.line(), file=self.stream)
 
-    def finish(self, flow: GradientFlow, result: FlowResult) -> None:
+    def finish(self, driver: Any, result: Any) -> None:
+        """Print how the run ended, and the steps at which the energy went up (if any)."""
         status = "converged" if result.converged else "NOT converged"
-        print0(
-            self.comm,
-            f"flow {status} after {result.steps} steps: {result.reason}",
-            file=self.stream,
-        )
-        if result.energy_increases:
+        print0(self.comm, f"{status} after {result.steps} steps: {result.reason}", file=self.stream)
+        increases = getattr(result, "energy_increases", None)
+        if increases:
             print0(
                 self.comm,
-                f"warning: the energy increased at step(s) {result.energy_increases[:10]}",
+                f"warning: the energy increased at step(s) {increases[:10]}",
                 file=self.stream,
             )
 
 
-HISTORY_COLUMNS = [f.name for f in fields(StepInfo)]
-
-
-def write_history(
-    comm: MPI.Comm, path: Path, rows: list[StepInfo], extra: list[dict] | None = None
-) -> None:
-    """history.csv: one row per step (columns of StepInfo plus model-specific ones)."""
+def write_history(comm: MPI.Comm, path: Path, rows: Sequence[Mapping[str, Any]]) -> None:
+    """history.csv: one row per step (rank 0); the columns are the keys of the rows."""
     if comm.rank != 0:
         return
-    extra = extra or [{} for _ in rows]
-    columns = HISTORY_COLUMNS + sorted({k for row in extra for k in row})
+    columns = list(dict.fromkeys(key for row in rows for key in row))
     with open(path, "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=columns)
         writer.writeheader()
-        for info, more in zip(rows, extra):
-            writer.writerow({**asdict(info), **more})
+        writer.writerows(rows)
 
 
 def bounding_box(y) -> list[list[float]]:

@@ -1,8 +1,8 @@
 """Warnings for input that is accepted but pointless, and for results that cannot be trusted.
 
 Each function returns the warnings as one-line messages; :func:`warn` prints them on rank 0 as
-``dgplate: warning: <message>`` on stderr. The runner calls :func:`before_flow` once the input
-is fully validated (and h known) and :func:`after_flow` once the flow has stopped; a run goes
+``dgplate: warning: <message>`` on stderr. The runner calls :func:`before_run` once the input
+is fully validated (and h known) and :func:`after_run` once the driver has stopped; a run goes
 on after a warning (bad input is an ``InputError`` instead, see :mod:`dgplate.problems.specs`).
 """
 
@@ -19,6 +19,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from dgplate import expressions
+from dgplate.dg.geometry import max_cell_diameter
 from dgplate.errors import InputError
 
 #: τ above this many h: the energy bound of the isometry defect, D_h ≤ C τ E_h[y⁰], is then
@@ -44,14 +45,12 @@ def warn(comm: MPI.Comm, messages: Iterable[str]) -> None:
 
 
 # -- before the run ------------------------------------------------------------------------------
-def before_flow(problem, tagged, initial: Callable | None = None) -> list[str]:
-    """Warnings about a gradient-flow problem once it is fully validated (its flow built, so
-    that a warning never precedes an input error): nothing to solve, τ far from h."""
-    from dgplate.problems.runner import max_cell_diameter
-
+def before_run(problem, tagged, initial: Callable | None = None) -> list[str]:
+    """Warnings about a problem once it is fully validated (its driver built, so that a
+    warning never precedes an input error): nothing to solve, τ far from h."""
     messages = [nothing_to_solve(problem, tagged.mesh, starts_flat=initial is None)]
     if problem.flow.tau != "h":
-        messages.append(tau_scale(float(problem.flow.tau), max_cell_diameter(tagged)))
+        messages.append(tau_scale(float(problem.flow.tau), max_cell_diameter(tagged.mesh)))
     return [m for m in messages if m]
 
 
@@ -141,16 +140,10 @@ def tau_scale(tau: float, h: float) -> str | None:
 
 
 # -- after the flow ------------------------------------------------------------------------------
-def after_flow(flow, summary: Mapping[str, Any]) -> list[str]:
-    """Warnings once the flow has stopped (before ``flow.destroy()``): PETSc options that
-    were never read, and a final state far from an isometry."""
-    return unused_solver_options(flow) + advise_result(summary, reference_area(flow))
-
-
-def reference_area(flow) -> float:
-    """|Ω|, the area of the reference plate (the sum of the owned cell volumes)."""
-    owned = flow.defect.volumes[: flow.defect.num_owned]
-    return float(flow.comm.allreduce(float(owned.sum()), op=MPI.SUM))
+def after_run(problem, driver, summary: Mapping[str, Any], area: float) -> list[str]:
+    """Warnings once the driver has stopped (before it is destroyed): [flow] solver options
+    that PETSc never read, and a final state far from an isometry (``area`` = |Ω|)."""
+    return unused_solver_options(problem.flow.solver, driver) + advise_result(summary, area)
 
 
 def advise_result(summary: Mapping[str, Any], area: float = 1.0) -> list[str]:
@@ -173,14 +166,14 @@ def advise_result(summary: Mapping[str, Any], area: float = 1.0) -> list[str]:
     ]
 
 
-def unused_solver_options(flow) -> list[str]:
-    """Warnings for ``flow.solver`` keys that PETSc never read (misspelt, or not used by the
-    chosen solver); collective. Call after the flow ran: MUMPS reads its options only at the
-    first factorisation."""
-    given = list(flow.settings.solver_options)
+def unused_solver_options(options: Mapping[str, Any], driver) -> list[str]:
+    """Warnings for ``flow.solver`` keys (``options``) that PETSc never read (misspelt, or not
+    used by the chosen solver); collective. Call after the run: MUMPS reads its options only
+    at the first factorisation. The driver's step solver (``driver.solver``) holds the KSPs."""
+    given = list(options)
     if not given:
         return []
-    attributes = getattr(flow.solver, "__dict__", {}).values()
+    attributes = getattr(getattr(driver, "solver", None), "__dict__", {}).values()
     solvers = [obj for obj in attributes if isinstance(obj, PETSc.KSP)]
     prefixes = sorted({ksp.getOptionsPrefix() or "" for ksp in solvers})
     present = PETSc.Options().getAll()
@@ -192,7 +185,7 @@ def unused_solver_options(flow) -> list[str]:
             return []
         if not any(used):
             unused.append(key)
-    everywhere = set.intersection(*map(set, flow.comm.allgather(unused)))
+    everywhere = set.intersection(*map(set, driver.comm.allgather(unused)))
     where = " or ".join(f"-{p}" for p in prefixes)
     return [
         f"flow.solver.{key} was never read by PETSc (options prefix {where}): a misspelt "

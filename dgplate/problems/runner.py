@@ -1,7 +1,11 @@
-"""Run a validated problem: mesh → model → gradient flow → outputs (the CLI's engine).
+"""Run a validated problem: mesh → model → driver → outputs (the CLI's engine, and the API).
 
-``run_problem`` is also the Python API: ``run_problem(load_problem("p.toml", ["flow.tau=0.1"]))``
-does what ``dgplate run p.toml --set flow.tau=0.1`` does.
+The runner is written once for every model: the registry builds the model
+(:mod:`dgplate.problems.registry`), the model builds its driver
+(:class:`dgplate.solvers.driver.Driver`), and the observers here print progress and write the
+VTX series and the checkpoints; at the end one writer commits ``history.csv``, the picture and
+``summary.json``. ``run(load_problem("p.toml", {"flow.tau": 0.1}))`` does what
+``dgplate run p.toml --set flow.tau=0.1`` does.
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ from mpi4py import MPI
 
 import dolfinx.fem
 import numpy as np
+import ufl
 
 from dgplate import compat, interrupt
 from dgplate.errors import InputError
@@ -30,102 +35,13 @@ from dgplate.io.output import (
     write_json,
 )
 from dgplate.mesh.tagged import TaggedMesh, load_geo, rectangle
+from dgplate.models.base import Model
 from dgplate.problems import advice
 from dgplate.problems.registry import MODELS
 from dgplate.problems.specs import MeshSpec, Problem
-from dgplate.solvers.flow import FlowResult, FlowSettings, GradientFlow, StepInfo
+from dgplate.solvers.driver import Driver
 
-
-def build_mesh(spec: MeshSpec, comm: MPI.Comm) -> TaggedMesh:
-    if spec.type == "rectangle":
-        return rectangle(comm, spec.corners, spec.cells, spec.cell_type, spec.diagonal)
-    return load_geo(comm, spec.file, spec.parameters, recombine=spec.recombine)
-
-
-def max_cell_diameter(tagged: TaggedMesh) -> float:
-    """The largest cell diameter (τ = 'h' in problem files, as in the published runs)."""
-    mesh = tagged.mesh
-    tdim = mesh.topology.dim
-    num_owned = mesh.topology.index_map(tdim).size_local
-    local = mesh.h(tdim, np.arange(num_owned, dtype=np.int32))
-    return float(mesh.comm.allreduce(float(local.max(initial=0.0)), op=MPI.MAX))
-
-
-class _SeriesWriter:
-    """VTX time series of the deformation, every ``every`` steps and at the end."""
-
-    def __init__(self, flow: GradientFlow, path: Path, every: int):
-        from dgplate.io.vtx import DeformationWriter
-
-        self.writer = DeformationWriter(path, flow.y, comm=flow.comm)
-        self.every = every
-        self.writer.write(flow.time)
-
-    def step(self, flow: GradientFlow, info: StepInfo) -> None:
-        if info.step % self.every == 0:
-            self.writer.write(info.time)
-
-    def finish(self, flow: GradientFlow, result: FlowResult) -> None:
-        if result.steps % self.every:
-            self.writer.write(flow.time)
-        self.writer.close()
-
-
-class FlowCheckpoints:
-    """Checkpoints of a flow every ``every`` steps (0: none on the way) and on ``save()``.
-
-    The state holds the problem's fingerprint and the whole history so far (``earlier``, from
-    the checkpoint a run resumed from, and this run's steps), so that a resumed run reports
-    every step.
-    """
-
-    def __init__(
-        self,
-        directory: Path,
-        every: int,
-        fingerprint: str,
-        earlier: list[StepInfo] | None = None,
-        increases: list[int] | None = None,
-    ):
-        self.directory, self.every, self.fingerprint = directory, every, fingerprint
-        self.history: list[StepInfo] = list(earlier or [])
-        self.increases: list[int] = list(increases or [])
-
-    def step(self, flow: GradientFlow, info: StepInfo) -> None:
-        self.history.append(info)
-        if self.every and info.step % self.every == 0:
-            self.save(flow)
-
-    def finish(self, flow: GradientFlow, result: FlowResult) -> None:
-        self.increases += result.energy_increases
-
-    def save(self, flow: GradientFlow, finished: bool = False) -> None:
-        """Write the checkpoint now (collective)."""
-        state = {
-            "fingerprint": self.fingerprint,
-            "step": flow.step_count,
-            "flow": flow.checkpoint_state(),
-            "history": [asdict(info) for info in self.history],
-            "energy_increases": self.increases,
-            "finished": finished,
-        }
-        checkpoint.save(self.directory, flow.comm, flow.checkpoint_fields(), state)
-
-
-def _resume_point(problem: Problem, target: Path, comm: MPI.Comm) -> checkpoint.Checkpoint:
-    """The checkpoint to continue from; refuses another problem's or a finished run's."""
-    found = checkpoint.load(target / CHECKPOINT, comm, checkpoint.fingerprint(problem.raw))
-    done = int(found.state["step"])
-    if found.state.get("finished"):
-        raise InputError(
-            f"--resume: the run in {target} converged at step {done}; nothing to resume"
-        )
-    if MODELS[problem.model.name].kind == "flow" and done >= problem.flow.max_steps:
-        raise InputError(
-            f"--resume: the run in {target} spent flow.max_steps = {problem.flow.max_steps} "
-            f"steps already ({done}); raise flow.max_steps to continue it"
-        )
-    return found
+Initial = Callable[[np.ndarray], np.ndarray]
 
 
 @dataclass
@@ -133,190 +49,287 @@ class Result:
     """What :func:`run` returns: the summary (also ``summary.json``) and the final state.
 
     ``result["energy"]`` reads the summary. ``shape`` is the final deformation y: ω → ℝ³;
-    ``fields`` holds every function of the final state (those a checkpoint stores).
+    ``fields`` holds every function of the final state (those a checkpoint stores);
+    ``history`` the rows of ``history.csv``.
     """
 
     summary: dict[str, Any]
     shape: dolfinx.fem.Function | None = None
     fields: dict[str, dolfinx.fem.Function] = field(default_factory=dict)
-    history: list[Any] = field(default_factory=list)
+    history: list[dict[str, Any]] = field(default_factory=list)
 
     def __getitem__(self, key: str) -> Any:
         return self.summary[key]
 
     def get(self, key: str, default: Any = None) -> Any:
-        """``summary.get``."""
+        """``summary.get(key, default)``."""
         return self.summary.get(key, default)
+
+
+def build_mesh(spec: MeshSpec, comm: MPI.Comm) -> TaggedMesh:
+    """The tagged mesh of the [mesh] section."""
+    if spec.type == "rectangle":
+        return rectangle(comm, spec.corners, spec.cells, spec.cell_type, spec.diagonal)
+    return load_geo(comm, spec.file, spec.parameters, recombine=spec.recombine)
+
+
+class SeriesWriter:
+    """VTX time series of ``driver.shape``, every ``every`` steps and at the end."""
+
+    def __init__(self, driver: Driver, path: Path, every: int):
+        from dgplate.io.vtx import DeformationWriter
+
+        self.writer = DeformationWriter(path, driver.shape, comm=driver.comm)
+        self.every = every
+        self.writer.write(driver.time)
+
+    def step(self, driver: Driver, record: Any) -> None:
+        """Write every ``every`` steps."""
+        if record.step % self.every == 0:
+            self.writer.write(driver.time)
+
+    def finish(self, driver: Driver, result: Any) -> None:
+        """Write the final state (unless just written) and close the file."""
+        if result.steps % self.every:
+            self.writer.write(driver.time)
+        self.writer.close()
+
+
+class Checkpoints:
+    """Checkpoints of a driver every ``every`` steps (0: none on the way) and on ``save()``.
+
+    The state holds the problem's fingerprint and the whole history so far (from the
+    checkpoint a run resumed from, and this run's steps), so that a resumed run reports
+    every step.
+    """
+
+    def __init__(
+        self, directory: Path, every: int, fingerprint: str, earlier: list[dict[str, Any]]
+    ):
+        self.directory, self.every, self.fingerprint = directory, every, fingerprint
+        self.history: list[dict[str, Any]] = list(earlier)
+
+    def step(self, driver: Driver, record: Any) -> None:
+        """Keep the record; save every ``every`` steps."""
+        self.history.append(asdict(record))
+        if self.every and record.step % self.every == 0:
+            self.save(driver)
+
+    def finish(self, driver: Driver, result: Any) -> None:
+        """Nothing: the runner saves the final checkpoint once the outcome is known."""
+
+    def save(self, driver: Driver, finished: bool = False) -> None:
+        """Write the checkpoint now (collective)."""
+        state = {
+            "fingerprint": self.fingerprint,
+            "step": driver.step_count,
+            "driver": driver.checkpoint_state(),
+            "history": self.history,
+            "finished": finished,
+        }
+        checkpoint.save(self.directory, driver.comm, driver.checkpoint_fields(), state)
+
+
+def _resume_point(problem: Problem, target: Path, comm: MPI.Comm) -> checkpoint.Checkpoint:
+    """The checkpoint to continue from; refuses another problem's or a finished run's."""
+    found = checkpoint.load(target / CHECKPOINT, comm, checkpoint.fingerprint(problem.raw))
+    if found.state.get("finished"):
+        raise InputError(
+            f"--resume: the run in {target} converged at step {found.state['step']}; "
+            "nothing to resume"
+        )
+    return found
 
 
 def run(
     problem: Problem,
     out: str | Path | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
-    initial: Callable[[np.ndarray], np.ndarray] | None = None,
+    initial: Initial | None = None,
     force: bool = False,
     resume: bool = False,
 ) -> Result:
-    """Solve ``problem`` and write its outputs to ``out`` (default: ``output.dir``).
+    """Solve ``problem``, write its outputs to ``out`` and return the :class:`Result`.
 
-    What ``dgplate run`` does, from Python: see :func:`run_problem`.
+    Args:
+        problem: a validated problem (:func:`dgplate.load_problem`).
+        out: the output folder (default: ``output.dir``, else ``out/<problem name>``).
+        comm: the communicator of the ranks that solve it.
+        initial: x ↦ y(x), a start other than the flat plate (e.g. an exact fold).
+        force: write into a folder of a user's files (deleting none of them).
+        resume: continue from the checkpoint in the output folder, on any number of ranks.
+
+    Everything that can be validated is validated before the output folder is touched, and
+    the folder is checked before anything is computed (:class:`~dgplate.io.output.OutputDir`).
+    A run that does not converge, fails or is interrupted by SIGINT/SIGTERM still writes its
+    outputs, with ``converged = false`` and the reason, and a checkpoint.
     """
-    return run_problem(problem, out, comm, initial, force, resume)
+    wall0 = time.perf_counter()
+    target = Path(out or problem.output.dir or f"out/{problem.name}")
+    OutputDir.check(comm, target, force, resume)
+    start = _resume_point(problem, target, comm) if resume else None
+    with interrupt.StopOnSignal():
+        tagged = build_mesh(problem.mesh, comm)
+        entry = MODELS[problem.model.name]
+        if entry.build is None:  # FvK until it is a registered model (being moved)
+            return _legacy_fvk(problem, tagged, target, force, start)
+        model = entry.build(problem.model, tagged)
+        return _solve(problem, tagged, model, target, initial, force, start, wall0)
 
 
 def run_problem(
     problem: Problem,
     out_dir: str | Path | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
-    initial: Callable[[np.ndarray], np.ndarray] | None = None,
+    initial: Initial | None = None,
     force: bool = False,
     resume: bool = False,
 ) -> dict[str, Any]:
-    """Solve ``problem`` and write its outputs; returns the summary (also summary.json).
-
-    Everything that can be validated is validated before the output directory is created;
-    the output folder is checked before anything is computed (:class:`OutputDir`: ``force``
-    writes into a folder of a user's files, deleting none of them). A flow that does not
-    converge, or is interrupted by SIGINT/SIGTERM, still writes its outputs, with
-    ``converged = false`` and the reason, and a checkpoint; ``resume`` continues from the
-    checkpoint in the output folder, on any number of ranks. ``initial`` (x ↦ y(x), e.g. an
-    exact fold) starts the flow from a given shape instead of the flat plate.
-    """
-    wall0 = time.perf_counter()
-    target = Path(out_dir or problem.output.dir or f"out/{problem.name}")
-    OutputDir.check(comm, target, force, resume)
-    start = _resume_point(problem, target, comm) if resume else None
-    with interrupt.StopOnSignal():
-        tagged = build_mesh(problem.mesh, comm)
-        entry = MODELS[problem.model.name]
-        if entry.kind == "newton":
-            from dgplate.models.fvk import run_fvk
-
-            problem.model.validate(tagged)
-            summary = run_fvk(
-                tagged,
-                problem.model,
-                out_dir=target,
-                comm=comm,
-                progress=bool(problem.output.progress),
-                force=force,
-                start=start,
-                fingerprint=checkpoint.fingerprint(problem.raw),
-            )
-            summary.setdefault("problem", problem.name)
-            return summary
-        return _run_flow(problem, tagged, target, comm, initial, force, start, wall0)
+    """:func:`run`, returning only the summary."""
+    return run(problem, out_dir, comm, initial, force, resume).summary
 
 
-def _run_flow(
+def _start(
+    problem: Problem, driver: Driver, start: checkpoint.Checkpoint | None, target: Path
+) -> list[dict[str, Any]]:
+    """Restore ``driver`` from the checkpoint (if any); returns the history so far."""
+    if start is None:
+        return []
+    start.restore(driver.checkpoint_fields())
+    driver.restore_state(start.state["driver"])
+    if driver.remaining_steps() <= 0:
+        raise InputError(
+            f"--resume: the run in {target} spent its step budget already "
+            f"({driver.step_count} steps); raise flow.max_steps to continue it"
+        )
+    return list(start.state["history"])
+
+
+def _solve(
     problem: Problem,
     tagged: TaggedMesh,
+    model: Model,
     target: Path,
-    comm: MPI.Comm,
-    initial: Callable[[np.ndarray], np.ndarray] | None,
+    initial: Initial | None,
     force: bool,
     start: checkpoint.Checkpoint | None,
     wall0: float,
-) -> dict[str, Any]:
-    model = MODELS[problem.model.name].build(problem.model, tagged)
-    tau = max_cell_diameter(tagged) if problem.flow.tau == "h" else float(problem.flow.tau)
-    settings = FlowSettings(
-        tau=tau,
-        tol=problem.flow.tol,
-        max_steps=problem.flow.max_steps,
-        l2_metric=problem.flow.l2,
-        solver_options=problem.flow.solver,
-        multiplier_degree=problem.flow.multiplier_degree,
-        projection_steps=problem.flow.projection_steps,
-        linear_solver=problem.flow.linear_solver,
-        refactor_its=problem.flow.refactor_its,
-        edge_constraint=problem.flow.edge_constraint,
-    )
-    observers: list = []
-    if problem.output.progress:
-        observers.append(ProgressPrinter(comm, problem.output.progress))
-    flow = model.driver(settings, observers, initial)
+) -> Result:
+    comm = tagged.comm
+    observers = [ProgressPrinter(comm, problem.output.progress)] if problem.output.progress else []
+    driver = model.driver(problem.flow, observers, initial)
+    earlier = _start(problem, driver, start, target)
     if start is None:
-        advice.warn(comm, advice.before_flow(problem, tagged, initial))
-    earlier: list[StepInfo] = []
-    increases: list[int] = []
-    if start is not None:
-        start.restore(flow.checkpoint_fields())
-        flow.restore_state(start.state["flow"])
-        earlier = [StepInfo(**row) for row in start.state["history"]]
-        increases = list(start.state["energy_increases"])
+        advice.warn(comm, advice.before_run(problem, tagged, initial))
     out = OutputDir(comm, target, force, resume=start is not None)
-    resumed = f", resumed at step {flow.step_count}" if start is not None else ""
+    resumed = f", resumed at step {driver.step_count}" if start is not None else ""
     print0(
         comm,
-        f"dgplate: {problem.name}: model {problem.model.name}, {flow.num_dofs} dofs on "
-        f"{comm.size} rank(s), τ = {tau:.4g}{resumed}, output → {out.target}",
+        f"dgplate: {problem.name}: model {problem.model.name}, {_dofs(driver)} dofs on "
+        f"{comm.size} rank(s){resumed}, output → {out.target}",
     )
-    checkpoints = FlowCheckpoints(
+    checkpoints = Checkpoints(
         out.checkpoint_dir,
         problem.flow.checkpoint_every,
         checkpoint.fingerprint(problem.raw),
         earlier,
-        increases,
     )
-    flow.observers.append(checkpoints)
+    driver.observers.append(checkpoints)
     if problem.output.vtx:
-        flow.observers.append(
-            _SeriesWriter(flow, out.path / "deformation.bp", problem.output.every)
+        driver.observers.append(
+            SeriesWriter(driver, out.path / "deformation.bp", problem.output.every)
         )
     try:
-        result = flow.run(problem.flow.max_steps - flow.step_count)
+        result = driver.run()
     except BaseException:
         out.discard()  # the checkpoints stay
         raise
-    checkpoints.save(flow, finished=result.converged)
-    result.history, result.energy_increases = checkpoints.history, checkpoints.increases
-    result.steps = len(result.history)
-    summary = make_summary(problem, flow, result, tagged, wall0)
-    advice.warn(comm, advice.after_flow(flow, summary))
-    summary.update(model.figures(flow))
-    write_history(comm, out.path / "history.csv", result.history)
+    checkpoints.save(driver, finished=result.converged)
+    summary = _summary(problem, tagged, model, driver, result, len(checkpoints.history))
+    advice.warn(comm, advice.after_run(problem, driver, summary, _area(tagged)))
+    write_history(comm, out.path / "history.csv", checkpoints.history)
     if problem.output.png:
-        from dgplate.io.plotting import plot_deformation
-
-        title = f"{problem.name}: E_h = {result.energy:.4e}, D_h = {result.defect:.2e}"
-        lines = model.lines(flow)  # collective
-        plot_deformation(
-            flow.y,
-            out.path / "final.png",
-            title=title,
-            color_by=problem.output.color_by,
-            lines=lines,
-        )
+        _picture(problem, model, driver, summary, out.path / "final.png")
     summary["wall_time_s"] = time.perf_counter() - wall0
     write_json(comm, out.path / "summary.json", summary)
     out.commit()
-    flow.destroy()
-    return summary
+    final = Result(summary, driver.shape, driver.checkpoint_fields(), checkpoints.history)
+    driver.destroy()
+    return final
 
 
-def make_summary(
-    problem: Problem, flow: GradientFlow, result: FlowResult, tagged, wall0: float
-) -> dict:
+def _dofs(driver: Driver) -> int:
+    return int(driver.summary().get("dofs", 0))
+
+
+def _area(tagged: TaggedMesh) -> float:
+    """|Ω|, the area of the reference plate."""
+    one = dolfinx.fem.form(dolfinx.fem.Constant(tagged.mesh, 1.0) * ufl.dx(domain=tagged.mesh))
+    return float(tagged.comm.allreduce(dolfinx.fem.assemble_scalar(one), op=MPI.SUM))
+
+
+def _picture(
+    problem: Problem, model: Model, driver: Driver, summary: dict[str, Any], path: Path
+) -> None:
+    """final.png of the final shape (collective: the lines are gathered)."""
+    from dgplate.io.plotting import plot_deformation
+
+    energy, defect = summary.get("energy"), summary.get("isometry_defect")
+    title = problem.name
+    if isinstance(energy, float):
+        title += f": E_h = {energy:.4e}"
+    if isinstance(defect, float):
+        title += f", D_h = {defect:.2e}"
+    plot_deformation(
+        driver.shape,
+        path,
+        title=title,
+        color_by=problem.output.color_by,
+        lines=model.lines(driver),
+    )
+
+
+def _summary(
+    problem: Problem,
+    tagged: TaggedMesh,
+    model: Model,
+    driver: Driver,
+    result: Any,
+    steps: int,
+) -> dict[str, Any]:
     mesh = tagged.mesh
-    return {
+    summary: dict[str, Any] = {
         "problem": problem.name,
         "model": problem.model.name,
-        "dofs": flow.num_dofs,
         "cells": mesh.topology.index_map(mesh.topology.dim).size_global,
-        "degree": problem.model.degree,
-        "ranks": flow.comm.size,
-        "steps": result.steps,
+        "degree": getattr(problem.model, "degree", None),
+        "ranks": driver.comm.size,
+        "steps": steps,
         "converged": result.converged,
         "reason": result.reason,
         "interrupted": result.interrupted,
-        "energy": result.energy,
-        "isometry_defect": result.defect,
-        "bbox": bounding_box(flow.y),
-        "tau": flow.tau,
-        "energy_increases": result.energy_increases,
-        "solver_fallbacks": sum(info.fallbacks for info in result.history),
-        "wall_time_s": time.perf_counter() - wall0,
-        "dolfinx_version": compat.version_string(),
-        "input": problem.raw,
     }
+    summary.update(driver.summary())
+    summary["bbox"] = bounding_box(driver.shape)
+    summary.update(model.figures(driver))
+    summary["dolfinx_version"] = compat.version_string()
+    summary["input"] = problem.raw
+    return summary
+
+
+def _legacy_fvk(problem, tagged, target, force, start):  # pragma: no cover - transitional
+    from dgplate.models.fvk import run_fvk
+
+    problem.model.validate(tagged)
+    summary = run_fvk(
+        tagged,
+        problem.model,
+        out_dir=target,
+        comm=tagged.comm,
+        progress=bool(problem.output.progress),
+        force=force,
+        start=start,
+        fingerprint=checkpoint.fingerprint(problem.raw),
+    )
+    summary.setdefault("problem", problem.name)
+    return Result(summary)

@@ -7,7 +7,6 @@ by the model named in ``model.name`` (see :mod:`dgplate.problems.registry`).
 
 from __future__ import annotations
 
-import math
 import re
 import tomllib
 from collections.abc import Mapping, Sequence
@@ -17,6 +16,7 @@ from typing import Any
 
 from dgplate.errors import InputError, read_user_text
 from dgplate.schema import from_dict, option, require_finite
+from dgplate.solvers.flow import FlowSettings
 
 SECTIONS = ("mesh", "model", "flow", "output")
 _OPTION = re.compile(r"^[A-Za-z0-9_]+$")
@@ -60,79 +60,6 @@ class MeshSpec:
 
 
 @dataclass
-class FlowSpec:
-    tau: float | str = option("h", "time step τ > 0, or 'h' for the largest cell diameter")
-    tol: float = option(1e-6, "stop when (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < tol")
-    max_steps: int = option(1000, "step budget; reaching it is reported as not converged")
-    l2_metric: bool | str = option(
-        "auto", "add the L² product to the metric; 'auto': when nothing is clamped"
-    )
-    solver: dict = option({}, "PETSc options for the step solve (default: MUMPS LU)")
-    multiplier_degree: int = option(
-        0,
-        "degree of the isometry multiplier: 0 = cell means (published), 1 = also first moments (stronger)",
-    )
-
-    projection_steps: int = option(
-        0,
-        "corrections per step restoring the nonlinear discrete constraint (0: published method; 2 drives D_h to round-off)",
-    )
-
-    linear_solver: str = option(
-        "lagged",
-        "step solver: 'lagged' (one LU reused as FGMRES preconditioner, refactorised when needed) or 'direct' (LU every step)",
-    )
-    refactor_its: int = option(
-        12, "lagged solver: refactorise after a solve that needed more FGMRES iterations"
-    )
-    edge_constraint: bool = option(
-        False,
-        "also constrain the metric on free boundary facets (edge length and normal stretch): keeps free edges of a bilayer from curving in two directions",
-    )
-    checkpoint_every: int = option(
-        25,
-        "write a checkpoint (for --resume) every n steps, and always at the end; 0: only at the end",
-    )
-
-    def __post_init__(self) -> None:
-        if self.projection_steps < 0:
-            raise InputError(f"flow.projection_steps must be >= 0, got {self.projection_steps!r}")
-        if isinstance(self.tau, str):
-            if self.tau != "h":
-                raise InputError(f"flow.tau must be a number > 0 or 'h', got {self.tau!r}")
-        elif not (self.tau > 0 and math.isfinite(self.tau)):
-            raise InputError(f"flow.tau must be > 0, got {self.tau!r}")
-        if not self.tol > 0:
-            raise InputError(f"flow.tol must be > 0, got {self.tol!r}")
-        if self.max_steps < 1:
-            raise InputError(f"flow.max_steps must be >= 1, got {self.max_steps!r}")
-        if self.checkpoint_every < 0:
-            raise InputError(f"flow.checkpoint_every must be >= 0, got {self.checkpoint_every!r}")
-        if self.multiplier_degree not in (0, 1):
-            raise InputError(
-                f"flow.multiplier_degree must be 0 or 1, got {self.multiplier_degree!r}"
-            )
-        if isinstance(self.l2_metric, str) and self.l2_metric != "auto":
-            raise InputError(
-                f"flow.l2_metric must be true, false or 'auto', got {self.l2_metric!r}"
-            )
-        for key, value in self.solver.items():
-            if not _OPTION.match(key):
-                raise InputError(
-                    f"flow.solver.{key} is not a PETSc option name (letters, digits and _, "
-                    "without the leading '-', e.g. ksp_type)"
-                )
-            if not isinstance(value, str | int | float):
-                raise InputError(
-                    f"flow.solver.{key} must be a string, a number or a boolean, got {value!r}"
-                )
-
-    @property
-    def l2(self) -> bool | None:
-        return None if self.l2_metric == "auto" else bool(self.l2_metric)
-
-
-@dataclass
 class OutputSpec:
     dir: str = option("", "output directory (default out/<problem name>); --out overrides it")
     vtx: bool = option(True, "write a VTX time series (ParaView) of the deformation")
@@ -157,7 +84,7 @@ class Problem:
     name: str
     mesh: MeshSpec
     model: Any  # the model's own spec dataclass
-    flow: FlowSpec
+    flow: FlowSettings
     output: OutputSpec
     raw: dict  # the validated input, overrides applied (recorded in summary.json)
 
@@ -240,7 +167,7 @@ def problem_from_dict(data: dict, name: str, overrides: Overrides = ()) -> Probl
     mesh = from_dict(MeshSpec, data.get("mesh"), "mesh")
     model = model_spec(data.get("model"))
     MODELS[model.name].reject_ignored(data, model.name)
-    flow = from_dict(FlowSpec, data.get("flow"), "flow")
+    flow = from_dict(FlowSettings, data.get("flow"), "flow")
     output = from_dict(OutputSpec, data.get("output"), "output")
     if flow.l2 is False and not getattr(model, "clamped", True):
         raise InputError(

@@ -76,6 +76,10 @@ class Driver(Protocol):
         """Step until converged, interrupted, failed or ``max_steps`` steps are done."""
         ...
 
+    def remaining_steps(self) -> int:
+        """How many steps ``run()`` may still take (0: the budget is spent)."""
+        ...
+
     def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function]:
         """The functions a checkpoint stores."""
         ...

@@ -18,10 +18,11 @@ grows. The flow is generic: it only sees an :class:`Energy`.
 from __future__ import annotations
 
 import math
+import re
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
-from typing import Protocol
+from dataclasses import dataclass
+from typing import Any
 
 from mpi4py import MPI
 
@@ -35,7 +36,9 @@ from petsc4py import PETSc
 from dgplate import compat, interrupt
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets, h2_metric
+from dgplate.dg.geometry import max_cell_diameter
 from dgplate.errors import InputError, SolverError
+from dgplate.schema import option
 from dgplate.solvers import linear as solvers
 from dgplate.solvers import ordering, sparsity
 from dgplate.solvers.constraint import (
@@ -46,62 +49,111 @@ from dgplate.solvers.constraint import (
     multiplier_element,
     symmetric,
 )
+from dgplate.solvers.driver import Observer
+
+_OPTION = re.compile(r"^[A-Za-z0-9_]+$")
 
 
 @dataclass
 class FlowSettings:
-    """Parameters of the gradient flow.
+    """The [flow] section: parameters of the gradient flow, validated once, here.
 
-    tau: pseudo-time step (> 0); D_h = O(τ). tol: stop when (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < tol.
-    max_steps: step budget of one ``run``. l2_metric: add the L² product to the metric; None
-    adds it exactly when nothing is clamped (rigid motions). solver_options: PETSc options.
-    multiplier_degree: 0 constrains cell means (published), 1 also first moments.
-    projection_steps: after each step, this many corrections restore the discrete nonlinear
-    constraint ∫_T (∇yᵀ∇y − I) q = 0 (smallest correction in the norm of the step matrix,
-    solved with the step's factorisation, so no new factorisation); 0 is the published method.
-    linear_solver: "lagged" (FGMRES preconditioned by an earlier step's LU factors, refreshed
-    when a solve needs more than ``refactor_its`` iterations) or "direct" (LU every step).
-    edge_constraint: also constrain two moments of the metric on free boundary facets (one
-    facet per cell; :class:`dgplate.solvers.constraint.EdgeConstraint`), linearised in the step and
-    restored by the projection. Cell moments alone let the cells along a free edge curve in
+    D_h = O(τ). Cell moments of the constraint alone let the cells along a free edge curve in
     two directions (Gauss curvature ≠ 0), which lowers a bilayer's energy below the isometric
-    minimum; off by default (the published method).
+    minimum: ``edge_constraint`` also constrains two moments of the metric on free boundary
+    facets (:class:`dgplate.solvers.constraint.EdgeConstraint`).
     """
 
-    tau: float
-    tol: float = 1e-6
-    max_steps: int = 1000
-    l2_metric: bool | None = None
-    solver_options: dict = field(default_factory=dict)
-    multiplier_degree: int = 0
-    projection_steps: int = 0
-    linear_solver: str = "lagged"
-    refactor_its: int = 12
-    edge_constraint: bool = False
+    tau: float | str = option("h", "time step τ > 0, or 'h' for the largest cell diameter")
+    tol: float = option(1e-6, "stop when (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < tol")
+    max_steps: int = option(1000, "step budget; reaching it is reported as not converged")
+    l2_metric: bool | str = option(
+        "auto", "add the L² product to the metric; 'auto': when nothing is clamped"
+    )
+    solver: dict = option({}, "PETSc options for the step solve (default: MUMPS LU)")
+    multiplier_degree: int = option(
+        0,
+        "degree of the isometry multiplier: 0 = cell means (published), 1 = also first moments (stronger)",
+    )
+    projection_steps: int = option(
+        0,
+        "corrections per step restoring the nonlinear discrete constraint (0: published method; 2 drives D_h to round-off)",
+    )
+    linear_solver: str = option(
+        "lagged",
+        "step solver: 'lagged' (one LU reused as FGMRES preconditioner, refactorised when needed) or 'direct' (LU every step)",
+    )
+    refactor_its: int = option(
+        12, "lagged solver: refactorise after a solve that needed more FGMRES iterations"
+    )
+    edge_constraint: bool = option(
+        False,
+        "also constrain the metric on free boundary facets (edge length and normal stretch): keeps free edges of a bilayer from curving in two directions",
+    )
+    checkpoint_every: int = option(
+        25,
+        "write a checkpoint (for --resume) every n steps, and always at the end; 0: only at the end",
+    )
 
     def __post_init__(self) -> None:
+        self._check_tau()
+        if not (isinstance(self.tol, int | float) and self.tol > 0):
+            raise InputError(f"flow.tol must be > 0, got {self.tol!r}")
+        for key, least in (
+            ("max_steps", 1),
+            ("projection_steps", 0),
+            ("refactor_its", 1),
+            ("checkpoint_every", 0),
+        ):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, int) or value < least:
+                raise InputError(f"flow.{key} must be an integer >= {least}, got {value!r}")
+        if self.multiplier_degree not in (0, 1) or isinstance(self.multiplier_degree, bool):
+            raise InputError(
+                f"flow.multiplier_degree must be 0 or 1, got {self.multiplier_degree!r}"
+            )
+        if self.l2_metric not in (True, False, "auto"):
+            raise InputError(
+                f"flow.l2_metric must be true, false or 'auto', got {self.l2_metric!r}"
+            )
         if self.linear_solver not in solvers.STEP_SOLVERS:
             raise InputError(
                 f"flow.linear_solver must be one of {solvers.STEP_SOLVERS}, got {self.linear_solver!r}"
-            )
-        if not (isinstance(self.refactor_its, int) and self.refactor_its >= 1):
-            raise InputError(
-                f"flow.refactor_its must be an integer >= 1, got {self.refactor_its!r}"
-            )
-        if not (isinstance(self.tau, int | float) and self.tau > 0 and math.isfinite(self.tau)):
-            raise InputError(f"flow.tau must be a number > 0, got {self.tau!r}")
-        if not self.tol > 0:
-            raise InputError(f"flow.tol must be > 0, got {self.tol!r}")
-        if not (isinstance(self.projection_steps, int) and self.projection_steps >= 0):
-            raise InputError(
-                f"flow.projection_steps must be an integer >= 0, got {self.projection_steps!r}"
             )
         if not isinstance(self.edge_constraint, bool):
             raise InputError(
                 f"flow.edge_constraint must be true or false, got {self.edge_constraint!r}"
             )
-        if not (isinstance(self.max_steps, int) and self.max_steps >= 1):
-            raise InputError(f"flow.max_steps must be an integer >= 1, got {self.max_steps!r}")
+        self._check_solver_options()
+
+    def _check_tau(self) -> None:
+        if isinstance(self.tau, str):
+            if self.tau != "h":
+                raise InputError(f"flow.tau must be a number > 0 or 'h', got {self.tau!r}")
+        elif not (
+            isinstance(self.tau, int | float)
+            and not isinstance(self.tau, bool)
+            and self.tau > 0
+            and math.isfinite(self.tau)
+        ):
+            raise InputError(f"flow.tau must be > 0, got {self.tau!r}")
+
+    def _check_solver_options(self) -> None:
+        for key, value in self.solver.items():
+            if not _OPTION.match(key):
+                raise InputError(
+                    f"flow.solver.{key} is not a PETSc option name (letters, digits and _, "
+                    "without the leading '-', e.g. ksp_type)"
+                )
+            if not isinstance(value, str | int | float):
+                raise InputError(
+                    f"flow.solver.{key} must be a string, a number or a boolean, got {value!r}"
+                )
+
+    @property
+    def l2(self) -> bool | None:
+        """Whether the metric has the L² product; None: decided by the model (clamped?)."""
+        return None if self.l2_metric == "auto" else bool(self.l2_metric)
 
 
 @dataclass
@@ -122,6 +174,14 @@ class StepInfo:
     iterations: int  # Krylov iterations of the step solve (1 for a direct solve)
     fallbacks: int = 0  # failed lagged solves redone (fresh factors, then direct LU)
 
+    def line(self) -> str:
+        """One line of progress output."""
+        return (
+            f"step {self.step:5d}  t = {self.time:9.4f}  τ = {self.tau:.3e}  "
+            f"E_h = {self.energy:+.6e}  D_h = {self.defect:.3e}  "
+            f"ΔE/τ = {self.rate:.2e}  {self.seconds:.2f} s/step"
+        )
+
 
 @dataclass
 class FlowResult:
@@ -133,12 +193,6 @@ class FlowResult:
     history: list[StepInfo]
     energy_increases: list[int]  # steps at which the energy went up
     interrupted: int = 0  # the signal (SIGINT, SIGTERM) that stopped the run; 0: none
-
-
-class Observer(Protocol):
-    def step(self, flow: GradientFlow, info: StepInfo) -> None: ...
-
-    def finish(self, flow: GradientFlow, result: FlowResult) -> None: ...
 
 
 class GradientFlow:
@@ -170,7 +224,10 @@ class GradientFlow:
         self.energy = energy_fn(self.y)
         self.defect = IsometryDefect(self.y)
         self.time, self.step_count = 0.0, 0
-        self._tau = dolfinx.fem.Constant(mesh, PETSc.ScalarType(settings.tau))
+        self.energy_increases: list[int] = []  # steps at which E_h went up, over all runs
+        self.fallbacks = 0  # solver fall-backs over all runs
+        tau = max_cell_diameter(mesh) if settings.tau == "h" else float(settings.tau)
+        self._tau = dolfinx.fem.Constant(mesh, PETSc.ScalarType(tau))
         self._build_forms()
         self._E_form = dolfinx.fem.form(self.energy.total)
         self._last_energy = self.evaluate_energy()
@@ -180,7 +237,7 @@ class GradientFlow:
         y, faces = self.y, self.faces
         dy, lam, *edge_lam = ufl.TrialFunctions(self.W)
         v, q, *edge_q = ufl.TestFunctions(self.W)
-        l2 = self.settings.l2_metric
+        l2 = self.settings.l2
         # rigid motions, or a flap that can turn freely about a crease, leave the H² metric
         # singular: the L² product controls them
         l2 = (not faces.has_clamped or faces.num_crease > 0) if l2 is None else l2
@@ -222,7 +279,7 @@ class GradientFlow:
             self.settings.linear_solver,
             self.comm,
             self.K,
-            self.settings.solver_options,
+            self.settings.solver,
             prefix=None,
             refactor_its=self.settings.refactor_its,
             numbering=ordering.cellwise_numbering(self.W),
@@ -369,14 +426,42 @@ class GradientFlow:
         the last step's solution (the next step solve's initial guess)."""
         return {"y": self.y, "step_solution": self.solution}
 
-    def checkpoint_state(self) -> dict[str, float | int]:
+    def checkpoint_state(self) -> dict[str, Any]:
         """The counters a checkpoint must hold (with :meth:`checkpoint_fields`)."""
-        return {"step": self.step_count, "time": self.time, "energy": self._last_energy}
+        return {
+            "step": self.step_count,
+            "time": self.time,
+            "energy": self._last_energy,
+            "energy_increases": list(self.energy_increases),
+            "fallbacks": self.fallbacks,
+        }
+
+    def remaining_steps(self) -> int:
+        """Steps left of ``max_steps`` (the budget of a run and its resumed runs)."""
+        return max(self.settings.max_steps - self.step_count, 0)
+
+    @property
+    def shape(self) -> dolfinx.fem.Function:
+        """The deformation y (the :class:`~dgplate.solvers.driver.Driver` protocol)."""
+        return self.y
+
+    def summary(self) -> dict[str, Any]:
+        """The flow's numbers for ``summary.json`` (collective)."""
+        return {
+            "dofs": self.num_dofs,
+            "energy": self.evaluate_energy(),
+            "isometry_defect": self.defect(),
+            "tau": self.tau,
+            "energy_increases": list(self.energy_increases),
+            "solver_fallbacks": self.fallbacks,
+        }
 
     def restore_state(self, state: dict) -> None:
         """Continue from a checkpoint's counters (after its fields were restored)."""
         self.step_count, self.time = int(state["step"]), float(state["time"])
         self._last_energy = float(state["energy"])
+        self.energy_increases = [int(s) for s in state.get("energy_increases", [])]
+        self.fallbacks = int(state.get("fallbacks", 0))
 
     def undo(self) -> None:
         """Take back the last step (used when it produced a non-finite state)."""
@@ -386,7 +471,7 @@ class GradientFlow:
     # -- the loop ---------------------------------------------------------------------------
     def run(self, max_steps: int | None = None) -> FlowResult:
         """Step until the stopping rule holds or the step budget is spent."""
-        budget = max_steps or self.settings.max_steps
+        budget = max_steps or self.remaining_steps()
         history: list[StepInfo] = []
         increases: list[int] = []
         converged, reason = (
@@ -405,8 +490,10 @@ class GradientFlow:
                 reason = f"diverged at step {info.step}: the energy became {info.energy}; the last finite state is kept"
                 break
             history.append(info)
+            self.fallbacks += info.fallbacks
             if info.rate < 0 and -info.rate * self.tau > 1e-12 * max(1.0, abs(info.energy)):
                 increases.append(info.step)
+                self.energy_increases.append(info.step)
             for obs in self.observers:
                 obs.step(self, info)
             if abs(info.rate) < self.settings.tol:
