@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from dgplate.errors import InputError
+from dgplate.mesh.tagged import TaggedMesh
+from dgplate.models.base import Model
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
+from dgplate.models.foundation import FoundationSpec, build_foundation
 from dgplate.models.fvk_params import FvKParameters
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
 from dgplate.schema import from_dict
@@ -16,8 +19,7 @@ from dgplate.schema import from_dict
 @dataclass(frozen=True)
 class ModelEntry:
     spec: type
-    build: Any  # (spec, tagged mesh) -> FlowModel
-    kind: str = "flow"  # "flow": constrained gradient flow; "newton": SNES load stepping
+    build: Callable[[Any, TaggedMesh], Model] | None
     # keys that do nothing for this model ("section" for a whole table, or "section.key"),
     # with the reason: giving one is an input error rather than a silently ignored setting
     ignores: Mapping[str, str] = field(default_factory=dict)
@@ -42,10 +44,10 @@ _FVK_OUTPUT = "the fvk model always writes fvk.bp (every load step) and final.pn
 MODELS: dict[str, ModelEntry] = {
     "kirchhoff": ModelEntry(KirchhoffSpec, build_kirchhoff),
     "bilayer": ModelEntry(BilayerSpec, build_bilayer),
+    "foundation": ModelEntry(FoundationSpec, build_foundation),
     "fvk": ModelEntry(
         FvKParameters,
         None,
-        kind="newton",
         ignores={
             "flow": "the fvk model is solved by Newton's method over load steps "
             "(model.load_steps, model.snes), not by the gradient flow",
