@@ -36,7 +36,7 @@ from dgplate.mesh.tagged import rectangle
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
 from dgplate.reference.bnn import BNN_TABLE1
 from dgplate.solvers import linear as solvers
-from dgplate.solvers.flow import FlowResult, FlowSettings, GradientFlow
+from dgplate.solvers.flow import FlowResult, FlowSpec, GradientFlow
 
 PHASES = ("assembly", "factorisation", "solves", "other")
 
@@ -87,7 +87,7 @@ def bnn_flow(comm: MPI.Comm, cells: int, naive: bool = False, progress: int = 0)
     tagged = rectangle(comm, [[0, 0], [4, 4]], [cells, cells])
     spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
     model = build_kirchhoff(spec, tagged)
-    settings = FlowSettings(tau=math.sqrt(2) * 4 / cells, tol=1e-6, max_steps=2000)
+    settings = FlowSpec(tau=math.sqrt(2) * 4 / cells, tol=1e-6, max_steps=2000)
     cls = NaiveFlow if naive else GradientFlow
     observers = [ProgressPrinter(comm, progress)] if progress else []
     return cls(model.facets, model.degree, model.energy, settings, observers)

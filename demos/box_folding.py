@@ -65,7 +65,7 @@ from dgplate.models.thermal import (
     calibrate_alpha,
     hinge_penalty,
 )
-from dgplate.solvers.flow import FlowSettings
+from dgplate.solvers.flow import FlowSpec
 
 parser = argparse.ArgumentParser(description="Self-folding box driven by heat (seed 001).")
 parser.add_argument("--out", default="out/box_folding", help="output directory")
@@ -169,7 +169,7 @@ print0(
     + f"; seed's Z = −θ would fold {literal_deg:.0f}°; c·w = π/2 needs α_cw = {alpha_cw:.4f}",
 )
 
-flow_settings = FlowSettings(
+flow_settings = FlowSpec(
     tau=args.tau,
     tol=1e-6,
     l2_metric=False,

@@ -46,7 +46,7 @@ from dgplate.measure.analysis import curvature_summary
 from dgplate.measure.hinges import RegionFrame, edge_nodes
 from dgplate.mesh.tagged import load_geo
 from dgplate.models.thermal import ThermalBilayer, ThermalSettings
-from dgplate.solvers.flow import FlowSettings
+from dgplate.solvers.flow import FlowSpec
 
 parser = argparse.ArgumentParser(description="Self-folding microcapsule (seed 001).")
 parser.add_argument("--out", default="out/microcapsule", help="output directory")
@@ -83,7 +83,7 @@ dt = 1.0 / args.ramp_steps
 heat = HeatSolver(tagged, 5.0, dt, HeatSource(((0.0, 1.0), (1.0, 0.0))))  # θ = t up to t = 1
 settings = ThermalSettings(alpha=-args.Z, mu=1.0, flow_steps=args.flow_steps, degree=2)
 # L² metric (nothing clamped); one constraint projection per step keeps D_h at round-off
-flow_settings = FlowSettings(tau=args.tau, tol=1e-6, multiplier_degree=0, projection_steps=1)
+flow_settings = FlowSpec(tau=args.tau, tol=1e-6, multiplier_degree=0, projection_steps=1)
 model = ThermalBilayer(tagged, heat, flow_settings, settings)
 centre = RegionFrame(model.y, tagged, "centre")
 print0(

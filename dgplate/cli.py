@@ -149,7 +149,7 @@ def _schema(model: str) -> int:
     from dgplate.problems.registry import MODELS
     from dgplate.problems.specs import MeshSpec, OutputSpec
     from dgplate.schema import describe
-    from dgplate.solvers.flow import FlowSettings
+    from dgplate.solvers.flow import FlowSpec
 
     if model not in MODELS:
         print(
@@ -159,7 +159,7 @@ def _schema(model: str) -> int:
     parts = [
         describe(MeshSpec, "mesh"),
         describe(MODELS[model].spec, "model"),
-        describe(FlowSettings, "flow"),
+        describe(FlowSpec, "flow"),
         describe(OutputSpec, "output"),
     ]
     if MPI.COMM_WORLD.rank == 0:

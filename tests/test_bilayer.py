@@ -12,7 +12,7 @@ from conftest import PARITY_RTOL
 from dgplate.cli import main
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
-from dgplate.solvers.flow import FlowSettings, GradientFlow
+from dgplate.solvers.flow import FlowSpec, GradientFlow
 
 CYLINDER = Path(__file__).resolve().parent.parent / "demos" / "problems" / "bilayer_cylinder.toml"
 
@@ -34,7 +34,7 @@ def roll(
     penalty = {"gamma0": 5000.0, "gamma1": gamma1, "gradient_power": gradient_power}
     spec = BilayerSpec(clamped=["left"], Z=alpha, consistent=consistent, penalty=penalty)
     model = build_bilayer(spec, tagged)
-    settings = FlowSettings(
+    settings = FlowSpec(
         tau=tau,
         max_steps=3000,
         multiplier_degree=multiplier_degree,
@@ -107,7 +107,7 @@ def test_corkscrew_rolls_about_the_diagonal():
     tagged = rectangle(MPI.COMM_SELF, [[-0.5, -0.75], [0.5, 0.75]], [4, 6])
     spec = BilayerSpec(Z=[[-3.0, 2.0], [2.0, -3.0]])
     model = build_bilayer(spec, tagged)
-    settings = FlowSettings(tau=0.02, tol=5e-2, max_steps=2000, multiplier_degree=1)
+    settings = FlowSpec(tau=0.02, tol=5e-2, max_steps=2000, multiplier_degree=1)
     flow = GradientFlow(model.facets, 2, model.energy, settings)
     result = flow.run()
     mean_II = np.array(model.figures(flow)["mean_second_fundamental_form"])

@@ -25,7 +25,7 @@ from dgplate.mesh.tagged import load_geo
 from dgplate.problems.registry import MODELS
 from dgplate.problems.runner import build_mesh, run_problem
 from dgplate.problems.specs import load_problem
-from dgplate.solvers.flow import FlowSettings, GradientFlow
+from dgplate.solvers.flow import FlowSpec, GradientFlow
 
 ROOT = Path(__file__).resolve().parent.parent
 STRAIGHT = ROOT / "demos" / "problems" / "straight_fold.toml"
@@ -49,7 +49,7 @@ def straight_fold_flow(comm, overrides=()):
     problem = load_problem(STRAIGHT, [*QUIET, *overrides])
     tagged = build_mesh(problem.mesh, comm)
     model = MODELS["kirchhoff"].build(problem.model, tagged)
-    settings = FlowSettings(tau=0.25, max_steps=5)
+    settings = FlowSpec(tau=0.25, max_steps=5)
     flow = GradientFlow(model.facets, model.degree, model.energy, settings, initial=folded)
     return flow, model, problem
 
@@ -261,7 +261,7 @@ def test_mpi_parity_crease_flow():
     for name, comm in (("world", MPI.COMM_WORLD), ("self", MPI.COMM_SELF)):
         tagged = load_geo(comm, "straight_crease", FLAP_MESH)
         model = MODELS["kirchhoff"].build(MODELS["kirchhoff"].spec(**FLAP), tagged)
-        settings = FlowSettings(tau=0.05, max_steps=3, l2_metric=True)
+        settings = FlowSpec(tau=0.05, max_steps=3, l2_metric=True)
         flow = GradientFlow(model.facets, 2, model.energy, settings)
         result = flow.run()
         extras = model.figures(flow)

@@ -15,7 +15,7 @@ from conftest import PARITY_RTOL
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
 from dgplate.reference.bnn import BNN_TABLE1
-from dgplate.solvers.flow import FlowSettings, GradientFlow
+from dgplate.solvers.flow import FlowSpec, GradientFlow
 
 TABLE1 = BNN_TABLE1
 
@@ -26,7 +26,7 @@ def vertical_load_flow(
     tagged = rectangle(comm, [[0, 0], [4, 4]], [n, n], cell_type)
     spec = KirchhoffSpec(degree=degree, clamped=["left", "bottom"], load=[0, 0, 2.5e-2], **spec)
     model = build_kirchhoff(spec, tagged)
-    settings = FlowSettings(tau=tau or math.sqrt(2) * 4 / n, linear_solver=linear_solver)
+    settings = FlowSpec(tau=tau or math.sqrt(2) * 4 / n, linear_solver=linear_solver)
     return GradientFlow(model.facets, model.degree, model.energy, settings)
 
 
@@ -78,7 +78,7 @@ def test_free_plate_balanced_load():
     spec = KirchhoffSpec(clamped=[], load=[0, 0, "0.01*((x - 2)**2 - 4/3)"])
     model = build_kirchhoff(spec, tagged)
     assert not model.facets.has_clamped
-    flow = GradientFlow(model.facets, 2, model.energy, FlowSettings(tau=0.1, max_steps=400))
+    flow = GradientFlow(model.facets, 2, model.energy, FlowSpec(tau=0.1, max_steps=400))
     result = flow.run()
     assert result.converged, result.reason
     assert result.energy < 0 and np.isfinite(result.energy)

@@ -19,14 +19,14 @@ from dgplate.io.output import bounding_box
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
-from dgplate.solvers.flow import FlowSettings, GradientFlow
+from dgplate.solvers.flow import FlowSpec, GradientFlow
 
 
 def rolling_strip(comm: MPI.Comm, linear_solver: str):
     """The 2×1 strip, clamped at x = 0, rolling about the y axis (radius 0.2: 1.6 turns)."""
     tagged = rectangle(comm, [[0, 0], [2, 1]], [8, 4])
     model = build_bilayer(BilayerSpec(clamped=["left"], Z=[[-5.0, 0.0], [0.0, 0.0]]), tagged)
-    settings = FlowSettings(
+    settings = FlowSpec(
         tau=1.0,
         max_steps=300,
         multiplier_degree=1,
@@ -78,7 +78,7 @@ def test_failed_fresh_factors_fall_back_to_a_direct_solve(comm, caplog):
     model = build_kirchhoff(spec, tagged)
     results = {}
     for kind, options in (("direct", {}), ("lagged", {"ksp_max_it": 1, "ksp_rtol": 1e-30})):
-        settings = FlowSettings(tau=1.0, max_steps=3, linear_solver=kind, solver=options)
+        settings = FlowSpec(tau=1.0, max_steps=3, linear_solver=kind, solver=options)
         flow = GradientFlow(model.facets, 2, model.energy, settings)
         with caplog.at_level(logging.WARNING, logger="dgplate.solvers.linear"):
             results[kind] = flow.run()

@@ -27,7 +27,7 @@ from dgplate.models.thermal import (
     calibrate_alpha,
     hinge_penalty,
 )
-from dgplate.solvers.flow import FlowSettings
+from dgplate.solvers.flow import FlowSpec
 
 W = math.pi / 24
 
@@ -105,7 +105,7 @@ def test_box_net_and_microcapsule_meshes():
 def test_one_hinge_folds_90_degrees_when_cw_is_pi_over_2():
     """θ = 10, α_cw = (π/2)/(wθ): the hinge (4 cells across) folds to 90° ± 5°, the stiff
     faces stay flat, and the calibration factor corrects the O(h) shortfall."""
-    flow = FlowSettings(tau=0.1, tol=1e-5, l2_metric=False, projection_steps=1)
+    flow = FlowSpec(tau=0.1, tol=1e-5, l2_metric=False, projection_steps=1)
     alpha, info = calibrate_alpha(MPI.COMM_SELF, W, 4, 4, 10.0, flow, max_steps=600)
     print(f"\nstrip folds {info['strip_fold_deg']:.3f}° in {info['strip_flow_steps']} steps")
     assert info["strip_converged"]
@@ -126,7 +126,7 @@ def thermal_strip(comm, n=2, m=2, flow_steps=5, alpha=0.6):
         penalty=hinge_penalty(W, n, m),
     )
     model = ThermalBilayer(
-        tagged, heat, FlowSettings(tau=0.05, l2_metric=False, projection_steps=1), settings
+        tagged, heat, FlowSpec(tau=0.05, l2_metric=False, projection_steps=1), settings
     )
     angles = FoldAngles(model.y, tagged, [Hinge("hinge", "left", "right")], sense=-1)
     model.measure = lambda _: angles()
@@ -146,7 +146,7 @@ def test_heating_folds_and_cooling_unfolds():
 def test_bad_thermal_input():
     tagged = hinge_strip(MPI.COMM_SELF, W, 2, 2)
     heat = HeatSolver(tagged, 1.0, 1.0)
-    flow = FlowSettings(tau=0.1)
+    flow = FlowSpec(tau=0.1)
     with pytest.raises(InputError, match="flow_steps must be an integer >= 1"):
         ThermalSettings(flow_steps=0)
     with pytest.raises(InputError, match=r"unknown cell group 'hinges'"):

@@ -21,7 +21,7 @@ from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets
 from dgplate.measure.creases import crease_polylines, fold_angle_summary
 from dgplate.solvers.driver import Driver, Observer
-from dgplate.solvers.flow import FlowSettings, GradientFlow
+from dgplate.solvers.flow import FlowSpec, GradientFlow
 
 Initial = Callable[[np.ndarray], np.ndarray]
 
@@ -30,7 +30,7 @@ class Model(Protocol):
     """What the runner needs of a model (all methods collective)."""
 
     def driver(
-        self, flow: FlowSettings, observers: Sequence[Observer], initial: Initial | None
+        self, flow: FlowSpec, observers: Sequence[Observer], initial: Initial | None
     ) -> Driver:
         """The driver that solves this model; ``flow`` is the problem's [flow] section."""
         ...
@@ -60,7 +60,7 @@ class PlateModel:
     )
 
     def driver(
-        self, flow: FlowSettings, observers: Sequence[Observer], initial: Initial | None
+        self, flow: FlowSpec, observers: Sequence[Observer], initial: Initial | None
     ) -> GradientFlow:
         """The constrained gradient flow of :attr:`energy`."""
         return GradientFlow(self.facets, self.degree, self.energy, flow, observers, initial)

@@ -44,7 +44,7 @@ from dgplate.io.checkpoint import Checkpoint
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import flat_identity, piecewise_constant
 from dgplate.models.bilayer import bilayer_energy
-from dgplate.solvers.flow import FlowResult, FlowSettings, GradientFlow
+from dgplate.solvers.flow import FlowResult, FlowSpec, GradientFlow
 from dgplate.values import constant
 
 
@@ -163,7 +163,7 @@ class ThermalBilayer:
         self,
         tagged: TaggedMesh,
         heat: HeatSolver,
-        flow_settings: FlowSettings,
+        flow_settings: FlowSpec,
         settings: ThermalSettings,
         measure: Callable[[ThermalBilayer], dict] | None = None,
         observers: Sequence = (),
@@ -321,7 +321,7 @@ def calibrate_alpha(
     n: int,
     m: int,
     theta: float,
-    flow_settings: FlowSettings,
+    flow_settings: FlowSpec,
     mu_hinge: float = 1.0,
     mu_face: float = 20.0,
     target: float = np.pi / 2,

@@ -16,7 +16,7 @@ from typing import Any
 
 from dgplate.errors import InputError, read_user_text
 from dgplate.schema import from_dict, option, require_finite
-from dgplate.solvers.flow import FlowSettings
+from dgplate.solvers.flow import FlowSpec
 
 SECTIONS = ("mesh", "model", "flow", "output")
 _OPTION = re.compile(r"^[A-Za-z0-9_]+$")
@@ -84,7 +84,7 @@ class Problem:
     name: str
     mesh: MeshSpec
     model: Any  # the model's own spec dataclass
-    flow: FlowSettings
+    flow: FlowSpec
     output: OutputSpec
     raw: dict  # the validated input, overrides applied (recorded in summary.json)
 
@@ -167,7 +167,7 @@ def problem_from_dict(data: dict, name: str, overrides: Overrides = ()) -> Probl
     mesh = from_dict(MeshSpec, data.get("mesh"), "mesh")
     model = model_spec(data.get("model"))
     MODELS[model.name].reject_ignored(data, model.name)
-    flow = from_dict(FlowSettings, data.get("flow"), "flow")
+    flow = from_dict(FlowSpec, data.get("flow"), "flow")
     output = from_dict(OutputSpec, data.get("output"), "output")
     if flow.l2 is False and not getattr(model, "clamped", True):
         raise InputError(

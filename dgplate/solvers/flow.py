@@ -55,7 +55,7 @@ _OPTION = re.compile(r"^[A-Za-z0-9_]+$")
 
 
 @dataclass
-class FlowSettings:
+class FlowSpec:
     """The [flow] section: parameters of the gradient flow, validated once, here.
 
     D_h = O(τ). Cell moments of the constraint alone let the cells along a free edge curve in
@@ -203,7 +203,7 @@ class GradientFlow:
         faces: FacetSets,
         degree: int,
         energy_fn: Callable[[dolfinx.fem.Function], Energy],
-        settings: FlowSettings,
+        settings: FlowSpec,
         observers: Sequence[Observer] = (),
         initial: Callable | None = None,
     ):
