@@ -2,24 +2,31 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from dgplate.errors import InputError
+from dgplate.mesh.tagged import TaggedMesh
+from dgplate.models.base import Model
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
-from dgplate.models.fvk_params import FvKParameters
+from dgplate.models.fvk import FvKSpec, build_fvk
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
 from dgplate.schema import from_dict
 
 
 @dataclass(frozen=True)
 class ModelEntry:
+    """A model name's spec dataclass (the [model] table) and its build function.
+
+    ``build(spec, tagged)`` returns a :class:`dgplate.models.base.Model`. ``ignores`` names the
+    keys that do nothing for this model ("section" for a whole table, or "section.key"), with
+    the reason: giving one is an input error rather than a silently ignored setting.
+    """
+
     spec: type
-    build: Any  # (spec, tagged mesh) -> FlowModel
-    kind: str = "flow"  # "flow": constrained gradient flow; "newton": SNES load stepping
-    # keys that do nothing for this model ("section" for a whole table, or "section.key"),
-    # with the reason: giving one is an input error rather than a silently ignored setting
+    build: Callable[[Any, TaggedMesh], Model]
+    kind: str = "flow"  # read by the runner until it runs every model through Model.driver
     ignores: Mapping[str, str] = field(default_factory=dict)
 
     def reject_ignored(self, data: Mapping[str, Any], name: str) -> None:
@@ -37,27 +44,21 @@ class ModelEntry:
                 )
 
 
-_FVK_OUTPUT = "the fvk model always writes fvk.bp (every load step) and final.png (deflection w)"
-
 MODELS: dict[str, ModelEntry] = {
     "kirchhoff": ModelEntry(KirchhoffSpec, build_kirchhoff),
     "bilayer": ModelEntry(BilayerSpec, build_bilayer),
     "fvk": ModelEntry(
-        FvKParameters,
-        None,
-        kind="newton",
+        FvKSpec,
+        build_fvk,
         ignores={
             "flow": "the fvk model is solved by Newton's method over load steps "
             "(model.load_steps, model.snes), not by the gradient flow",
-            **dict.fromkeys(
-                ("output.vtx", "output.every", "output.png", "output.color_by"), _FVK_OUTPUT
-            ),
         },
     ),
 }
 
 
-def model_spec(data: Any):
+def model_spec(data: Any) -> Any:
     """Validate the [model] table with the spec of the model it names."""
     if data is not None and not isinstance(data, dict):
         raise InputError(f"[model] must be a table, got {data!r}")
@@ -65,7 +66,4 @@ def model_spec(data: Any):
     name = data.get("name", "kirchhoff")
     if not isinstance(name, str) or name not in MODELS:
         raise InputError(f"model.name must be one of {', '.join(sorted(MODELS))}, got {name!r}")
-    spec = from_dict(MODELS[name].spec, data, "model")
-    if hasattr(spec, "validate"):
-        spec.validate()
-    return spec
+    return from_dict(MODELS[name].spec, data, "model")
