@@ -26,7 +26,6 @@ class ModelEntry:
 
     spec: type
     build: Callable[[Any, TaggedMesh], Model]
-    kind: str = "flow"  # read by the runner until it runs every model through Model.driver
     ignores: Mapping[str, str] = field(default_factory=dict)
 
     def reject_ignored(self, data: Mapping[str, Any], name: str) -> None:
