@@ -253,7 +253,7 @@ def fvk_bending_energy(
     gamma0, gamma1 = penalty.constants(faces.mesh)
     H = hessian(w)
     zero = ufl.as_vector((0.0, 0.0))
-    energy = bending_energy(w, faces, penalty, mu=D, g=0.0, Phi=zero)
+    energy: ufl.Form = bending_energy(w, faces, penalty, mu=D, g=0.0, Phi=zero)
     energy += nu * D * ufl.det(H) * faces.dx
     energy -= (
         nu
@@ -294,10 +294,11 @@ def fvk_energy(
     A = E * t / (1 - nu**2)
     w, u = ufl.split(state)
     eps = membrane_strain(u, w, load_factor * prestrain)
-    energy = 0.5 * ufl.inner(plane_stress(eps, A, nu), eps) * faces.dx
+    energy: ufl.Form = 0.5 * ufl.inner(plane_stress(eps, A, nu), eps) * faces.dx
     simply_supported = bool(spec.simply_supported)
     energy += fvk_bending_energy(w, faces, spec.penalty_params, D, nu, simply_supported)
-    return energy - load_factor * pressure * w * faces.dx
+    energy -= load_factor * pressure * w * faces.dx
+    return energy
 
 
 # -- facets, spaces and in-plane conditions ----------------------------------------------------

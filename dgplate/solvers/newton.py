@@ -32,7 +32,7 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, cast
 
 from mpi4py import MPI
 
@@ -188,7 +188,7 @@ class Continuation:
     def _setup_snes(self) -> None:
         opts = PETSc.Options()
         for key, value in self._options.items():
-            opts[f"{self._prefix}{key}"] = value
+            opts.setValue(f"{self._prefix}{key}", value)
         self._A = dolfinx.fem.petsc.create_matrix(self._jacobian)
         self._b = self.state.x.petsc_vec.duplicate()
         self._x = self.state.x.petsc_vec.duplicate()
@@ -210,9 +210,10 @@ class Continuation:
         self._update(x)
         with b.localForm() as local:
             local.set(0.0)
-        dolfinx.fem.petsc.assemble_vector(b, self._residual)
+        # DOLFINx's stubs know only the form-first overloads of the assemblers
+        dolfinx.fem.petsc.assemble_vector(b, self._residual)  # type: ignore[arg-type]
         dolfinx.fem.petsc.apply_lifting(b, [self._jacobian], [self.bcs], [x], -1.0)
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        b.ghostUpdate(PETSc.InsertMode.ADD, PETSc.ScatterMode.REVERSE)  # type: ignore[arg-type]
         dolfinx.fem.petsc.set_bc(b, self.bcs, x, -1.0)
 
     def _assemble_jacobian(
@@ -220,7 +221,7 @@ class Continuation:
     ) -> None:
         self._update(x)
         A.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(A, self._jacobian, bcs=self.bcs)
+        dolfinx.fem.petsc.assemble_matrix(A, self._jacobian, self.bcs)  # type: ignore[arg-type]
         A.assemble()
 
     # -- the Driver protocol ----------------------------------------------------------------
@@ -360,7 +361,9 @@ class Continuation:
         self.state.x.petsc_vec.copy(self._x)
         self._norms = []
         self.snes.solve(None, self._x)
-        reason, its = self.snes.getConvergedReason(), self.snes.getIterationNumber()
+        # an int at run time (petsc4py's stubs say ConvergedReason)
+        reason = cast(int, self.snes.getConvergedReason())
+        its = self.snes.getIterationNumber()
         self._update(self._x)
         if reason < 0:
             self._take_back()
@@ -401,9 +404,9 @@ class Continuation:
         self._shape = self._update_shape()
 
     def _set_load(self, factor: float) -> None:
-        self._load_factor.value = factor
+        self._load_factor.value = np.asarray(factor)
         for constant, value in self._bc_values:
-            constant.value = factor * value
+            constant.value = np.asarray(factor * value)
 
     def _update_shape(self) -> dolfinx.fem.Function:
         source = self._shape_source
