@@ -117,7 +117,7 @@ class Continuation:
 
     Args:
         state: the unknown u (any space); its value is the start of the first load step.
-        energy: Π(u), a UFL form linear in nothing (a functional of ``state``).
+        energy: Π(u), a UFL functional of ``state`` (a form of rank 0).
         bcs: Dirichlet conditions on ``state``'s space.
         load_factor: the Constant that ``energy`` depends on; its value is the load factor
             the state belongs to (0 for an unloaded start).
@@ -182,6 +182,7 @@ class Continuation:
         self._prefix = prefix
         self._options = {**NEWTON_DEFAULTS, **(options or {})}
         self._setup_snes()
+        self._live = True
         _LIVE_PREFIXES.add(prefix)
 
     # -- set-up -----------------------------------------------------------------------------
@@ -327,8 +328,9 @@ class Continuation:
 
     def destroy(self) -> None:
         """Free the PETSc objects and delete this driver's options (idempotent)."""
-        if self._prefix not in _LIVE_PREFIXES:
+        if not self._live:
             return
+        self._live = False
         opts = PETSc.Options()
         for key in self._options:
             opts.delValue(f"{self._prefix}{key}")
