@@ -131,6 +131,7 @@ class FvKSpec:
     snes: dict = option({}, "PETSc options for SNES/KSP/PC, e.g. {snes_rtol = 1e-8}")
 
     def __post_init__(self) -> None:
+        """Check every key once: one-line InputErrors naming ``model.<key>``."""
         if self.name != "fvk":
             raise InputError(f"model.name must be 'fvk' for FvKSpec, got {self.name!r}")
         self._check_material()

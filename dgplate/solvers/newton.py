@@ -339,9 +339,11 @@ class Continuation:
         _LIVE_PREFIXES.discard(self._prefix)
 
     def __enter__(self) -> Continuation:
+        """``with Continuation(...) as driver:`` destroys the driver at the end."""
         return self
 
     def __exit__(self, *exc: object) -> None:
+        """:meth:`destroy`."""
         self.destroy()
 
     # -- load steps -------------------------------------------------------------------------
