@@ -28,7 +28,8 @@ from dgplate import expressions
 
 def constant(mesh, value) -> dolfinx.fem.Constant:
     """``value`` (a number or an array of numbers) as a Constant of the DOLFINx ``mesh``, in
-    PETSc's scalar type like every form of dgplate."""
+    PETSc's scalar type like every form of dgplate.
+    """
     return dolfinx.fem.Constant(mesh, np.asarray(value, dtype=PETSc.ScalarType))
 
 

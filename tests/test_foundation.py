@@ -33,5 +33,5 @@ def test_free_plate_floats_at_load_over_stiffness(tmp_path, comm):
 
 
 def test_stiffness_must_be_positive():
-    with pytest.raises(dgplate.InputError, match="model.k must be a number > 0"):
+    with pytest.raises(dgplate.InputError, match=r"model\.k must be a number > 0"):
         dgplate.problem_from_dict({"model": {"name": "foundation", "k": 0.0}}, "bad")

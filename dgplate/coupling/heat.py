@@ -88,11 +88,11 @@ class HeatSource:
         switch_time: float,
         regions: Sequence[str] | None = None,
     ) -> HeatSource:
-        """s = ``before`` for 0 ≤ t < switch_time, then ``after`` (the box's heating/cooling)."""
+        """S = ``before`` for 0 ≤ t < switch_time, then ``after`` (the box's heating/cooling)."""
         return cls(((0.0, before), (switch_time, after)), None if regions is None else regions)
 
     def value(self, t: float) -> float:
-        """s at time t (inside the heated regions)."""
+        """S at time t (inside the heated regions)."""
         current = 0.0
         for start, s in self.schedule:
             if t >= start:
@@ -103,7 +103,8 @@ class HeatSource:
         """(1/(t1 − t0)) ∫_{t0}^{t1} s dt: the exact mean of the schedule over a time step.
 
         The heat solver uses this mean, so a switch inside (or at the end of) a step takes
-        effect with its exact weight and round-off in the times cannot move it by a step."""
+        effect with its exact weight and round-off in the times cannot move it by a step.
+        """
         if not t1 > t0:
             return self.value(t1)
         starts = [t for t, _ in self.schedule] + [math.inf]
@@ -218,7 +219,8 @@ class HeatSolver:
         """Advance θ by one time step; returns the new time. Collective.
 
         A scheduled source enters with its mean over the step, a callable source at the end
-        of the step (t = tⁿ⁺¹, implicit Euler). Times are t0 + n Δt (no accumulated sums)."""
+        of the step (t = tⁿ⁺¹, implicit Euler). Times are t0 + n Δt (no accumulated sums).
+        """
         t_old = self.time
         t_new = self.t0 + (self.steps + 1) * self.dt
         self.t_next.value = t_new

@@ -12,8 +12,10 @@ triangles and quadrilaterals: the same UFL expressions cover all cases.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass
+from typing import Any
 
 from mpi4py import MPI
 
@@ -30,6 +32,10 @@ from dgplate.mesh.tagged import TaggedMesh, _make_tags
 SMOOTH, CREASE, CLAMPED, FREE = 1, 2, 3, 4
 
 
+#: The keys of a penalty table in a problem file (``model.penalty``).
+PENALTY_KEYS = ("gamma0", "gamma1", "gradient_power")
+
+
 @dataclass(frozen=True)
 class Penalty:
     """Penalty parameters: γ₀ scales h⁻³[y]·[y], γ₁ scales h⁻ᵖ[∇y]:[∇y].
@@ -38,7 +44,8 @@ class Penalty:
     gradient jumps: still consistent (smooth solutions have none), and it keeps a one-cell
     layer along free edges from trading metric error for energy (docs/bilayer.md, cylinder).
     In the forms γ₀ and γ₁ are Constants (:meth:`constants`, values: no recompilation when
-    they change), p a literal (it chooses the form, see :mod:`dgplate.values`).
+    they change), p a literal (it chooses the form, see :mod:`dgplate.values`). The limits
+    (γ₀, γ₁ > 0 and finite, 1 ≤ p ≤ 3) are checked here for every model.
     """
 
     gamma0: float = 5000.0
@@ -46,26 +53,55 @@ class Penalty:
     gradient_power: float = 1.0
 
     def __post_init__(self) -> None:
-        for name in ("gamma0", "gamma1"):
-            if not getattr(self, name) > 0:
-                raise InputError(f"penalty {name} must be > 0, got {getattr(self, name)}")
-        if not 1.0 <= self.gradient_power <= 3.0:
-            raise InputError(f"penalty gradient_power must be in [1, 3], got {self.gradient_power}")
+        _check_penalty_limits(asdict(self), "penalty")
 
-    def constants(self, mesh) -> tuple[dolfinx.fem.Constant, dolfinx.fem.Constant]:
+    @classmethod
+    def from_table(
+        cls, table: Mapping[str, Any], key: str = "model.penalty", defaults: Penalty | None = None
+    ) -> Penalty:
+        """The penalty of a problem file's table; missing keys keep ``defaults``' values.
+
+        Unknown keys, values that are no numbers and values out of the limits are one-line
+        ``InputError``s naming ``key.<name>``.
+        """
+        unknown = sorted(set(table) - set(PENALTY_KEYS))
+        if unknown:
+            raise InputError(f"unknown key {key}.{unknown[0]} (known: {', '.join(PENALTY_KEYS)})")
+        for name, value in table.items():
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise InputError(f"{key}.{name} must be a number, got {value!r}")
+        values = {**asdict(defaults or cls()), **{k: float(v) for k, v in table.items()}}
+        _check_penalty_limits(values, key)
+        return cls(**values)
+
+    def constants(
+        self, mesh: dolfinx.mesh.Mesh
+    ) -> tuple[dolfinx.fem.Constant, dolfinx.fem.Constant]:
         """γ₀ and γ₁ as Constants of ``mesh``, for the forms."""
         return values.constant(mesh, self.gamma0), values.constant(mesh, self.gamma1)
 
-    def gradient_weight(self, h, gamma1):
+    def gradient_weight(self, h: Any, gamma1: Any) -> Any:
         """γ₁ h⁻ᵖ, the weight of ½[∇y]:[∇y] on a face of size h (γ₁ from :meth:`constants`)."""
         power = self.gradient_power
         return gamma1 / (h if power == 1 else h**power)
 
 
+def _check_penalty_limits(values: Mapping[str, float], key: str) -> None:
+    """γ₀, γ₁ > 0 and finite, 1 ≤ p ≤ 3: the one place of the penalty limits."""
+    for name in ("gamma0", "gamma1"):
+        value = values[name]
+        if not (value > 0 and math.isfinite(value)):
+            raise InputError(f"{key}.{name} must be a number > 0, got {value!r}")
+    power = values["gradient_power"]
+    if not 1.0 <= power <= 3.0:
+        raise InputError(f"{key}.gradient_power must be in [1, 3], got {power!r}")
+
+
 def cell_size(mesh):
-    """h of the dG forms: ``ufl.CellDiameter``, or on curved cells (gmsh ``order = 2``) a DG0
+    """H of the dG forms: ``ufl.CellDiameter``, or on curved cells (gmsh ``order = 2``) a DG0
     field of ``mesh.h``, since FFCx cannot evaluate CellDiameter there (same number on affine
-    cells). Curved creases need curved cells: see docs/creases.md."""
+    cells). Curved creases need curved cells: see docs/creases.md.
+    """
     geometry = mesh.geometry  # DOLFINx 0.11 deprecates geometry.cmap for cmaps[0]
     cmap = geometry.cmaps[0] if hasattr(geometry, "cmaps") else geometry.cmap
     if cmap.degree == 1:

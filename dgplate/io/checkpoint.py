@@ -54,7 +54,8 @@ def _cell_layout(
     space: dolfinx.fem.FunctionSpace, ghosts: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """Original indices of the owned cells (``ghosts``: and of the ghost cells, where the
-    mesh records theirs), and their unknowns' positions in ``x.array``."""
+    mesh records theirs), and their unknowns' positions in ``x.array``.
+    """
     mesh = space.mesh
     cells = mesh.topology.index_map(mesh.topology.dim)
     count = cells.size_local

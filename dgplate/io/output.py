@@ -160,7 +160,8 @@ class OutputDir:
 
         Not collective: an error on one rank must not wait for the others (they may be in
         a collective of the run); rank 0 removes, another rank's error leaves the staging
-        folder, which the next run into this folder removes."""
+        folder, which the next run into this folder removes.
+        """
         if self.comm.rank == 0:
             shutil.rmtree(self.path, ignore_errors=True)
 

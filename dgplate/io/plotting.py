@@ -57,7 +57,8 @@ def _reference_outline(grid: pyvista.UnstructuredGrid) -> pyvista.PolyData:
 
 def _boundary_edges(surface: pyvista.PolyData) -> pyvista.PolyData:
     """Edges with one adjacent face. DG cells share no points, so on the deformed surface
-    these are all element edges; on the cleaned reference mesh, the domain's boundary."""
+    these are all element edges; on the cleaned reference mesh, the domain's boundary.
+    """
     return surface.extract_feature_edges(
         boundary_edges=True, feature_edges=False, manifold_edges=False, non_manifold_edges=False
     )
@@ -89,7 +90,8 @@ def _set_camera(plotter: pyvista.Plotter, camera: str | Sequence, bounds: np.nda
 
 def _fit(plotter: pyvista.Plotter, points: np.ndarray, top: float, bottom: float) -> None:
     """Zoom and shift the view so ``points`` fill the picture, leaving the top and bottom
-    fractions free for the title and the colour bar (tighter than the bounding sphere)."""
+    fractions free for the title and the colour bar (tighter than the bounding sphere).
+    """
     camera, (width, height) = plotter.camera, plotter.window_size
     matrix = camera.GetCompositeProjectionTransformMatrix(width / height, -1, 1)
     m = np.array([[matrix.GetElement(i, j) for j in range(4)] for i in range(4)])
@@ -122,7 +124,8 @@ def _colour_range(values: np.ndarray, clim) -> tuple[float, float]:
 @contextmanager
 def _plain_text():
     """Render all text with FreeType: VTK hands strings containing '|' to matplotlib's
-    mathtext, which reads '|' as a table-cell separator and drops it ("|D²y|" → "D²y")."""
+    mathtext, which reads '|' as a table-cell separator and drops it ("|D²y|" → "D²y").
+    """
     from vtkmodules.vtkRenderingCore import vtkTextRenderer
 
     renderer = vtkTextRenderer.GetInstance()
@@ -265,7 +268,8 @@ def plot_deformation(
     """Picture of the deformed plate coloured by |D²y| ("curvature"), the isometry-defect
     density ("defect", vector y only) or nothing. Collective; rank 0 writes ``path``.
 
-    ``options`` go to ``render_png`` (reference, window_size, cmap)."""
+    ``options`` go to ``render_png`` (reference, window_size, cmap).
+    """
     if color_by not in (None, *COLOR_LABELS):
         raise ValueError(
             f"color_by must be None or one of {sorted(COLOR_LABELS)}, not {color_by!r}"

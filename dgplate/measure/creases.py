@@ -139,7 +139,8 @@ class CreaseMeasure:
 
     def _evaluate(self) -> np.ndarray:
         """Values (y, ν, ∂₁y, ∂₂y) at the sample points: shape (facets, 2 sides, points, 12),
-        the points of each side ordered like the first side's facet."""
+        the points of each side ordered like the first side's facet.
+        """
         num = self.facets.size
         out = np.zeros((num, 2, self._num_per_facet, 12))
         if num == 0:
@@ -161,7 +162,8 @@ class CreaseMeasure:
 
     def fold_angles(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per owned crease facet: fold angle (degrees, 0..180), signed fold angle (valley
-        > 0), and the jump |[y]| at the midpoint (continuity across C)."""
+        > 0), and the jump |[y]| at the midpoint (continuity across C).
+        """
         data = self._evaluate()
         mid = self.samples // 2
         y0, y1 = data[:, 0, mid, 0:3], data[:, 1, mid, 0:3]
@@ -201,7 +203,8 @@ class CreaseMeasure:
     def polylines(self) -> list[np.ndarray]:
         """The crease in deformed coordinates as polylines (N×3 arrays) on rank 0, [] on the
         other ranks. Each facet is drawn with ``samples`` segments at the mean of the two
-        sides' values; facets are chained into polylines by their shared reference vertices."""
+        sides' values; facets are chained into polylines by their shared reference vertices.
+        """
         data = self._evaluate()
         points = 0.5 * (data[:, 0, :, 0:3] + data[:, 1, :, 0:3])
         gathered = self.comm.gather((self.ends, points), root=0)
@@ -214,7 +217,8 @@ class CreaseMeasure:
 
 def _chain(ends: np.ndarray, points: np.ndarray) -> list[np.ndarray]:
     """Join segments (reference end points ``ends[k]``, sampled points ``points[k]``) that
-    share end points into polylines; closed curves come back closed (first point repeated)."""
+    share end points into polylines; closed curves come back closed (first point repeated).
+    """
     if ends.shape[0] == 0:
         return []
     scale = float(np.ptp(ends.reshape(-1, 2), axis=0).max()) or 1.0

@@ -70,7 +70,8 @@ def cell_field(expr: ufl.core.expr.Expr, mesh) -> np.ndarray:
 
 def bending_density(y: dolfinx.fem.Function) -> np.ndarray:
     """|D²y| (Frobenius norm of the broken Hessian, y vector or scalar) at the owned cells'
-    midpoints."""
+    midpoints.
+    """
     hessian = ufl.grad(ufl.grad(y))
     return cell_field(ufl.sqrt(ufl.inner(hessian, hessian)), y.function_space.mesh)
 
@@ -146,7 +147,8 @@ def surface_points(u: dolfinx.fem.Function) -> np.ndarray:
 
 def dof_values(values, u: dolfinx.fem.Function) -> np.ndarray:
     """Values at u's local dofs: an array indexed by local dof, or any Function (put on u's
-    space by ``to_output_space``, so a P1 temperature can be shown on a DG surface)."""
+    space by ``to_output_space``, so a P1 temperature can be shown on a DG surface).
+    """
     space = u.function_space
     num_dofs = space.dofmap.index_map.size_local + space.dofmap.index_map.num_ghosts
     if isinstance(values, dolfinx.fem.Function):
@@ -165,7 +167,7 @@ def dof_values(values, u: dolfinx.fem.Function) -> np.ndarray:
 
 
 def set_displacement(u: dolfinx.fem.Function, y: dolfinx.fem.Function, x: np.ndarray) -> None:
-    """u ← y − x for the dof coordinates ``x`` (both functions in the same [DG_k]³ space)."""
+    """U ← y − x for the dof coordinates ``x`` (both functions in the same [DG_k]³ space)."""
     u.x.array[:] = y.x.array - x.reshape(-1)
 
 

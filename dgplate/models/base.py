@@ -89,7 +89,8 @@ def flat_identity(mesh):
 
 def piecewise_constant(tagged, values, key: str):
     """μ-like data: a number (a Constant), or {cell group name: number} turned into a DG0
-    function; either way a value of the forms, not part of their code (:mod:`dgplate.values`)."""
+    function; either way a value of the forms, not part of their code (:mod:`dgplate.values`).
+    """
     from dgplate.errors import InputError
     from dgplate.values import constant
 

@@ -121,7 +121,8 @@ def _check_symmetric(matrix, key: str) -> None:
 def spontaneous_curvature(value, tagged, key: str = "model.Z"):
     """Z from a problem file: a number α (Z = αI), a 2×2 matrix of numbers or formulas in x, y,
     or {cell group = number or matrix} (piecewise constant). Numbers are Constants, tables DG0
-    functions (:mod:`dgplate.values`)."""
+    functions (:mod:`dgplate.values`).
+    """
     mesh = tagged.mesh
     if isinstance(value, int | float) and not isinstance(value, bool):
         return values.constant(mesh, value) * ufl.Identity(2)

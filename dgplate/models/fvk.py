@@ -1,4 +1,4 @@
-"""Föppl–von Kármán plates: stretching + bending, solved by Newton (PETSc SNES) with load steps.
+"""Föppl–von Kármán plates: stretching + bending, solved by Newton's method over load steps.
 
 Model (docs/design.md §1). In-plane displacement u: ω → ℝ², deflection w: ω → ℝ, and the energy
 
@@ -16,7 +16,7 @@ condition) and in the twisting moment on simply supported edges.
 
 Simply supported faces: w = 0 with the rotation free. An element-wise integration by parts leaves
 M_nt ∂_t v − Q_n v on such a face (M_nn = 0 there is the natural condition), so the Nitsche terms
-are −(M n)·P_t∇w + Q_n w + ½γ₁D/h |P_t∇w|² + ½γ₀D/h³ w², P_t = I − n⊗n: the value jump and its
+are −(M n)·P_t∇w + Q_n w + ½γ₁D/hᵖ |P_t∇w|² + ½γ₀D/h³ w², P_t = I − n⊗n: the value jump and its
 tangential derivative only, never ∂_n w. Without the twisting-moment term −(M n)·P_t∇w the
 method is inconsistent: on 8/16/32 Q2 squares the centre deflection of the simply supported plate
 is then off by 0.74/0.23/0.086 % instead of 0.28/0.07/0.02 % (docs/fvk.md).
@@ -35,35 +35,34 @@ only), "free", or [u_x, u_y] prescribed (numbers, or "free" per component; scale
 load). Clamped and simply supported groups default to "fixed", all other edges are free.
 
 Load schedule. Pressure p, prestrain ε₀ (thermal expansion: ε₀ > 0 compresses a held plate)
-and prescribed edge displacements are multiplied by a load factor λ. ``load_steps = n`` means
-λ = 1/n, 2/n, …, 1; a list gives the factors (increasing, in (0, 1]). Each step starts from
-the secant extrapolation of the two previous states and is solved by SNES newtonls with MUMPS LU
-and the affine-covariant NLEQ-ERR line search (Deuflhard): it damps by the Newton correction,
-not by a residual norm that mixes membrane and bending units, and takes full steps near the
-solution, so convergence is quadratic there. A step that does not converge raises SolverError
-with the SNES reason and keeps the last converged state; ``run_fvk`` then ends the schedule and
-writes the outputs of the converged steps with ``converged = false`` and that reason, as the
-gradient flow does. Iterations and residual norms of every step are recorded.
+and prescribed edge displacements are multiplied by a load factor. ``load_steps = n`` means
+the load factors 1/n, 2/n, …, 1; a list gives the factors (increasing, in (0, 1]). The
+schedule is solved by the generic driver :class:`dgplate.solvers.newton.Continuation` (secant
+predictor, SNES newtonls with the NLEQ-ERR line search, MUMPS LU; ``model.snes`` overrides any
+option under the prefix ``dgplate_fvk_``). A load step that does not converge ends the run
+with ``converged = false``, the SNES reason and the last converged state.
+
+The driver's shape is the deformation y = (x₁ + u₁, x₂ + u₂, w) in [DG_k]³, written and drawn
+like every other model's; its records carry ``w_center`` (w at ``model.probe``) and ``w_max``.
 """
 
 from __future__ import annotations
 
-import time
+import math
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
 from typing import Any
 
 from mpi4py import MPI
 
 import basix.ufl
-import dolfinx
 import dolfinx.fem
-import dolfinx.fem.petsc
-import dolfinx.geometry
 import dolfinx.mesh
 import numpy as np
 import ufl
-from petsc4py import PETSc
 
-from dgplate import compat, interrupt, values
+from dgplate import compat, values
 from dgplate.dg.forms import (
     FREE,
     FacetSets,
@@ -74,66 +73,197 @@ from dgplate.dg.forms import (
     hessian,
     jump,
 )
-from dgplate.errors import InputError, SolverError
-from dgplate.io import checkpoint
+from dgplate.errors import InputError
+from dgplate.measure.probes import PointProbe, signed_extreme
 from dgplate.mesh.tagged import TaggedMesh
-from dgplate.models.fvk_params import FvKParameters
-from dgplate.solvers import linear as solvers
+from dgplate.models.base import Initial
+from dgplate.mpi import allreduce_array, bounds
+from dgplate.schema import option
+from dgplate.solvers.driver import Observer
+from dgplate.solvers.newton import Continuation
 
-#: Face-set id of simply supported boundary faces (beside dg.SMOOTH … dg.FREE = 1 … 4).
+#: Facet-set id of simply supported boundary facets (beside dg.SMOOTH … dg.FREE = 1 … 4).
 SIMPLY_SUPPORTED = 5
 
-#: Newton defaults; MUMPS LU as everywhere in dgplate. ``model.snes`` overrides any key.
-SNES_DEFAULTS: dict[str, Any] = {
-    "snes_type": "newtonls",
-    "snes_linesearch_type": "nleqerr",
-    "snes_rtol": 1e-10,
-    "snes_max_it": 30,
-    **solvers.DIRECT_MUMPS,
-}
+#: Default penalties, used for the results in docs/fvk.md (Q2 and P3 cells).
+PENALTY = Penalty(gamma0=100.0, gamma1=100.0)
 
-_REASONS = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
+#: PETSc options prefix of the FvK driver: ``-dgplate_fvk_snes_monitor`` on the command line.
+PREFIX = "dgplate_fvk_"
 
-
-def allreduce_array(comm: MPI.Comm, values, op=MPI.SUM) -> np.ndarray:
-    """Element-wise reduction of a float array (the pickle-based allreduce cannot MIN/MAX)."""
-    values = np.ascontiguousarray(values, dtype=np.float64)
-    out = np.empty_like(values)
-    comm.Allreduce(values, out, op=op)
-    return out
+_HINT = "try more model.load_steps or other model.snes options"
+_OPTION = re.compile(r"^[A-Za-z0-9_]+$")
+_CONDITIONS = ("fixed", "normal", "free")
 
 
-def membrane_strain(u, w, prestrain=0.0):
+def _number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _names(value: object) -> bool:
+    return isinstance(value, list | tuple) and all(isinstance(n, str) for n in value)
+
+
+@dataclass
+class FvKSpec:
+    """[model] of a Föppl–von Kármán plate (name = "fvk"); every key is checked once, here.
+
+    Group names are checked against the mesh when the model is built (:func:`build_fvk`).
+    """
+
+    name: str = option("fvk", "the model")
+    E: float = option(1.0, "Young's modulus E > 0")
+    nu: float = option(0.3, "Poisson's ratio, −1 < ν < 0.5")
+    thickness: float = option(0.01, "plate thickness t > 0")
+    pressure: float = option(0.0, "uniform pressure p at full load (along +z)")
+    prestrain: float = option(0.0, "isotropic in-plane prestrain ε₀ at full load (expansion > 0)")
+    clamped: list = option([], "facet groups with w = 0 and ∇w = 0")
+    simply_supported: list = option([], "facet groups with w = 0, rotation free")
+    crease: list = option([], "interior facet groups where ∇w may jump (hinges)")
+    membrane: dict = option({}, "{group: 'fixed' | 'normal' | 'free' | [ux, uy]} in-plane BCs")
+    degree: int = option(2, "degree k >= 2 of w (DG_k) and u (CG_k)")
+    penalty: dict = option(
+        {"gamma0": PENALTY.gamma0, "gamma1": PENALTY.gamma1},
+        "IP penalties γ₀ (h⁻³[w]²) and γ₁ (h⁻ᵖ[∇w]²); gradient_power p (default 1, at most 3) over-penalises gradient jumps",
+    )
+    load_steps: int | list = option(10, "n uniform load steps, or a list of load factors")
+    probe: list | None = option(None, "point [x, y] for w_center (default: bounding-box centre)")
+    snes: dict = option({}, "PETSc options for SNES/KSP/PC, e.g. {snes_rtol = 1e-8}")
+
+    def __post_init__(self) -> None:
+        """Check every key once: one-line InputErrors naming ``model.<key>``."""
+        if self.name != "fvk":
+            raise InputError(f"model.name must be 'fvk' for FvKSpec, got {self.name!r}")
+        self._check_material()
+        self._check_groups()
+        self._penalty = Penalty.from_table(self.penalty, "model.penalty", PENALTY)
+        self._load_factors = _load_factors(self.load_steps)
+        if self.probe is not None and not (
+            isinstance(self.probe, list | tuple) and len(self.probe) == 2
+        ):
+            raise InputError(f"model.probe must be a point [x, y], got {self.probe!r}")
+        _check_options(self.snes, "model.snes")
+
+    def _check_material(self) -> None:
+        for key in ("E", "thickness"):
+            value = getattr(self, key)
+            if not (_number(value) and value > 0 and math.isfinite(value)):
+                raise InputError(f"model.{key} must be > 0, got {value!r}")
+        if not (_number(self.nu) and self.nu < 0.5):
+            raise InputError(f"model.nu must be < 0.5, got {self.nu!r}")
+        if not self.nu > -1:
+            raise InputError(f"model.nu must be > -1, got {self.nu!r}")
+        for key in ("pressure", "prestrain"):
+            if not _number(getattr(self, key)):
+                raise InputError(f"model.{key} must be a number, got {getattr(self, key)!r}")
+        if not (_number(self.degree) and isinstance(self.degree, int) and self.degree >= 2):
+            raise InputError(f"model.degree must be an integer >= 2, got {self.degree!r}")
+
+    def _check_groups(self) -> None:
+        for key in ("clamped", "simply_supported", "crease"):
+            if not _names(getattr(self, key)):
+                raise InputError(
+                    f"model.{key} must be a list of facet group names, got {getattr(self, key)!r}"
+                )
+        both = sorted(set(self.clamped) & set(self.simply_supported))
+        if both:
+            raise InputError(f"model.clamped and model.simply_supported both list {both[0]!r}")
+        for group, condition in self.membrane.items():
+            if not _membrane_condition(condition):
+                raise InputError(
+                    f"model.membrane.{group} must be 'fixed', 'normal', 'free' or [ux, uy] "
+                    f"(numbers or 'free'), got {condition!r}"
+                )
+
+    @property
+    def penalty_params(self) -> Penalty:
+        """The penalty table with the FvK defaults for missing keys (:data:`PENALTY`)."""
+        return self._penalty
+
+    @property
+    def load_factors(self) -> list[float]:
+        """The load factors of the schedule (module docstring)."""
+        return list(self._load_factors)
+
+    @property
+    def D(self) -> float:
+        """The bending stiffness E t³/(12(1 − ν²))."""
+        return float(self.E * self.thickness**3 / (12 * (1 - self.nu**2)))
+
+
+def _membrane_condition(condition: object) -> bool:
+    if isinstance(condition, str):
+        return condition in _CONDITIONS
+    return (
+        isinstance(condition, list | tuple)
+        and len(condition) == 2
+        and all(_number(c) or c == "free" for c in condition)
+    )
+
+
+def _load_factors(steps: object) -> list[float]:
+    """``n`` → 1/n … 1; an increasing list in (0, 1] as it is; anything else an InputError."""
+    if _number(steps) and isinstance(steps, int):
+        if steps < 1:
+            raise InputError(f"model.load_steps must be >= 1, got {steps}")
+        return [(i + 1) / steps for i in range(steps)]
+    factors: list[float] = []
+    if isinstance(steps, list | tuple) and steps and all(map(_number, steps)):
+        factors = [float(s) for s in steps]
+    if not (factors and 0 < factors[0] and factors[-1] <= 1 and np.all(np.diff(factors) > 0)):
+        raise InputError(
+            "model.load_steps must be a positive integer or an increasing list of load "
+            f"factors in (0, 1], got {steps!r}"
+        )
+    return factors
+
+
+def _check_options(options: dict[Any, Any], key: str) -> None:
+    """PETSc option names (without '-') mapped to strings or numbers."""
+    for name, value in options.items():
+        if not (isinstance(name, str) and _OPTION.match(name)):
+            raise InputError(
+                f"{key}.{name} is not a PETSc option name (letters, digits and _, without the "
+                "leading '-', e.g. snes_rtol)"
+            )
+        if not isinstance(value, str | int | float):
+            raise InputError(f"{key}.{name} must be a string or a number, got {value!r}")
+
+
+# -- the energy --------------------------------------------------------------------------------
+def membrane_strain(u: Any, w: Any, prestrain: Any = 0.0) -> Any:
     """ε = sym∇u + ½∇w⊗∇w − ε₀ I (with the element-wise gradient of a dG deflection)."""
     gw = ufl.grad(w)
     return ufl.sym(ufl.grad(u)) + 0.5 * ufl.outer(gw, gw) - prestrain * ufl.Identity(2)
 
 
-def plane_stress(eps, stiffness, nu):
+def plane_stress(eps: Any, stiffness: Any, nu: Any) -> Any:
     """stiffness·[(1−ν)ε + ν tr(ε) I]: N for stiffness A, M (with ε = κ) for stiffness D."""
     return stiffness * ((1 - nu) * eps + nu * ufl.tr(eps) * ufl.Identity(2))
 
 
-def fvk_bending_energy(w, faces: FacetSets, penalty: Penalty, D, nu, simply_supported: bool):
-    """½a_h(w, w) with the Poisson part and simply supported faces (module docstring)."""
+def _cofactor(A: Any) -> Any:
+    return ufl.tr(A) * ufl.Identity(2) - A
+
+
+def fvk_bending_energy(
+    w: Any, faces: FacetSets, penalty: Penalty, D: Any, nu: Any, simply_supported: bool
+) -> ufl.Form:
+    """½a_h(w, w) with the Poisson part and simply supported facets (module docstring)."""
     n, h = faces.n, faces.h
     gamma0, gamma1 = penalty.constants(faces.mesh)
     H = hessian(w)
     zero = ufl.as_vector((0.0, 0.0))
-    energy = bending_energy(w, faces, penalty, mu=D, g=0.0, Phi=zero)
-
-    def cof(A):
-        return ufl.tr(A) * ufl.Identity(2) - A
-
+    energy: ufl.Form = bending_energy(w, faces, penalty, mu=D, g=0.0, Phi=zero)
     energy += nu * D * ufl.det(H) * faces.dx
     energy -= (
         nu
         * D
-        * ufl.inner(ufl.dot(ufl.avg(cof(H)), n("+")), jump(ufl.grad(w)))
-        * (faces.dS_smooth())
+        * ufl.inner(ufl.dot(ufl.avg(_cofactor(H)), n("+")), jump(ufl.grad(w)))
+        * faces.dS_smooth()
     )
     if faces.has_clamped:
-        energy -= nu * D * ufl.inner(ufl.dot(cof(H), n), ufl.grad(w)) * faces.ds_clamped()
+        energy -= nu * D * ufl.inner(ufl.dot(_cofactor(H), n), ufl.grad(w)) * faces.ds_clamped()
     if simply_supported:
         tgrad = ufl.dot(ufl.Identity(2) - ufl.outer(n, n), ufl.grad(w))
         moment_n = ufl.dot(plane_stress(H, D, nu), n)
@@ -146,29 +276,67 @@ def fvk_bending_energy(w, faces: FacetSets, penalty: Penalty, D, nu, simply_supp
     return energy
 
 
-def fvk_facet_sets(tagged: TaggedMesh, params: FvKParameters) -> FacetSets:
-    """dg.facet_sets plus the simply supported faces (id SIMPLY_SUPPORTED), all in one tag."""
-    faces = facet_sets(tagged, clamped=params.clamped, crease=params.crease)
-    if not params.simply_supported:
-        return faces
+def fvk_energy(
+    state: dolfinx.fem.Function,
+    faces: FacetSets,
+    spec: FvKSpec,
+    load_factor: dolfinx.fem.Constant,
+) -> ufl.Form:
+    """Π(u, w) of the state (w, u) ∈ DG_k × [CG_k]² at the load factor of ``load_factor``.
+
+    E, ν, t, p and ε₀ enter as Constants (:mod:`dgplate.values`).
+    """
+    mesh = faces.mesh
+    E, nu, t, pressure, prestrain = (
+        values.constant(mesh, v)
+        for v in (spec.E, spec.nu, spec.thickness, spec.pressure, spec.prestrain)
+    )
+    D = E * t**3 / (12 * (1 - nu**2))
+    A = E * t / (1 - nu**2)
+    w, u = ufl.split(state)
+    eps = membrane_strain(u, w, load_factor * prestrain)
+    energy: ufl.Form = 0.5 * ufl.inner(plane_stress(eps, A, nu), eps) * faces.dx
+    simply_supported = bool(spec.simply_supported)
+    energy += fvk_bending_energy(w, faces, spec.penalty_params, D, nu, simply_supported)
+    energy -= load_factor * pressure * w * faces.dx
+    return energy
+
+
+# -- facets, spaces and in-plane conditions ----------------------------------------------------
+def fvk_facet_sets(tagged: TaggedMesh, spec: FvKSpec) -> FacetSets:
+    """dg.facet_sets plus the simply supported facets (id SIMPLY_SUPPORTED), all in one tag."""
+    facets = facet_sets(tagged, clamped=spec.clamped, crease=spec.crease)
+    if not spec.simply_supported:
+        return facets
     mesh, fdim = tagged.mesh, tagged.mesh.topology.dim - 1
     fmap = mesh.topology.index_map(fdim)
-    values = faces.tags.values.copy()
+    tags = facets.tags.values.copy()
     position = np.full(fmap.size_local + fmap.num_ghosts, -1, dtype=np.int64)
-    position[faces.tags.indices] = np.arange(faces.tags.indices.size)
-    for group in params.simply_supported:
-        facets = tagged.facets(group)
-        wrong = np.count_nonzero(values[position[facets]][facets < fmap.size_local] != FREE)
-        owned = np.count_nonzero(facets < fmap.size_local)
+    position[facets.tags.indices] = np.arange(facets.tags.indices.size)
+    for group in spec.simply_supported:
+        indices = tagged.facets(group)
+        is_owned = indices < fmap.size_local
+        wrong = np.count_nonzero(tags[position[indices]][is_owned] != FREE)
+        owned = np.count_nonzero(is_owned)
         wrong, owned = allreduce_array(mesh.comm, [wrong, owned]).astype(int)
         if wrong or not owned:
             raise InputError(
                 f"model.simply_supported: group '{group}' must be non-empty boundary facets "
                 f"that are not clamped ({wrong} of {owned} are not)"
             )
-        values[position[facets]] = SIMPLY_SUPPORTED
-    tags = dolfinx.mesh.meshtags(mesh, fdim, faces.tags.indices, values)
-    return FacetSets(mesh, tags, faces.num_clamped, faces.num_crease)
+        tags[position[indices]] = SIMPLY_SUPPORTED
+    meshtags = dolfinx.mesh.meshtags(mesh, fdim, facets.tags.indices, tags)
+    return FacetSets(mesh, meshtags, facets.num_clamped, facets.num_crease)
+
+
+def fvk_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.FunctionSpace:
+    """W = DG_k × [CG_k]²: the deflection w and the in-plane displacement u."""
+    cell = mesh.basix_cell()
+    elements = [
+        basix.ufl.element("DG", cell, degree),
+        basix.ufl.element("Lagrange", cell, degree, shape=(2,)),
+    ]
+    return dolfinx.fem.functionspace(mesh, basix.ufl.mixed_element(elements))
 
 
 def _edge_axis(tagged: TaggedMesh, group: str) -> int:
@@ -187,308 +355,196 @@ def _edge_axis(tagged: TaggedMesh, group: str) -> int:
     return int(np.argmax(flags))
 
 
-class FvKProblem:
-    """The discrete FvK problem on a tagged mesh: spaces, energy, Newton solver, observables."""
+def _component_values(tagged: TaggedMesh, group: str, condition: Any) -> list[Any]:
+    """[u_x, u_y] at full load of one group's condition, "free" for a free component."""
+    if condition == "fixed":
+        return [0.0, 0.0]
+    if condition == "free":
+        return ["free", "free"]
+    if condition == "normal":
+        components: list[Any] = ["free", "free"]
+        components[_edge_axis(tagged, group)] = 0.0
+        return components
+    return list(condition)
 
-    def __init__(self, tagged: TaggedMesh, params: FvKParameters):
-        params.validate(tagged)
-        self.tagged, self.params = tagged, params
-        mesh = self.mesh = tagged.mesh
-        self.comm = mesh.comm
-        self.faces = fvk_facet_sets(tagged, params)
-        k, cell = params.degree, mesh.basix_cell()
-        elements = [
-            basix.ufl.element("DG", cell, k),
-            basix.ufl.element("Lagrange", cell, k, shape=(2,)),
-        ]
-        self.W = dolfinx.fem.functionspace(mesh, basix.ufl.mixed_element(elements))
-        self.state = dolfinx.fem.Function(self.W, name="state")
-        w, u = ufl.split(self.state)
 
-        def const(value: float) -> dolfinx.fem.Constant:
-            return values.constant(mesh, value)  # values, not literals: see dgplate.values
+BCValues = list[tuple[dolfinx.fem.Constant, float]]
 
-        self.lam = const(0.0)
-        E, nu, t = const(params.E), const(params.nu), const(params.thickness)
-        self.D = E * t**3 / (12 * (1 - nu**2))
-        self.A = E * t / (1 - nu**2)
-        eps = membrane_strain(u, w, self.lam * const(params.prestrain))
-        self.energy = 0.5 * ufl.inner(plane_stress(eps, self.A, nu), eps) * self.faces.dx
-        self.energy += fvk_bending_energy(
-            w, self.faces, params.penalty_params, self.D, nu, bool(params.simply_supported)
-        )
-        self.energy -= self.lam * const(params.pressure) * w * self.faces.dx
-        residual = ufl.derivative(self.energy, self.state, ufl.TestFunction(self.W))
-        jacobian = ufl.derivative(residual, self.state, ufl.TrialFunction(self.W))
-        self._forms = [dolfinx.fem.form(f) for f in (self.energy, residual, jacobian)]
-        self.bcs, self._prescribed = self._membrane_bcs()
-        self._setup_snes()
-        self.dofs = self.W.dofmap.index_map.size_global * self.W.dofmap.index_map_bs
-        self.w_space, self._w_dofs = compat.collapse(self.W.sub(0))
-        self.w = dolfinx.fem.Function(self.w_space, name="w")
-        tdim = mesh.topology.dim
-        owned = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)
-        self._tree = dolfinx.geometry.bb_tree(mesh, tdim, entities=owned)
-        lo = allreduce_array(self.comm, mesh.geometry.x[:, :2].min(axis=0), op=MPI.MIN)
-        hi = allreduce_array(self.comm, mesh.geometry.x[:, :2].max(axis=0), op=MPI.MAX)
-        self.probe = np.array(params.probe if params.probe is not None else (lo + hi) / 2, float)
-        self.history: list[dict] = []
-        self._states: list[tuple[float, np.ndarray]] = [(0.0, self.state.x.array.copy())]
 
-    def _membrane_bcs(self):
-        """Dirichlet conditions on u and the (Constant, value) pairs scaled by the load."""
-        conditions = {g: "fixed" for g in [*self.params.clamped, *self.params.simply_supported]}
-        conditions.update(self.params.membrane)
-        fdim = self.mesh.topology.dim - 1
-        bcs, prescribed = [], []
-        for group, cond in conditions.items():
-            if cond == "free":
+def membrane_bcs(
+    space: dolfinx.fem.FunctionSpace, tagged: TaggedMesh, spec: FvKSpec
+) -> tuple[list[dolfinx.fem.DirichletBC], BCValues]:
+    """Dirichlet conditions on u, and their (Constant, value at full load) pairs."""
+    conditions: dict[str, Any] = dict.fromkeys([*spec.clamped, *spec.simply_supported], "fixed")
+    conditions.update(spec.membrane)
+    fdim = tagged.mesh.topology.dim - 1
+    bcs, bc_values = [], []
+    for group, condition in conditions.items():
+        facets = tagged.facets(group)
+        for component, value in enumerate(_component_values(tagged, group, condition)):
+            if value == "free":
                 continue
-            if cond == "fixed":
-                values = [0.0, 0.0]
-            elif cond == "normal":
-                values = ["free", "free"]
-                values[_edge_axis(self.tagged, group)] = 0.0
-            else:
-                values = list(cond)
-            facets = self.tagged.facets(group)
-            for comp, value in enumerate(values):
-                if value == "free":
-                    continue
-                sub = self.W.sub(1).sub(comp)
-                dofs = dolfinx.fem.locate_dofs_topological(sub, fdim, facets)
-                c = dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(0.0))
-                bcs.append(dolfinx.fem.dirichletbc(c, dofs, sub))
-                prescribed.append((c, float(value)))
-        if not bcs:
-            raise InputError(
-                "model.membrane: no edge holds the in-plane displacement (rigid in-plane "
-                "motions); clamp, simply support or fix at least one edge"
-            )
-        return bcs, prescribed
-
-    def _setup_snes(self) -> None:
-        self._prefix = f"dgplate_fvk_{id(self)}_"
-        self._options = {**SNES_DEFAULTS, **self.params.snes}
-        opts = PETSc.Options()
-        for key, value in self._options.items():
-            opts[f"{self._prefix}{key}"] = value
-        self._A = dolfinx.fem.petsc.create_matrix(self._forms[2])
-        self._b = self.state.x.petsc_vec.duplicate()
-        self._x = self.state.x.petsc_vec.duplicate()
-        snes = self.snes = PETSc.SNES().create(self.comm)
-        snes.setOptionsPrefix(self._prefix)
-        snes.setFunction(self._residual, self._b)
-        snes.setJacobian(self._jacobian, self._A)
-        self._norms: list[float] = []
-        snes.setMonitor(lambda _snes, _it, norm: self._norms.append(float(norm)))
-        snes.setFromOptions()
-
-    def _update(self, x: PETSc.Vec) -> None:
-        x.copy(self.state.x.petsc_vec)
-        self.state.x.scatter_forward()
-
-    def _residual(self, _snes, x, b) -> None:
-        self._update(x)
-        with b.localForm() as local:
-            local.set(0.0)
-        dolfinx.fem.petsc.assemble_vector(b, self._forms[1])
-        dolfinx.fem.petsc.apply_lifting(b, [self._forms[2]], [self.bcs], [x], -1.0)
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        dolfinx.fem.petsc.set_bc(b, self.bcs, x, -1.0)
-
-    def _jacobian(self, _snes, x, A, _P) -> None:
-        self._update(x)
-        A.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(A, self._forms[2], bcs=self.bcs)
-        A.assemble()
-
-    def set_load(self, lam: float) -> None:
-        self.lam.value = lam
-        for constant, value in self._prescribed:
-            constant.value = lam * value
-
-    def solve_step(self, lam: float) -> dict:
-        """Solve at load factor ``lam`` from a secant predictor; returns the step record.
-
-        Raises SolverError (the SNES reason) when Newton fails; the state and the load factor
-        are then those of the last converged step (or the unloaded plate)."""
-        (l0, x0), (l1, x1) = ([(0.0, None), *self._states])[-2:]
-        if x0 is not None and l1 > l0:
-            self.state.x.array[:] = x1 + (lam - l1) / (l1 - l0) * (x1 - x0)
-        self.set_load(lam)
-        self.state.x.petsc_vec.copy(self._x)
-        self._norms = []
-        start = time.perf_counter()
-        self.snes.solve(None, self._x)
-        reason, its = self.snes.getConvergedReason(), self.snes.getIterationNumber()
-        self._update(self._x)
-        step = len(self.history) + 1
-        if reason < 0:
-            last_lam, last_state = self._states[-1]
-            self.state.x.array[:] = last_state
-            self.set_load(last_lam)
-            raise SolverError(
-                f"FvK Newton failed at load step {step} (load factor {lam:g}): SNES reason "
-                f"{_REASONS.get(reason, reason)} after {its} iterations; try more "
-                "model.load_steps or other model.snes options"
-            )
-        self._states = [*self._states[-1:], (lam, self.state.x.array.copy())]
-        record = {
-            "step": step,
-            "load_factor": lam,
-            "load": lam * self.params.pressure,
-            "w_max": self.w_max(),
-            "w_center": self.w_at(self.probe),
-            "iterations": its,
-            "residual_norms": list(self._norms),
-            "reason": _REASONS.get(reason, str(reason)),
-            "energy": self.energy_value(),
-            "time_s": time.perf_counter() - start,
-        }
-        self.history.append(record)
-        return record
-
-    def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function]:
-        """The state and the one before it (the secant predictor's two points)."""
-        previous = dolfinx.fem.Function(self.W)
-        previous.x.array[:] = self._states[0][1]
-        return {"state": self.state, "previous": previous}
-
-    def checkpoint_state(self) -> dict:
-        """The load steps done (their records) and the two load factors of the predictor."""
-        return {"history": self.history, "loads": [lam for lam, _ in self._states]}
-
-    def restore(self, found: checkpoint.Checkpoint) -> None:
-        """Continue from a checkpoint written by :meth:`checkpoint_fields`/``_state``."""
-        fields = self.checkpoint_fields()
-        found.restore(fields)
-        state = found.state["fvk"]
-        self.history = list(state["history"])
-        arrays = [fields["previous"].x.array.copy(), self.state.x.array.copy()]
-        self._states = list(zip(state["loads"], arrays[-len(state["loads"]) :]))
-        self.set_load(state["loads"][-1])
-
-    def collapse_w(self) -> dolfinx.fem.Function:
-        self.w.x.array[:] = self.state.x.array[self._w_dofs]
-        return self.w
-
-    def w_max(self) -> float:
-        """The DOF value of w of largest magnitude (signed); the same on any number of ranks."""
-        w = self.collapse_w()
-        owned = w.x.array[: self.w_space.dofmap.index_map.size_local]
-        lo = self.comm.allreduce(owned.min(initial=np.inf), op=MPI.MIN)
-        hi = self.comm.allreduce(owned.max(initial=-np.inf), op=MPI.MAX)
-        return float(hi if hi >= -lo else lo)
-
-    def w_at(self, point) -> float:
-        """w at ``point``: the mean over the cells containing it (w is discontinuous)."""
-        w = self.collapse_w()
-        x = np.zeros((1, 3), dtype=self.mesh.geometry.x.dtype)
-        x[0, : len(point)] = point
-        candidates = dolfinx.geometry.compute_collisions_points(self._tree, x)
-        cells = dolfinx.geometry.compute_colliding_cells(self.mesh, candidates, x).links(0)
-        local = np.sum(w.eval(np.repeat(x, cells.size, axis=0), cells)) if cells.size else 0.0
-        total, count = allreduce_array(self.comm, [local, cells.size])
-        if count == 0:
-            raise InputError(f"model.probe {list(point)} lies outside the mesh")
-        return float(total / count)
-
-    def energy_value(self) -> float:
-        local = dolfinx.fem.assemble_scalar(self._forms[0])
-        return float(self.comm.allreduce(local, op=MPI.SUM))
-
-    def close(self) -> None:
-        """Free the PETSc objects and this problem's options."""
-        opts = PETSc.Options()
-        for key in self._options:
-            opts.delValue(f"{self._prefix}{key}")
-        for obj in (self.snes, self._A, self._b, self._x):
-            obj.destroy()
+            sub = space.sub(1).sub(component)
+            dofs = dolfinx.fem.locate_dofs_topological(sub, fdim, facets)
+            constant = values.constant(tagged.mesh, 0.0)
+            bcs.append(dolfinx.fem.dirichletbc(constant, dofs, sub))
+            bc_values.append((constant, float(value)))
+    if not bcs:
+        raise InputError(
+            "model.membrane: no edge holds the in-plane displacement (rigid in-plane "
+            "motions); clamp, simply support or fix at least one edge"
+        )
+    return bcs, bc_values
 
 
-def run_fvk(
-    tagged: TaggedMesh,
-    params: FvKParameters,
-    out_dir=None,
-    comm: MPI.Comm | None = None,
-    progress: bool = False,
-    force: bool = False,
-    start: checkpoint.Checkpoint | None = None,
-    fingerprint: str = "",
-) -> dict:
-    """Solve the load schedule; returns the summary (written with the outputs to ``out_dir``).
-
-    Collective on the mesh communicator; ``comm`` defaults to it. Rank 0 prints (``progress``)
-    and writes files. A load step that does not converge, or SIGINT/SIGTERM, ends the
-    schedule: the summary says ``converged = false`` with the SNES reason (or the signal),
-    and the outputs (summary.json, history.csv, the series and the picture) hold the
-    converged steps, as for a gradient flow. A checkpoint is written after every load step;
-    ``start`` continues from one. Any other error leaves nothing in ``out_dir`` but what was
-    there before and the checkpoints.
-    """
-    from dgplate.models import fvk_output
-
-    comm = comm or tagged.comm
-    wall0 = time.perf_counter()
-    problem = FvKProblem(tagged, params)
-    if start is not None:
-        problem.restore(start)
-    writer = None
-    if out_dir is not None:
-        writer = fvk_output.Writer(problem, out_dir, force, resume=start is not None)
-    failure, signum = None, 0
-    try:
-        for lam in params.load_factors()[len(problem.history) :]:
+def _check_group_names(spec: FvKSpec, tagged: TaggedMesh) -> None:
+    for key in ("clamped", "simply_supported", "crease", "membrane"):
+        for group in getattr(spec, key):
             try:
-                rec = problem.solve_step(lam)
-            except SolverError as err:  # collective: the SNES reason is the same on all ranks
-                failure = f"{err}; the last converged state is kept"
-                break
-            if writer:
-                writer.write_step(lam)
-                _save_checkpoint(problem, writer.stage.checkpoint_dir, fingerprint, False)
-            if progress and comm.rank == 0:
-                print(
-                    f"fvk step {rec['step']:3d}  load {rec['load']:.4g}  w_center "
-                    f"{rec['w_center']:.6g}  Newton its {rec['iterations']}",
-                    flush=True,
-                )
-            signum = interrupt.requested(comm)
-            if signum:
-                failure = interrupt.reason(signum)
-                break
-        summary = fvk_output.summary(problem, time.perf_counter() - wall0, failure)
-        summary["interrupted"] = signum
-        if writer:
-            _save_checkpoint(problem, writer.stage.checkpoint_dir, fingerprint, failure is None)
-            writer.finish(summary)
-    except BaseException:
-        if writer:
-            writer.abort()
-        raise
-    finally:
-        problem.close()
-    return summary
+                tagged.facets(group)
+            except InputError as err:
+                raise InputError(f"model.{key}: {err}") from None
 
 
-def _save_checkpoint(problem: FvKProblem, directory, fingerprint: str, finished: bool) -> None:
-    state = {
-        "fingerprint": fingerprint,
-        "step": len(problem.history),
-        "finished": finished,
-        "fvk": problem.checkpoint_state(),
-    }
-    checkpoint.save(directory, problem.comm, problem.checkpoint_fields(), state)
+def _probe(spec: FvKSpec, mesh: dolfinx.mesh.Mesh) -> PointProbe:
+    """The probe of w_center: ``model.probe``, or the centre of the mesh's bounding box."""
+    if spec.probe is None:
+        lo, hi = bounds(mesh.comm, mesh.geometry.x[:, :2])
+        point = [float(c) for c in (lo + hi) / 2]
+    else:
+        point = [float(c) for c in spec.probe]
+    try:
+        return PointProbe(mesh, point)
+    except ValueError:
+        raise InputError(f"model.probe {point} lies outside the mesh") from None
+
+
+# -- hooks of the driver -------------------------------------------------------------------------
+class Deformation:
+    """The shape hook: y = (x₁ + u₁, x₂ + u₂, w) ∈ [DG_k]³ of a state (w, u)."""
+
+    def __init__(self, state: dolfinx.fem.Function, degree: int) -> None:
+        mesh = state.function_space.mesh
+        space = dolfinx.fem.functionspace(mesh, ("DG", degree, (3,)))
+        w, u = ufl.split(state)
+        x = ufl.SpatialCoordinate(mesh)
+        y = ufl.as_vector([x[0] + u[0], x[1] + u[1], w])
+        self.y = dolfinx.fem.Function(space, name="deformation")
+        self._expr = dolfinx.fem.Expression(y, compat.interpolation_points(space.element))
+
+    def __call__(self) -> dolfinx.fem.Function:
+        """Y of the current state."""
+        self.y.interpolate(self._expr)
+        return self.y
+
+
+class DeflectionProbes:
+    """The probes hook: ``w_max`` (signed extreme nodal value) and ``w_center`` (at a point)."""
+
+    def __init__(self, state: dolfinx.fem.Function, probe: PointProbe) -> None:
+        self.state, self.probe = state, probe
+        space, self._dofs = compat.collapse(state.function_space.sub(0))
+        self.w = dolfinx.fem.Function(space, name="w")
+
+    def __call__(self) -> dict[str, float]:
+        """The two numbers of the current state (collective)."""
+        self.w.x.array[:] = self.state.x.array[self._dofs]
+        return {"w_max": signed_extreme(self.w), "w_center": self.probe(self.w)}
+
+
+def start_from(state: dolfinx.fem.Function, initial: Initial) -> None:
+    """W = y₃ and u = (y₁, y₂) − x of a deformation x ↦ y(x), as the first iterate."""
+    parts: list[Callable[[np.ndarray], np.ndarray]] = [
+        lambda x: initial(x)[2],
+        lambda x: initial(x)[:2] - x[:2],
+    ]
+    for index, part in enumerate(parts):
+        space, dofs = compat.collapse(state.function_space.sub(index))
+        function = dolfinx.fem.Function(space)
+        function.interpolate(part)
+        state.x.array[dofs] = function.x.array
+    state.x.scatter_forward()
+
+
+# -- the model -----------------------------------------------------------------------------------
+@dataclass
+class FvKModel:
+    """An FvK plate on a mesh: facets, the mixed space, in-plane conditions and the probe.
+
+    One driver at a time (the conditions' Constants and the options prefix are shared).
+    """
+
+    spec: FvKSpec
+    facets: FacetSets
+    space: dolfinx.fem.FunctionSpace
+    bcs: list[dolfinx.fem.DirichletBC]
+    bc_values: BCValues
+    probe: PointProbe
+
+    def driver(
+        self, flow: object, observers: Sequence[Observer], initial: Initial | None
+    ) -> Continuation:
+        """Newton over the load schedule, from the unloaded flat plate or from ``initial``.
+
+        ``flow`` (the problem's [flow] section) is ignored: FvK is not a gradient flow.
+        """
+        state = dolfinx.fem.Function(self.space, name="state")
+        if initial is not None:
+            start_from(state, initial)
+        load_factor = values.constant(self.facets.mesh, 0.0)
+        return Continuation(
+            state,
+            fvk_energy(state, self.facets, self.spec, load_factor),
+            self.bcs,
+            load_factor,
+            self.spec.load_factors,
+            PREFIX,
+            self.spec.snes,
+            bc_values=self.bc_values,
+            observers=observers,
+            shape=Deformation(state, self.spec.degree),
+            probes=DeflectionProbes(state, self.probe),
+            hint=_HINT,
+        )
+
+    def figures(self, driver: Continuation) -> dict[str, Any]:
+        """The FvK numbers of the last converged load step (None before the first)."""
+        spec = self.spec
+        last = asdict(driver.history[-1]) if driver.history else {}
+        w_center = last.get("w_center")
+        return {
+            "load": last["load_factor"] * spec.pressure if last else None,
+            "pressure": spec.pressure,
+            "w_max": last.get("w_max"),
+            "w_center": w_center,
+            "probe": [float(c) for c in self.probe.point[0, :2]],
+            "w_center_over_thickness": None if w_center is None else w_center / spec.thickness,
+            "D": spec.D,
+        }
+
+    def lines(self, driver: Continuation) -> list[np.ndarray]:
+        """No lines are drawn on an FvK plate."""
+        return []
+
+
+def build_fvk(spec: FvKSpec, tagged: TaggedMesh) -> FvKModel:
+    """The FvK model of ``spec`` on ``tagged`` (checks the group names on the mesh)."""
+    _check_group_names(spec, tagged)
+    facets = fvk_facet_sets(tagged, spec)
+    space = fvk_space(tagged.mesh, spec.degree)
+    bcs, bc_values = membrane_bcs(space, tagged, spec)
+    return FvKModel(spec, facets, space, bcs, bc_values, _probe(spec, tagged.mesh))
 
 
 __all__ = [
+    "PENALTY",
     "SIMPLY_SUPPORTED",
-    "FvKParameters",
-    "FvKProblem",
+    "FvKModel",
+    "FvKSpec",
+    "build_fvk",
     "fvk_bending_energy",
+    "fvk_energy",
     "fvk_facet_sets",
     "membrane_strain",
     "plane_stress",
-    "run_fvk",
 ]

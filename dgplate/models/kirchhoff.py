@@ -65,17 +65,7 @@ class KirchhoffSpec:
             raise InputError(
                 f"model.boundary_data must be 'flat' or a table {{g, Phi}}, got {self.boundary_data!r}"
             )
-        unknown = set(self.penalty) - {"gamma0", "gamma1", "gradient_power"}
-        if unknown:
-            raise InputError(
-                f"unknown key model.penalty.{sorted(unknown)[0]} (known: gamma0, gamma1, gradient_power)"
-            )
-        for key, value in self.penalty.items():
-            if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
-                raise InputError(f"model.penalty.{key} must be a number > 0, got {value!r}")
-        power = self.penalty.get("gradient_power", 1.0)
-        if not 1 <= power <= 3:
-            raise InputError(f"model.penalty.gradient_power must be in [1, 3], got {power!r}")
+        self._penalty = Penalty.from_table(self.penalty, "model.penalty")
         if not isinstance(self.load, list) or len(self.load) != 3:
             raise InputError(
                 f"model.load must be a list of 3 numbers or formulas, got {self.load!r}"
@@ -88,7 +78,8 @@ class KirchhoffSpec:
 
     @property
     def penalty_params(self) -> Penalty:
-        return Penalty(**{k: float(v) for k, v in self.penalty.items()})
+        """The validated ``penalty`` table (missing keys: :class:`Penalty`'s defaults)."""
+        return self._penalty
 
 
 def build_kirchhoff(spec: KirchhoffSpec, tagged) -> PlateModel:

@@ -91,7 +91,8 @@ def thermal_energy(
     anchor=None,
 ) -> Energy:
     """The bilayer energy with Z = −αθI (flat clamped data where faces are clamped), plus an
-    optional anchor term (``anchor`` a UFL form from :func:`anchor_energy`, implicit)."""
+    optional anchor term (``anchor`` a UFL form from :func:`anchor_energy`, implicit).
+    """
     g, Phi = flat_identity(faces.mesh)
     Z = thermal_curvature(theta, alpha)
     energy = bilayer_energy(y, faces, penalty, Z, mu, None, g, Phi, True, degree)
@@ -217,7 +218,8 @@ class ThermalBilayer:
         """Relax at the current temperature without a heat step (e.g. at the switch, to the
         flow's tolerance), optionally with another τ (restored afterwards: each change
         reassembles the flow's constant matrix once); returns (and stores) the record, with
-        the time of the last heat step."""
+        the time of the last heat step.
+        """
         t0 = time.perf_counter()
         previous = self.flow.tau
         if tau is not None and tau != previous:

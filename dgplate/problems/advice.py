@@ -47,7 +47,8 @@ def warn(comm: MPI.Comm, messages: Iterable[str]) -> None:
 # -- before the run ------------------------------------------------------------------------------
 def before_run(problem, tagged, initial: Callable | None = None) -> list[str]:
     """Warnings about a problem once it is fully validated (its driver built, so that a
-    warning never precedes an input error): nothing to solve, τ far from h."""
+    warning never precedes an input error): nothing to solve, τ far from h.
+    """
     messages = [nothing_to_solve(problem, tagged.mesh, starts_flat=initial is None)]
     if problem.flow.tau != "h":
         messages.append(tau_scale(float(problem.flow.tau), max_cell_diameter(tagged.mesh)))
@@ -142,7 +143,8 @@ def tau_scale(tau: float, h: float) -> str | None:
 # -- after the flow ------------------------------------------------------------------------------
 def after_run(problem, driver, summary: Mapping[str, Any], area: float) -> list[str]:
     """Warnings once the driver has stopped (before it is destroyed): [flow] solver options
-    that PETSc never read, and a final state far from an isometry (``area`` = |Ω|)."""
+    that PETSc never read, and a final state far from an isometry (``area`` = |Ω|).
+    """
     return unused_solver_options(problem.flow.solver, driver) + advise_result(summary, area)
 
 
@@ -169,7 +171,8 @@ def advise_result(summary: Mapping[str, Any], area: float = 1.0) -> list[str]:
 def unused_solver_options(options: Mapping[str, Any], driver) -> list[str]:
     """Warnings for ``flow.solver`` keys (``options``) that PETSc never read (misspelt, or not
     used by the chosen solver); collective. Call after the run: MUMPS reads its options only
-    at the first factorisation. The driver's step solver (``driver.solver``) holds the KSPs."""
+    at the first factorisation. The driver's step solver (``driver.solver``) holds the KSPs.
+    """
     given = list(options)
     if not given:
         return []

@@ -11,17 +11,22 @@ from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import Model
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.foundation import FoundationSpec, build_foundation
-from dgplate.models.fvk_params import FvKParameters
+from dgplate.models.fvk import FvKSpec, build_fvk
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
 from dgplate.schema import from_dict
 
 
 @dataclass(frozen=True)
 class ModelEntry:
+    """A model name's spec dataclass (the [model] table) and its build function.
+
+    ``build(spec, tagged)`` returns a :class:`dgplate.models.base.Model`. ``ignores`` names the
+    keys that do nothing for this model ("section" for a whole table, or "section.key"), with
+    the reason: giving one is an input error rather than a silently ignored setting.
+    """
+
     spec: type
-    build: Callable[[Any, TaggedMesh], Model] | None
-    # keys that do nothing for this model ("section" for a whole table, or "section.key"),
-    # with the reason: giving one is an input error rather than a silently ignored setting
+    build: Callable[[Any, TaggedMesh], Model]
     ignores: Mapping[str, str] = field(default_factory=dict)
 
     def reject_ignored(self, data: Mapping[str, Any], name: str) -> None:
@@ -39,27 +44,22 @@ class ModelEntry:
                 )
 
 
-_FVK_OUTPUT = "the fvk model always writes fvk.bp (every load step) and final.png (deflection w)"
-
 MODELS: dict[str, ModelEntry] = {
     "kirchhoff": ModelEntry(KirchhoffSpec, build_kirchhoff),
     "bilayer": ModelEntry(BilayerSpec, build_bilayer),
     "foundation": ModelEntry(FoundationSpec, build_foundation),
     "fvk": ModelEntry(
-        FvKParameters,
-        None,
+        FvKSpec,
+        build_fvk,
         ignores={
             "flow": "the fvk model is solved by Newton's method over load steps "
             "(model.load_steps, model.snes), not by the gradient flow",
-            **dict.fromkeys(
-                ("output.vtx", "output.every", "output.png", "output.color_by"), _FVK_OUTPUT
-            ),
         },
     ),
 }
 
 
-def model_spec(data: Any):
+def model_spec(data: Any) -> Any:
     """Validate the [model] table with the spec of the model it names."""
     if data is not None and not isinstance(data, dict):
         raise InputError(f"[model] must be a table, got {data!r}")
@@ -67,7 +67,4 @@ def model_spec(data: Any):
     name = data.get("name", "kirchhoff")
     if not isinstance(name, str) or name not in MODELS:
         raise InputError(f"model.name must be one of {', '.join(sorted(MODELS))}, got {name!r}")
-    spec = from_dict(MODELS[name].spec, data, "model")
-    if hasattr(spec, "validate"):
-        spec.validate()
-    return spec
+    return from_dict(MODELS[name].spec, data, "model")

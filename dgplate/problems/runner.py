@@ -95,6 +95,17 @@ class SeriesWriter:
         self.writer.close()
 
 
+def history_row(record: Any) -> dict[str, Any]:
+    """A record as one row of history.csv: its fields, a nested table's entries as columns."""
+    row: dict[str, Any] = {}
+    for key, value in asdict(record).items():
+        if isinstance(value, dict):
+            row.update(value)
+        else:
+            row[key] = value
+    return row
+
+
 class Checkpoints:
     """Checkpoints of a driver every ``every`` steps (0: none on the way) and on ``save()``.
 
@@ -111,7 +122,7 @@ class Checkpoints:
 
     def step(self, driver: Driver, record: Any) -> None:
         """Keep the record; save every ``every`` steps."""
-        self.history.append(asdict(record))
+        self.history.append(history_row(record))
         if self.every and record.step % self.every == 0:
             self.save(driver)
 
@@ -170,10 +181,7 @@ def run(
     start = _resume_point(problem, target, comm) if resume else None
     with interrupt.StopOnSignal():
         tagged = build_mesh(problem.mesh, comm)
-        entry = MODELS[problem.model.name]
-        if entry.build is None:  # FvK until it is a registered model (being moved)
-            return _legacy_fvk(problem, tagged, target, force, start)
-        model = entry.build(problem.model, tagged)
+        model = MODELS[problem.model.name].build(problem.model, tagged)
         return _solve(problem, tagged, model, target, initial, force, start, wall0)
 
 
@@ -190,7 +198,7 @@ def run_problem(
 
 
 def _start(
-    problem: Problem, driver: Driver, start: checkpoint.Checkpoint | None, target: Path
+    driver: Driver, start: checkpoint.Checkpoint | None, target: Path
 ) -> list[dict[str, Any]]:
     """Restore ``driver`` from the checkpoint (if any); returns the history so far."""
     if start is None:
@@ -218,7 +226,25 @@ def _solve(
     comm = tagged.comm
     observers = [ProgressPrinter(comm, problem.output.progress)] if problem.output.progress else []
     driver = model.driver(problem.flow, observers, initial)
-    earlier = _start(problem, driver, start, target)
+    # no destroy() on an error: it is collective, and the error may have hit one rank only
+    result = _run_driver(problem, tagged, model, driver, target, initial, force, start, wall0)
+    driver.destroy()
+    return result
+
+
+def _run_driver(
+    problem: Problem,
+    tagged: TaggedMesh,
+    model: Model,
+    driver: Driver,
+    target: Path,
+    initial: Initial | None,
+    force: bool,
+    start: checkpoint.Checkpoint | None,
+    wall0: float,
+) -> Result:
+    comm = tagged.comm
+    earlier = _start(driver, start, target)
     if start is None:
         advice.warn(comm, advice.before_run(problem, tagged, initial))
     out = OutputDir(comm, target, force, resume=start is not None)
@@ -229,10 +255,7 @@ def _solve(
         f"{comm.size} rank(s){resumed}, output → {out.target}",
     )
     checkpoints = Checkpoints(
-        out.checkpoint_dir,
-        problem.flow.checkpoint_every,
-        checkpoint.fingerprint(problem.raw),
-        earlier,
+        out.checkpoint_dir, driver.checkpoint_every, checkpoint.fingerprint(problem.raw), earlier
     )
     driver.observers.append(checkpoints)
     if problem.output.vtx:
@@ -253,9 +276,7 @@ def _solve(
     summary["wall_time_s"] = time.perf_counter() - wall0
     write_json(comm, out.path / "summary.json", summary)
     out.commit()
-    final = Result(summary, driver.shape, driver.checkpoint_fields(), checkpoints.history)
-    driver.destroy()
-    return final
+    return Result(summary, driver.shape, driver.checkpoint_fields(), checkpoints.history)
 
 
 def _dofs(driver: Driver) -> int:
@@ -315,21 +336,3 @@ def _summary(
     summary["dolfinx_version"] = compat.version_string()
     summary["input"] = problem.raw
     return summary
-
-
-def _legacy_fvk(problem, tagged, target, force, start):  # pragma: no cover - transitional
-    from dgplate.models.fvk import run_fvk
-
-    problem.model.validate(tagged)
-    summary = run_fvk(
-        tagged,
-        problem.model,
-        out_dir=target,
-        comm=tagged.comm,
-        progress=bool(problem.output.progress),
-        force=force,
-        start=start,
-        fingerprint=checkpoint.fingerprint(problem.raw),
-    )
-    summary.setdefault("problem", problem.name)
-    return Result(summary)

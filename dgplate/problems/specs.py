@@ -117,7 +117,8 @@ Overrides = Sequence[str] | Mapping[str, Any]
 
 def apply_overrides(data: dict, overrides: Overrides) -> dict:
     """Set dotted keys of ``data``: ``["flow.tau=0.1"]`` (``--set`` texts, values in TOML) or
-    ``{"flow.tau": 0.1, "mesh.cells": [32, 32]}`` (Python values)."""
+    ``{"flow.tau": 0.1, "mesh.cells": [32, 32]}`` (Python values).
+    """
     if isinstance(overrides, Mapping):
         items = [(_dotted(key), value) for key, value in overrides.items()]
     else:

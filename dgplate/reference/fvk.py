@@ -52,7 +52,7 @@ def _series(z, coefficients, direct):
 
 
 def _sinhc(z):
-    """sinh z / z"""
+    """Sinh z / z"""
     terms = [1 / math.factorial(2 * i + 1) for i in range(9)]
     return _series(z, terms, lambda z: np.sinh(z) / z)
 

@@ -61,6 +61,7 @@ class Driver(Protocol):
     comm: MPI.Comm
     observers: list[Observer]
     step_count: int  # steps done so far, including those before a resume
+    checkpoint_every: int  # steps between checkpoints (0: only at the end)
 
     @property
     def time(self) -> float:

@@ -286,7 +286,7 @@ class GradientFlow:
         )
 
     def _balance_constraint_rows(self) -> None:
-        """s = ‖A_const‖_∞ / ‖B(y⁰)‖_∞: the constraint rows then weigh like the others.
+        """S = ‖A_const‖_∞ / ‖B(y⁰)‖_∞: the constraint rows then weigh like the others.
 
         Only λ changes with s. The iterative solves stop on the residual of the whole system;
         with s = 1 its constraint part counts ~h³ less than the displacement part, and
@@ -400,7 +400,8 @@ class GradientFlow:
 
     def _project(self, stats: solvers.SolveStats):
         """One correction towards ∫_T (∇yᵀ∇y − I) q = 0, reusing the step's factorisation;
-        its fall-backs are added to the step's ``stats``."""
+        its fall-backs are added to the step's ``stats``.
+        """
         with self.rhs.localForm() as local:
             local.set(0.0)
         dolfinx.fem.petsc.assemble_vector(self.rhs, self._constraint_residual)
@@ -423,7 +424,8 @@ class GradientFlow:
 
     def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function]:
         """The functions a checkpoint must hold to continue the flow exactly: the state and
-        the last step's solution (the next step solve's initial guess)."""
+        the last step's solution (the next step solve's initial guess).
+        """
         return {"y": self.y, "step_solution": self.solution}
 
     def checkpoint_state(self) -> dict[str, Any]:
@@ -435,6 +437,11 @@ class GradientFlow:
             "energy_increases": list(self.energy_increases),
             "fallbacks": self.fallbacks,
         }
+
+    @property
+    def checkpoint_every(self) -> int:
+        """Steps between checkpoints: ``flow.checkpoint_every``."""
+        return self.settings.checkpoint_every
 
     def remaining_steps(self) -> int:
         """Steps left of ``max_steps`` (the budget of a run and its resumed runs)."""

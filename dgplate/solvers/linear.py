@@ -273,7 +273,8 @@ class LaggedStepSolver:
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec, refactor: bool = True) -> SolveStats:
         """Solve K x = b from the guess x; ``refactor=False`` (a re-solve with the same K)
-        refactorises only to redo a failed solve."""
+        refactorises only to redo a failed solve.
+        """
         stats = SolveStats(False, 0, 0.0, 0.0)
         if refactor and self._stale:
             self._timed_refactor(stats)
@@ -316,7 +317,8 @@ class LaggedStepSolver:
         self, stats: SolveStats, reason: int, which: str, action: str, quiet: bool = False
     ) -> None:
         """Count a fall-back and say why on one line (rank 0); ``quiet``: neither (the
-        lagged method's ordinary refactorisation)."""
+        lagged method's ordinary refactorisation).
+        """
         if quiet:
             return
         stats.fallbacks += 1
@@ -331,7 +333,8 @@ class LaggedStepSolver:
 
     def _direct_solve(self, b: PETSc.Vec, x: PETSc.Vec, stats: SolveStats) -> None:
         """Solve by a fresh LU factorisation of K from a zero guess; its factors are freed
-        right away (a failure here is rare, and they would double the memory held)."""
+        right away (a failure here is rare, and they would double the memory held).
+        """
         prefix = f"{self.ksp.getOptionsPrefix()}direct_"
         direct = DirectStepSolver(self.K.getComm(), self.K, self._direct_options, prefix)
         try:
@@ -367,7 +370,8 @@ def make_step_solver(
     numbering: PETSc.IS | None = None,
 ) -> StepSolver:
     """The solver of the flow's step systems: ``lagged`` (default) or ``direct``;
-    ``refactor_its`` and ``numbering`` configure the lagged solver (ignored by ``direct``)."""
+    ``refactor_its`` and ``numbering`` configure the lagged solver (ignored by ``direct``).
+    """
     if kind == "lagged":
         return LaggedStepSolver(comm, K, options, prefix, refactor_its, numbering)
     if kind == "direct":

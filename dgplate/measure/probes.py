@@ -1,0 +1,56 @@
+"""Numbers of a scalar field for progress lines and summaries: its value at a point, its extreme.
+
+Both give the same number on any number of ranks (collective on the mesh communicator).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from mpi4py import MPI
+
+import dolfinx.fem
+import dolfinx.geometry
+import dolfinx.mesh
+import numpy as np
+
+
+class PointProbe:
+    """The value of functions at one point of the mesh.
+
+    A discontinuous function has one value per cell that contains the point (a vertex, a
+    facet): the probe returns their mean over those cells, each counted once on the rank that
+    owns it. Raises ``ValueError`` when no cell contains the point.
+    """
+
+    def __init__(self, mesh: dolfinx.mesh.Mesh, point: Sequence[float]) -> None:
+        self.mesh, self.comm = mesh, mesh.comm
+        tdim = mesh.topology.dim
+        owned = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)
+        tree = dolfinx.geometry.bb_tree(mesh, tdim, entities=owned)
+        self.point = np.zeros((1, 3), dtype=mesh.geometry.x.dtype)
+        self.point[0, : len(point)] = point
+        candidates = dolfinx.geometry.compute_collisions_points(tree, self.point)
+        colliding = dolfinx.geometry.compute_colliding_cells(mesh, candidates, self.point)
+        self.cells = np.asarray(colliding.links(0), dtype=np.int32)
+        self.count = int(self.comm.allreduce(self.cells.size, op=MPI.SUM))
+        if self.count == 0:
+            raise ValueError(f"the point {list(point)} lies outside the mesh")
+
+    def __call__(self, u: dolfinx.fem.Function) -> float:
+        """U at the point (the mean over the cells that contain it)."""
+        local = 0.0
+        if self.cells.size:
+            points = np.repeat(self.point, self.cells.size, axis=0)
+            local = float(np.sum(u.eval(points, self.cells)))
+        return float(self.comm.allreduce(local, op=MPI.SUM) / self.count)
+
+
+def signed_extreme(u: dolfinx.fem.Function) -> float:
+    """The degree-of-freedom value of largest magnitude, with its sign (scalar ``u``)."""
+    space = u.function_space
+    owned = u.x.array[: space.dofmap.index_map.size_local * space.dofmap.index_map_bs]
+    comm = space.mesh.comm
+    lo = float(comm.allreduce(float(owned.min(initial=np.inf)), op=MPI.MIN))
+    hi = float(comm.allreduce(float(owned.max(initial=-np.inf)), op=MPI.MAX))
+    return hi if hi >= -lo else lo

@@ -1,0 +1,438 @@
+"""Newton's method over a schedule of load factors: a driver for any energy (continuation).
+
+In the spirit of dolfiny's continuation and DOLFINx's ``NonlinearProblem``. The caller gives
+
+- a state :class:`dolfinx.fem.Function` u in any space (mixed spaces included),
+- an energy Π(u) as a UFL form; the residual DΠ(u)[v] and the Jacobian D²Π(u)[v, δu] are its
+  ``ufl.derivative``, nothing is written twice,
+- Dirichlet conditions, whose data may be Constants that hold the load factor times a value at
+  full load (``bc_values``),
+- a load factor: a :class:`dolfinx.fem.Constant` the energy depends on, and a schedule of the
+  load factors to solve at.
+
+Each load step starts from the secant extrapolation of the two previous converged states (or
+from the last one) and is solved by PETSc SNES with the options under a fixed prefix: by
+default ``newtonls`` with the affine-covariant NLEQ-ERR line search (Deuflhard), which damps by
+the Newton correction instead of a residual norm that may mix units (membrane and bending),
+and takes full steps near the solution, so convergence is quadratic there; the linear systems
+are solved by MUMPS LU (:data:`dgplate.solvers.linear.DIRECT_MUMPS`).
+
+:class:`Continuation` is a :class:`dgplate.solvers.driver.Driver`: ``run`` reports one
+:class:`LoadStep` per converged load step to the observers, stops on SIGINT/SIGTERM at a step
+boundary (on every rank together), and reports a load step whose Newton iteration fails as
+``converged = False`` with the SNES reason, keeping the last converged state. A checkpoint
+holds the state, the state before it (the predictor's second point) and the history, so a
+resumed run continues the schedule.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass
+from typing import Any, cast
+
+from mpi4py import MPI
+
+import dolfinx.fem
+import dolfinx.fem.petsc
+import numpy as np
+import numpy.typing as npt
+import ufl
+from petsc4py import PETSc
+
+from dgplate import interrupt
+from dgplate.errors import SolverError
+from dgplate.solvers import linear
+from dgplate.solvers.driver import Observer, RunResult
+
+#: SNES defaults; the ``options`` of a :class:`Continuation` override any key.
+NEWTON_DEFAULTS: dict[str, Any] = {
+    "snes_type": "newtonls",
+    "snes_linesearch_type": "nleqerr",
+    "snes_rtol": 1e-10,
+    "snes_max_it": 30,
+    **linear.DIRECT_MUMPS,
+}
+
+_REASONS: dict[int, str] = {
+    value: name
+    for name, value in vars(PETSc.SNES.ConvergedReason).items()
+    if isinstance(value, int)
+}
+
+#: Options prefixes of the live drivers: two at once would read each other's options.
+_LIVE_PREFIXES: set[str] = set()
+
+Shape = dolfinx.fem.Function | Callable[[], dolfinx.fem.Function]
+Probes = Callable[[], Mapping[str, float]]
+
+
+@dataclass
+class LoadStep:
+    """One converged load step: a row of ``history.csv``.
+
+    A driver with probes records them in further fields (:func:`record_type`).
+    """
+
+    step: int
+    load_factor: float
+    iterations: int  # Newton iterations
+    residual: float  # the residual norm at the last iterate
+    energy: float
+    seconds: float
+
+    def line(self) -> str:
+        """One line of progress output, the probes included."""
+        probes = "".join(
+            f"  {f.name} {getattr(self, f.name):.6g}"
+            for f in dataclasses.fields(self)[len(dataclasses.fields(LoadStep)) :]
+        )
+        return (
+            f"load step {self.step:4d}  load factor {self.load_factor:.4g}  Newton its "
+            f"{self.iterations:2d}  energy {self.energy:+.6e}{probes}  {self.seconds:.2f} s"
+        )
+
+
+def record_type(probes: Sequence[str]) -> type[LoadStep]:
+    """:class:`LoadStep` with one more float field per probe name (flat history rows)."""
+    if not probes:
+        return LoadStep
+    clash = sorted(set(probes) & {f.name for f in dataclasses.fields(LoadStep)})
+    if clash:
+        raise ValueError(f"probe name {clash[0]!r} is a field of LoadStep")
+    fields = [(name, float) for name in probes]
+    return dataclasses.make_dataclass("LoadStepWithProbes", fields, bases=(LoadStep,))
+
+
+def snes_reason(code: int) -> str:
+    """The name of a SNES converged reason, e.g. ``DIVERGED_MAX_IT``."""
+    return _REASONS.get(code, str(code))
+
+
+class Continuation:
+    """Newton's method (PETSc SNES) on DΠ(u) = 0 at each load factor of a schedule.
+
+    Args:
+        state: the unknown u (any space); its value is the start of the first load step.
+        energy: Π(u), a UFL functional of ``state`` (a form of rank 0).
+        bcs: Dirichlet conditions on ``state``'s space.
+        load_factor: the Constant that ``energy`` depends on; its value is the load factor
+            the state belongs to (0 for an unloaded start).
+        schedule: the load factors to solve at, in order; consecutive ones must differ.
+        prefix: the PETSc options prefix, e.g. ``"dgplate_fvk_"`` (so ``-dgplate_fvk_snes_monitor``
+            works); one live driver per prefix.
+        options: PETSc options (SNES, KSP, PC) over :data:`NEWTON_DEFAULTS`.
+        bc_values: ``(constant, value)`` pairs of Dirichlet data at full load: the driver sets
+            ``constant.value = load factor × value`` whenever the load factor changes.
+        secant: start each step from the secant extrapolation of the two previous states;
+            False: from the previous state.
+        observers: told of every load step and of the end of :meth:`run`.
+        shape: the deformed surface y: ω → ℝ³ as a Function, or a callable returning it
+            updated from the state (called after each step and on a restore).
+        probes: numbers of the state (e.g. a centre deflection) added to every record; the
+            names are those it returns at the start.
+        hint: what to try when Newton fails, appended to the reason.
+        checkpoint_every: load steps between checkpoints (a load step is expensive: each).
+
+    All methods are collective on the state's communicator.
+    """
+
+    def __init__(
+        self,
+        state: dolfinx.fem.Function,
+        energy: ufl.Form,
+        bcs: Sequence[dolfinx.fem.DirichletBC],
+        load_factor: dolfinx.fem.Constant,
+        schedule: Sequence[float],
+        prefix: str,
+        options: Mapping[str, Any] | None = None,
+        *,
+        bc_values: Sequence[tuple[dolfinx.fem.Constant, npt.ArrayLike]] = (),
+        secant: bool = True,
+        observers: Sequence[Observer] = (),
+        shape: Shape,
+        probes: Probes | None = None,
+        hint: str = "",
+        checkpoint_every: int = 1,
+    ) -> None:
+        self.schedule = _checked_schedule(schedule, float(load_factor.value))
+        if prefix in _LIVE_PREFIXES:
+            raise ValueError(f"PETSc options prefix {prefix!r} is in use by a live Continuation")
+        self.state, self.bcs, self.comm = state, list(bcs), state.function_space.mesh.comm
+        self._load_factor = load_factor
+        self._bc_values = [(c, np.asarray(v, dtype=float)) for c, v in bc_values]
+        self.secant, self.observers, self.hint = secant, list(observers), hint
+        self._shape_source, self._probes = shape, probes
+        self.step_count, self.checkpoint_every = 0, checkpoint_every
+        self.history: list[LoadStep] = []
+        self.residual_norms: list[list[float]] = []
+        self._norms: list[float] = []
+        space = state.function_space
+        residual = ufl.derivative(energy, state, ufl.TestFunction(space))
+        jacobian = ufl.derivative(residual, state, ufl.TrialFunction(space))
+        self._energy = dolfinx.fem.form(energy)
+        self._residual = dolfinx.fem.form(residual)
+        self._jacobian = dolfinx.fem.form(jacobian)
+        self._previous = dolfinx.fem.Function(space, name="previous")
+        self._states: list[tuple[float, np.ndarray]] = [(self.time, state.x.array.copy())]
+        self._set_load(self.time)
+        self._shape = self._update_shape()
+        self._record = record_type(list(probes()) if probes else [])
+        self._prefix = prefix
+        self._options = {**NEWTON_DEFAULTS, **(options or {})}
+        self._setup_snes()
+        self._live = True
+        _LIVE_PREFIXES.add(prefix)
+
+    # -- set-up -----------------------------------------------------------------------------
+    def _setup_snes(self) -> None:
+        opts = PETSc.Options()
+        for key, value in self._options.items():
+            opts.setValue(f"{self._prefix}{key}", value)
+        self._A = dolfinx.fem.petsc.create_matrix(self._jacobian)
+        self._b = self.state.x.petsc_vec.duplicate()
+        self._x = self.state.x.petsc_vec.duplicate()
+        snes = self.snes = PETSc.SNES().create(self.comm)
+        snes.setOptionsPrefix(self._prefix)
+        snes.setFunction(self._assemble_residual, self._b)
+        snes.setJacobian(self._assemble_jacobian, self._A)
+        snes.setMonitor(self._monitor)
+        snes.setFromOptions()
+
+    def _monitor(self, _snes: PETSc.SNES, _it: int, norm: float) -> None:
+        self._norms.append(float(norm))
+
+    def _update(self, x: PETSc.Vec) -> None:
+        x.copy(self.state.x.petsc_vec)
+        self.state.x.scatter_forward()
+
+    def _assemble_residual(self, _snes: PETSc.SNES, x: PETSc.Vec, b: PETSc.Vec) -> None:
+        self._update(x)
+        with b.localForm() as local:
+            local.set(0.0)
+        # DOLFINx's stubs know only the form-first overloads of the assemblers
+        dolfinx.fem.petsc.assemble_vector(b, self._residual)  # type: ignore[arg-type]
+        dolfinx.fem.petsc.apply_lifting(b, [self._jacobian], [self.bcs], [x], -1.0)
+        b.ghostUpdate(PETSc.InsertMode.ADD, PETSc.ScatterMode.REVERSE)  # type: ignore[arg-type]
+        dolfinx.fem.petsc.set_bc(b, self.bcs, x, -1.0)
+
+    def _assemble_jacobian(
+        self, _snes: PETSc.SNES, x: PETSc.Vec, A: PETSc.Mat, _P: PETSc.Mat
+    ) -> None:
+        self._update(x)
+        A.zeroEntries()
+        dolfinx.fem.petsc.assemble_matrix(A, self._jacobian, self.bcs)  # type: ignore[arg-type]
+        A.assemble()
+
+    # -- the Driver protocol ----------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        """The load factor of the current state."""
+        return float(self._load_factor.value)
+
+    @property
+    def shape(self) -> dolfinx.fem.Function:
+        """The deformed surface y: ω → ℝ³ of the current state."""
+        return self._shape
+
+    @property
+    def num_dofs(self) -> int:
+        """The global number of unknowns."""
+        imap = self.state.function_space.dofmap.index_map
+        return int(imap.size_global * self.state.function_space.dofmap.index_map_bs)
+
+    def remaining_steps(self) -> int:
+        """Load steps of the schedule not solved yet."""
+        return len(self.schedule) - self.step_count
+
+    def run(self, max_steps: int | None = None) -> RunResult:
+        """Solve the rest of the schedule, at most ``max_steps`` load steps (None: all).
+
+        Ends early when a load step fails (``converged = False``, the SNES reason; the last
+        converged state is kept) or on SIGINT/SIGTERM (``interrupted``).
+        """
+        remaining = self.schedule[self.step_count :]
+        budget = len(remaining) if max_steps is None else min(max_steps, len(remaining))
+        records: list[LoadStep] = []
+        failure, signum = None, 0
+        for _ in range(budget):
+            try:
+                record = self.step()
+            except SolverError as err:  # collective: the SNES reason is the same on all ranks
+                failure = f"{err}; the last converged state is kept"
+                break
+            records.append(record)
+            for observer in self.observers:
+                observer.step(self, record)
+            if self.step_count == len(self.schedule):
+                break
+            signum = interrupt.requested(self.comm)
+            if signum:
+                break
+        result = RunResult(
+            *self._outcome(failure, signum), len(records), records, interrupted=signum
+        )
+        for observer in self.observers:
+            observer.finish(self, result)
+        return result
+
+    def _outcome(self, failure: str | None, signum: int) -> tuple[bool, str]:
+        """(converged, reason) of a run that ended with ``failure`` or signal ``signum``."""
+        total = len(self.schedule)
+        if failure:
+            return False, failure
+        if signum:
+            return False, interrupt.reason(signum)
+        if self.step_count == total:
+            return True, f"all {total} load steps converged"
+        return False, (
+            f"step budget spent after {self.step_count} of {total} load steps "
+            f"(load factor {self.time:g})"
+        )
+
+    def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function]:
+        """The state and the one before it (the secant predictor's two points)."""
+        self._previous.x.array[:] = self._states[0][1]
+        return {"state": self.state, "previous": self._previous}
+
+    def checkpoint_state(self) -> dict[str, Any]:
+        """Load steps done, the load factors of the two states and the history."""
+        return {
+            "step": self.step_count,
+            "load_factors": [factor for factor, _ in self._states],
+            "history": [asdict(record) for record in self.history],
+            "residual_norms": self.residual_norms,
+        }
+
+    def restore_state(self, state: Mapping[str, Any]) -> None:
+        """Continue from :meth:`checkpoint_state` (the fields are restored first)."""
+        self.step_count = int(state["step"])
+        self.history = [self._record(**row) for row in state["history"]]
+        self.residual_norms = [list(norms) for norms in state["residual_norms"]]
+        factors = [float(factor) for factor in state["load_factors"]]
+        for function in (self.state, self._previous):
+            function.x.scatter_forward()
+        arrays = [self._previous.x.array.copy(), self.state.x.array.copy()]
+        self._states = list(zip(factors, arrays[-len(factors) :]))
+        self._set_load(factors[-1])
+        self._shape = self._update_shape()
+
+    def summary(self) -> dict[str, Any]:
+        """Numbers for ``summary.json``: dofs, load factors, Newton iterations, energy."""
+        return {
+            "dofs": self.num_dofs,
+            "load_factor": self.time,
+            "load_steps": len(self.schedule),
+            "load_factors": [record.load_factor for record in self.history],
+            "snes_iterations": [record.iterations for record in self.history],
+            "residual_norms": self.residual_norms,
+            "energy": self.energy_value(),
+        }
+
+    def destroy(self) -> None:
+        """Free the PETSc objects and delete this driver's options (idempotent)."""
+        if not self._live:
+            return
+        self._live = False
+        opts = PETSc.Options()
+        for key in self._options:
+            opts.delValue(f"{self._prefix}{key}")
+        for obj in (self.snes, self._A, self._b, self._x):
+            obj.destroy()
+        _LIVE_PREFIXES.discard(self._prefix)
+
+    def __enter__(self) -> Continuation:
+        """``with Continuation(...) as driver:`` destroys the driver at the end."""
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        """:meth:`destroy`."""
+        self.destroy()
+
+    # -- load steps -------------------------------------------------------------------------
+    def step(self) -> LoadStep:
+        """Solve at the next load factor of the schedule (see :meth:`solve`)."""
+        if self.step_count >= len(self.schedule):
+            raise SolverError(f"the schedule of {len(self.schedule)} load steps is done")
+        return self.solve(self.schedule[self.step_count])
+
+    def solve(self, factor: float) -> LoadStep:
+        """Solve at load factor ``factor`` from the predictor; the record of the step.
+
+        Raises :class:`SolverError` with the SNES reason when Newton fails; the state and the
+        load factor are then those of the last converged step (or of the start).
+        """
+        start = time.perf_counter()
+        self._predict(factor)
+        self._set_load(factor)
+        self.state.x.petsc_vec.copy(self._x)
+        self._norms = []
+        self.snes.solve(None, self._x)
+        # an int at run time (petsc4py's stubs say ConvergedReason)
+        reason = cast(int, self.snes.getConvergedReason())
+        its = self.snes.getIterationNumber()
+        self._update(self._x)
+        if reason < 0:
+            self._take_back()
+            hint = f"; {self.hint}" if self.hint else ""
+            raise SolverError(
+                f"Newton failed at load step {self.step_count + 1} (load factor {factor:g}): "
+                f"SNES reason {snes_reason(reason)} after {its} iterations{hint}"
+            )
+        self._states = [*self._states[-1:], (factor, self.state.x.array.copy())]
+        self.step_count += 1
+        self.residual_norms.append(list(self._norms))
+        self._shape = self._update_shape()
+        probes = dict(self._probes()) if self._probes else {}
+        record = self._record(
+            step=self.step_count,
+            load_factor=factor,
+            iterations=its,
+            residual=self._norms[-1] if self._norms else math.nan,
+            energy=self.energy_value(),
+            seconds=time.perf_counter() - start,
+            **probes,
+        )
+        self.history.append(record)
+        return record
+
+    def _predict(self, factor: float) -> None:
+        """The secant extrapolation of the last two states to ``factor`` (if there are two)."""
+        if not self.secant or len(self._states) < 2:
+            return
+        (f0, x0), (f1, x1) = self._states[-2:]
+        self.state.x.array[:] = x1 + (factor - f1) / (f1 - f0) * (x1 - x0)
+
+    def _take_back(self) -> None:
+        """Back to the last converged state and its load factor."""
+        factor, array = self._states[-1]
+        self.state.x.array[:] = array
+        self._set_load(factor)
+        self._shape = self._update_shape()
+
+    def _set_load(self, factor: float) -> None:
+        self._load_factor.value = np.asarray(factor)
+        for constant, value in self._bc_values:
+            constant.value = np.asarray(factor * value)
+
+    def _update_shape(self) -> dolfinx.fem.Function:
+        source = self._shape_source
+        return source if isinstance(source, dolfinx.fem.Function) else source()
+
+    def energy_value(self) -> float:
+        """Π of the current state (collective)."""
+        local = dolfinx.fem.assemble_scalar(self._energy)
+        return float(self.comm.allreduce(local, op=MPI.SUM))
+
+
+def _checked_schedule(schedule: Sequence[float], start: float) -> list[float]:
+    """The schedule as floats: finite, non-empty, no two consecutive factors equal."""
+    factors = [float(factor) for factor in schedule]
+    if not factors or not all(math.isfinite(f) for f in factors):
+        raise ValueError(f"a schedule needs finite load factors, got {list(schedule)!r}")
+    if any(a == b for a, b in zip([start, *factors], factors)):
+        raise ValueError(f"consecutive load factors must differ, got {factors!r} from {start:g}")
+    return factors
