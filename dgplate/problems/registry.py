@@ -10,6 +10,7 @@ from dgplate.errors import InputError
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.fvk_params import FvKParameters
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
+from dgplate.models.thermal import ThermalSpec, build_thermal
 from dgplate.schema import from_dict
 
 
@@ -42,6 +43,7 @@ _FVK_OUTPUT = "the fvk model always writes fvk.bp (every load step) and final.pn
 MODELS: dict[str, ModelEntry] = {
     "kirchhoff": ModelEntry(KirchhoffSpec, build_kirchhoff),
     "bilayer": ModelEntry(BilayerSpec, build_bilayer),
+    "thermal": ModelEntry(ThermalSpec, build_thermal),
     "fvk": ModelEntry(
         FvKParameters,
         None,
