@@ -181,6 +181,11 @@ class ThermalBilayer:
         return self.flow.y
 
     @property
+    def num_dofs(self) -> int:
+        """Unknowns of the flow's step system (deformation and multipliers)."""
+        return self.flow.num_dofs
+
+    @property
     def theta(self) -> dolfinx.fem.Function:
         """The temperature θ on the reference domain."""
         return self.heat.theta

@@ -19,7 +19,7 @@ every rank (integrals are summed over owned cells).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 from mpi4py import MPI
@@ -159,6 +159,32 @@ class RegionFrame:
         return (np.asarray(points) - c) @ Q + c_ref
 
 
+def _facet_nodes(
+    space: dolfinx.fem.FunctionSpace, tagged: TaggedMesh, group: str
+) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """For each facet of ``group`` and each owned cell beside it: the cell's dofs on the facet
+    and their positions along it (0 at one vertex, 1 at the other)."""
+    mesh = space.mesh
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    f2c = mesh.topology.connectivity(tdim - 1, tdim)
+    num_owned = mesh.topology.index_map(tdim).size_local
+    coords = space.tabulate_dof_coordinates()
+    facets = tagged.facets(group)
+    nodes = dolfinx.mesh.entities_to_geometry(mesh, tdim - 1, facets.astype(np.int32))
+    for facet, facet_nodes in zip(facets, nodes):
+        a, b = mesh.geometry.x[facet_nodes[:2]]  # the two vertices come first
+        length = np.linalg.norm(b - a)
+        for cell in f2c.links(facet):
+            if cell >= num_owned:
+                continue
+            cell_dofs = space.dofmap.cell_dofs(cell)
+            p = coords[cell_dofs]
+            s = np.clip((p - a) @ (b - a) / length**2, 0.0, 1.0)
+            on = np.linalg.norm(p - (a + np.outer(s, b - a)), axis=1) < 1e-8 * length
+            yield cell_dofs[on], s[on]
+
+
 def edge_nodes(
     y: dolfinx.fem.Function, tagged: TaggedMesh, group: str
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -169,29 +195,19 @@ def edge_nodes(
     the group appear once per cell.
     """
     space = y.function_space
-    mesh = space.mesh
-    tdim = mesh.topology.dim
-    mesh.topology.create_connectivity(tdim - 1, tdim)
-    f2c = mesh.topology.connectivity(tdim - 1, tdim)
-    num_owned = mesh.topology.index_map(tdim).size_local
-    coords = space.tabulate_dof_coordinates()
-    facets = tagged.facets(group)
-    nodes = dolfinx.mesh.entities_to_geometry(mesh, tdim - 1, facets.astype(np.int32))
-    dofs = []
-    for facet, facet_nodes in zip(facets, nodes):
-        a, b = mesh.geometry.x[facet_nodes[:2]]  # the two vertices come first
-        length = np.linalg.norm(b - a)
-        for cell in f2c.links(facet):
-            if cell >= num_owned:
-                continue
-            cell_dofs = space.dofmap.cell_dofs(cell)
-            p = coords[cell_dofs]
-            s = np.clip((p - a) @ (b - a) / length**2, 0.0, 1.0)
-            dist = np.linalg.norm(p - (a + np.outer(s, b - a)), axis=1)
-            dofs.extend(cell_dofs[dist < 1e-8 * length].tolist())
-    dofs = np.asarray(dofs, dtype=np.int64)
+    found = [dofs for dofs, _ in _facet_nodes(space, tagged, group)]
+    dofs = np.concatenate(found).astype(np.int64) if found else np.zeros(0, np.int64)
     values = y.x.array.real.reshape(-1, 3)
-    return coords[dofs], values[dofs]
+    return space.tabulate_dof_coordinates()[dofs], values[dofs]
+
+
+def edge_segments(y: dolfinx.fem.Function, tagged: TaggedMesh, group: str) -> list[np.ndarray]:
+    """The deformed facets of a facet group as polylines (one N×3 array of y's nodes per facet
+    and owned cell beside it, in order along the facet; local: gather them yourself)."""
+    values = y.x.array.real.reshape(-1, 3)
+    return [
+        values[dofs[np.argsort(s)]] for dofs, s in _facet_nodes(y.function_space, tagged, group)
+    ]
 
 
 @dataclass(frozen=True)
@@ -338,6 +354,7 @@ __all__ = [
     "RegionFrame",
     "RegionIntegrals",
     "edge_nodes",
+    "edge_segments",
     "hinge_geometry",
     "hinge_strip",
 ]

@@ -52,6 +52,7 @@ from dgplate.measure.hinges import (
     FoldAngles,
     Hinge,
     RegionIntegrals,
+    edge_segments,
     hinge_geometry,
     hinge_strip,
 )
@@ -630,18 +631,11 @@ class ThermalModel:
 
     def lines(self, driver: ThermalBilayer) -> list[np.ndarray]:
         """The deformed closure edge and tracked edges, on rank 0 ([] elsewhere)."""
-        from dgplate.measure.hinges import edge_nodes
-
         groups = ([self.spec.closure["edge"]] if self.spec.closure else []) + list(self.spec.edges)
-        lines = []
+        lines: list[np.ndarray] = []
         for group in dict.fromkeys(groups):
-            ref, pos = edge_nodes(driver.y, self.tagged, group)
-            gathered = self.tagged.comm.gather((ref, pos), root=0)
-            if gathered is None:
-                continue
-            ref = np.concatenate([g[0] for g in gathered])
-            pos = np.concatenate([g[1] for g in gathered])
-            lines += _edge_polylines(ref, pos)
+            gathered = self.tagged.comm.gather(edge_segments(driver.y, self.tagged, group))
+            lines += [segment for part in gathered or () for segment in part]
         return lines
 
 
@@ -655,17 +649,6 @@ def _named(figures: dict[str, float], suffix: str) -> dict[str, Any]:
         if not key.startswith("angle_"):
             out[f"{key}_{suffix}"] = value
     return out
-
-
-def _edge_polylines(ref: np.ndarray, pos: np.ndarray) -> list[np.ndarray]:
-    """An edge's deformed nodes as one polyline, ordered along its reference direction."""
-    if len(ref) < 2:
-        return []
-    _, unique = np.unique(np.round(ref, 12), axis=0, return_index=True)
-    ref, pos = ref[unique], pos[unique]
-    centre = ref.mean(axis=0)
-    direction = np.linalg.svd(ref - centre)[2][0]
-    return [pos[np.argsort((ref - centre) @ direction)]]
 
 
 def _check_groups(spec: ThermalSpec, tagged: TaggedMesh) -> None:
