@@ -1,6 +1,8 @@
-"""Heat-coupled bilayer hinges: fold angles, the c·w rule, meshes of the nets, MPI parity."""
+"""Heat-coupled bilayer hinges: fold angles, the c·w rule, meshes of the nets, the thermal
+model's spec and driver (schedule, holds, checkpoints), MPI parity."""
 
 import math
+import signal
 
 from mpi4py import MPI
 
@@ -10,23 +12,30 @@ import pytest
 import ufl
 from conftest import PARITY_RTOL
 
-from dgplate.coupling.heat import HeatSolver, HeatSource
+from dgplate import interrupt
+from dgplate.coupling.heat import HeatSolver
+from dgplate.coupling.thermal import HeatStepRecord, Schedule, ThermalBilayer
 from dgplate.errors import InputError
+from dgplate.io import checkpoint
 from dgplate.measure.hinges import (
     FoldAngles,
     Hinge,
     RegionFrame,
     RegionIntegrals,
     edge_nodes,
+    hinge_geometry,
     hinge_strip,
 )
 from dgplate.mesh.tagged import load_geo
 from dgplate.models.thermal import (
-    ThermalBilayer,
-    ThermalSettings,
+    ThermalSpec,
+    build_thermal,
     calibrate_alpha,
+    cell_aspect_ratio,
     hinge_penalty,
 )
+from dgplate.problems.registry import MODELS, model_spec
+from dgplate.schema import describe
 from dgplate.solvers.flow import FlowSpec
 
 W = math.pi / 24
@@ -114,48 +123,165 @@ def test_one_hinge_folds_90_degrees_when_cw_is_pi_over_2():
     assert alpha == pytest.approx(info["alpha_cw"] * 90 / info["strip_fold_deg"])
 
 
-def thermal_strip(comm, n=2, m=2, flow_steps=5, alpha=0.6):
-    tagged = hinge_strip(comm, W, n, m)
-    source = HeatSource.switched(5.0, -5.0, 2.0)
-    heat = HeatSolver(tagged, 5.0, 1.0, source)
-    settings = ThermalSettings(
-        alpha={"hinge": alpha},
+STRIP_FLOW = {"tau": 0.05, "l2_metric": False, "projection_steps": 1}
+
+
+def strip_spec(n=2, m=2, flow_steps=5, alpha=0.6, end_time=4.0, **more) -> ThermalSpec:
+    """A hinge strip heated everywhere (s = 5 until t = 2, then −5; κ = 5, Δt = 1)."""
+    return ThermalSpec(
         mu={"left": 20.0, "hinge": 1.0, "right": 20.0},
-        flow_steps=flow_steps,
+        alpha={"hinge": alpha},
+        hinges={"hinge": ["left", "right"]},
         anchor="left",
-        penalty=hinge_penalty(W, n, m),
+        penalty_aspect="mesh",
+        kappa=5.0,
+        source=[[0.0, 5.0], [2.0, -5.0]],
+        heat_step=1.0,
+        end_time=end_time,
+        flow_steps=flow_steps,
+        **more,
     )
-    model = ThermalBilayer(
-        tagged, heat, FlowSpec(tau=0.05, l2_metric=False, projection_steps=1), settings
-    )
-    angles = FoldAngles(model.y, tagged, [Hinge("hinge", "left", "right")], sense=-1)
-    model.measure = lambda _: angles()
-    return model
+
+
+def thermal_strip(comm, n=2, m=2, flow_steps=5, alpha=0.6, end_time=4.0, **more):
+    """The driver of a strip model (``more``: further spec keys)."""
+    spec = strip_spec(n, m, flow_steps, alpha, end_time, **more)
+    model = build_thermal(spec, hinge_strip(comm, W, n, m))
+    return model, model.driver(FlowSpec(**STRIP_FLOW), [], None)
+
+
+def test_mesh_aspect_ratio_is_the_hinge_penalty_aspect():
+    tagged = hinge_strip(MPI.COMM_SELF, W, 2, 4)
+    expected = hinge_penalty(W, 2, 4)
+    aspect = cell_aspect_ratio(tagged)
+    assert 5000.0 * aspect**3 == pytest.approx(expected.gamma0, rel=1e-12)
+    geometry = hinge_geometry(tagged, Hinge("hinge", "left", "right"))
+    assert geometry.width == pytest.approx(W, rel=1e-12)
+    assert geometry.length == pytest.approx(1.0, rel=1e-12)
+    assert (geometry.across, geometry.along) == (4, 2)
 
 
 def test_heating_folds_and_cooling_unfolds():
-    model = thermal_strip(MPI.COMM_SELF, flow_steps=40)
-    records = model.run(4.0)
-    folds = [r.figures["hinge"] for r in records]
+    _, driver = thermal_strip(MPI.COMM_SELF, flow_steps=40)
+    result = driver.run()
+    records = result.history
+    folds = [r.figures["angle_hinge"] for r in records]
+    assert result.converged and driver.finished and driver.time == pytest.approx(4.0)
     assert [r.source for r in records] == [5.0, 5.0, -5.0, -5.0]
     assert folds[0] > 0 and folds[1] > folds[0]  # folds while heated (towards −ν) ...
     assert folds[3] < folds[2] < folds[1]  # ... and unfolds while cooled
     assert all(r.theta_max - r.theta_min < 5.0 for r in records)
+    assert [r.step for r in records] == [1, 2, 3, 4] and "hold" not in records[0].line()
+    driver.destroy()
+
+
+class Recorder:
+    """An observer that keeps what it is told."""
+
+    def __init__(self):
+        self.records, self.results = [], []
+
+    def step(self, driver, record):
+        self.records.append(record)
+
+    def finish(self, driver, result):
+        self.results.append(result)
+
+
+def test_holds_observers_summary_and_figures():
+    """Holds at the switch and the end: records, observers, summary and the model's figures."""
+    model, driver = thermal_strip(
+        MPI.COMM_SELF, flow_steps=3, end_time=3.0, holds=[2.0, 3.0], hold_steps=4, hold_tau=0.1
+    )
+    recorder = Recorder()
+    driver.observers.append(recorder)
+    result = driver.run(max_steps=3)  # heat, heat, hold at the switch
+    assert not result.converged and "budget" in result.reason and result.steps == 3
+    assert [r.hold for r in recorder.records] == [False, False, True]
+    assert driver.flow.tau == 0.05  # the hold's τ is put back
+    result = driver.run()
+    assert [r.hold for r in result.history] == [False, True] and driver.finished
+    assert recorder.results[-1] is result and len(driver.records) == 5
+    assert result.converged is all(r.flow_converged for r in driver.records if r.hold)
+    summary = driver.summary()
+    assert summary["heat_steps"] == 3 and summary["holds"] == 2
+    assert summary["steps"] == sum(r.flow_steps for r in driver.records)
+    figures = model.figures(driver)
+    assert (
+        figures["hinge_angles_deg_at_switch"]["hinge"] == driver.records[2].figures["angle_hinge"]
+    )
+    assert set(figures["hinge_angles_deg_final"]) == {"hinge"}
+    assert figures["anchor_energy_final"] >= 0 and "energy_at_switch" in figures
+    assert "hold" in driver.records[2].line()
+    driver.destroy()
+
+
+def test_checkpoint_and_restore_continue_exactly(tmp_path):
+    """Stopped after a hold, saved, restored into a new driver and run on: the same final
+    state and the same records as an uninterrupted run."""
+    more = {"end_time": 3.0, "holds": [2.0], "hold_steps": 6}
+    _, reference = thermal_strip(MPI.COMM_SELF, **more)
+    expected = reference.run()
+    _, first = thermal_strip(MPI.COMM_SELF, **more)
+    first.run(max_steps=3)
+    checkpoint.save(tmp_path, MPI.COMM_SELF, first.checkpoint_fields(), first.checkpoint_state())
+    _, second = thermal_strip(MPI.COMM_SELF, **more)
+    found = checkpoint.load(tmp_path, MPI.COMM_SELF)
+    found.restore(second.checkpoint_fields())
+    second.restore_state(found.state)
+    assert second.time == pytest.approx(2.0) and second.holds_done == 1
+    result = second.run()
+    assert result.converged == expected.converged and result.steps == 1
+    assert [r.step for r in second.records] == [r.step for r in reference.records]
+    assert isinstance(second.records[0], HeatStepRecord)
+    assert second.summary()["energy"] == pytest.approx(
+        reference.summary()["energy"], rel=1e-12, abs=0
+    )
+    for driver in (reference, first, second):
+        driver.destroy()
+
+
+def test_thermal_problem_section():
+    spec = model_spec(strip_spec().__dict__ | {"name": "thermal"})
+    assert isinstance(spec, ThermalSpec) and MODELS["thermal"].spec is ThermalSpec
+    text = describe(ThermalSpec, "model")
+    for key in ("alpha", "hinges", "holds", "closure", "source", "penalty_aspect"):
+        assert f"\n{key} = " in text
+    with pytest.raises(InputError, match=r"model.alpha = 'calibrate' needs model.hinges"):
+        ThermalSpec(alpha="calibrate")
+    with pytest.raises(InputError, match=r"model.holds must increase strictly"):
+        ThermalSpec(holds=[0.5, 0.5])
+    with pytest.raises(InputError, match=r"model.holds must lie in \[0, end_time = 1\]"):
+        ThermalSpec(holds=[2.0])
+    with pytest.raises(InputError, match=r"model.source: .*increase strictly"):
+        ThermalSpec(source=[[1.0, 5.0], [0.5, 0.0]])
+    with pytest.raises(InputError, match=r"model.hinges.h must be \[inner panel, outer panel\]"):
+        ThermalSpec(hinges={"h": ["a"]})
+    with pytest.raises(InputError, match=r"model.closure must be a table \{edge, panel, target\}"):
+        ThermalSpec(closure={"edge": "e"})
+    with pytest.raises(InputError, match=r"model.penalty_aspect must be"):
+        ThermalSpec(penalty_aspect="thin")
 
 
 def test_bad_thermal_input():
     tagged = hinge_strip(MPI.COMM_SELF, W, 2, 2)
-    heat = HeatSolver(tagged, 1.0, 1.0)
     flow = FlowSpec(tau=0.1)
     with pytest.raises(InputError, match="flow_steps must be an integer >= 1"):
-        ThermalSettings(flow_steps=0)
+        ThermalSpec(flow_steps=0)
     with pytest.raises(InputError, match=r"unknown cell group 'hinges'"):
-        ThermalBilayer(tagged, heat, flow, ThermalSettings(alpha={"hinges": 1.0}))
-    with pytest.raises(InputError, match=r"thermal.mu.right must be a number > 0"):
-        ThermalBilayer(tagged, heat, flow, ThermalSettings(mu={"left": 1, "hinge": 1, "right": 0}))
+        build_thermal(ThermalSpec(alpha={"hinges": 1.0}), tagged)
+    with pytest.raises(InputError, match=r"model.mu.right must be a number > 0"):
+        ThermalSpec(mu={"left": 1, "hinge": 1, "right": 0})
+    with pytest.raises(InputError, match=r"unknown facet group 'tips'"):
+        build_thermal(ThermalSpec(edges={"tips": "left"}), tagged)
+    with pytest.raises(
+        InputError, match=r"l2_metric = false needs clamped facets or model\.anchor"
+    ):
+        build_thermal(ThermalSpec(), tagged).driver(FlowSpec(tau=0.1, l2_metric=False), [], None)
+    model = build_thermal(ThermalSpec(), tagged)
     other = HeatSolver(hinge_strip(MPI.COMM_SELF, W, 2, 2), 1.0, 1.0)
     with pytest.raises(InputError, match="same mesh"):
-        ThermalBilayer(tagged, other, flow, ThermalSettings())
+        ThermalBilayer(model.facets, 2, model._energy(), other, flow, Schedule(1.0))
 
 
 @pytest.mark.mpi
@@ -164,12 +290,100 @@ def test_same_folding_on_any_number_of_ranks():
     and all ranks (PARITY_RTOL relative, 1e−8 rad)."""
     results = []
     for comm in (MPI.COMM_SELF, MPI.COMM_WORLD):
-        model = thermal_strip(comm)
-        records = model.run(2.0)
-        results.append((records[-1].energy, records[-1].figures["hinge"], model.flow.step_count))
-        model.destroy()
+        _, driver = thermal_strip(comm, end_time=2.0)
+        records = driver.run().history
+        angle = math.radians(records[-1].figures["angle_hinge"])
+        results.append((records[-1].energy, angle, driver.flow.step_count))
+        driver.destroy()
     (e1, a1, s1), (e2, a2, s2) = results
     assert s1 == s2 == 10
     assert e2 == pytest.approx(e1, rel=PARITY_RTOL, abs=0)
     assert abs(a2 - a1) <= 1e-8
     assert a1 > 0.05
+
+
+@pytest.mark.mpi
+def test_box_figures_on_any_number_of_ranks():
+    """The box net's model, one heat step of three flow steps: hinge geometry, calibration-free
+    figures (angles, closure gap, edge placement, anchor energy) and the drawn edge agree
+    between one rank and all ranks."""
+    faces = ["north", "south", "east", "west"]
+    spec = ThermalSpec(
+        mu={**dict.fromkeys(["base", *faces, "lid"], 20.0), **{f"hinge_{f}": 1.0 for f in faces}}
+        | {"hinge_lid": 1.0},
+        alpha={f"hinge_{f}": 0.6 for f in [*faces, "lid"]},
+        hinges={**{f"hinge_{f}": ["base", f] for f in faces}, "hinge_lid": ["north", "lid"]},
+        anchor="base",
+        penalty_aspect="mesh",
+        kappa=5.0,
+        source=[[0.0, 5.0]],
+        source_regions=["base"],
+        heat_step=2.0,
+        end_time=2.0,
+        flow_steps=3,
+        closure={"edge": "lid_edge", "panel": "base", "target": ["x", 0.0, "-7/6"]},
+        edges={"lid_edge": "base"},
+    )
+    results = []
+    for comm in (MPI.COMM_SELF, MPI.COMM_WORLD):
+        tagged = load_geo(comm, "box_net", {"n": 2, "m": 2})
+        geometry = hinge_geometry(tagged, Hinge("hinge_lid", "north", "lid"))
+        model = build_thermal(spec, tagged)
+        driver = model.driver(FlowSpec(**STRIP_FLOW), [], None)
+        driver.run()
+        figures = model.figures(driver)
+        lines = model.lines(driver)
+        results.append((geometry, figures, lines))
+        driver.destroy()
+    (g1, f1, l1), (g2, f2, l2) = results
+    assert g1 == g2 and (g1.across, g1.along) == (2, 2)
+    for key in ("closure_gap_final", "lid_edge_height_final", "lid_edge_distance_final"):
+        assert f2[key] == pytest.approx(f1[key], rel=PARITY_RTOL, abs=1e-12), key
+    for name, angle in f1["hinge_angles_deg_final"].items():
+        assert abs(f2["hinge_angles_deg_final"][name] - angle) <= 1e-6, name
+    assert f1["hinge_angles_deg_final"]["hinge_north"] > 0.5  # folding has begun
+    if MPI.COMM_WORLD.rank == 0:
+        # the lid's edge: two facets, three Q2 nodes each, in any order of the ranks
+        assert len(l1) == len(l2) == 2 and all(line.shape == (3, 3) for line in l1 + l2)
+        l1, l2 = (sorted(lines, key=lambda line: float(line[:, 0].sum())) for lines in (l1, l2))
+        assert all(np.allclose(a, b, rtol=0, atol=1e-8) for a, b in zip(l1, l2))
+
+
+class Interrupter:
+    """Sets the interrupt flag as a signal handler would, after flow step ``at`` (an
+    observer of the driver's inner flow)."""
+
+    def __init__(self, at: int):
+        self.at = at
+
+    def step(self, flow, info):
+        if info.step == self.at:
+            interrupt._received = signal.SIGTERM
+
+    def finish(self, flow, result):
+        pass
+
+
+@pytest.mark.parametrize("at", [2, 3])
+def test_a_signal_stops_at_a_step_boundary(at):
+    """SIGTERM in the relaxation after a heat step (flow step 2) stops the run after that
+    heat step; during the hold (flow step 3) the hold stops, is not counted and is done again
+    by the next run."""
+    _, driver = thermal_strip(MPI.COMM_SELF, flow_steps=2, end_time=2.0, holds=[1.0], hold_steps=20)
+    recorder = Recorder()
+    driver.observers.append(recorder)
+    driver.flow.observers.append(Interrupter(at))
+    try:
+        with interrupt.StopOnSignal():
+            result = driver.run()
+    finally:
+        interrupt._received = 0
+    assert result.interrupted == signal.SIGTERM and result.reason == "interrupted (SIGTERM)"
+    assert not result.converged and recorder.results == [result]
+    assert len(driver.records) == 1 and driver.holds_done == 0  # an interrupted hold: undone
+    assert driver.flow.step_count == at and len(recorder.records) == 1
+    driver.flow.observers.clear()
+    result = driver.run()
+    assert driver.finished and [r.hold for r in driver.records] == [False, True, False]
+    assert [r.step for r in driver.records] == [1, 2, 3] and result.steps == 2
+    driver.destroy()

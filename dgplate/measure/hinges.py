@@ -19,7 +19,7 @@ every rank (integrals are summed over owned cells).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 from mpi4py import MPI
@@ -29,6 +29,7 @@ import dolfinx.mesh
 import numpy as np
 import ufl
 
+from dgplate.compat import geometry_dofmap
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
 
@@ -158,6 +159,32 @@ class RegionFrame:
         return (np.asarray(points) - c) @ Q + c_ref
 
 
+def _facet_nodes(
+    space: dolfinx.fem.FunctionSpace, tagged: TaggedMesh, group: str
+) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """For each facet of ``group`` and each owned cell beside it: the cell's dofs on the facet
+    and their positions along it (0 at one vertex, 1 at the other)."""
+    mesh = space.mesh
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    f2c = mesh.topology.connectivity(tdim - 1, tdim)
+    num_owned = mesh.topology.index_map(tdim).size_local
+    coords = space.tabulate_dof_coordinates()
+    facets = tagged.facets(group)
+    nodes = dolfinx.mesh.entities_to_geometry(mesh, tdim - 1, facets.astype(np.int32))
+    for facet, facet_nodes in zip(facets, nodes):
+        a, b = mesh.geometry.x[facet_nodes[:2]]  # the two vertices come first
+        length = np.linalg.norm(b - a)
+        for cell in f2c.links(facet):
+            if cell >= num_owned:
+                continue
+            cell_dofs = space.dofmap.cell_dofs(cell)
+            p = coords[cell_dofs]
+            s = np.clip((p - a) @ (b - a) / length**2, 0.0, 1.0)
+            on = np.linalg.norm(p - (a + np.outer(s, b - a)), axis=1) < 1e-8 * length
+            yield cell_dofs[on], s[on]
+
+
 def edge_nodes(
     y: dolfinx.fem.Function, tagged: TaggedMesh, group: str
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -168,29 +195,118 @@ def edge_nodes(
     the group appear once per cell.
     """
     space = y.function_space
-    mesh = space.mesh
-    tdim = mesh.topology.dim
-    mesh.topology.create_connectivity(tdim - 1, tdim)
-    f2c = mesh.topology.connectivity(tdim - 1, tdim)
-    num_owned = mesh.topology.index_map(tdim).size_local
-    coords = space.tabulate_dof_coordinates()
-    facets = tagged.facets(group)
-    nodes = dolfinx.mesh.entities_to_geometry(mesh, tdim - 1, facets.astype(np.int32))
-    dofs = []
-    for facet, facet_nodes in zip(facets, nodes):
-        a, b = mesh.geometry.x[facet_nodes[:2]]  # the two vertices come first
-        length = np.linalg.norm(b - a)
-        for cell in f2c.links(facet):
-            if cell >= num_owned:
-                continue
-            cell_dofs = space.dofmap.cell_dofs(cell)
-            p = coords[cell_dofs]
-            s = np.clip((p - a) @ (b - a) / length**2, 0.0, 1.0)
-            dist = np.linalg.norm(p - (a + np.outer(s, b - a)), axis=1)
-            dofs.extend(cell_dofs[dist < 1e-8 * length].tolist())
-    dofs = np.asarray(dofs, dtype=np.int64)
+    found = [dofs for dofs, _ in _facet_nodes(space, tagged, group)]
+    dofs = np.concatenate(found).astype(np.int64) if found else np.zeros(0, np.int64)
     values = y.x.array.real.reshape(-1, 3)
-    return coords[dofs], values[dofs]
+    return space.tabulate_dof_coordinates()[dofs], values[dofs]
+
+
+def edge_segments(y: dolfinx.fem.Function, tagged: TaggedMesh, group: str) -> list[np.ndarray]:
+    """The deformed facets of a facet group as polylines (one N×3 array of y's nodes per facet
+    and owned cell beside it, in order along the facet; local: gather them yourself)."""
+    values = y.x.array.real.reshape(-1, 3)
+    return [
+        values[dofs[np.argsort(s)]] for dofs, s in _facet_nodes(y.function_space, tagged, group)
+    ]
+
+
+@dataclass(frozen=True)
+class HingeGeometry:
+    """A hinge strip's extent across (``width``, from the inner to the outer face) and along
+    (``length``), and its cells: ``across`` × ``along`` (a structured strip)."""
+
+    width: float
+    length: float
+    across: int
+    along: int
+
+
+def hinge_geometry(tagged: TaggedMesh, hinge: Hinge) -> HingeGeometry:
+    """Measure a hinge strip on the mesh (collective).
+
+    The direction across is that from the inner face's centroid to the outer one's; width and
+    length are the extents of the hinge's vertices across and along, and the cell counts are
+    those extents over the smallest cell extent in each direction (a structured strip).
+    """
+    mesh = tagged.mesh
+    comm = mesh.comm
+    integrals = RegionIntegrals(tagged)
+    x = ufl.SpatialCoordinate(mesh)
+    centroids = []
+    for region in (hinge.inner, hinge.outer):
+        area, cx, cy = integrals([ufl.as_ufl(1.0), x[0], x[1]], region)
+        centroids.append(np.array([cx, cy]) / area)
+    d = centroids[1] - centroids[0]
+    if not np.linalg.norm(d) > 0:
+        raise InputError(f"hinge {hinge.name}: faces {hinge.inner} and {hinge.outer} coincide")
+    d /= np.linalg.norm(d)
+    directions = np.column_stack([d, [-d[1], d[0]]])  # across, along
+    owned = tagged.cells(hinge.name)
+    owned = owned[owned < mesh.topology.index_map(mesh.topology.dim).size_local]
+    corners = mesh.geometry.x[geometry_dofmap(mesh)[owned]][:, :, :2] @ directions
+    none = np.full((1, 1, 2), np.nan)  # a rank without hinge cells: ignored by fmin/fmax
+    corners = corners if owned.size else none
+    local = np.concatenate(
+        [-corners.min(axis=(0, 1)), corners.max(axis=(0, 1)), -np.ptp(corners, axis=1).min(0)]
+    )
+    lo_hi = np.empty(6)
+    comm.Allreduce(np.nan_to_num(local, nan=-np.inf), lo_hi, op=MPI.MAX)
+    extent = lo_hi[2:4] + lo_hi[0:2]
+    cell = -lo_hi[4:6]
+    counts = [max(1, round(float(e / c))) for e, c in zip(extent, cell)]
+    return HingeGeometry(float(extent[0]), float(extent[1]), counts[0], counts[1])
+
+
+class ClosureGap:
+    """How far the nodes of a facet group are from where they should be, in a panel's frame.
+
+    ``target(ref)`` maps the nodes' reference positions (N×3) to their target positions (N×3)
+    in the reference frame of the cell group ``panel`` (:class:`RegionFrame`); calling the
+    object returns the largest distance of a node from its target (collective).
+    """
+
+    def __init__(
+        self,
+        y: dolfinx.fem.Function,
+        tagged: TaggedMesh,
+        edge: str,
+        panel: str,
+        target: Callable[[np.ndarray], np.ndarray],
+    ):
+        tagged.facets(edge)  # an unknown group is an InputError now
+        self.y, self.tagged, self.edge, self.target = y, tagged, edge, target
+        self.frame = RegionFrame(y, tagged, panel)
+
+    def __call__(self) -> float:
+        ref, pos = edge_nodes(self.y, self.tagged, self.edge)
+        local = self.frame.to_reference(pos)
+        gap = np.linalg.norm(local - self.target(ref), axis=1).max(initial=0.0)
+        return float(self.y.function_space.mesh.comm.allreduce(float(gap), op=MPI.MAX))
+
+
+class EdgePlacement:
+    """Where the nodes of a facet group are, seen from a panel (e.g. the flaps' tips).
+
+    Calling the object returns the nodes' mean height above the panel's plane (positive on
+    the side of its normal) and their mean distance, in that plane, from the panel's
+    reference centroid, both in the panel's frame (:class:`RegionFrame`; collective).
+    """
+
+    def __init__(self, y: dolfinx.fem.Function, tagged: TaggedMesh, edge: str, panel: str):
+        tagged.facets(edge)  # an unknown group is an InputError now
+        self.y, self.tagged, self.edge = y, tagged, edge
+        self.frame = RegionFrame(y, tagged, panel)
+
+    def __call__(self) -> tuple[float, float]:
+        _, pos = edge_nodes(self.y, self.tagged, self.edge)
+        c, Q, c_ref = self.frame()
+        local = (pos - c) @ Q + c_ref
+        comm = self.y.function_space.mesh.comm
+        count = comm.allreduce(len(local), op=MPI.SUM)
+        height = comm.allreduce(float(np.sum(local[:, 2])), op=MPI.SUM)
+        radial = np.linalg.norm(local[:, :2] - c_ref[:2], axis=1)
+        distance = comm.allreduce(float(np.sum(radial)), op=MPI.SUM)
+        return height / max(count, 1), distance / max(count, 1)
 
 
 def hinge_strip(comm: MPI.Comm, width: float = math.pi / 24, n: int = 4, m: int = 4) -> TaggedMesh:
@@ -229,4 +345,16 @@ def hinge_strip(comm: MPI.Comm, width: float = math.pi / 24, n: int = 4, m: int 
     return TaggedMesh(mesh, cell_tags, facet_tags, groups, f"hinge strip w={width:g} n={n} m={m}")
 
 
-__all__ = ["FoldAngles", "Hinge", "RegionFrame", "RegionIntegrals", "edge_nodes", "hinge_strip"]
+__all__ = [
+    "ClosureGap",
+    "EdgePlacement",
+    "FoldAngles",
+    "Hinge",
+    "HingeGeometry",
+    "RegionFrame",
+    "RegionIntegrals",
+    "edge_nodes",
+    "edge_segments",
+    "hinge_geometry",
+    "hinge_strip",
+]

@@ -1,4 +1,4 @@
-"""Heat-coupled thermal bilayer (docs/design.md §1, "Thermal bilayer").
+"""Heat-coupled thermal bilayer (docs/design.md §1, "Thermal bilayer"): ``model.name = "thermal"``.
 
 A bilayer whose layers expand differently with temperature θ has the spontaneous curvature
 
@@ -6,49 +6,69 @@ A bilayer whose layers expand differently with temperature θ has the spontaneou
 
 where α (per unit temperature) is the curvature the thermal strain mismatch produces and μ the
 bending rigidity. Both are piecewise constant over cell groups: soft bilayer hinges (μ = 1,
-α > 0) between stiff passive faces (μ = 20, α = 0). The faces need α = 0, not only a large μ:
-with Z on a face too, the face pays ½μ|II − Z|² = μ|Z|² flat but only ½μ|Z|² rolled to a
+α > 0) between stiff passive panels (μ = 20, α = 0). The panels need α = 0, not only a large μ:
+with Z on a panel too, the panel pays ½μ|II − Z|² = μ|Z|² flat but only ½μ|Z|² rolled to a
 cylinder of curvature |Z| (isometries can match one principal curvature), so any μ lets it
-roll. θ solves the heat equation of
-:mod:`dgplate.coupling.heat`; the coupling is quasi-static and one-way: after each heat time step the
-plate is relaxed by the constrained H² gradient flow of :mod:`dgplate.solvers.flow`, warm-started from
-the previous shape, until the flow's stopping rule ((E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < ``tol``) holds or
-the step budget ``flow_steps`` is spent. The compiled energy references the temperature
-Function, so a heat step changes Z without recompiling anything; the flow's constant matrix
-(metric + bending) does not depend on θ and is never reassembled.
+roll. θ solves the heat equation of :mod:`dgplate.coupling.heat`; the driver
+:class:`dgplate.coupling.thermal.ThermalBilayer` alternates heat steps and relaxations of the
+plate by the constrained gradient flow. The compiled energy references the temperature
+Function, so a heat step changes Z without recompiling anything.
 
 Rigid motions. A free net has none of its edges clamped; by default the flow then adds the L²
-product to its metric. ``anchor`` ties one face region to its reference placement by a weak
-spring ½k∫_anchor |y − (x, 0)|² (quadratic: part of the constant matrix). The anchored face
-stays flat and in place in every folded state, so the spring is (nearly) unloaded at
-equilibrium and biases no fold; it keeps positions in a fixed frame, and it makes the energy's
-Hessian definite on rigid motions, so the L² term may be left out (``l2_metric=False``), which
-lets far faces fold as fast as near ones (the L² metric weighs a face by its lever arm).
+product to its metric. ``anchor`` ties one panel to its reference placement by a weak spring
+½k∫_anchor |y − (x, 0)|² (quadratic: part of the constant matrix). The anchored panel stays
+flat and in place in every folded state, so the spring is (nearly) unloaded at equilibrium and
+biases no fold; it keeps positions in a fixed frame, and it makes the energy's Hessian definite
+on rigid motions, so the L² term may be left out (``flow.l2_metric = false``), which lets far
+panels fold as fast as near ones (the L² metric weighs a panel by its lever arm).
+
+This module holds the energy (pure UFL), the problem-file section :class:`ThermalSpec` and the
+model :class:`ThermalModel` that builds the driver (:func:`build_thermal`).
 """
 
 from __future__ import annotations
 
-import time
+import math
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from mpi4py import MPI
 
 import dolfinx.fem
 import numpy as np
 import ufl
 
-from dgplate.coupling.heat import HeatSolver
+from dgplate import expressions
+from dgplate.coupling.heat import HeatSolver, HeatSource
+from dgplate.coupling.thermal import Measure, Schedule, ThermalBilayer
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets, Penalty, facet_sets
 from dgplate.errors import InputError
-from dgplate.io.checkpoint import Checkpoint
+from dgplate.measure.analysis import curvature_summary
+from dgplate.measure.hinges import (
+    ClosureGap,
+    EdgePlacement,
+    FoldAngles,
+    Hinge,
+    RegionIntegrals,
+    edge_segments,
+    hinge_geometry,
+    hinge_strip,
+)
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import flat_identity, piecewise_constant
 from dgplate.models.bilayer import bilayer_energy
-from dgplate.solvers.flow import FlowResult, FlowSpec, GradientFlow
+from dgplate.schema import option
+from dgplate.solvers.driver import Observer
+from dgplate.solvers.flow import FlowSpec
 from dgplate.values import constant
 
+Initial = Callable[[np.ndarray], np.ndarray]
 
-def region_coefficient(tagged: TaggedMesh, values, key: str, default: float = 0.0):
+
+# -- the energy --------------------------------------------------------------------------------
+def region_coefficient(tagged: TaggedMesh, values: Any, key: str, default: float = 0.0) -> Any:
     """A coefficient that may vanish: a number (everywhere, a Constant), or {cell group: number}
     with ``default`` on the cells of no listed group (a DG0 field). Unlike μ it may be 0 or < 0.
     """
@@ -62,13 +82,13 @@ def region_coefficient(tagged: TaggedMesh, values, key: str, default: float = 0.
     return tagged.group_function(values, default=default, key=key)
 
 
-def thermal_curvature(theta, alpha):
+def thermal_curvature(theta: Any, alpha: Any) -> Any:
     """Z = −α θ I₂ (a UFL 2×2 expression; θ a Function, α a number or a DG0 field)."""
     return -alpha * theta * ufl.Identity(2)
 
 
-def anchor_energy(y, tagged: TaggedMesh, region: str, stiffness: float):
-    """½k∫_region |y − (x₁, x₂, 0)|²: a weak spring holding a face in its reference place."""
+def anchor_energy(y: Any, tagged: TaggedMesh, region: str, stiffness: float) -> ufl.Form:
+    """½k∫_region |y − (x₁, x₂, 0)|²: a weak spring holding a panel in its reference place."""
     if not stiffness > 0:
         raise InputError(f"anchor stiffness must be > 0, got {stiffness!r}")
     mesh = tagged.mesh
@@ -77,229 +97,28 @@ def anchor_energy(y, tagged: TaggedMesh, region: str, stiffness: float):
     indicator = tagged.group_function({region: 1.0}, default=0.0, key="anchor")
     g, _ = flat_identity(mesh)
     k = constant(mesh, stiffness)
-    return 0.5 * k * indicator * ufl.inner(y - g, y - g) * ufl.dx(domain=mesh)
+    form: ufl.Form = 0.5 * k * indicator * ufl.inner(y - g, y - g) * ufl.dx(domain=mesh)
+    return form
 
 
 def thermal_energy(
-    y,
-    faces: FacetSets,
+    y: Any,
+    facets: FacetSets,
     penalty: Penalty,
-    theta,
-    alpha,
-    mu=None,
+    theta: Any,
+    alpha: Any,
+    mu: Any = None,
     degree: int | None = None,
-    anchor=None,
+    anchor: ufl.Form | None = None,
 ) -> Energy:
-    """The bilayer energy with Z = −αθI (flat clamped data where faces are clamped), plus an
-    optional anchor term (``anchor`` a UFL form from :func:`anchor_energy`, implicit).
-    """
-    g, Phi = flat_identity(faces.mesh)
+    """The bilayer energy with Z = −αθI (flat clamped data where facets are clamped), plus an
+    optional anchor term (``anchor`` a UFL form from :func:`anchor_energy`, implicit)."""
+    g, Phi = flat_identity(facets.mesh)
     Z = thermal_curvature(theta, alpha)
-    energy = bilayer_energy(y, faces, penalty, Z, mu, None, g, Phi, True, degree)
+    energy = bilayer_energy(y, facets, penalty, Z, mu, None, g, Phi, True, degree)
     if anchor is not None:
         energy.implicit = energy.implicit + anchor
     return energy
-
-
-@dataclass
-class ThermalSettings:
-    """Parameters of the heat-coupled bilayer.
-
-    alpha: thermal curvature coefficient, Z = −αθI: a number (everywhere) or {group: α}
-      (0 on unlisted groups: passive single-layer faces). mu: bending rigidity, a number or
-      {group: μ} (every cell needs a value). flow_steps: step budget of the gradient flow
-      after each heat step (it stops earlier when the flow's tolerance is met).
-      anchor / anchor_stiffness: a face region held by a weak spring (None: no spring).
-      clamped: facet groups with flat clamped data (Nitsche), usually none.
-    """
-
-    alpha: float | dict = 1.0
-    mu: float | dict = 1.0
-    flow_steps: int = 40
-    degree: int = 2
-    penalty: Penalty = field(default_factory=Penalty)
-    anchor: str | None = None
-    anchor_stiffness: float = 1000.0
-    clamped: Sequence[str] = ()
-
-    def __post_init__(self) -> None:
-        if not (isinstance(self.flow_steps, int) and self.flow_steps >= 1):
-            raise InputError(f"flow_steps must be an integer >= 1, got {self.flow_steps!r}")
-        if self.degree < 2:
-            raise InputError(f"degree must be >= 2 for the H² dG method, got {self.degree}")
-
-
-@dataclass
-class HeatStepRecord:
-    """What one heat step did: one row of the demo's history.csv."""
-
-    step: int
-    time: float
-    source: float  # the scheduled source's mean over the last heat step
-    theta_min: float
-    theta_max: float
-    theta_mean: float
-    flow_steps: int
-    flow_converged: bool
-    energy: float
-    defect: float
-    seconds: float
-    hold: bool = False  # a relaxation at fixed θ (no heat step), e.g. at the switch
-    figures: dict = field(default_factory=dict)
-
-    def row(self) -> dict:
-        out = {k: v for k, v in self.__dict__.items() if k != "figures"}
-        out.update(self.figures)
-        return out
-
-
-class ThermalBilayer:
-    """Heat steps, each followed by a warm-started relaxation of the plate.
-
-    ``measure(self) -> dict`` adds figures (e.g. hinge angles) to every record; ``observers``
-    go to the gradient flow (per flow step). Collective on the mesh communicator.
-    """
-
-    def __init__(
-        self,
-        tagged: TaggedMesh,
-        heat: HeatSolver,
-        flow_settings: FlowSpec,
-        settings: ThermalSettings,
-        measure: Callable[[ThermalBilayer], dict] | None = None,
-        observers: Sequence = (),
-    ):
-        if heat.mesh is not tagged.mesh:
-            raise InputError("the heat solver and the plate must live on the same mesh")
-        self.tagged, self.heat, self.settings, self.measure = tagged, heat, settings, measure
-        self.faces = facet_sets(tagged, clamped=list(settings.clamped))
-        self.alpha = region_coefficient(tagged, settings.alpha, "thermal.alpha")
-        self.mu = piecewise_constant(tagged, settings.mu, "thermal.mu")
-        degree = 3 * settings.degree + 2
-
-        def energy_fn(y) -> Energy:
-            anchor = None
-            if settings.anchor is not None:
-                anchor = anchor_energy(y, tagged, settings.anchor, settings.anchor_stiffness)
-            return thermal_energy(
-                y, self.faces, settings.penalty, heat.theta, self.alpha, self.mu, degree, anchor
-            )
-
-        self.flow = GradientFlow(self.faces, settings.degree, energy_fn, flow_settings, observers)
-        self.records: list[HeatStepRecord] = []
-        self.last_result: FlowResult | None = None
-
-    @property
-    def y(self) -> dolfinx.fem.Function:
-        return self.flow.y
-
-    @property
-    def theta(self) -> dolfinx.fem.Function:
-        return self.heat.theta
-
-    @property
-    def time(self) -> float:
-        return self.heat.time
-
-    def relax(self, max_steps: int | None = None) -> FlowResult:
-        """Run the flow for the current θ (warm start), at most ``max_steps`` steps."""
-        self.flow.rebase_energy()  # θ changed Z, hence the energy
-        self.last_result = self.flow.run(max_steps=max_steps or self.settings.flow_steps)
-        return self.last_result
-
-    def advance(self, max_steps: int | None = None) -> HeatStepRecord:
-        """One heat step, then relax the plate; returns (and stores) the record."""
-        t0 = time.perf_counter()
-        self.heat.step()
-        result = self.relax(max_steps)
-        return self._record(result, time.perf_counter() - t0)
-
-    def hold(self, max_steps: int, tau: float | None = None) -> HeatStepRecord:
-        """Relax at the current temperature without a heat step (e.g. at the switch, to the
-        flow's tolerance), optionally with another τ (restored afterwards: each change
-        reassembles the flow's constant matrix once); returns (and stores) the record, with
-        the time of the last heat step.
-        """
-        t0 = time.perf_counter()
-        previous = self.flow.tau
-        if tau is not None and tau != previous:
-            self.flow.tau = tau
-        try:
-            result = self.relax(max_steps)
-        finally:
-            if self.flow.tau != previous:
-                self.flow.tau = previous
-        return self._record(result, time.perf_counter() - t0, hold=True)
-
-    def _record(self, result: FlowResult, seconds: float, hold: bool = False) -> HeatStepRecord:
-        lo, hi = self.heat.min_max()
-        record = HeatStepRecord(
-            step=self.heat.steps,
-            time=self.heat.time,
-            source=self.heat.last_source,
-            theta_min=lo,
-            theta_max=hi,
-            theta_mean=self.heat.mean(),
-            flow_steps=result.steps,
-            flow_converged=result.converged,
-            energy=result.energy,
-            defect=result.defect,
-            seconds=seconds,
-            hold=hold,
-            figures=self.measure(self) if self.measure else {},
-        )
-        self.records.append(record)
-        return record
-
-    def run(
-        self,
-        t_end: float,
-        callback: Callable[[ThermalBilayer, HeatStepRecord], None] | None = None,
-    ) -> list[HeatStepRecord]:
-        """Heat steps until ``t_end``; ``callback(self, record)`` after each.
-
-        Stops early when the flow was interrupted (SIGINT/SIGTERM, see :attr:`interrupted`).
-        """
-        out = []
-        while self.heat.time < t_end - 1e-9 * self.heat.dt and not self.interrupted:
-            record = self.advance()
-            out.append(record)
-            if callback is not None:
-                callback(self, record)
-        return out
-
-    @property
-    def interrupted(self) -> int:
-        """The signal that stopped the last relaxation (0: none)."""
-        return self.last_result.interrupted if self.last_result is not None else 0
-
-    def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function]:
-        """The plate's and the heat equation's state (see :mod:`dgplate.io.checkpoint`)."""
-        return {**self.flow.checkpoint_fields(), "theta": self.heat.theta}
-
-    def checkpoint_state(self) -> dict:
-        """The counters and the records so far."""
-        return {
-            "step": self.heat.steps,
-            "flow": self.flow.checkpoint_state(),
-            "heat": self.heat.checkpoint_state(),
-            "records": [asdict(r) for r in self.records],
-        }
-
-    def restore(self, found: Checkpoint) -> None:
-        """Continue from a checkpoint written from :meth:`checkpoint_fields` and ``_state``."""
-        found.restore(self.checkpoint_fields())
-        self.flow.restore_state(found.state["flow"])
-        self.heat.restore_state(found.state["heat"])
-        self.records = [HeatStepRecord(**r) for r in found.state["records"]]
-
-    def energy_parts(self) -> dict[str, float]:
-        """Total energy and isometry defect of the current shape."""
-        return {"energy": self.flow.evaluate_energy(), "isometry_defect": self.flow.defect()}
-
-    def destroy(self) -> None:
-        self.flow.destroy()
-        self.heat.destroy()
 
 
 def hinge_penalty(width: float, n: int, m: int, base: Penalty | None = None) -> Penalty:
@@ -310,15 +129,32 @@ def hinge_penalty(width: float, n: int, m: int, base: Penalty | None = None) -> 
     (aspect)³ too weak and the coupling term −∫[y]·{div T·n} (which rewards value jumps
     linearly) makes the discrete hinge fold far too much (108° instead of 90° on a strip with
     m = 8, n = 4). Scaling γ₀ by A³ and γ₁ by A, A = (1/n)/(w/m), restores the penalties a
-    face-normal h_e would give. On the square faces this only stiffens the jumps more.
+    facet-normal h_e would give. On the square panels this only stiffens the jumps more.
     """
+    return aspect_penalty(max(1.0, (1.0 / n) / (width / m)), base)
+
+
+def aspect_penalty(aspect: float, base: Penalty | None = None) -> Penalty:
+    """γ₀ scaled by A³ and γ₁ by A (see :func:`hinge_penalty`)."""
     base = base or Penalty()
-    aspect = max(1.0, (1.0 / n) / (width / m))
     return replace(base, gamma0=base.gamma0 * aspect**3, gamma1=base.gamma1 * aspect)
 
 
+def cell_aspect_ratio(tagged: TaggedMesh) -> float:
+    """The largest ratio of a cell's longest to its shortest edge (collective)."""
+    mesh = tagged.mesh
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim, 1)
+    owned = mesh.topology.index_map(tdim).size_local
+    edges = mesh.topology.connectivity(tdim, 1)
+    cell_edges = edges.array[: edges.offsets[owned]].reshape(owned, -1)  # one cell type
+    lengths = mesh.h(1, cell_edges.reshape(-1).astype(np.int32)).reshape(owned, -1)
+    ratio = float((lengths.max(axis=1) / lengths.min(axis=1)).max(initial=1.0))
+    return float(mesh.comm.allreduce(ratio, op=MPI.MAX))
+
+
 def calibrate_alpha(
-    comm,
+    comm: MPI.Comm,
     width: float,
     n: int,
     m: int,
@@ -328,33 +164,35 @@ def calibrate_alpha(
     mu_face: float = 20.0,
     target: float = np.pi / 2,
     max_steps: int = 2000,
-) -> tuple[float, dict]:
+    penalty: Penalty | None = None,
+) -> tuple[float, dict[str, Any]]:
     """The coupling α at which one discrete hinge of this mesh folds by ``target`` at θ.
 
     c·w = target gives α_cw = target / (w θ) (a hinge of width w bent to curvature c = αθ
-    turns by c·w). The discrete hinge (m cells across, n along, between two stiff squares,
-    one anchored) folds a little less, an O(h) discretisation error of the curvature jump at
-    the hinge edges. This relaxes that strip at θ with α_cw and corrects α by one secant step
-    (the fold angle is linear in α): α = α_cw · target / φ_h. Returns α and the figures.
+    turns by c·w). The discrete hinge (m cells across, n along, between two stiff unit
+    squares, one anchored) folds a little less, an O(h) discretisation error of the curvature
+    jump at the hinge edges. This relaxes that strip at θ with α_cw and corrects α by one
+    secant step (the fold angle is linear in α): α = α_cw · target / φ_h. ``penalty`` defaults
+    to :func:`hinge_penalty`. Returns α and the figures of the calibration.
     """
-    from dgplate.measure.hinges import FoldAngles, Hinge, hinge_strip
-
     alpha_cw = target / (width * theta)
     tagged = hinge_strip(comm, width, n, m)
+    facets = facet_sets(tagged)
+    alpha = region_coefficient(tagged, {"hinge": alpha_cw}, "alpha")
+    mu = piecewise_constant(tagged, {"left": mu_face, "hinge": mu_hinge, "right": mu_face}, "mu")
+    penalty = penalty or hinge_penalty(width, n, m)
+
+    def energy(y: dolfinx.fem.Function, theta_: dolfinx.fem.Function) -> Energy:
+        anchor = anchor_energy(y, tagged, "left", 1000.0)
+        return thermal_energy(y, facets, penalty, theta_, alpha, mu, 8, anchor)
+
     heat = HeatSolver(tagged, 1.0, 1.0, None, theta0=theta)
-    settings = ThermalSettings(
-        alpha={"hinge": alpha_cw},
-        mu={"left": mu_face, "hinge": mu_hinge, "right": mu_face},
-        flow_steps=max_steps,
-        anchor="left",
-        penalty=hinge_penalty(width, n, m),
-    )
-    model = ThermalBilayer(tagged, heat, flow_settings, settings)
+    strip = ThermalBilayer(facets, 2, energy, heat, flow_settings, Schedule(1.0, max_steps))
     sense = -1 if alpha_cw * theta > 0 else 1  # Z = −αθI bends towards −ν when αθ > 0
-    angles = FoldAngles(model.y, tagged, [Hinge("hinge", "left", "right")], sense=sense)
-    result = model.relax(max_steps)
+    angles = FoldAngles(strip.y, tagged, [Hinge("hinge", "left", "right")], sense=sense)
+    result = strip.relax(max_steps)
     phi = angles()["hinge"]
-    model.destroy()
+    strip.destroy()
     info = {
         "alpha_cw": alpha_cw,
         "theta": theta,
@@ -366,20 +204,489 @@ def calibrate_alpha(
     return alpha_cw * target / phi, info
 
 
-def cell_group_mean(tagged: TaggedMesh, expr, region: str) -> float:
+def cell_group_mean(tagged: TaggedMesh, expr: Any, region: str) -> float:
     """Area-weighted mean of a scalar UFL expression over a cell group (collective)."""
-    from dgplate.measure.hinges import RegionIntegrals
-
     area, total = RegionIntegrals(tagged)([ufl.as_ufl(1.0), expr], region)
     return float(total / area) if area else float(np.nan)
 
 
+# -- the problem-file section --------------------------------------------------------------------
+def _number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _names(value: Any, key: str) -> list[str]:
+    if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
+        raise InputError(f"{key} must be a list of group names, got {value!r}")
+    return value
+
+
+def _check_table(table: dict[str, Any], key: str, positive: bool) -> None:
+    for name, value in table.items():
+        if not _number(value) or (positive and not value > 0):
+            what = "a number > 0" if positive else "a number"
+            raise InputError(f"{key}.{name} must be {what}, got {value!r}")
+
+
+def _check_penalty(penalty: dict[str, Any], aspect: float | str) -> None:
+    unknown = set(penalty) - {"gamma0", "gamma1", "gradient_power"}
+    if unknown:
+        raise InputError(
+            f"unknown key model.penalty.{sorted(unknown)[0]} (known: gamma0, gamma1, gradient_power)"
+        )
+    _check_table(penalty, "model.penalty", positive=True)
+    Penalty(**{k: float(v) for k, v in penalty.items()})  # the ranges
+    if isinstance(aspect, str) and aspect != "mesh":
+        raise InputError(f"model.penalty_aspect must be a number >= 1 or 'mesh', got {aspect!r}")
+    if not isinstance(aspect, str) and not aspect >= 1:
+        raise InputError(f"model.penalty_aspect must be >= 1, got {aspect!r}")
+
+
+def _check_hinges(hinges: dict[str, Any]) -> None:
+    for name, faces in hinges.items():
+        if not (
+            isinstance(faces, list) and len(faces) == 2 and all(isinstance(f, str) for f in faces)
+        ):
+            raise InputError(
+                f"model.hinges.{name} must be [inner panel, outer panel], got {faces!r}"
+            )
+
+
+def _check_closure(closure: dict[str, Any]) -> None:
+    if not closure:
+        return
+    if set(closure) != {"edge", "panel", "target"}:
+        raise InputError(
+            f"model.closure must be a table {{edge, panel, target}}, got keys {sorted(closure)}"
+        )
+    if not isinstance(closure["edge"], str) or not isinstance(closure["panel"], str):
+        raise InputError("model.closure.edge and model.closure.panel must be group names")
+    target = closure["target"]
+    if not isinstance(target, list) or len(target) != 3:
+        raise InputError(f"model.closure.target must be 3 numbers or formulas, got {target!r}")
+    expressions.check(target, "model.closure.target")
+
+
+def _check_alpha(spec: ThermalSpec) -> None:
+    if isinstance(spec.alpha, str):
+        if spec.alpha != "calibrate":
+            raise InputError(
+                f"model.alpha must be a number, a table or 'calibrate', got {spec.alpha!r}"
+            )
+        if not spec.hinges or not spec.holds:
+            raise InputError(
+                "model.alpha = 'calibrate' needs model.hinges (where α acts) and model.holds "
+                "(it calibrates at the hinges' temperature at the first hold)"
+            )
+        if not 0 < abs(spec.fold_angle) < 180:
+            raise InputError(f"model.fold_angle must be in (0°, 180°), got {spec.fold_angle!r}")
+    elif isinstance(spec.alpha, dict):
+        if not spec.alpha:
+            raise InputError("model.alpha must not be an empty table")
+        _check_table(spec.alpha, "model.alpha", positive=False)
+
+
+def _check_mu(mu: float | dict[str, Any]) -> None:
+    if isinstance(mu, dict):
+        if not mu:
+            raise InputError("model.mu must not be an empty table")
+        _check_table(mu, "model.mu", positive=True)
+    elif not mu > 0:
+        raise InputError(f"model.mu must be > 0, got {mu!r}")
+
+
+@dataclass
+class ThermalSpec:
+    """[model] of a heat-coupled thermal bilayer (``name = "thermal"``)."""
+
+    name: str = option("thermal", "the model")
+    degree: int = option(2, "polynomial degree k >= 2 of the DG space of y")
+    mu: float | dict[str, Any] = option(
+        1.0, "bending rigidity μ: a number or {cell group = value} (every panel and hinge)"
+    )
+    alpha: float | dict[str, Any] | str = option(
+        1.0,
+        "α in Z = −αθI (curvature per unit temperature): a number, {cell group = value} (0 on unlisted groups: passive panels), or 'calibrate': on the hinges, α such that one hinge strip with this mesh's hinge cells folds by fold_angle at the hinges' mean temperature at the first hold",
+    )
+    fold_angle: float = option(90.0, "alpha = 'calibrate': the target fold angle in degrees")
+    hinges: dict[str, Any] = option(
+        {},
+        "{hinge cell group = [inner panel, outer panel]}: fold angles per hinge in summary.json and history.csv (degrees, positive the way a heated hinge folds)",
+    )
+    anchor: str = option(
+        "", "a panel held in its reference place by a weak spring ½k∫|y − (x, y, 0)|² ('': none)"
+    )
+    anchor_stiffness: float = option(1000.0, "the anchor's spring constant k > 0")
+    clamped: list[str] = option([], "facet groups with flat clamped data (Nitsche); usually none")
+    penalty: dict[str, Any] = option(
+        {"gamma0": 5000.0, "gamma1": 1100.0},
+        "IP penalties γ₀ (h⁻³[y]) and γ₁ (h⁻ᵖ[∇y]), and gradient_power p (default 1)",
+    )
+    penalty_aspect: float | str = option(
+        1.0,
+        "thin cells: γ₀ scaled by A³ and γ₁ by A; a number A >= 1, or 'mesh': A = the largest ratio of a cell's longest to its shortest edge (hinge strips of thin cells)",
+    )
+    kappa: float = option(1.0, "heat diffusivity κ > 0 (θ_t − κΔθ = s, insulated edges)")
+    source: list[Any] = option(
+        [[0.0, 1.0]],
+        "heat source schedule [[t₀, s₀], [t₁, s₁], …]: s = sᵢ for tᵢ ≤ t < tᵢ₊₁ (0 before t₀)",
+    )
+    source_regions: list[str] = option([], "cell groups the source heats ([]: the whole plate)")
+    theta0: float = option(0.0, "initial temperature θ(0)")
+    heat_degree: int = option(1, "degree of the continuous Lagrange space of θ (1 or 2)")
+    heat_step: float = option(0.1, "heat time step Δt > 0 (implicit Euler)")
+    end_time: float = option(1.0, "final time")
+    flow_steps: int = option(
+        40, "flow step budget after each heat step (the flow stops earlier at flow.tol)"
+    )
+    holds: list[float] = option(
+        [],
+        "times at which the plate is relaxed at fixed θ before the next heat step, increasing, at most end_time (e.g. the source's switch and the end)",
+    )
+    hold_steps: int = option(300, "flow step budget of a hold")
+    hold_tau: float = option(0.0, "τ of the holds (0: the flow's τ)")
+    closure: dict[str, Any] = option(
+        {},
+        "{edge = facet group, panel = cell group, target = [3 numbers or formulas in x, y]}: closure_gap = the largest distance of the edge's nodes from target(x, y), in the panel's frame",
+    )
+    edges: dict[str, Any] = option(
+        {},
+        "{facet group = panel}: <group>_height and <group>_distance, the mean height above the panel and the mean in-plane distance from its centre of the group's nodes, in the panel's frame",
+    )
+
+    def __post_init__(self) -> None:
+        if self.degree < 2:
+            raise InputError(f"model.degree must be >= 2 for the H² dG method, got {self.degree}")
+        _check_mu(self.mu)
+        _check_alpha(self)
+        _check_hinges(self.hinges)
+        _check_penalty(self.penalty, self.penalty_aspect)
+        _check_closure(self.closure)
+        for key in ("clamped", "source_regions"):
+            _names(getattr(self, key), f"model.{key}")
+        for group, panel in self.edges.items():
+            if not isinstance(panel, str):
+                raise InputError(f"model.edges.{group} must be a panel name, got {panel!r}")
+        self._check_heat()
+
+    def _check_heat(self) -> None:
+        if self.heat_degree not in (1, 2):
+            raise InputError(f"model.heat_degree must be 1 or 2, got {self.heat_degree!r}")
+        for key in ("kappa", "heat_step", "anchor_stiffness"):
+            if not getattr(self, key) > 0:
+                raise InputError(f"model.{key} must be > 0, got {getattr(self, key)!r}")
+        if self.hold_tau < 0:
+            raise InputError(f"model.hold_tau must be >= 0 (0: the flow's τ), got {self.hold_tau}")
+        try:
+            self.heat_source()
+        except InputError as err:
+            raise InputError(f"model.source: {err}") from None
+        try:
+            self.schedule()
+        except InputError as err:
+            raise InputError(f"model.{err}") from None
+
+    def heat_source(self) -> HeatSource:
+        """The validated source schedule."""
+        if not isinstance(self.source, list) or not all(
+            isinstance(p, list) and len(p) == 2 for p in self.source
+        ):
+            raise InputError(f"source must be a list of [time, value] pairs, got {self.source!r}")
+        regions = tuple(self.source_regions) or None
+        return HeatSource(tuple((p[0], p[1]) for p in self.source), regions)
+
+    def schedule(self) -> Schedule:
+        """Heat steps, flow budgets and holds."""
+        if not all(_number(t) for t in self.holds):
+            raise InputError(f"holds must be a list of times, got {self.holds!r}")
+        hold_tau = float(self.hold_tau) if self.hold_tau > 0 else None
+        return Schedule(
+            self.end_time, self.flow_steps, tuple(self.holds), self.hold_steps, hold_tau
+        )
+
+    @property
+    def penalty_params(self) -> Penalty:
+        """The penalties before the thin-cell scaling."""
+        return Penalty(**{k: float(v) for k, v in self.penalty.items()})
+
+
+# -- the model ---------------------------------------------------------------------------------
+class _OnShape:
+    """A measure whose forms need the deformation Function: built at the first call for a
+    given ``y`` (collective), then evaluated."""
+
+    def __init__(self, make: Callable[[dolfinx.fem.Function], Callable[[], dict[str, float]]]):
+        self.make = make
+        self._y: dolfinx.fem.Function | None = None
+        self._measure: Callable[[], dict[str, float]] | None = None
+
+    def __call__(self, y: dolfinx.fem.Function) -> dict[str, float]:
+        if self._measure is None or y is not self._y:
+            self._y, self._measure = y, self.make(y)
+        return self._measure()
+
+
+def _closure_target(target: list[Any], key: str) -> Callable[[np.ndarray], np.ndarray]:
+    """target(ref) for :class:`ClosureGap` from three numbers or formulas in x, y."""
+
+    def evaluate(ref: np.ndarray) -> np.ndarray:
+        columns = []
+        for i, entry in enumerate(target):
+            if _number(entry):
+                value: Any = float(entry)
+            else:
+                value = expressions.evaluate(str(entry), ref[:, :2], f"{key}[{i}]")
+            columns.append(np.broadcast_to(value, (len(ref),)))
+        return np.column_stack(columns) if len(ref) else np.zeros((0, 3))
+
+    return evaluate
+
+
+@dataclass
+class ThermalModel:
+    """A thermal bilayer on a tagged mesh: what :func:`build_thermal` makes of a spec.
+
+    :meth:`driver` builds the heat solver and the coupled driver (after the α calibration,
+    when asked for); :meth:`figures` reports hinge angles, the closure gap and the holds'
+    numbers. The calibration's numbers are kept in :attr:`calibration`.
+    """
+
+    spec: ThermalSpec
+    tagged: TaggedMesh
+    facets: FacetSets
+    penalty: Penalty
+    mu: Any
+    alpha: float | dict[str, Any] = 0.0
+    calibration: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def hinges(self) -> list[Hinge]:
+        """The hinges of the spec."""
+        return [Hinge(name, *faces) for name, faces in self.spec.hinges.items()]
+
+    def driver(
+        self, flow: FlowSpec, observers: Sequence[Observer], initial: Initial | None
+    ) -> ThermalBilayer:
+        """The heat-coupled driver; ``flow`` is the problem's [flow] section."""
+        spec = self.spec
+        if flow.l2_metric is False and not self.facets.has_clamped and not spec.anchor:
+            raise InputError(
+                "flow.l2_metric = false needs clamped facets or model.anchor: otherwise rigid "
+                "motions leave the flow's metric singular"
+            )
+        self.alpha = self._calibrate(flow) if isinstance(spec.alpha, str) else spec.alpha
+        return ThermalBilayer(
+            self.facets,
+            spec.degree,
+            self._energy(),
+            self._heat_solver(),
+            flow,
+            spec.schedule(),
+            self._measures(),
+            observers,
+            initial,
+        )
+
+    def _energy(self) -> Callable[[dolfinx.fem.Function, dolfinx.fem.Function], Energy]:
+        spec, tagged = self.spec, self.tagged
+        alpha = region_coefficient(tagged, self.alpha, "model.alpha")
+        degree = 3 * spec.degree + 2
+
+        def energy(y: dolfinx.fem.Function, theta: dolfinx.fem.Function) -> Energy:
+            anchor = None
+            if spec.anchor:
+                anchor = anchor_energy(y, tagged, spec.anchor, spec.anchor_stiffness)
+            return thermal_energy(
+                y, self.facets, self.penalty, theta, alpha, self.mu, degree, anchor
+            )
+
+        return energy
+
+    def _heat_solver(self) -> HeatSolver:
+        spec = self.spec
+        source = spec.heat_source()
+        return HeatSolver(
+            self.tagged, spec.kappa, spec.heat_step, source, spec.heat_degree, spec.theta0
+        )
+
+    def _hinge_temperatures(self) -> dict[str, float]:
+        """Each hinge's mean temperature at the first hold (the heat equation alone)."""
+        spec = self.spec
+        probe = self._heat_solver()
+        probe.advance_to(spec.schedule().holds[0])
+        temperatures = {h.name: probe.mean(h.name) for h in self.hinges}
+        probe.destroy()
+        return temperatures
+
+    def _calibrate(self, flow: FlowSpec) -> dict[str, float]:
+        """α on the hinges from :func:`calibrate_alpha` on a strip like the first hinge."""
+        temperatures = self._hinge_temperatures()
+        theta = float(np.mean(list(temperatures.values())))
+        first = self.hinges[0]
+        geometry = hinge_geometry(self.tagged, first)
+        mu = self.spec.mu
+        mu_hinge, mu_panel = (mu[first.name], mu[first.inner]) if isinstance(mu, dict) else (mu, mu)
+        target = math.radians(self.spec.fold_angle)
+        along = max(1, round(geometry.along / geometry.length))  # cells per unit length
+        alpha, info = calibrate_alpha(
+            self.tagged.comm,
+            geometry.width,
+            along,
+            geometry.across,
+            theta,
+            flow,
+            mu_hinge,
+            mu_panel,
+            target,
+            penalty=self.penalty,
+        )
+        self.calibration = {
+            "alpha_cw": info["alpha_cw"],
+            "calibration": info,
+            "theta_hinges_at_first_hold": temperatures,
+            "hinge_width": geometry.width,
+        }
+        return {h.name: alpha for h in self.hinges}
+
+    def _sense(self) -> int:
+        """+1 or −1: fold angles count positive the way a heated hinge (θ > 0) folds."""
+        alpha = self.alpha
+        value = alpha.get(self.hinges[0].name, 0.0) if isinstance(alpha, dict) else alpha
+        return -1 if value > 0 else 1  # Z = −αθI bends towards −ν when αθ > 0
+
+    def _measures(self) -> list[Measure]:
+        spec, tagged = self.spec, self.tagged
+        measures: list[Measure] = []
+        if spec.hinges:
+            hinges, sense = self.hinges, self._sense()
+
+            def angles(y: dolfinx.fem.Function) -> Callable[[], dict[str, float]]:
+                fold = FoldAngles(y, tagged, hinges, sense=sense)
+                return lambda: {f"angle_{k}": v for k, v in fold.degrees().items()}
+
+            measures.append(_OnShape(angles))
+        if spec.closure:
+            c = spec.closure
+            target = _closure_target(c["target"], "model.closure.target")
+
+            def gap(y: dolfinx.fem.Function) -> Callable[[], dict[str, float]]:
+                closure = ClosureGap(y, tagged, c["edge"], c["panel"], target)
+                return lambda: {"closure_gap": closure()}
+
+            measures.append(_OnShape(gap))
+        measures += [_OnShape(self._placement(e, p)) for e, p in spec.edges.items()]
+        if spec.anchor:
+            measures.append(_OnShape(self._anchor_energy))
+        return measures
+
+    def _placement(
+        self, edge: str, panel: str
+    ) -> Callable[[dolfinx.fem.Function], Callable[[], dict[str, float]]]:
+        def make(y: dolfinx.fem.Function) -> Callable[[], dict[str, float]]:
+            placement = EdgePlacement(y, self.tagged, edge, panel)
+
+            def measure() -> dict[str, float]:
+                height, distance = placement()
+                return {f"{edge}_height": height, f"{edge}_distance": distance}
+
+            return measure
+
+        return make
+
+    def _anchor_energy(self, y: dolfinx.fem.Function) -> Callable[[], dict[str, float]]:
+        spec = self.spec
+        form = dolfinx.fem.form(anchor_energy(y, self.tagged, spec.anchor, spec.anchor_stiffness))
+        comm = self.tagged.comm
+        return lambda: {
+            "anchor_energy": float(comm.allreduce(dolfinx.fem.assemble_scalar(form), op=MPI.SUM))
+        }
+
+    # -- results ----------------------------------------------------------------------------
+    def _hold_label(self, t: float) -> str:
+        switches = self.spec.heat_source().switch_times
+        if len(switches) == 1 and math.isclose(t, switches[0], rel_tol=1e-12, abs_tol=1e-12):
+            return "switch"
+        return f"t{t:g}"
+
+    def figures(self, driver: ThermalBilayer) -> dict[str, Any]:
+        """Hinge angles, closure gap and placements of the final shape, the same at each hold
+        before the end (``…_at_switch`` for a hold at the source's one switch time, else
+        ``…_at_t<time>``), α and the calibration's numbers, principal curvatures."""
+        out: dict[str, Any] = {"alpha": self.alpha, "alpha_rule": self.spec.alpha}
+        out.update(self.calibration)
+        final: dict[str, float] = {}
+        for measure in driver.measures:
+            final.update(measure(driver.y))
+        out.update(_named(final, "final"))
+        end = self.spec.end_time
+        for record in driver.records:
+            if record.hold and not math.isclose(record.time, end, rel_tol=1e-12):
+                label = self._hold_label(record.time)
+                out.update(_named(record.figures, f"at_{label}"))
+                out[f"energy_at_{label}"] = record.energy
+                out[f"isometry_defect_at_{label}"] = record.defect
+                out[f"converged_at_{label}"] = record.flow_converged
+        out["principal_curvatures"] = curvature_summary(driver.y)["principal_curvatures"]
+        return out
+
+    def lines(self, driver: ThermalBilayer) -> list[np.ndarray]:
+        """The deformed closure edge and tracked edges, on rank 0 ([] elsewhere)."""
+        groups = ([self.spec.closure["edge"]] if self.spec.closure else []) + list(self.spec.edges)
+        lines: list[np.ndarray] = []
+        for group in dict.fromkeys(groups):
+            gathered = self.tagged.comm.gather(edge_segments(driver.y, self.tagged, group))
+            lines += [segment for part in gathered or () for segment in part]
+        return lines
+
+
+def _named(figures: dict[str, float], suffix: str) -> dict[str, Any]:
+    """summary.json names: hinge angles as one table, the other figures one by one."""
+    out: dict[str, Any] = {}
+    angles = {k.removeprefix("angle_"): v for k, v in figures.items() if k.startswith("angle_")}
+    if angles:
+        out[f"hinge_angles_deg_{suffix}"] = angles
+    for key, value in figures.items():
+        if not key.startswith("angle_"):
+            out[f"{key}_{suffix}"] = value
+    return out
+
+
+def _check_groups(spec: ThermalSpec, tagged: TaggedMesh) -> None:
+    """Every cell and facet group the spec names exists (InputError naming the first that
+    does not)."""
+    tdim = tagged.mesh.topology.dim
+    cells = list(spec.source_regions) + list(spec.hinges) + list(spec.edges.values())
+    cells += [face for faces in spec.hinges.values() for face in faces]
+    cells += [spec.anchor] if spec.anchor else []
+    cells += [spec.closure["panel"]] if spec.closure else []
+    facets_ = list(spec.edges) + ([spec.closure["edge"]] if spec.closure else [])
+    for name in cells:
+        tagged.tag(name, tdim)
+    for name in facets_:
+        tagged.tag(name, tdim - 1)
+
+
+def build_thermal(spec: ThermalSpec, tagged: TaggedMesh) -> ThermalModel:
+    """Facets, μ, penalties and checked group names of a thermal problem (collective)."""
+    _check_groups(spec, tagged)
+    facets = facet_sets(tagged, clamped=spec.clamped)
+    mu = piecewise_constant(tagged, spec.mu, "model.mu")
+    if spec.alpha != "calibrate":
+        region_coefficient(tagged, spec.alpha, "model.alpha")  # unknown groups: an error now
+    aspect = spec.penalty_aspect
+    aspect = cell_aspect_ratio(tagged) if aspect == "mesh" else float(aspect)
+    penalty = aspect_penalty(aspect, spec.penalty_params) if aspect > 1 else spec.penalty_params
+    return ThermalModel(spec, tagged, facets, penalty, mu)
+
+
 __all__ = [
-    "HeatStepRecord",
-    "ThermalBilayer",
-    "ThermalSettings",
+    "ThermalModel",
+    "ThermalSpec",
     "anchor_energy",
+    "aspect_penalty",
+    "build_thermal",
     "calibrate_alpha",
+    "cell_aspect_ratio",
     "cell_group_mean",
     "hinge_penalty",
     "region_coefficient",

@@ -13,6 +13,7 @@ from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.foundation import FoundationSpec, build_foundation
 from dgplate.models.fvk import FvKSpec, build_fvk
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
+from dgplate.models.thermal import ThermalSpec, build_thermal
 from dgplate.schema import from_dict
 
 
@@ -48,6 +49,7 @@ MODELS: dict[str, ModelEntry] = {
     "kirchhoff": ModelEntry(KirchhoffSpec, build_kirchhoff),
     "bilayer": ModelEntry(BilayerSpec, build_bilayer),
     "foundation": ModelEntry(FoundationSpec, build_foundation),
+    "thermal": ModelEntry(ThermalSpec, build_thermal),
     "fvk": ModelEntry(
         FvKSpec,
         build_fvk,

@@ -170,9 +170,13 @@ def problem_from_dict(data: dict, name: str, overrides: Overrides = ()) -> Probl
     MODELS[model.name].reject_ignored(data, model.name)
     flow = from_dict(FlowSpec, data.get("flow"), "flow")
     output = from_dict(OutputSpec, data.get("output"), "output")
-    if flow.l2 is False and not getattr(model, "clamped", True):
+    if (
+        flow.l2 is False
+        and not getattr(model, "clamped", True)
+        and not getattr(model, "anchor", "")
+    ):
         raise InputError(
-            "model.clamped is empty but flow.l2_metric = false: without clamped faces the "
-            "metric needs the L² product (rigid motions); set flow.l2_metric = 'auto'"
+            "model.clamped is empty but flow.l2_metric = false: without clamped faces (or an "
+            "anchor) the metric needs the L² product (rigid motions); set flow.l2_metric = 'auto'"
         )
     return Problem(name, mesh, model, flow, output, data)

@@ -1,0 +1,393 @@
+"""Heat steps, each followed by a relaxation of the plate: the thermal bilayer's driver.
+
+The coupling is quasi-static and one-way (docs/design.md §1, "Thermal bilayer"): the
+temperature θ solves the heat equation of :mod:`dgplate.coupling.heat` on the flat reference
+domain, and after each heat step the plate is relaxed by the constrained H² gradient flow of
+:mod:`dgplate.solvers.flow`, warm-started from the previous shape, until the flow's stopping
+rule ((E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < ``tol``) holds or the budget :attr:`Schedule.flow_steps` is
+spent. The energy is built once from ``energy(y, θ)`` and references the temperature Function,
+so a heat step changes the spontaneous curvature without recompiling anything; the flow's
+constant matrix does not depend on θ and is only reassembled when a hold changes τ.
+
+A *hold* relaxes the plate at a fixed temperature, without a heat step, with its own budget and
+optionally another τ (:attr:`Schedule.holds`): the self-folding box is held at the peak
+temperature (the closed box) and at the end. :class:`ThermalBilayer` implements the runner's
+:class:`~dgplate.solvers.driver.Driver` protocol: one driver step is one heat step or one
+hold, each reported to the observers as a :class:`HeatStepRecord`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from mpi4py import MPI
+
+import dolfinx.fem
+import numpy as np
+
+from dgplate import interrupt
+from dgplate.coupling.heat import HeatSolver
+from dgplate.dg.energy import Energy
+from dgplate.dg.forms import FacetSets
+from dgplate.errors import InputError
+from dgplate.solvers.driver import Observer, RunResult
+from dgplate.solvers.flow import FlowResult, FlowSpec, GradientFlow
+
+#: ``energy(y, θ)``: the plate's energy for the deformation y and the temperature θ.
+ThermalEnergy = Callable[[dolfinx.fem.Function, dolfinx.fem.Function], Energy]
+#: ``measure(y) -> {name: number}``: figures of a shape added to every record (collective).
+Measure = Callable[[dolfinx.fem.Function], dict[str, float]]
+
+
+@dataclass
+class HeatStepRecord:
+    """What one driver step did (a heat step and its relaxation, or a hold).
+
+    One row of ``history.csv``; ``figures`` holds the numbers of the driver's measures (hinge
+    angles, closure gap, …), written as columns of their own by :meth:`row`.
+    """
+
+    step: int  # the driver's step: heat steps and holds, counted over resumes
+    heat_step: int  # heat steps done so far
+    time: float  # physical time
+    source: float  # the scheduled source's mean over the last heat step
+    theta_min: float
+    theta_max: float
+    theta_mean: float
+    flow_steps: int
+    flow_converged: bool
+    energy: float
+    defect: float
+    seconds: float
+    hold: bool = False  # a relaxation at fixed θ (no heat step)
+    figures: dict[str, float] = field(default_factory=dict)
+
+    def row(self) -> dict[str, Any]:
+        """The record as one flat table row: the figures become columns."""
+        out = {k: v for k, v in asdict(self).items() if k != "figures"}
+        out.update(self.figures)
+        return out
+
+    def line(self) -> str:
+        """One line of progress: time, source, θ range, flow, figures, energy, defect."""
+        figures = "  ".join(
+            f"{name.removeprefix('angle_').removeprefix('hinge_')} {value:.4g}"
+            for name, value in self.figures.items()
+        )
+        flow = f"flow {self.flow_steps:4d} steps{' (conv.)' if self.flow_converged else ''}"
+        kind = "hold" if self.hold else f"s = {self.source:+.3g}"
+        return (
+            f"t = {self.time:8.4f}  {kind}  θ ∈ [{self.theta_min:.3f}, {self.theta_max:.3f}]  "
+            f"{flow}  {figures}  E_h = {self.energy:+.6e}  D_h = {self.defect:.2e}  "
+            f"{self.seconds:.1f} s"
+        )
+
+
+def _positive(value: Any, key: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise InputError(f"{key} must be a number, got {value!r}")
+    if not (value > 0 and math.isfinite(value)):
+        raise InputError(f"{key} must be a finite number > 0, got {value!r}")
+    return float(value)
+
+
+def _count(value: Any, key: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise InputError(f"{key} must be an integer >= 1, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """When the driver steps the heat equation and when it holds.
+
+    Heat steps continue until ``end_time``; after each one the flow takes at most
+    ``flow_steps`` steps. When the time reaches a hold time (``holds``, increasing, at most
+    ``end_time``) the plate is relaxed at that temperature for at most ``hold_steps`` steps
+    with τ = ``hold_tau`` (None: the flow's τ), before the next heat step.
+    """
+
+    end_time: float
+    flow_steps: int = 40
+    holds: tuple[float, ...] = ()
+    hold_steps: int = 300
+    hold_tau: float | None = None
+
+    def __post_init__(self) -> None:
+        _positive(self.end_time, "end_time")
+        _count(self.flow_steps, "flow_steps")
+        _count(self.hold_steps, "hold_steps")
+        if self.hold_tau is not None:
+            _positive(self.hold_tau, "hold_tau")
+        holds = tuple(float(t) for t in self.holds)
+        for i, t in enumerate(holds):
+            if not 0 <= t <= self.end_time:
+                raise InputError(
+                    f"holds must lie in [0, end_time = {self.end_time:g}], got {t:g} (entry {i})"
+                )
+            if i and not t > holds[i - 1]:
+                raise InputError(f"holds must increase strictly, got {list(holds)}")
+        object.__setattr__(self, "holds", holds)
+
+
+class ThermalBilayer:
+    """Heat steps, each followed by a warm-started relaxation of the plate (a Driver).
+
+    ``energy(y, θ)`` builds the plate's energy (θ is ``heat.theta``); ``facets`` and
+    ``degree`` define the deformation's space, ``flow`` the gradient flow and ``schedule`` the
+    heat steps and holds. ``measures`` add figures of the shape to every record;
+    ``observers`` are told of every record (``step(driver, record)``) and of the end of
+    :meth:`run` (``finish(driver, result)``). ``initial`` (x ↦ y(x)) replaces the flat start.
+    Collective on the mesh communicator.
+    """
+
+    def __init__(
+        self,
+        facets: FacetSets,
+        degree: int,
+        energy: ThermalEnergy,
+        heat: HeatSolver,
+        flow: FlowSpec,
+        schedule: Schedule,
+        measures: Sequence[Measure] = (),
+        observers: Sequence[Observer] = (),
+        initial: Callable[[np.ndarray], np.ndarray] | None = None,
+    ) -> None:
+        if heat.mesh is not facets.mesh:
+            raise InputError("the heat solver and the plate must live on the same mesh")
+        self.heat, self.schedule = heat, schedule
+        self.measures = list(measures)
+        self.observers: list[Observer] = list(observers)
+        self.comm: MPI.Comm = facets.mesh.comm
+        self.flow = GradientFlow(facets, degree, lambda y: energy(y, heat.theta), flow, (), initial)
+        self.records: list[HeatStepRecord] = []  # every record, those before a resume too
+        self.step_count = 0
+        self.holds_done = 0
+        self.last_result: FlowResult | None = None
+
+    # -- the runner's view ------------------------------------------------------------------
+    @property
+    def y(self) -> dolfinx.fem.Function:
+        """The deformation y: ω → ℝ³."""
+        return self.flow.y
+
+    @property
+    def shape(self) -> dolfinx.fem.Function:
+        """The deformed surface (written to VTX and drawn): :attr:`y`."""
+        return self.flow.y
+
+    @property
+    def num_dofs(self) -> int:
+        """Unknowns of the flow's step system (deformation and multipliers)."""
+        return self.flow.num_dofs
+
+    @property
+    def theta(self) -> dolfinx.fem.Function:
+        """The temperature θ on the reference domain."""
+        return self.heat.theta
+
+    @property
+    def time(self) -> float:
+        """The physical time of the heat equation."""
+        return self.heat.time
+
+    @property
+    def interrupted(self) -> int:
+        """The signal that stopped the last relaxation (0: none)."""
+        return self.last_result.interrupted if self.last_result is not None else 0
+
+    @property
+    def finished(self) -> bool:
+        """True when every hold is done and the time has reached the end time."""
+        return self.holds_done == len(self.schedule.holds) and not self._before(
+            self.schedule.end_time
+        )
+
+    @property
+    def checkpoint_every(self) -> int:
+        """Heat steps between checkpoints: ``flow.checkpoint_every``."""
+        return self.flow.settings.checkpoint_every
+
+    @property
+    def solver(self) -> object:
+        """The flow's step solver (whose PETSc options the runner checks)."""
+        return self.flow.solver
+
+    def remaining_steps(self) -> int:
+        """1 while heat steps or holds remain, else 0."""
+        return 0 if self.finished else 1
+
+    def _before(self, t: float) -> bool:
+        return self.heat.time < t - 1e-9 * self.heat.dt
+
+    # -- steps ------------------------------------------------------------------------------
+    def relax(self, max_steps: int | None = None) -> FlowResult:
+        """Run the flow at the current θ (warm start), at most ``max_steps`` steps
+        (default :attr:`Schedule.flow_steps`)."""
+        self.flow.rebase_energy()  # θ changed Z, hence the energy
+        self.last_result = self.flow.run(max_steps=max_steps or self.schedule.flow_steps)
+        return self.last_result
+
+    def advance(self, max_steps: int | None = None) -> HeatStepRecord:
+        """One heat step, then relax the plate; returns (and stores) the record."""
+        t0 = time.perf_counter()
+        self.heat.step()
+        result = self.relax(max_steps)
+        return self._record(result, time.perf_counter() - t0)
+
+    def hold(self, max_steps: int | None = None, tau: float | None = None) -> HeatStepRecord:
+        """Relax at the current temperature without a heat step (budget ``max_steps``,
+        default :attr:`Schedule.hold_steps`), optionally with another τ (restored afterwards:
+        each change reassembles the flow's constant matrix once); returns (and stores) the
+        record, which carries the time of the last heat step."""
+        t0 = time.perf_counter()
+        previous = self.flow.tau
+        if tau is not None and tau != previous:
+            self.flow.tau = tau
+        try:
+            result = self.relax(max_steps or self.schedule.hold_steps)
+        finally:
+            if self.flow.tau != previous:
+                self.flow.tau = previous
+        return self._record(result, time.perf_counter() - t0, hold=True)
+
+    def _record(self, result: FlowResult, seconds: float, hold: bool = False) -> HeatStepRecord:
+        lo, hi = self.heat.min_max()
+        figures: dict[str, float] = {}
+        for measure in self.measures:
+            figures.update(measure(self.y))
+        self.step_count += 1
+        record = HeatStepRecord(
+            step=self.step_count,
+            heat_step=self.heat.steps,
+            time=self.heat.time,
+            source=self.heat.last_source,
+            theta_min=lo,
+            theta_max=hi,
+            theta_mean=self.heat.mean(),
+            flow_steps=result.steps,
+            flow_converged=result.converged,
+            energy=result.energy,
+            defect=result.defect,
+            seconds=seconds,
+            hold=hold,
+            figures=figures,
+        )
+        self.records.append(record)
+        return record
+
+    def _next_step(self) -> HeatStepRecord | None:
+        """The schedule's next step: a heat step, or the hold that is due. None when a hold
+        was interrupted: it is not counted, and a resumed run does it again."""
+        holds = self.schedule.holds
+        due = self.holds_done < len(holds) and not self._before(holds[self.holds_done])
+        if not due:
+            return self.advance()
+        steps_before = self.step_count
+        record = self.hold(self.schedule.hold_steps, self.schedule.hold_tau)
+        if self.interrupted:
+            self.records.pop()
+            self.step_count = steps_before
+            return None
+        self.holds_done += 1
+        return record
+
+    def _failure(self, record: HeatStepRecord) -> str | None:
+        """Why the relaxation of ``record`` failed (a solver error or divergence), if it did:
+        a flow that stopped before its budget without converging or being interrupted."""
+        result = self.last_result
+        if result is None or result.converged or result.interrupted:
+            return None
+        budget = self.schedule.hold_steps if record.hold else self.schedule.flow_steps
+        if result.steps >= budget:
+            return None  # the budget is spent: the normal end of a heat step's relaxation
+        return f"the relaxation at t = {record.time:g} stopped: {result.reason}"
+
+    def _outcome(self) -> tuple[bool, str]:
+        """Converged and reason once the schedule is done: every hold must have converged."""
+        for record in self.records:
+            if record.hold and not record.flow_converged:
+                return False, (
+                    f"the hold at t = {record.time:g} spent its {self.schedule.hold_steps} "
+                    "flow steps before the flow's tolerance"
+                )
+        return True, (
+            f"schedule done: t = {self.heat.time:g} after {self.heat.steps} heat steps and "
+            f"{self.holds_done} hold(s)"
+        )
+
+    def run(self, max_steps: int | None = None) -> RunResult:
+        """Heat steps and holds until the end of the schedule, an interrupt (SIGINT/SIGTERM,
+        at a step boundary), a failed relaxation, or ``max_steps`` driver steps.
+
+        The result's ``history`` holds this run's records; :attr:`records` all of them.
+        """
+        history: list[HeatStepRecord] = []
+        converged, reason, signum = False, f"step budget of {max_steps} steps spent", 0
+        while not self.finished and (max_steps is None or len(history) < max_steps):
+            record = self._next_step()
+            if record is not None:
+                history.append(record)
+                for observer in self.observers:
+                    observer.step(self, record)
+            signum = self.interrupted or interrupt.requested(self.comm)
+            failure = None if record is None else self._failure(record)
+            if signum or failure:
+                reason = interrupt.reason(signum) if signum else str(failure)
+                break
+        if self.finished:
+            converged, reason = self._outcome()
+        result = RunResult(converged, reason, len(history), history, signum)
+        for observer in self.observers:
+            observer.finish(self, result)
+        return result
+
+    # -- checkpoints ------------------------------------------------------------------------
+    def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function]:
+        """The plate's and the heat equation's state (see :mod:`dgplate.io.checkpoint`)."""
+        return {**self.flow.checkpoint_fields(), "theta": self.heat.theta}
+
+    def checkpoint_state(self) -> dict[str, Any]:
+        """The counters of the driver, the flow and the heat equation, and the records."""
+        return {
+            "step": self.step_count,
+            "holds_done": self.holds_done,
+            "finished": self.finished,
+            "flow": self.flow.checkpoint_state(),
+            "heat": self.heat.checkpoint_state(),
+            "records": [asdict(r) for r in self.records],
+        }
+
+    def restore_state(self, state: dict[str, Any]) -> None:
+        """Continue from :meth:`checkpoint_state` (the fields are restored first)."""
+        self.step_count = int(state["step"])
+        self.holds_done = int(state["holds_done"])
+        self.flow.restore_state(state["flow"])
+        self.heat.restore_state(state["heat"])
+        self.records = [HeatStepRecord(**r) for r in state["records"]]
+
+    # -- results ----------------------------------------------------------------------------
+    def summary(self) -> dict[str, Any]:
+        """Numbers for ``summary.json``: dofs, flow and heat steps, time, energy, defect."""
+        return {
+            "dofs": self.flow.num_dofs,
+            "steps": self.flow.step_count,
+            "heat_steps": self.heat.steps,
+            "holds": self.holds_done,
+            "time": self.heat.time,
+            "tau": self.flow.tau,
+            "energy": self.flow.evaluate_energy(),
+            "isometry_defect": self.flow.defect(),
+        }
+
+    def destroy(self) -> None:
+        """Free the flow's and the heat solver's PETSc objects."""
+        self.flow.destroy()
+        self.heat.destroy()
+
+
+__all__ = ["HeatStepRecord", "Measure", "Schedule", "ThermalBilayer", "ThermalEnergy"]
