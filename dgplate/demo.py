@@ -178,7 +178,7 @@ def check_close(
     tol = max(rel * math.fabs(expected), abs)
     ok = math.isfinite(value) and math.fabs(value - expected) <= tol
     shown = f"± {100 * rel:.3g} %" if rel * math.fabs(expected) >= abs else f"± {abs:.3g}"
-    origin = f", {source}" if source else ""
+    origin = f" ({source})" if source else ""
     _passed(what, ok, f"{what} = {value:.6g}, expected {expected:.6g} {shown}{origin}", comm)
 
 
@@ -195,12 +195,17 @@ def check_between(
 
     Raises:
         AssertionError: Outside the bounds, or not a finite number.
+        ValueError: Neither bound is given.
     """
+    if low is None and high is None:
+        raise ValueError("check_between needs a lower or an upper bound")
     ok = math.isfinite(value) and (low is None or value >= low) and (high is None or value <= high)
-    bounds = " ≤ ".join([*([f"{low:.6g}"] if low is not None else []), what])
-    bounds += f" ≤ {high:.6g}" if high is not None else ""
+    if low is not None and high is not None:
+        bounds = f"in [{low:.6g}, {high:.6g}]"
+    else:
+        bounds = f"≥ {low:.6g}" if low is not None else f"≤ {high:.6g}"
     origin = f" ({source})" if source else ""
-    _passed(what, ok, f"{bounds}{origin}: {what} = {value:.6g}", comm)
+    _passed(what, ok, f"{what} = {value:.6g}, expected {bounds}{origin}", comm)
 
 
 def check(what: str, ok: bool, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
