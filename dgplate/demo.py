@@ -29,11 +29,14 @@ from typing import Any
 
 from mpi4py import MPI
 
+import numpy as np
+
 from dgplate.problems.runner import run as _run
 from dgplate.problems.specs import Problem
 
 __all__ = [
     "arguments",
+    "axis_angle",
     "check",
     "check_between",
     "check_close",
@@ -143,6 +146,18 @@ def describe_cylinder(fit: Mapping[str, Any], alpha: float | None = None) -> str
         f"fitted radius {fit['radius']:.4f}{expected}, axis ({axis}), "
         f"rms distance {fit['rms_residual']:.2e}"
     )
+
+
+def axis_angle(fit: Mapping[str, Any], direction: Sequence[float]) -> float:
+    """The angle in degrees (0 to 90) between a fitted cylinder's axis and ``direction``.
+
+    Args:
+        fit: ``summary["cylinder_fit"]`` of a bilayer run.
+        direction: A direction in space, e.g. ``(0, 1, 0)`` for the x₂ axis.
+    """
+    axis, other = np.asarray(fit["axis"], dtype=float), np.asarray(direction, dtype=float)
+    cosine = abs(float(axis @ other)) / (np.linalg.norm(axis) * np.linalg.norm(other))
+    return math.degrees(math.acos(min(1.0, cosine)))
 
 
 def _passed(what: str, ok: bool, text: str, comm: MPI.Comm) -> None:
