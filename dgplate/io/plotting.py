@@ -379,9 +379,13 @@ def montage(
                 ax.set_title(captions[i][j], fontsize=9)
     if title:
         fig.suptitle(title, fontsize=13)
-    fig.tight_layout(rect=(0, 0.03 if note else 0, 1, 1))
+    import textwrap
+
+    note = textwrap.fill(note, width=int(3.2 * cols * 72 / 5.5))  # about 5.5 pt per character
+    room = (0.02 + 0.16 * (note.count("\n") + 1) / (2.6 * rows)) if note else 0.0  # 9 pt lines
+    fig.tight_layout(rect=(0, room, 1, 1))
     if note:
-        fig.text(0.5, 0.01, note, ha="center", fontsize=9)
+        fig.text(0.5, 0.01, note, ha="center", va="bottom", fontsize=9)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
