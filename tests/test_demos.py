@@ -54,3 +54,38 @@ def test_demo_runs_and_checks_its_results(demo, ranks, tmp_path):
     assert done.returncode == 0, f"{demo.name} on {ranks} rank(s) failed:\n{tail}"
     for pattern in ("summary.json", "*.png", "*.bp"):
         assert any(out.rglob(pattern)), f"{demo.name} wrote no {pattern} in {out}:\n{tail}"
+
+
+# -- the helpers of dgplate.demo ------------------------------------------------------------
+def test_checks_print_one_line_and_raise_outside_the_tolerance(capsys):
+    from dgplate import demo
+
+    demo.check_close("E_h", 1.004, 1.0, rel=5e-3, source="paper")
+    demo.check_close("steps", 14, 13, abs=2)
+    demo.check_between("D_h", 2e-14, high=1e-10)
+    demo.check("converged", True)
+    with pytest.raises(AssertionError, match=r"E_h = 1\.01, expected 1 ± 0\.5 %"):
+        demo.check_close("E_h", 1.01, 1.0, rel=5e-3)
+    with pytest.raises(AssertionError):
+        demo.check_close("E_h", float("nan"), 1.0, abs=1.0)
+    with pytest.raises(AssertionError, match=r"expected in \[4, 4.2\]"):
+        demo.check_between("E_h", 4.3, 4.0, 4.2)
+    with pytest.raises(AssertionError):
+        demo.check("converged", False)
+    with pytest.raises(ValueError):
+        demo.check_between("E_h", 1.0)
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == "ok: E_h = 1.004, expected 1 ± 0.5 % (paper)"
+    assert sum(line.startswith("FAILED: ") for line in lines) == 4
+
+
+def test_arguments_and_axis_angle():
+    from dgplate import demo
+
+    args = demo.arguments("cantilever", argv=["--paper", "-f", "kernel.json"])  # Jupyter's -f
+    assert args.paper and args.out == "out/cantilever" and not (args.force or args.resume)
+    parser = demo.parser("vertical_load")
+    parser.add_argument("--cells", type=int, default=16)
+    assert demo.parse(parser, ["--cells", "8", "--out", "o"]).cells == 8
+    assert demo.axis_angle({"axis": [0.0, -1.0, 0.0]}, (0, 1, 0)) == pytest.approx(0.0)
+    assert demo.axis_angle({"axis": [1.0, 1.0, 0.0]}, (0, 1, 0)) == pytest.approx(45.0)
