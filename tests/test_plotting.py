@@ -16,7 +16,14 @@ from PIL import Image
 
 from dgplate import compat
 from dgplate.errors import InputError
-from dgplate.io.plotting import REFERENCE, frames_to_gif, plot_deformation, render_png, surface_grid
+from dgplate.io.plotting import (
+    REFERENCE,
+    frames_to_gif,
+    montage,
+    plot_deformation,
+    render_png,
+    surface_grid,
+)
 from dgplate.io.vtx import DeformationWriter, bp_variables
 from dgplate.measure.fields import bending_density, cell_field, defect_density, dg0_dofs_to_cells
 from dgplate.mesh.tagged import rectangle
@@ -167,6 +174,28 @@ def test_plot_deformation_and_gif(comm, shared_dir):
         assert gif.format == "GIF" and gif.n_frames == 3 and gif.size == SMALL
     with pytest.raises(ValueError, match="color_by"):
         plot_deformation(y, shared_dir / "bad.png", color_by="energy")
+
+
+def test_montage_of_pictures(tmp_path):
+    panels = []
+    for i, colour in enumerate(["red", "blue", "green"]):
+        panels.append(tmp_path / f"panel{i}.png")
+        Image.new("RGB", (120, 90), colour).save(panels[-1])
+    grid = tmp_path / "sub" / "grid.png"
+    montage(
+        [panels[:2], [panels[2], None]],
+        grid,
+        captions=[["a", "b"], ["c", ""]],
+        row_labels=["row 1", "row 2"],
+        column_labels=["left", "right"],
+        title="a grid",
+        note="small print " * 20,
+    )
+    with Image.open(grid) as image:
+        assert image.format == "PNG" and image.size[0] > image.size[1] > 300
+    assert sorted(p.name for p in grid.parent.iterdir()) == ["grid.png"]  # no temporary left
+    with pytest.raises(ValueError, match="at least one"):
+        montage([], tmp_path / "empty.png")
 
 
 @pytest.mark.mpi

@@ -140,12 +140,16 @@ def _plain_text():
         renderer.SetDefaultBackend(previous)
 
 
-def _headless() -> None:
-    """Make off-screen rendering possible without a display.
+def start_offscreen() -> None:
+    """Make off-screen rendering possible without a display; call before ``pyvista.Plotter``.
 
     VTK wheels have an EGL window: use it directly (saves an X probe and a warning). X-only VTK
     builds (Debian's) need a virtual X server: start Xvfb when it is installed, otherwise fail
-    with a clear message instead of letting VTK abort the process.
+    with a clear message instead of letting VTK abort the process. Does nothing when a display
+    is set; safe to call more than once.
+
+    Raises:
+        RuntimeError: No display, no EGL and no Xvfb.
     """
     if os.environ.get("DISPLAY") or "VTK_DEFAULT_OPENGL_WINDOW" in os.environ:
         return
@@ -162,6 +166,9 @@ def _headless() -> None:
             "installed (apt install xvfb), or set output.png = false"
         )
     pyvista.start_xvfb()
+
+
+_headless = start_offscreen  # the former private name, until every caller uses the public one
 
 
 def _publish(tmp: str, path: Path) -> None:
@@ -198,7 +205,7 @@ def render_png(
         return
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    _headless()
+    start_offscreen()
     plotter = pyvista.Plotter(off_screen=True, window_size=list(window_size))
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
     os.close(fd)
@@ -315,4 +322,93 @@ def frames_to_gif(
             os.unlink(tmp)
 
 
-__all__ = ["REFERENCE", "frames_to_gif", "plot_deformation", "render_png", "surface_grid"]
+def montage(
+    images: Sequence[Sequence[str | Path | None]],
+    path: str | Path,
+    *,
+    captions: Sequence[Sequence[str]] | None = None,
+    row_labels: Sequence[str] = (),
+    column_labels: Sequence[str] = (),
+    title: str = "",
+    note: str = "",
+    crop: tuple[float, float, float, float] = (0.07, 0.80, 0.05, 0.95),
+    comm: MPI.Comm | None = None,
+) -> None:
+    """Put pictures (e.g. several runs' final.png) into one image, as a grid of panels.
+
+    Rank 0 of ``comm`` only (not collective); written atomically. Needs matplotlib.
+
+    Args:
+        images: Rows of PNG paths; ``None`` leaves a panel empty.
+        path: The PNG to write.
+        captions: A caption above each panel (same shape as ``images``).
+        row_labels: A label left of each row.
+        column_labels: A label below each column of the last row.
+        title: The image's title.
+        note: A line of small print at the bottom.
+        crop: The part of each picture shown, as fractions (top, bottom, left, right): the
+            default drops the title and the colour bar of :func:`render_png`.
+        comm: Rank 0 of it writes (default ``MPI.COMM_WORLD``).
+    """
+    if (comm or MPI.COMM_WORLD).rank != 0:
+        return
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.image as mpimg
+    import matplotlib.pyplot as plt
+
+    rows, cols = len(images), max((len(row) for row in images), default=0)
+    if not rows or not cols:
+        raise ValueError("montage needs at least one picture")
+    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.6 * rows), squeeze=False)
+    top, bottom, left, right = crop
+    for i, row in enumerate(images):
+        for j in range(cols):
+            ax = axes[i][j]
+            ax.set_xticks([])
+            ax.set_yticks([])
+            for side in ax.spines.values():
+                side.set_visible(False)
+            if i == rows - 1 and j < len(column_labels):
+                ax.set_xlabel(column_labels[j], fontsize=11)
+            if j == 0 and i < len(row_labels):
+                ax.set_ylabel(row_labels[i], fontsize=11)
+            if j >= len(row) or row[j] is None:
+                continue
+            image = mpimg.imread(row[j])
+            h, w = image.shape[:2]
+            ax.imshow(image[int(top * h) : int(bottom * h), int(left * w) : int(right * w)])
+            if captions is not None:
+                ax.set_title(captions[i][j], fontsize=9)
+    if title:
+        fig.suptitle(title, fontsize=13)
+    import textwrap
+
+    note = textwrap.fill(note, width=int(3.2 * cols * 72 / 5.5))  # about 5.5 pt per character
+    room = (0.02 + 0.16 * (note.count("\n") + 1) / (2.6 * rows)) if note else 0.0  # 9 pt lines
+    fig.tight_layout(rect=(0, room, 1, 1))
+    if note:
+        fig.text(0.5, 0.01, note, ha="center", va="bottom", fontsize=9)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=110, format="png")
+        _publish(tmp, path)
+    finally:
+        plt.close(fig)
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+__all__ = [
+    "REFERENCE",
+    "frames_to_gif",
+    "montage",
+    "plot_deformation",
+    "render_png",
+    "start_offscreen",
+    "surface_grid",
+]

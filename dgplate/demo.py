@@ -1,0 +1,275 @@
+"""What the demos in ``demos/`` share: their command line, their checks and their pictures.
+
+A demo is a literate script that builds or loads a problem, runs it with :func:`dgplate.run`
+and compares what it computed with a published or exact value. This module keeps those
+scripts to the physics::
+
+    from dgplate import demo
+
+    args = demo.arguments("cantilever", paper="64 × 16 cells")
+    result = demo.run(dgplate.load_problem(PROBLEM, overrides), args)
+    demo.report(result, "the flat plate: E = 0")
+    demo.check_close("E_h", result["energy"], -7.53e-3, rel=5e-3, source="BNN 2021, Table 1")
+
+Every demo takes ``--paper`` (the published resolution; the default is small, so that the
+test suite can run every demo), ``--out DIR``, ``--force``, ``--resume`` and ``--figure PATH``
+(a copy of the final picture, e.g. for the documentation). The checks raise
+:class:`AssertionError`, so a demo that no longer reproduces its number fails; they print one
+line on rank 0 either way. All functions here are collective only where they say so.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import shutil
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+import numpy as np
+
+from dgplate.problems.runner import run as _run
+from dgplate.problems.specs import Problem
+
+__all__ = [
+    "arguments",
+    "axis_angle",
+    "check",
+    "check_between",
+    "check_close",
+    "copy_figure",
+    "describe_cylinder",
+    "parse",
+    "parser",
+    "report",
+    "run",
+    "say",
+]
+
+
+def parser(
+    name: str, description: str | None = None, paper: str = "the published resolution"
+) -> argparse.ArgumentParser:
+    """The demos' common options; add a demo's own with ``add_argument`` and :func:`parse`.
+
+    Args:
+        name: The demo's name; the default output directory is ``out/<name>``.
+        description: One line for ``--help``.
+        paper: What ``--paper`` runs instead of the small default (its help text).
+
+    Returns:
+        A parser with ``--paper``, ``--out``, ``--force``, ``--resume`` and ``--figure``.
+    """
+    out = f"out/{name}"
+    parser = argparse.ArgumentParser(prog=f"{name}.py", description=description)
+    parser.add_argument("--paper", action="store_true", help=f"{paper} (slower)")
+    parser.add_argument("--out", default=out, help=f"output directory (default {out})")
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="write into a non-empty folder that dgplate did not write (its files are kept)",
+    )
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the runs from the checkpoints in the output folder",
+    )
+    parser.add_argument("--figure", default=None, help="also copy the final picture to this path")
+    return parser
+
+
+def parse(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> argparse.Namespace:
+    """Parse the command line, ignoring what the parser does not know (Jupyter's arguments)."""
+    args, _ = parser.parse_known_args(argv)
+    return args
+
+
+def arguments(
+    name: str,
+    description: str | None = None,
+    paper: str = "the published resolution",
+    argv: Sequence[str] | None = None,
+) -> argparse.Namespace:
+    """:func:`parse` of :func:`parser`: for demos without options of their own."""
+    return parse(parser(name, description, paper), argv)
+
+
+def run(
+    problem: Problem,
+    args: argparse.Namespace,
+    *subfolder: str,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    **options: Any,
+) -> Any:
+    """:func:`dgplate.run` with the demo's ``--out``, ``--force`` and ``--resume``. Collective.
+
+    Args:
+        problem: A validated problem (:func:`dgplate.load_problem`).
+        args: The parsed command line (:func:`arguments`).
+        subfolder: Where in ``--out`` to write, for demos that run several problems.
+        comm: The communicator of the run.
+        options: More keywords for :func:`dgplate.run` (``initial``).
+
+    Returns:
+        What :func:`dgplate.run` returns; ``result["energy"]`` reads the summary.
+    """
+    out = Path(args.out).joinpath(*subfolder)
+    return _run(problem, out=out, comm=comm, force=args.force, resume=args.resume, **options)
+
+
+def say(*text: Any, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
+    """``print`` on rank 0 only, flushed."""
+    if comm.rank == 0:
+        print(*text, flush=True)
+
+
+def report(
+    summary: Mapping[str, Any], reference: str = "", comm: MPI.Comm = MPI.COMM_WORLD
+) -> None:
+    """One line on rank 0: E_h (beside ``reference``, what it compares with), D_h and the steps."""
+    beside = f" ({reference})" if reference else ""
+    say(
+        f"E_h = {summary['energy']:.4f}{beside}, D_h = {summary['isometry_defect']:.3e}, "
+        f"steps = {summary['steps']}, converged = {summary['converged']}",
+        comm=comm,
+    )
+
+
+def describe_cylinder(fit: Mapping[str, Any], alpha: float | None = None) -> str:
+    """The cylinder fitted to the deformed surface: radius (beside 1/α), axis, RMS distance."""
+    expected = f" (1/α = {1 / alpha:.4f})" if alpha else ""
+    axis = ", ".join(f"{c:+.3f}" for c in fit["axis"])
+    return (
+        f"fitted radius {fit['radius']:.4f}{expected}, axis ({axis}), "
+        f"rms distance {fit['rms_residual']:.2e}"
+    )
+
+
+def axis_angle(fit: Mapping[str, Any], direction: Sequence[float]) -> float:
+    """The angle in degrees (0 to 90) between a fitted cylinder's axis and ``direction``.
+
+    Args:
+        fit: ``summary["cylinder_fit"]`` of a bilayer run.
+        direction: A direction in space, e.g. ``(0, 1, 0)`` for the x₂ axis.
+    """
+    axis, other = np.asarray(fit["axis"], dtype=float), np.asarray(direction, dtype=float)
+    cosine = abs(float(axis @ other)) / (np.linalg.norm(axis) * np.linalg.norm(other))
+    return math.degrees(math.acos(min(1.0, cosine)))
+
+
+def _passed(what: str, ok: bool, text: str, comm: MPI.Comm) -> None:
+    say(f"{'ok' if ok else 'FAILED'}: {text}", comm=comm)
+    if not ok:
+        raise AssertionError(f"{what}: {text}")
+
+
+def check_close(
+    what: str,
+    value: float,
+    expected: float,
+    *,
+    rel: float = 0.0,
+    abs: float = 0.0,
+    source: str = "",
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> None:
+    """Check ``|value − expected| ≤ max(rel·|expected|, abs)``; print it on rank 0.
+
+    Args:
+        what: The quantity, as printed (e.g. ``"E_h"``).
+        value: The computed value (the same on every rank).
+        expected: The published or exact value.
+        rel: The relative tolerance.
+        abs: The absolute tolerance.
+        source: Where ``expected`` comes from (printed).
+        comm: Rank 0 of it prints.
+
+    Raises:
+        AssertionError: Outside the tolerance, or not a finite number.
+    """
+    tol = max(rel * math.fabs(expected), abs)
+    ok = math.isfinite(value) and math.fabs(value - expected) <= tol
+    shown = f"± {100 * rel:.3g} %" if rel * math.fabs(expected) >= abs else f"± {abs:.3g}"
+    origin = f" ({source})" if source else ""
+    _passed(what, ok, f"{what} = {value:.6g}, expected {expected:.6g} {shown}{origin}", comm)
+
+
+def check_between(
+    what: str,
+    value: float,
+    low: float | None = None,
+    high: float | None = None,
+    *,
+    source: str = "",
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> None:
+    """Check ``low ≤ value ≤ high`` (either bound may be left out); print it on rank 0.
+
+    Raises:
+        AssertionError: Outside the bounds, or not a finite number.
+        ValueError: Neither bound is given.
+    """
+    if low is None and high is None:
+        raise ValueError("check_between needs a lower or an upper bound")
+    ok = math.isfinite(value) and (low is None or value >= low) and (high is None or value <= high)
+    if low is not None and high is not None:
+        bounds = f"in [{low:.6g}, {high:.6g}]"
+    else:
+        bounds = f"≥ {low:.6g}" if low is not None else f"≤ {high:.6g}"
+    origin = f" ({source})" if source else ""
+    _passed(what, ok, f"{what} = {value:.6g}, expected {bounds}{origin}", comm)
+
+
+def check(what: str, ok: bool, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
+    """Check a statement ``what`` that ``ok`` says is true; print it on rank 0.
+
+    Raises:
+        AssertionError: ``ok`` is false.
+    """
+    _passed(what, bool(ok), what, comm)
+
+
+def copy_figure(
+    out: str | Path,
+    figure: str | Path | None,
+    name: str = "final.png",
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> None:
+    """Copy ``out/name`` to ``figure`` (``--figure``) on rank 0, if one is given.
+
+    Args:
+        out: The run's output folder.
+        figure: The copy's path, or ``None`` for none.
+        name: The picture in ``out``.
+        comm: Rank 0 of it copies.
+    """
+    if figure and comm.rank == 0:
+        Path(figure).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(Path(out) / name, figure)
+
+
+def save_shape(driver: Any, out: str | Path, title: str = "") -> None:
+    """Write a driver's final shape as ``deformation.bp`` (VTX) and ``final.png``. Collective.
+
+    For demos that drive a model themselves (e.g. several meshes or load paths in one
+    script) rather than through :func:`run`, so that their states open in ParaView too.
+
+    Args:
+        driver: A driver (:class:`dgplate.solvers.driver.Driver`) after its run.
+        out: The folder to write into (created if missing).
+        title: The picture's title.
+    """
+    from dgplate.io.plotting import plot_deformation
+    from dgplate.io.vtx import DeformationWriter
+
+    folder = Path(out)
+    if driver.comm.rank == 0:
+        folder.mkdir(parents=True, exist_ok=True)
+    driver.comm.barrier()
+    writer = DeformationWriter(folder / "deformation.bp", driver.shape, comm=driver.comm)
+    writer.write(driver.time)
+    writer.close()
+    plot_deformation(driver.shape, folder / "final.png", title=title, color_by=None)
