@@ -30,29 +30,18 @@
 # cost per step); `--out DIR`, `--force`, `--resume` as for every run.
 
 # %%
-import argparse
 import sys
 from pathlib import Path
 
-from mpi4py import MPI
-
 import dgplate
+from dgplate import demo
 
 PROBLEM = Path(__file__).resolve().parent / "problems" / "microcapsule.toml"
-
-parser = argparse.ArgumentParser(description="Self-folding microcapsule (seed 001).")
-parser.add_argument("--paper", action="store_true", help="n = 16 cells per side (slow)")
-parser.add_argument("--out", default="out/microcapsule", help="output directory")
-parser.add_argument("--force", action="store_true", help="write into a folder of other files")
-parser.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
-args, _ = parser.parse_known_args()
-comm = MPI.COMM_WORLD
-
-
-def say(text: str) -> None:
-    """Print on rank 0."""
-    if comm.rank == 0:
-        print(text, flush=True)
+# small by default (4 cells per flap side, 4 heat steps, about 15 s); the problem file has 8,
+# --paper 16
+SMALL = {"mesh.parameters.n": 4, "model.heat_step": 0.25, "model.hold_steps": 100}
+args = demo.arguments("microcapsule", "Self-folding microcapsule (seed 001).", "n = 16")
+say = demo.say
 
 
 # %% [markdown]
@@ -66,9 +55,8 @@ def say(text: str) -> None:
 # are in `history.csv` for every heat step and in `summary.json` for the final shape.
 
 # %%
-overrides = {"mesh.parameters.n": 16} if args.paper else {}
-problem = dgplate.load_problem(PROBLEM, overrides=overrides)
-result = dgplate.run(problem, out=args.out, force=args.force, resume=args.resume)
+problem = dgplate.load_problem(PROBLEM, {"mesh.parameters.n": 16} if args.paper else SMALL)
+result = demo.run(problem, args)
 if result.get("interrupted"):  # SIGINT/SIGTERM: outputs and a checkpoint were kept
     sys.exit(128 + int(result["interrupted"]))
 
