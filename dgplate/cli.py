@@ -12,6 +12,7 @@ import argparse
 import sys
 import time
 import traceback
+from typing import NoReturn
 
 from mpi4py import MPI
 
@@ -56,7 +57,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 class _ArgumentError(Exception):
-    pass
+    """Raised instead of argparse's exit: ``args`` are (exit code, message or None)."""
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -67,7 +68,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = parser.parse_args(argv)
     except _ArgumentError as err:
-        code, message = err.args
+        code: int = err.args[0]
+        message: str | None = err.args[1]
         if message and comm.rank == 0:
             sys.stderr.write(message)
         return code
@@ -141,7 +143,7 @@ def end_together(comm: MPI.Comm, code: int, message: str) -> int:
     return code
 
 
-def _exit(status: int = 0, message: str | None = None):
+def _exit(status: int = 0, message: str | None = None) -> NoReturn:
     raise _ArgumentError(2 if status else 0, message)
 
 

@@ -1,3 +1,5 @@
+# mypy: disallow-untyped-calls=False
+# (UFL is unannotated: calling it is not an error of ours, as in the numerical core)
 """Heat equation on the flat reference domain: θ_t − κΔθ = s(x, t) (docs/design.md §1).
 
 Implicit Euler in time, continuous Lagrange (P1 or P2, Q1 or Q2 on quadrilaterals) in space,
@@ -17,8 +19,9 @@ every rank, and results do not depend on the number of ranks.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from mpi4py import MPI
 
@@ -28,12 +31,13 @@ import numpy as np
 import ufl
 from petsc4py import PETSc
 
+from dgplate import values
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.solvers import linear as solvers
 
 
-def _number(value, key: str) -> float:
+def _number(value: object, key: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise InputError(f"{key} must be a finite number, got {value!r}")
     return float(value)
@@ -50,7 +54,7 @@ class HeatSource:
     """
 
     schedule: tuple[tuple[float, float], ...]
-    regions: tuple[str, ...] | None = None
+    regions: Sequence[str] | None = None  # stored as a tuple
 
     def __post_init__(self) -> None:
         try:
@@ -89,7 +93,7 @@ class HeatSource:
         regions: Sequence[str] | None = None,
     ) -> HeatSource:
         """S = ``before`` for 0 ≤ t < switch_time, then ``after`` (the box's heating/cooling)."""
-        return cls(((0.0, before), (switch_time, after)), None if regions is None else regions)
+        return cls(((0.0, before), (switch_time, after)), regions)
 
     def value(self, t: float) -> float:
         """S at time t (inside the heated regions)."""
@@ -135,12 +139,12 @@ class HeatSolver:
         tagged: TaggedMesh,
         kappa: float,
         dt: float,
-        source: HeatSource | Callable | None = None,
+        source: HeatSource | Callable[..., Any] | None = None,
         degree: int = 1,
-        theta0: float | Callable = 0.0,
-        solver_options: dict | None = None,
+        theta0: float | Callable[..., Any] = 0.0,
+        solver_options: Mapping[str, object] | None = None,
         t0: float = 0.0,
-    ):
+    ) -> None:
         kappa = _number(kappa, "heat kappa")
         if not kappa > 0:
             raise InputError(f"heat kappa (diffusivity) must be > 0, got {kappa:g}")
@@ -153,8 +157,10 @@ class HeatSolver:
         mesh = tagged.mesh
         self.mesh, self.comm = mesh, mesh.comm
         self.V = dolfinx.fem.functionspace(mesh, ("Lagrange", degree))
-        self.theta = dolfinx.fem.Function(self.V, name="temperature")
-        self._previous = dolfinx.fem.Function(self.V)
+        self.theta: dolfinx.fem.Function[np.float64] = dolfinx.fem.Function(
+            self.V, name="temperature"
+        )
+        self._previous: dolfinx.fem.Function[np.float64] = dolfinx.fem.Function(self.V)
         if callable(theta0):
             self.theta.interpolate(theta0)
         else:
@@ -162,10 +168,10 @@ class HeatSolver:
         self.t0 = _number(t0, "heat t0")
         self.last_source = 0.0  # the scheduled source's mean over the last step
         self.time, self.steps = self.t0, 0
-        self._dt = dolfinx.fem.Constant(mesh, PETSc.ScalarType(dt))
-        self.t_next = dolfinx.fem.Constant(mesh, PETSc.ScalarType(self.t0 + dt))
+        self._dt = values.constant(mesh, dt)
+        self.t_next = values.constant(mesh, self.t0 + dt)
         self.source = source
-        self._source_value = dolfinx.fem.Constant(mesh, PETSc.ScalarType(0.0))
+        self._source_value = values.constant(mesh, 0.0)
         x = ufl.SpatialCoordinate(mesh)
         if isinstance(source, HeatSource):
             s = self._source_value * self._indicator(source.regions)
@@ -178,7 +184,7 @@ class HeatSolver:
                 f"heat source must be a HeatSource, a callable (x, t) or None, got {source!r}"
             )
         u, v = ufl.TrialFunction(self.V), ufl.TestFunction(self.V)
-        kappa_c = dolfinx.fem.Constant(mesh, PETSc.ScalarType(kappa))
+        kappa_c = values.constant(mesh, kappa)
         a = (u * v + self._dt * kappa_c * ufl.inner(ufl.grad(u), ufl.grad(v))) * ufl.dx
         L = self._previous * v * ufl.dx
         if s is not None:
@@ -189,20 +195,22 @@ class HeatSolver:
         self._b_fn = dolfinx.fem.Function(self.V)  # a ghosted vector in every version
         self.b = self._b_fn.x.petsc_vec
         self._solver_options = solver_options
-        self.ksp = None  # made at the first step (a constant temperature needs no solver)
-        self._area = self._integral(dolfinx.fem.Constant(mesh, PETSc.ScalarType(1.0)))
+        self.ksp: PETSc.KSP | None = (
+            None  # made at the first step (a constant temperature needs no solver)
+        )
+        self._area = self._integral(values.constant(mesh, 1.0))
         self._mean_form = dolfinx.fem.form(self.theta * ufl.dx)
 
     # -- set-up helpers ---------------------------------------------------------------------
-    def _indicator(self, regions: tuple[str, ...] | None):
+    def _indicator(self, regions: Sequence[str] | None) -> Any:
         """1 on the heated cell groups, 0 elsewhere (a DG0 field), or 1 for the whole plate."""
         if regions is None:
-            return dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(1.0))
+            return values.constant(self.mesh, 1.0)
         # an unknown group raises an InputError naming it
         heated = dict.fromkeys(regions, 1.0)
         return self.tagged.group_function(heated, default=0.0, key="heated")
 
-    def _integral(self, expr) -> float:
+    def _integral(self, expr: Any) -> float:
         local = dolfinx.fem.assemble_scalar(dolfinx.fem.form(expr * ufl.dx))
         return float(self.comm.allreduce(local, op=MPI.SUM))
 
@@ -223,10 +231,10 @@ class HeatSolver:
         """
         t_old = self.time
         t_new = self.t0 + (self.steps + 1) * self.dt
-        self.t_next.value = t_new
+        self.t_next.value = np.asarray(t_new)
         if isinstance(self.source, HeatSource):
             self.last_source = self.source.average(t_old, t_new)
-            self._source_value.value = self.last_source
+            self._source_value.value = np.asarray(self.last_source)
         self._previous.x.array[:] = self.theta.x.array
         with self.b.localForm() as local:
             local.set(0.0)
@@ -239,11 +247,11 @@ class HeatSolver:
         self.time, self.steps = t_new, self.steps + 1
         return t_new
 
-    def checkpoint_state(self) -> dict:
+    def checkpoint_state(self) -> dict[str, Any]:
         """The counters that continue the heat equation from θ (a checkpoint's part)."""
         return {"steps": self.steps, "time": self.time, "last_source": self.last_source}
 
-    def restore_state(self, state: dict) -> None:
+    def restore_state(self, state: Mapping[str, Any]) -> None:
         """Continue from :meth:`checkpoint_state` (θ itself is restored as a field)."""
         self.steps, self.time = int(state["steps"]), float(state["time"])
         self.last_source = float(state["last_source"])
@@ -260,9 +268,9 @@ class HeatSolver:
     def min_max(self) -> tuple[float, float]:
         """Smallest and largest nodal value of θ (owned dofs, reduced over all ranks)."""
         owned = self.V.dofmap.index_map.size_local
-        values = self.theta.x.array[:owned].real
-        lo = values.min() if values.size else np.inf
-        hi = values.max() if values.size else -np.inf
+        nodal = self.theta.x.array[:owned].real
+        lo = nodal.min() if nodal.size else np.inf
+        hi = nodal.max() if nodal.size else -np.inf
         return float(self.comm.allreduce(lo, op=MPI.MIN)), float(
             self.comm.allreduce(hi, op=MPI.MAX)
         )
@@ -274,15 +282,15 @@ class HeatSolver:
             return float(self.comm.allreduce(local, op=MPI.SUM)) / self._area
         dx = ufl.Measure("dx", domain=self.mesh, subdomain_data=self.tagged.cell_tags)
         tag = self.tagged.tag(region, self.mesh.topology.dim)
-        one = dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(1.0))
+        one = values.constant(self.mesh, 1.0)
         num = dolfinx.fem.assemble_scalar(dolfinx.fem.form(self.theta * dx(tag)))
         den = dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * dx(tag)))
         num, den = self.comm.allreduce(np.array([num, den], dtype=float), op=MPI.SUM)
         return float(num / den)
 
-    def l2_error(self, exact: Callable, quadrature_degree: int = 6) -> float:
+    def l2_error(self, exact: Callable[..., Any], quadrature_degree: int = 6) -> float:
         """‖θ − exact(x, t)‖_L² at the current time (``exact`` as for a callable source)."""
-        t = dolfinx.fem.Constant(self.mesh, PETSc.ScalarType(self.time))
+        t = values.constant(self.mesh, self.time)
         x = ufl.SpatialCoordinate(self.mesh)
         e = self.theta - exact(x, t)
         dx = ufl.Measure("dx", domain=self.mesh, metadata={"quadrature_degree": quadrature_degree})

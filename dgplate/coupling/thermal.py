@@ -38,9 +38,9 @@ from dgplate.solvers.driver import Observer, RunResult
 from dgplate.solvers.flow import FlowResult, FlowSpec, GradientFlow
 
 #: ``energy(y, θ)``: the plate's energy for the deformation y and the temperature θ.
-ThermalEnergy = Callable[[dolfinx.fem.Function, dolfinx.fem.Function], Energy]
+ThermalEnergy = Callable[[dolfinx.fem.Function[np.float64], dolfinx.fem.Function[np.float64]], Energy]
 #: ``measure(y) -> {name: number}``: figures of a shape added to every record (collective).
-Measure = Callable[[dolfinx.fem.Function], dict[str, float]]
+Measure = Callable[[dolfinx.fem.Function[np.float64]], dict[str, float]]
 
 
 @dataclass
@@ -171,12 +171,12 @@ class ThermalBilayer:
 
     # -- the runner's view ------------------------------------------------------------------
     @property
-    def y(self) -> dolfinx.fem.Function:
+    def y(self) -> dolfinx.fem.Function[np.float64]:
         """The deformation y: ω → ℝ³."""
         return self.flow.y
 
     @property
-    def shape(self) -> dolfinx.fem.Function:
+    def shape(self) -> dolfinx.fem.Function[np.float64]:
         """The deformed surface (written to VTX and drawn): :attr:`y`."""
         return self.flow.y
 
@@ -186,7 +186,7 @@ class ThermalBilayer:
         return self.flow.num_dofs
 
     @property
-    def theta(self) -> dolfinx.fem.Function:
+    def theta(self) -> dolfinx.fem.Function[np.float64]:
         """The temperature θ on the reference domain."""
         return self.heat.theta
 
@@ -347,7 +347,7 @@ class ThermalBilayer:
         return result
 
     # -- checkpoints ------------------------------------------------------------------------
-    def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function]:
+    def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function[np.float64]]:
         """The plate's and the heat equation's state (see :mod:`dgplate.io.checkpoint`)."""
         return {**self.flow.checkpoint_fields(), "theta": self.heat.theta}
 

@@ -262,7 +262,7 @@ def _draw(plotter, grid, scalars, title, camera, clim, show_edges, lines, refere
 
 
 def plot_deformation(
-    u: dolfinx.fem.Function,
+    u: dolfinx.fem.Function[np.float64],
     path: str | Path,
     title: str = "",
     color_by: str | None = "curvature",

@@ -23,7 +23,7 @@ class PointProbe:
     owns it. Raises ``ValueError`` when no cell contains the point.
     """
 
-    def __init__(self, mesh: dolfinx.mesh.Mesh, point: Sequence[float]) -> None:
+    def __init__(self, mesh: dolfinx.mesh.Mesh[np.float64], point: Sequence[float]) -> None:
         self.mesh, self.comm = mesh, mesh.comm
         tdim = mesh.topology.dim
         owned = np.arange(mesh.topology.index_map(tdim).size_local, dtype=np.int32)
@@ -37,7 +37,7 @@ class PointProbe:
         if self.count == 0:
             raise ValueError(f"the point {list(point)} lies outside the mesh")
 
-    def __call__(self, u: dolfinx.fem.Function) -> float:
+    def __call__(self, u: dolfinx.fem.Function[np.float64]) -> float:
         """U at the point (the mean over the cells that contain it)."""
         local = 0.0
         if self.cells.size:
@@ -46,7 +46,7 @@ class PointProbe:
         return float(self.comm.allreduce(local, op=MPI.SUM) / self.count)
 
 
-def signed_extreme(u: dolfinx.fem.Function) -> float:
+def signed_extreme(u: dolfinx.fem.Function[np.float64]) -> float:
     """The degree-of-freedom value of largest magnitude, with its sign (scalar ``u``)."""
     space = u.function_space
     owned = u.x.array[: space.dofmap.index_map.size_local * space.dofmap.index_map_bs]

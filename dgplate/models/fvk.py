@@ -117,18 +117,22 @@ class FvKSpec:
     thickness: float = option(0.01, "plate thickness t > 0")
     pressure: float = option(0.0, "uniform pressure p at full load (along +z)")
     prestrain: float = option(0.0, "isotropic in-plane prestrain ε₀ at full load (expansion > 0)")
-    clamped: list = option([], "facet groups with w = 0 and ∇w = 0")
-    simply_supported: list = option([], "facet groups with w = 0, rotation free")
-    crease: list = option([], "interior facet groups where ∇w may jump (hinges)")
-    membrane: dict = option({}, "{group: 'fixed' | 'normal' | 'free' | [ux, uy]} in-plane BCs")
+    clamped: list[Any] = option([], "facet groups with w = 0 and ∇w = 0")
+    simply_supported: list[Any] = option([], "facet groups with w = 0, rotation free")
+    crease: list[Any] = option([], "interior facet groups where ∇w may jump (hinges)")
+    membrane: dict[str, Any] = option(
+        {}, "{group: 'fixed' | 'normal' | 'free' | [ux, uy]} in-plane BCs"
+    )
     degree: int = option(2, "degree k >= 2 of w (DG_k) and u (CG_k)")
-    penalty: dict = option(
+    penalty: dict[str, Any] = option(
         {"gamma0": PENALTY.gamma0, "gamma1": PENALTY.gamma1},
         "IP penalties γ₀ (h⁻³[w]²) and γ₁ (h⁻ᵖ[∇w]²); gradient_power p (default 1, at most 3) over-penalises gradient jumps",
     )
-    load_steps: int | list = option(10, "n uniform load steps, or a list of load factors")
-    probe: list | None = option(None, "point [x, y] for w_center (default: bounding-box centre)")
-    snes: dict = option({}, "PETSc options for SNES/KSP/PC, e.g. {snes_rtol = 1e-8}")
+    load_steps: int | list[Any] = option(10, "n uniform load steps, or a list of load factors")
+    probe: list[Any] | None = option(
+        None, "point [x, y] for w_center (default: bounding-box centre)"
+    )
+    snes: dict[str, Any] = option({}, "PETSc options for SNES/KSP/PC, e.g. {snes_rtol = 1e-8}")
 
     def __post_init__(self) -> None:
         """Check every key once: one-line InputErrors naming ``model.<key>``."""
@@ -277,10 +281,10 @@ def fvk_bending_energy(
 
 
 def fvk_energy(
-    state: dolfinx.fem.Function,
+    state: dolfinx.fem.Function[np.float64],
     faces: FacetSets,
     spec: FvKSpec,
-    load_factor: dolfinx.fem.Constant,
+    load_factor: dolfinx.fem.Constant[np.float64],
 ) -> ufl.Form:
     """Π(u, w) of the state (w, u) ∈ DG_k × [CG_k]² at the load factor of ``load_factor``.
 
@@ -329,7 +333,9 @@ def fvk_facet_sets(tagged: TaggedMesh, spec: FvKSpec) -> FacetSets:
     return FacetSets(mesh, meshtags, facets.num_clamped, facets.num_crease)
 
 
-def fvk_space(mesh: dolfinx.mesh.Mesh, degree: int) -> dolfinx.fem.FunctionSpace:
+def fvk_space(
+    mesh: dolfinx.mesh.Mesh[np.float64], degree: int
+) -> dolfinx.fem.FunctionSpace[np.float64]:
     """W = DG_k × [CG_k]²: the deflection w and the in-plane displacement u."""
     cell = mesh.basix_cell()
     elements = [
@@ -368,17 +374,18 @@ def _component_values(tagged: TaggedMesh, group: str, condition: Any) -> list[An
     return list(condition)
 
 
-BCValues = list[tuple[dolfinx.fem.Constant, float]]
+BCValues = list[tuple[dolfinx.fem.Constant[np.float64], float]]
 
 
 def membrane_bcs(
-    space: dolfinx.fem.FunctionSpace, tagged: TaggedMesh, spec: FvKSpec
-) -> tuple[list[dolfinx.fem.DirichletBC], BCValues]:
+    space: dolfinx.fem.FunctionSpace[np.float64], tagged: TaggedMesh, spec: FvKSpec
+) -> tuple[list[dolfinx.fem.DirichletBC[np.float64]], BCValues]:
     """Dirichlet conditions on u, and their (Constant, value at full load) pairs."""
     conditions: dict[str, Any] = dict.fromkeys([*spec.clamped, *spec.simply_supported], "fixed")
     conditions.update(spec.membrane)
     fdim = tagged.mesh.topology.dim - 1
-    bcs, bc_values = [], []
+    bcs: list[dolfinx.fem.DirichletBC[np.float64]] = []
+    bc_values: BCValues = []
     for group, condition in conditions.items():
         facets = tagged.facets(group)
         for component, value in enumerate(_component_values(tagged, group, condition)):
@@ -406,7 +413,7 @@ def _check_group_names(spec: FvKSpec, tagged: TaggedMesh) -> None:
                 raise InputError(f"model.{key}: {err}") from None
 
 
-def _probe(spec: FvKSpec, mesh: dolfinx.mesh.Mesh) -> PointProbe:
+def _probe(spec: FvKSpec, mesh: dolfinx.mesh.Mesh[np.float64]) -> PointProbe:
     """The probe of w_center: ``model.probe``, or the centre of the mesh's bounding box."""
     if spec.probe is None:
         lo, hi = bounds(mesh.comm, mesh.geometry.x[:, :2])
@@ -423,16 +430,18 @@ def _probe(spec: FvKSpec, mesh: dolfinx.mesh.Mesh) -> PointProbe:
 class Deformation:
     """The shape hook: y = (x₁ + u₁, x₂ + u₂, w) ∈ [DG_k]³ of a state (w, u)."""
 
-    def __init__(self, state: dolfinx.fem.Function, degree: int) -> None:
+    def __init__(self, state: dolfinx.fem.Function[np.float64], degree: int) -> None:
         mesh = state.function_space.mesh
         space = dolfinx.fem.functionspace(mesh, ("DG", degree, (3,)))
         w, u = ufl.split(state)
         x = ufl.SpatialCoordinate(mesh)
         y = ufl.as_vector([x[0] + u[0], x[1] + u[1], w])
-        self.y = dolfinx.fem.Function(space, name="deformation")
-        self._expr = dolfinx.fem.Expression(y, compat.interpolation_points(space.element))
+        self.y: dolfinx.fem.Function[np.float64] = dolfinx.fem.Function(space, name="deformation")
+        self._expr: dolfinx.fem.Expression[np.float64] = dolfinx.fem.Expression(
+            y, compat.interpolation_points(space.element)
+        )
 
-    def __call__(self) -> dolfinx.fem.Function:
+    def __call__(self) -> dolfinx.fem.Function[np.float64]:
         """Y of the current state."""
         self.y.interpolate(self._expr)
         return self.y
@@ -441,10 +450,10 @@ class Deformation:
 class DeflectionProbes:
     """The probes hook: ``w_max`` (signed extreme nodal value) and ``w_center`` (at a point)."""
 
-    def __init__(self, state: dolfinx.fem.Function, probe: PointProbe) -> None:
+    def __init__(self, state: dolfinx.fem.Function[np.float64], probe: PointProbe) -> None:
         self.state, self.probe = state, probe
         space, self._dofs = compat.collapse(state.function_space.sub(0))
-        self.w = dolfinx.fem.Function(space, name="w")
+        self.w: dolfinx.fem.Function[np.float64] = dolfinx.fem.Function(space, name="w")
 
     def __call__(self) -> dict[str, float]:
         """The two numbers of the current state (collective)."""
@@ -452,7 +461,7 @@ class DeflectionProbes:
         return {"w_max": signed_extreme(self.w), "w_center": self.probe(self.w)}
 
 
-def start_from(state: dolfinx.fem.Function, initial: Initial) -> None:
+def start_from(state: dolfinx.fem.Function[np.float64], initial: Initial) -> None:
     """W = y₃ and u = (y₁, y₂) − x of a deformation x ↦ y(x), as the first iterate."""
     parts: list[Callable[[np.ndarray], np.ndarray]] = [
         lambda x: initial(x)[2],
@@ -476,8 +485,8 @@ class FvKModel:
 
     spec: FvKSpec
     facets: FacetSets
-    space: dolfinx.fem.FunctionSpace
-    bcs: list[dolfinx.fem.DirichletBC]
+    space: dolfinx.fem.FunctionSpace[np.float64]
+    bcs: list[dolfinx.fem.DirichletBC[np.float64]]
     bc_values: BCValues
     probe: PointProbe
 
@@ -488,7 +497,7 @@ class FvKModel:
 
         ``flow`` (the problem's [flow] section) is ignored: FvK is not a gradient flow.
         """
-        state = dolfinx.fem.Function(self.space, name="state")
+        state: dolfinx.fem.Function[np.float64] = dolfinx.fem.Function(self.space, name="state")
         if initial is not None:
             start_from(state, initial)
         load_factor = values.constant(self.facets.mesh, 0.0)

@@ -182,7 +182,7 @@ def calibrate_alpha(
     mu = piecewise_constant(tagged, {"left": mu_face, "hinge": mu_hinge, "right": mu_face}, "mu")
     penalty = penalty or hinge_penalty(width, n, m)
 
-    def energy(y: dolfinx.fem.Function, theta_: dolfinx.fem.Function) -> Energy:
+    def energy(y: dolfinx.fem.Function[np.float64], theta_: dolfinx.fem.Function[np.float64]) -> Energy:
         anchor = anchor_energy(y, tagged, "left", 1000.0)
         return thermal_energy(y, facets, penalty, theta_, alpha, mu, 8, anchor)
 
@@ -415,12 +415,12 @@ class _OnShape:
     """A measure whose forms need the deformation Function: built at the first call for a
     given ``y`` (collective), then evaluated."""
 
-    def __init__(self, make: Callable[[dolfinx.fem.Function], Callable[[], dict[str, float]]]):
+    def __init__(self, make: Callable[[dolfinx.fem.Function[np.float64]], Callable[[], dict[str, float]]]):
         self.make = make
-        self._y: dolfinx.fem.Function | None = None
+        self._y: dolfinx.fem.Function[np.float64] | None = None
         self._measure: Callable[[], dict[str, float]] | None = None
 
-    def __call__(self, y: dolfinx.fem.Function) -> dict[str, float]:
+    def __call__(self, y: dolfinx.fem.Function[np.float64]) -> dict[str, float]:
         if self._measure is None or y is not self._y:
             self._y, self._measure = y, self.make(y)
         return self._measure()
@@ -487,12 +487,12 @@ class ThermalModel:
             initial,
         )
 
-    def _energy(self) -> Callable[[dolfinx.fem.Function, dolfinx.fem.Function], Energy]:
+    def _energy(self) -> Callable[[dolfinx.fem.Function[np.float64], dolfinx.fem.Function[np.float64]], Energy]:
         spec, tagged = self.spec, self.tagged
         alpha = region_coefficient(tagged, self.alpha, "model.alpha")
         degree = 3 * spec.degree + 2
 
-        def energy(y: dolfinx.fem.Function, theta: dolfinx.fem.Function) -> Energy:
+        def energy(y: dolfinx.fem.Function[np.float64], theta: dolfinx.fem.Function[np.float64]) -> Energy:
             anchor = None
             if spec.anchor:
                 anchor = anchor_energy(y, tagged, spec.anchor, spec.anchor_stiffness)
@@ -560,7 +560,7 @@ class ThermalModel:
         if spec.hinges:
             hinges, sense = self.hinges, self._sense()
 
-            def angles(y: dolfinx.fem.Function) -> Callable[[], dict[str, float]]:
+            def angles(y: dolfinx.fem.Function[np.float64]) -> Callable[[], dict[str, float]]:
                 fold = FoldAngles(y, tagged, hinges, sense=sense)
                 return lambda: {f"angle_{k}": v for k, v in fold.degrees().items()}
 
@@ -569,7 +569,7 @@ class ThermalModel:
             c = spec.closure
             target = _closure_target(c["target"], "model.closure.target")
 
-            def gap(y: dolfinx.fem.Function) -> Callable[[], dict[str, float]]:
+            def gap(y: dolfinx.fem.Function[np.float64]) -> Callable[[], dict[str, float]]:
                 closure = ClosureGap(y, tagged, c["edge"], c["panel"], target)
                 return lambda: {"closure_gap": closure()}
 
@@ -581,8 +581,8 @@ class ThermalModel:
 
     def _placement(
         self, edge: str, panel: str
-    ) -> Callable[[dolfinx.fem.Function], Callable[[], dict[str, float]]]:
-        def make(y: dolfinx.fem.Function) -> Callable[[], dict[str, float]]:
+    ) -> Callable[[dolfinx.fem.Function[np.float64]], Callable[[], dict[str, float]]]:
+        def make(y: dolfinx.fem.Function[np.float64]) -> Callable[[], dict[str, float]]:
             placement = EdgePlacement(y, self.tagged, edge, panel)
 
             def measure() -> dict[str, float]:
@@ -593,7 +593,7 @@ class ThermalModel:
 
         return make
 
-    def _anchor_energy(self, y: dolfinx.fem.Function) -> Callable[[], dict[str, float]]:
+    def _anchor_energy(self, y: dolfinx.fem.Function[np.float64]) -> Callable[[], dict[str, float]]:
         spec = self.spec
         form = dolfinx.fem.form(anchor_energy(y, self.tagged, spec.anchor, spec.anchor_stiffness))
         comm = self.tagged.comm

@@ -12,7 +12,7 @@ import ctypes
 import functools
 import sys
 from collections.abc import Callable, Iterable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from mpi4py import MPI
 
@@ -21,6 +21,15 @@ from petsc4py import PETSc
 from dgplate import expressions
 from dgplate.dg.geometry import max_cell_diameter
 from dgplate.errors import InputError
+
+if TYPE_CHECKING:
+    import dolfinx.mesh
+    import numpy as np
+
+    from dgplate.mesh.tagged import TaggedMesh
+    from dgplate.problems.specs import Problem
+
+    Mesh = dolfinx.mesh.Mesh[np.float64]
 
 #: τ above this many h: the energy bound of the isometry defect, D_h ≤ C τ E_h[y⁰], is then
 #: a thousand times the O(h) defect of the published runs (τ = h), i.e. of order one on any
@@ -45,7 +54,9 @@ def warn(comm: MPI.Comm, messages: Iterable[str]) -> None:
 
 
 # -- before the run ------------------------------------------------------------------------------
-def before_run(problem, tagged, initial: Callable | None = None) -> list[str]:
+def before_run(
+    problem: Problem, tagged: TaggedMesh, initial: Callable[..., Any] | None = None
+) -> list[str]:
     """Warnings about a problem once it is fully validated (its driver built, so that a
     warning never precedes an input error): nothing to solve, τ far from h.
     """
@@ -55,7 +66,7 @@ def before_run(problem, tagged, initial: Callable | None = None) -> list[str]:
     return [m for m in messages if m]
 
 
-def nothing_to_solve(problem, mesh, starts_flat: bool = True) -> str | None:
+def nothing_to_solve(problem: Problem, mesh: Mesh, starts_flat: bool = True) -> str | None:
     """A warning when the flat start already minimises a Kirchhoff or bilayer plate: no load,
     no clamped data other than flat, Z = 0 (bilayer). Collective on ``mesh``.
 
@@ -83,7 +94,7 @@ def nothing_to_solve(problem, mesh, starts_flat: bool = True) -> str | None:
 _FLAT = {"g": ["x", "y", 0.0], "Phi": [[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]]}
 
 
-def _flat_data(value, mesh) -> bool:
+def _flat_data(value: Any, mesh: Mesh) -> bool:
     """Clamped data g = (x, y, 0), Φ = [I₂; 0]: 'flat', or numbers and formulas equal to it."""
     if value == "flat":
         return True
@@ -94,7 +105,7 @@ def _flat_data(value, mesh) -> bool:
     )
 
 
-def _same_shape_and_values(value, flat, mesh) -> bool:
+def _same_shape_and_values(value: Any, flat: Any, mesh: Mesh) -> bool:
     if isinstance(flat, list):
         return (
             isinstance(value, list)
@@ -104,7 +115,7 @@ def _same_shape_and_values(value, flat, mesh) -> bool:
     return _agree(value, flat, mesh)
 
 
-def _zero(value, mesh) -> bool:
+def _zero(value: Any, mesh: Mesh) -> bool:
     """Z = 0 everywhere: a zero number, a matrix of zeros, or {group = zero} for every group."""
     if isinstance(value, dict):
         return all(_zero(entry, mesh) for entry in value.values())
@@ -113,7 +124,7 @@ def _zero(value, mesh) -> bool:
     return _agree(value, 0.0, mesh)
 
 
-def _agree(value, reference, mesh) -> bool:
+def _agree(value: Any, reference: Any, mesh: Mesh) -> bool:
     """expressions.agree, False for a value that is no number or formula (the build says so)."""
     try:
         return expressions.agree(value, reference, mesh)
@@ -141,7 +152,7 @@ def tau_scale(tau: float, h: float) -> str | None:
 
 
 # -- after the flow ------------------------------------------------------------------------------
-def after_run(problem, driver, summary: Mapping[str, Any], area: float) -> list[str]:
+def after_run(problem: Problem, driver: Any, summary: Mapping[str, Any], area: float) -> list[str]:
     """Warnings once the driver has stopped (before it is destroyed): [flow] solver options
     that PETSc never read, and a final state far from an isometry (``area`` = |Ω|).
     """
@@ -168,7 +179,7 @@ def advise_result(summary: Mapping[str, Any], area: float = 1.0) -> list[str]:
     ]
 
 
-def unused_solver_options(options: Mapping[str, Any], driver) -> list[str]:
+def unused_solver_options(options: Mapping[str, Any], driver: Any) -> list[str]:
     """Warnings for ``flow.solver`` keys (``options``) that PETSc never read (misspelt, or not
     used by the chosen solver); collective. Call after the run: MUMPS reads its options only
     at the first factorisation. The driver's step solver (``driver.solver``) holds the KSPs.
@@ -228,7 +239,7 @@ def c_option_used(name: str) -> bool | None:
 
 
 @functools.cache
-def _petsc_options_used():
+def _petsc_options_used() -> Any:
     try:
         function = ctypes.CDLL(PETSc.__file__).PetscOptionsUsed
     except (OSError, AttributeError, TypeError):

@@ -54,8 +54,8 @@ class Result:
     """
 
     summary: dict[str, Any]
-    shape: dolfinx.fem.Function | None = None
-    fields: dict[str, dolfinx.fem.Function] = field(default_factory=dict)
+    shape: dolfinx.fem.Function[np.float64] | None = None
+    fields: dict[str, dolfinx.fem.Function[np.float64]] = field(default_factory=dict)
     history: list[dict[str, Any]] = field(default_factory=list)
 
     def __getitem__(self, key: str) -> Any:

@@ -25,12 +25,12 @@ _OPTION = re.compile(r"^[A-Za-z0-9_]+$")
 @dataclass
 class MeshSpec:
     type: str = option("rectangle", "'rectangle' (built-in) or 'gmsh' (a .geo file)")
-    corners: list = option([[0.0, 0.0], [1.0, 1.0]], "rectangle: [[xmin, ymin], [xmax, ymax]]")
-    cells: list = option([16, 16], "rectangle: number of cells in x and y")
+    corners: list[Any] = option([[0.0, 0.0], [1.0, 1.0]], "rectangle: [[xmin, ymin], [xmax, ymax]]")
+    cells: list[Any] = option([16, 16], "rectangle: number of cells in x and y")
     cell_type: str = option("quadrilateral", "rectangle: 'quadrilateral' or 'triangle'")
     diagonal: str = option("right", "rectangle with triangles: 'left', 'right' or 'crossed'")
     file: str = option("", "gmsh: a .geo file, as a path or a name in meshes/")
-    parameters: dict = option({}, "gmsh: DefineConstant overrides, e.g. {h = 0.1}")
+    parameters: dict[str, Any] = option({}, "gmsh: DefineConstant overrides, e.g. {h = 0.1}")
     recombine: bool = option(False, "gmsh: recombine triangles into quadrilaterals")
 
     def __post_init__(self) -> None:
@@ -86,7 +86,7 @@ class Problem:
     model: Any  # the model's own spec dataclass
     flow: FlowSpec
     output: OutputSpec
-    raw: dict  # the validated input, overrides applied (recorded in summary.json)
+    raw: dict[str, Any]  # the validated input, overrides applied (recorded in summary.json)
 
 
 _KEY = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
@@ -115,7 +115,7 @@ def parse_override(text: str) -> tuple[list[str], Any]:
 Overrides = Sequence[str] | Mapping[str, Any]
 
 
-def apply_overrides(data: dict, overrides: Overrides) -> dict:
+def apply_overrides(data: dict[str, Any], overrides: Overrides) -> dict[str, Any]:
     """Set dotted keys of ``data``: ``["flow.tau=0.1"]`` (``--set`` texts, values in TOML) or
     ``{"flow.tau": 0.1, "mesh.cells": [32, 32]}`` (Python values).
     """
@@ -154,7 +154,7 @@ def load_problem(path: str | Path, overrides: Overrides = ()) -> Problem:
     return problem_from_dict(data, path.stem, overrides)
 
 
-def problem_from_dict(data: dict, name: str, overrides: Overrides = ()) -> Problem:
+def problem_from_dict(data: dict[str, Any], name: str, overrides: Overrides = ()) -> Problem:
     """Validate a problem given as a dict (the Python API's entry point)."""
     import copy
 

@@ -66,7 +66,7 @@ _REASONS: dict[int, str] = {
 #: Options prefixes of the live drivers: two at once would read each other's options.
 _LIVE_PREFIXES: set[str] = set()
 
-Shape = dolfinx.fem.Function | Callable[[], dolfinx.fem.Function]
+Shape = dolfinx.fem.Function[np.float64] | Callable[[], dolfinx.fem.Function[np.float64]]
 Probes = Callable[[], Mapping[str, float]]
 
 
@@ -142,15 +142,15 @@ class Continuation:
 
     def __init__(
         self,
-        state: dolfinx.fem.Function,
+        state: dolfinx.fem.Function[np.float64],
         energy: ufl.Form,
-        bcs: Sequence[dolfinx.fem.DirichletBC],
-        load_factor: dolfinx.fem.Constant,
+        bcs: Sequence[dolfinx.fem.DirichletBC[np.float64]],
+        load_factor: dolfinx.fem.Constant[np.float64],
         schedule: Sequence[float],
         prefix: str,
         options: Mapping[str, Any] | None = None,
         *,
-        bc_values: Sequence[tuple[dolfinx.fem.Constant, npt.ArrayLike]] = (),
+        bc_values: Sequence[tuple[dolfinx.fem.Constant[np.float64], npt.ArrayLike]] = (),
         secant: bool = True,
         observers: Sequence[Observer] = (),
         shape: Shape,
@@ -176,8 +176,12 @@ class Continuation:
         self._energy = dolfinx.fem.form(energy)
         self._residual = dolfinx.fem.form(residual)
         self._jacobian = dolfinx.fem.form(jacobian)
-        self._previous = dolfinx.fem.Function(space, name="previous")
-        self._states: list[tuple[float, np.ndarray]] = [(self.time, state.x.array.copy())]
+        self._previous: dolfinx.fem.Function[np.float64] = dolfinx.fem.Function(
+            space, name="previous"
+        )
+        self._states: list[tuple[float, npt.NDArray[np.float64]]] = [
+            (self.time, state.x.array.copy())
+        ]
         self._set_load(self.time)
         self._shape = self._update_shape()
         self._record = record_type(list(probes()) if probes else [])
@@ -234,7 +238,7 @@ class Continuation:
         return float(self._load_factor.value)
 
     @property
-    def shape(self) -> dolfinx.fem.Function:
+    def shape(self) -> dolfinx.fem.Function[np.float64]:
         """The deformed surface y: ω → ℝ³ of the current state."""
         return self._shape
 
@@ -293,7 +297,7 @@ class Continuation:
             f"(load factor {self.time:g})"
         )
 
-    def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function]:
+    def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function[np.float64]]:
         """The state and the one before it (the secant predictor's two points)."""
         self._previous.x.array[:] = self._states[0][1]
         return {"state": self.state, "previous": self._previous}
@@ -418,7 +422,7 @@ class Continuation:
         for constant, value in self._bc_values:
             constant.value = np.asarray(factor * value)
 
-    def _update_shape(self) -> dolfinx.fem.Function:
+    def _update_shape(self) -> dolfinx.fem.Function[np.float64]:
         source = self._shape_source
         return source if isinstance(source, dolfinx.fem.Function) else source()
 
