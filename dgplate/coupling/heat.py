@@ -121,6 +121,7 @@ class HeatSource:
 
     @property
     def switch_times(self) -> tuple[float, ...]:
+        """The times at which the source changes value (after the first)."""
         return tuple(t for t, _ in self.schedule[1:])
 
 
@@ -217,6 +218,7 @@ class HeatSolver:
     # -- time stepping ----------------------------------------------------------------------
     @property
     def dt(self) -> float:
+        """The time step Δt."""
         return float(self._dt.value)
 
     def source_value(self, t: float) -> float:
@@ -298,6 +300,7 @@ class HeatSolver:
         return math.sqrt(self.comm.allreduce(local, op=MPI.SUM))
 
     def destroy(self) -> None:
+        """Free the PETSc solver and matrix."""
         for obj in (self.ksp, self.A):
             if obj is not None:
                 obj.destroy()

@@ -38,7 +38,9 @@ from dgplate.solvers.driver import Observer, RunResult
 from dgplate.solvers.flow import FlowResult, FlowSpec, GradientFlow
 
 #: ``energy(y, θ)``: the plate's energy for the deformation y and the temperature θ.
-ThermalEnergy = Callable[[dolfinx.fem.Function[np.float64], dolfinx.fem.Function[np.float64]], Energy]
+ThermalEnergy = Callable[
+    [dolfinx.fem.Function[np.float64], dolfinx.fem.Function[np.float64]], Energy
+]
 #: ``measure(y) -> {name: number}``: figures of a shape added to every record (collective).
 Measure = Callable[[dolfinx.fem.Function[np.float64]], dict[str, float]]
 
@@ -226,8 +228,11 @@ class ThermalBilayer:
 
     # -- steps ------------------------------------------------------------------------------
     def relax(self, max_steps: int | None = None) -> FlowResult:
-        """Run the flow at the current θ (warm start), at most ``max_steps`` steps
-        (default :attr:`Schedule.flow_steps`)."""
+        """Run the flow at the current θ (warm start).
+
+        Run the flow at the current θ (warm start), at most ``max_steps`` steps
+        (default :attr:`Schedule.flow_steps`).
+        """
         self.flow.rebase_energy()  # θ changed Z, hence the energy
         self.last_result = self.flow.run(max_steps=max_steps or self.schedule.flow_steps)
         return self.last_result
@@ -240,10 +245,13 @@ class ThermalBilayer:
         return self._record(result, time.perf_counter() - t0)
 
     def hold(self, max_steps: int | None = None, tau: float | None = None) -> HeatStepRecord:
-        """Relax at the current temperature without a heat step (budget ``max_steps``,
+        """Relax at the current temperature without a heat step.
+
+        Relax at the current temperature without a heat step (budget ``max_steps``,
         default :attr:`Schedule.hold_steps`), optionally with another τ (restored afterwards:
         each change reassembles the flow's constant matrix once); returns (and stores) the
-        record, which carries the time of the last heat step."""
+        record, which carries the time of the last heat step.
+        """
         t0 = time.perf_counter()
         previous = self.flow.tau
         if tau is not None and tau != previous:
@@ -281,8 +289,11 @@ class ThermalBilayer:
         return record
 
     def _next_step(self) -> HeatStepRecord | None:
-        """The schedule's next step: a heat step, or the hold that is due. None when a hold
-        was interrupted: it is not counted, and a resumed run does it again."""
+        """The schedule's next step: a heat step, or the hold that is due.
+
+        The schedule's next step: a heat step, or the hold that is due. None when a hold
+        was interrupted: it is not counted, and a resumed run does it again.
+        """
         holds = self.schedule.holds
         due = self.holds_done < len(holds) and not self._before(holds[self.holds_done])
         if not due:
@@ -297,8 +308,11 @@ class ThermalBilayer:
         return record
 
     def _failure(self, record: HeatStepRecord) -> str | None:
-        """Why the relaxation of ``record`` failed (a solver error or divergence), if it did:
-        a flow that stopped before its budget without converging or being interrupted."""
+        """Why the relaxation of ``record`` failed, if it did.
+
+        Why the relaxation of ``record`` failed (a solver error or divergence), if it did:
+        a flow that stopped before its budget without converging or being interrupted.
+        """
         result = self.last_result
         if result is None or result.converged or result.interrupted:
             return None
@@ -321,7 +335,9 @@ class ThermalBilayer:
         )
 
     def run(self, max_steps: int | None = None) -> RunResult:
-        """Heat steps and holds until the end of the schedule, an interrupt (SIGINT/SIGTERM,
+        """Heat steps and holds until the end of the schedule (or a stop).
+
+        Heat steps and holds until the end of the schedule, an interrupt (SIGINT/SIGTERM,
         at a step boundary), a failed relaxation, or ``max_steps`` driver steps.
 
         The result's ``history`` holds this run's records; :attr:`records` all of them.

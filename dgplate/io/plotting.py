@@ -13,6 +13,7 @@ import tempfile
 from collections.abc import Sequence
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 from mpi4py import MPI
 
@@ -56,7 +57,9 @@ def _reference_outline(grid: pyvista.UnstructuredGrid) -> pyvista.PolyData:
 
 
 def _boundary_edges(surface: pyvista.PolyData) -> pyvista.PolyData:
-    """Edges with one adjacent face. DG cells share no points, so on the deformed surface
+    """Edges with one adjacent face.
+
+    Edges with one adjacent face. DG cells share no points, so on the deformed surface
     these are all element edges; on the cleaned reference mesh, the domain's boundary.
     """
     return surface.extract_feature_edges(
@@ -89,7 +92,9 @@ def _set_camera(plotter: pyvista.Plotter, camera: str | Sequence, bounds: np.nda
 
 
 def _fit(plotter: pyvista.Plotter, points: np.ndarray, top: float, bottom: float) -> None:
-    """Zoom and shift the view so ``points`` fill the picture, leaving the top and bottom
+    """Zoom and shift the view so ``points`` fill the picture.
+
+    Zoom and shift the view so ``points`` fill the picture, leaving the top and bottom
     fractions free for the title and the colour bar (tighter than the bounding sphere).
     """
     camera, (width, height) = plotter.camera, plotter.window_size
@@ -123,7 +128,9 @@ def _colour_range(values: np.ndarray, clim) -> tuple[float, float]:
 
 @contextmanager
 def _plain_text():
-    """Render all text with FreeType: VTK hands strings containing '|' to matplotlib's
+    """Render all text with FreeType.
+
+    Render all text with FreeType: VTK hands strings containing '|' to matplotlib's
     mathtext, which reads '|' as a table-cell separator and drops it ("|D²y|" → "D²y").
     """
     from vtkmodules.vtkRenderingCore import vtkTextRenderer
@@ -272,7 +279,9 @@ def plot_deformation(
     lines: Sequence[np.ndarray] | None = None,
     **options,
 ) -> None:
-    """Picture of the deformed plate coloured by |D²y| ("curvature"), the isometry-defect
+    """Picture of the deformed plate, coloured or plain.
+
+    Picture of the deformed plate coloured by |D²y| ("curvature"), the isometry-defect
     density ("defect", vector y only) or nothing. Collective; rank 0 writes ``path``.
 
     ``options`` go to ``render_png`` (reference, window_size, cmap).
@@ -322,6 +331,25 @@ def frames_to_gif(
             os.unlink(tmp)
 
 
+def _blank_panel(ax: Any, xlabel: str | None, ylabel: str | None) -> None:
+    """A montage panel without ticks or frame, with its column and row labels if any."""
+    ax.set_xticks([])
+    ax.set_yticks([])
+    for side in ax.spines.values():
+        side.set_visible(False)
+    if xlabel is not None:
+        ax.set_xlabel(xlabel, fontsize=11)
+    if ylabel is not None:
+        ax.set_ylabel(ylabel, fontsize=11)
+
+
+def _show_cropped(ax: Any, image: np.ndarray, crop: tuple[float, float, float, float]) -> None:
+    """Draw the (top, bottom, left, right) fractions ``crop`` of ``image`` in ``ax``."""
+    top, bottom, left, right = crop
+    h, w = image.shape[:2]
+    ax.imshow(image[int(top * h) : int(bottom * h), int(left * w) : int(right * w)])
+
+
 def montage(
     images: Sequence[Sequence[str | Path | None]],
     path: str | Path,
@@ -362,23 +390,15 @@ def montage(
     if not rows or not cols:
         raise ValueError("montage needs at least one picture")
     fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.6 * rows), squeeze=False)
-    top, bottom, left, right = crop
     for i, row in enumerate(images):
         for j in range(cols):
             ax = axes[i][j]
-            ax.set_xticks([])
-            ax.set_yticks([])
-            for side in ax.spines.values():
-                side.set_visible(False)
-            if i == rows - 1 and j < len(column_labels):
-                ax.set_xlabel(column_labels[j], fontsize=11)
-            if j == 0 and i < len(row_labels):
-                ax.set_ylabel(row_labels[i], fontsize=11)
-            if j >= len(row) or row[j] is None:
+            xlabel = column_labels[j] if i == rows - 1 and j < len(column_labels) else None
+            _blank_panel(ax, xlabel, row_labels[i] if j == 0 and i < len(row_labels) else None)
+            picture = row[j] if j < len(row) else None
+            if picture is None:
                 continue
-            image = mpimg.imread(row[j])
-            h, w = image.shape[:2]
-            ax.imshow(image[int(top * h) : int(bottom * h), int(left * w) : int(right * w)])
+            _show_cropped(ax, mpimg.imread(picture), crop)
             if captions is not None:
                 ax.set_title(captions[i][j], fontsize=9)
     if title:

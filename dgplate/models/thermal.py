@@ -69,7 +69,9 @@ Initial = Callable[[np.ndarray], np.ndarray]
 
 # -- the energy --------------------------------------------------------------------------------
 def region_coefficient(tagged: TaggedMesh, values: Any, key: str, default: float = 0.0) -> Any:
-    """A coefficient that may vanish: a number (everywhere, a Constant), or {cell group: number}
+    """A coefficient that may vanish: a number or {cell group: number}.
+
+    A coefficient that may vanish: a number (everywhere, a Constant), or {cell group: number}
     with ``default`` on the cells of no listed group (a DG0 field). Unlike μ it may be 0 or < 0.
     """
     if isinstance(values, int | float) and not isinstance(values, bool):
@@ -111,8 +113,11 @@ def thermal_energy(
     degree: int | None = None,
     anchor: ufl.Form | None = None,
 ) -> Energy:
-    """The bilayer energy with Z = −αθI (flat clamped data where facets are clamped), plus an
-    optional anchor term (``anchor`` a UFL form from :func:`anchor_energy`, implicit)."""
+    """The bilayer energy with Z = −αθI, plus an optional anchor term.
+
+    The bilayer energy with Z = −αθI (flat clamped data where facets are clamped), plus an
+    optional anchor term (``anchor`` a UFL form from :func:`anchor_energy`, implicit).
+    """
     g, Phi = flat_identity(facets.mesh)
     Z = thermal_curvature(theta, alpha)
     energy = bilayer_energy(y, facets, penalty, Z, mu, None, g, Phi, True, degree)
@@ -182,7 +187,9 @@ def calibrate_alpha(
     mu = piecewise_constant(tagged, {"left": mu_face, "hinge": mu_hinge, "right": mu_face}, "mu")
     penalty = penalty or hinge_penalty(width, n, m)
 
-    def energy(y: dolfinx.fem.Function[np.float64], theta_: dolfinx.fem.Function[np.float64]) -> Energy:
+    def energy(
+        y: dolfinx.fem.Function[np.float64], theta_: dolfinx.fem.Function[np.float64]
+    ) -> Energy:
         anchor = anchor_energy(y, tagged, "left", 1000.0)
         return thermal_energy(y, facets, penalty, theta_, alpha, mu, 8, anchor)
 
@@ -412,10 +419,15 @@ class ThermalSpec:
 
 # -- the model ---------------------------------------------------------------------------------
 class _OnShape:
-    """A measure whose forms need the deformation Function: built at the first call for a
-    given ``y`` (collective), then evaluated."""
+    """A measure whose forms need the deformation Function.
 
-    def __init__(self, make: Callable[[dolfinx.fem.Function[np.float64]], Callable[[], dict[str, float]]]):
+    A measure whose forms need the deformation Function: built at the first call for a
+    given ``y`` (collective), then evaluated.
+    """
+
+    def __init__(
+        self, make: Callable[[dolfinx.fem.Function[np.float64]], Callable[[], dict[str, float]]]
+    ):
         self.make = make
         self._y: dolfinx.fem.Function[np.float64] | None = None
         self._measure: Callable[[], dict[str, float]] | None = None
@@ -487,12 +499,16 @@ class ThermalModel:
             initial,
         )
 
-    def _energy(self) -> Callable[[dolfinx.fem.Function[np.float64], dolfinx.fem.Function[np.float64]], Energy]:
+    def _energy(
+        self,
+    ) -> Callable[[dolfinx.fem.Function[np.float64], dolfinx.fem.Function[np.float64]], Energy]:
         spec, tagged = self.spec, self.tagged
         alpha = region_coefficient(tagged, self.alpha, "model.alpha")
         degree = 3 * spec.degree + 2
 
-        def energy(y: dolfinx.fem.Function[np.float64], theta: dolfinx.fem.Function[np.float64]) -> Energy:
+        def energy(
+            y: dolfinx.fem.Function[np.float64], theta: dolfinx.fem.Function[np.float64]
+        ) -> Energy:
             anchor = None
             if spec.anchor:
                 anchor = anchor_energy(y, tagged, spec.anchor, spec.anchor_stiffness)
@@ -609,9 +625,12 @@ class ThermalModel:
         return f"t{t:g}"
 
     def figures(self, driver: ThermalBilayer) -> dict[str, Any]:
-        """Hinge angles, closure gap and placements of the final shape, the same at each hold
+        """Hinge angles, closure gap and placements of the final shape, and more.
+
+        Hinge angles, closure gap and placements of the final shape, the same at each hold
         before the end (``…_at_switch`` for a hold at the source's one switch time, else
-        ``…_at_t<time>``), α and the calibration's numbers, principal curvatures."""
+        ``…_at_t<time>``), α and the calibration's numbers, principal curvatures.
+        """
         out: dict[str, Any] = {"alpha": self.alpha, "alpha_rule": self.spec.alpha}
         out.update(self.calibration)
         final: dict[str, float] = {}
@@ -652,8 +671,11 @@ def _named(figures: dict[str, float], suffix: str) -> dict[str, Any]:
 
 
 def _check_groups(spec: ThermalSpec, tagged: TaggedMesh) -> None:
-    """Every cell and facet group the spec names exists (InputError naming the first that
-    does not)."""
+    """Check that every cell and facet group the spec names exists.
+
+    Every cell and facet group the spec names exists (InputError naming the first that
+    does not).
+    """
     tdim = tagged.mesh.topology.dim
     cells = list(spec.source_regions) + list(spec.hinges) + list(spec.edges.values())
     cells += [face for faces in spec.hinges.values() for face in faces]

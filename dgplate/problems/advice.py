@@ -57,7 +57,9 @@ def warn(comm: MPI.Comm, messages: Iterable[str]) -> None:
 def before_run(
     problem: Problem, tagged: TaggedMesh, initial: Callable[..., Any] | None = None
 ) -> list[str]:
-    """Warnings about a problem once it is fully validated (its driver built, so that a
+    """Warnings about a problem once it is fully validated.
+
+    Warnings about a problem once it is fully validated (its driver built, so that a
     warning never precedes an input error): nothing to solve, τ far from h.
     """
     messages = [nothing_to_solve(problem, tagged.mesh, starts_flat=initial is None)]
@@ -67,7 +69,9 @@ def before_run(
 
 
 def nothing_to_solve(problem: Problem, mesh: Mesh, starts_flat: bool = True) -> str | None:
-    """A warning when the flat start already minimises a Kirchhoff or bilayer plate: no load,
+    """A warning when the flat start already minimises a Kirchhoff or bilayer plate.
+
+    A warning when the flat start already minimises a Kirchhoff or bilayer plate: no load,
     no clamped data other than flat, Z = 0 (bilayer). Collective on ``mesh``.
 
     An empty problem file (no [model]) is the first case. None for other models.
@@ -153,7 +157,9 @@ def tau_scale(tau: float, h: float) -> str | None:
 
 # -- after the flow ------------------------------------------------------------------------------
 def after_run(problem: Problem, driver: Any, summary: Mapping[str, Any], area: float) -> list[str]:
-    """Warnings once the driver has stopped (before it is destroyed): [flow] solver options
+    """Warnings once the driver has stopped (before it is destroyed).
+
+    Warnings once the driver has stopped (before it is destroyed): [flow] solver options
     that PETSc never read, and a final state far from an isometry (``area`` = |Ω|).
     """
     return unused_solver_options(problem.flow.solver, driver) + advise_result(summary, area)
@@ -180,7 +186,9 @@ def advise_result(summary: Mapping[str, Any], area: float = 1.0) -> list[str]:
 
 
 def unused_solver_options(options: Mapping[str, Any], driver: Any) -> list[str]:
-    """Warnings for ``flow.solver`` keys (``options``) that PETSc never read (misspelt, or not
+    """Warnings for ``flow.solver`` keys that PETSc never read.
+
+    Warnings for ``flow.solver`` keys (``options``) that PETSc never read (misspelt, or not
     used by the chosen solver); collective. Call after the run: MUMPS reads its options only
     at the first factorisation. The driver's step solver (``driver.solver``) holds the KSPs.
     """

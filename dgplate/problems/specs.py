@@ -24,6 +24,8 @@ _OPTION = re.compile(r"^[A-Za-z0-9_]+$")
 
 @dataclass
 class MeshSpec:
+    """The [mesh] section: a built-in rectangle or a gmsh .geo file."""
+
     type: str = option("rectangle", "'rectangle' (built-in) or 'gmsh' (a .geo file)")
     corners: list[Any] = option([[0.0, 0.0], [1.0, 1.0]], "rectangle: [[xmin, ymin], [xmax, ymax]]")
     cells: list[Any] = option([16, 16], "rectangle: number of cells in x and y")
@@ -61,6 +63,8 @@ class MeshSpec:
 
 @dataclass
 class OutputSpec:
+    """The [output] section: where results go and which files are written."""
+
     dir: str = option("", "output directory (default out/<problem name>); --out overrides it")
     vtx: bool = option(True, "write a VTX time series (ParaView) of the deformation")
     every: int = option(1, "write the time series every n steps (the final state always)")
@@ -81,6 +85,8 @@ class OutputSpec:
 
 @dataclass
 class Problem:
+    """A validated problem: every section as a spec, and the input it came from."""
+
     name: str
     mesh: MeshSpec
     model: Any  # the model's own spec dataclass
@@ -116,7 +122,9 @@ Overrides = Sequence[str] | Mapping[str, Any]
 
 
 def apply_overrides(data: dict[str, Any], overrides: Overrides) -> dict[str, Any]:
-    """Set dotted keys of ``data``: ``["flow.tau=0.1"]`` (``--set`` texts, values in TOML) or
+    """Set dotted keys of ``data`` from ``--set`` texts or Python values.
+
+    Set dotted keys of ``data``: ``["flow.tau=0.1"]`` (``--set`` texts, values in TOML) or
     ``{"flow.tau": 0.1, "mesh.cells": [32, 32]}`` (Python values).
     """
     if isinstance(overrides, Mapping):
