@@ -30,6 +30,15 @@ def is_integer(value: object) -> TypeGuard[int]:
     return isinstance(value, int) and not isinstance(value, bool)
 
 
+def is_matrix(value: object, rows: int, cols: int) -> TypeGuard[list[list[object]]]:
+    """True for a list of ``rows`` lists of ``cols`` entries each (a matrix in TOML)."""
+    return (
+        isinstance(value, list)
+        and len(value) == rows
+        and all(isinstance(row, list) and len(row) == cols for row in value)
+    )
+
+
 def option(default: Any, doc: str) -> Any:
     """A dataclass field with a default (copied if mutable) and a documentation string.
 

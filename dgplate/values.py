@@ -8,7 +8,7 @@ Z, μ, the penalties γ₀ and γ₁, α, anchor stiffness, FvK data, …) there
 cell group), whose values the generated code reads at assembly time.
 
 The signature, and so the cache, still tells problem *shapes* apart: the model and its terms,
-degrees, elements and cell types, the face sets, the power p of h⁻ᵖ, and the text of formulas
+degrees, elements and cell types, the facet sets, the power p of h⁻ᵖ, and the text of formulas
 in x, y. A formula such as ``"0.1*sin(pi*x)"`` stays symbolic, numbers in it included: it is a
 piece of the form, not a value, so a sweep over its amplitude compiles once per amplitude.
 """

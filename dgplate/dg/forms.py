@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TypedDict, Unpack
 
 from mpi4py import MPI
 
@@ -234,13 +235,20 @@ def jump(v: Expr) -> Expr:
     return difference
 
 
+class BendingData(TypedDict, total=False):
+    """The data of ½ a_h(y, y) besides the penalty, passed by keyword.
+
+    ``mu``: the cell-wise rigidity μ (default 1); ``g`` and ``Phi``: the Nitsche data g, Φ on
+    clamped facets (needed when there are any).
+    """
+
+    mu: Coefficient | None
+    g: Coefficient | None
+    Phi: Expr | None
+
+
 def bending_energy(
-    y: Expr,
-    facets: FacetSets,
-    penalty: Penalty,
-    mu: Coefficient | None = None,
-    g: Expr | None = None,
-    Phi: Expr | None = None,
+    y: Expr, facets: FacetSets, penalty: Penalty, **data: Unpack[BendingData]
 ) -> ufl.Form:
     """½ a_h(y, y) of docs/design.md §2 as a UFL functional, Nitsche data g, Φ on clamped facets.
 
@@ -248,6 +256,8 @@ def bending_energy(
     penalties {μ}. ``ufl.derivative`` of this functional gives the symmetric interior-penalty
     residual and matrix, so no bilinear form is written twice.
     """
+    mu = data.get("mu")
+    g, Phi = data.get("g"), data.get("Phi")
     mu = 1.0 if mu is None else mu
     n, h = facets.n, facets.h
     gamma0, gamma1 = penalty.constants(facets.mesh)
