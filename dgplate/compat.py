@@ -190,6 +190,7 @@ def assemble_vector_into(vector: PETSc.Vec, form: Form) -> None:
 # UFL is not annotated, and mypy (strict) refuses calls of unannotated functions outside
 # dg/, solvers/ and models/: the few UFL functions that other modules call get their types here.
 spatial_coordinate: Callable[[Mesh], Expr] = ufl.SpatialCoordinate
+grad: Callable[[Expr], Expr] = ufl.grad
 as_ufl: Callable[[float], Expr] = ufl.as_ufl
 as_vector: Callable[[Sequence[object]], Expr] = ufl.as_vector
 as_tensor: Callable[[Sequence[object]], Expr] = ufl.as_tensor
@@ -199,6 +200,20 @@ def ufl_element(space: FunctionSpace) -> basix.ufl._ElementBase:
     """The basix.ufl element of a function space (its degree, continuity, shape)."""
     element: Callable[[], basix.ufl._ElementBase] = space.ufl_element
     return element()
+
+
+def vtk_mesh(
+    space: FunctionSpace, cells: Indices
+) -> tuple[npt.NDArray[np.integer[Any]], npt.NDArray[np.integer[Any]], Array]:
+    """VTK topology, cell types and points of the given cells of a Lagrange space.
+
+    ``dolfinx.plot.vtk_mesh`` dispatches on its first argument; its annotations show only the
+    variant that takes a mesh.
+    """
+    import dolfinx.plot
+
+    topology, types, points = dolfinx.plot.vtk_mesh(space, entities=cells)  # type: ignore[arg-type]
+    return np.asarray(topology), np.asarray(types), np.asarray(points)
 
 
 def version_string() -> str:
