@@ -13,11 +13,14 @@ import dataclasses
 import math
 import types
 import typing
-from typing import Any, TypeGuard, TypeVar
+from typing import TYPE_CHECKING, Any, TypeGuard, TypeVar
 
 from dgplate.errors import InputError
 
-T = TypeVar("T")
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
+
+T = TypeVar("T", bound="DataclassInstance")
 
 
 def is_number(value: object) -> TypeGuard[int | float]:
@@ -84,7 +87,7 @@ def from_dict(cls: type[T], data: object, section: str) -> T:
         data = {}
     if not isinstance(data, dict):
         raise InputError(f"[{section}] must be a table, got {data!r}")
-    fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    fields = {f.name: f for f in dataclasses.fields(cls)}
     hints = typing.get_type_hints(cls)
     for key in data:
         if key not in fields:
