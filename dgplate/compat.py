@@ -1,4 +1,4 @@
-"""The one module that knows DOLFINx versions.
+"""The one module that knows DOLFINx versions, and where the libraries' typing falls short.
 
 dgplate supports DOLFINx 0.9 (Debian 13), 0.10 and 0.11 (PyPI wheel). Every API difference
 between those releases is absorbed here, so the rest of the package is written once.
@@ -6,7 +6,9 @@ Importing this module refuses an older or unknown-major DOLFINx with a clear mes
 
 The type aliases below name DOLFINx's classes with the scalar type dgplate computes in (real
 double precision): DOLFINx's classes are generic in it. They are strings, so that they are
-never evaluated at run time (DOLFINx 0.9's classes are not all generic).
+never evaluated at run time (DOLFINx 0.9's classes are not all generic). Where the
+annotations of DOLFINx, petsc4py or UFL do not say what they accept or return, the typed
+names further down say it once, so that the rest of the package needs no ``type: ignore``.
 """
 
 from __future__ import annotations
