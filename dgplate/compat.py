@@ -1,27 +1,58 @@
-"""The one module that knows DOLFINx versions.
+"""The one module that knows DOLFINx versions, and where the libraries' typing falls short.
 
 dgplate supports DOLFINx 0.9 (Debian 13), 0.10 and 0.11 (PyPI wheel). Every API difference
 between those releases is absorbed here, so the rest of the package is written once.
 Importing this module refuses an older or unknown-major DOLFINx with a clear message.
+
+The type aliases below name DOLFINx's classes with the scalar type dgplate computes in (real
+double precision): DOLFINx's classes are generic in it. They are strings, so that they are
+never evaluated at run time (DOLFINx 0.9's classes are not all generic). Where the
+annotations of DOLFINx, petsc4py or UFL do not say what they accept or return, the typed
+names further down say it once, so that the rest of the package needs no ``type: ignore``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any
+import importlib
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any, TypeAlias, cast
 
 from mpi4py import MPI
 
 import dolfinx
+import dolfinx.fem
+import dolfinx.fem.petsc
 import dolfinx.mesh
+import numpy as np
+import numpy.typing as npt
+import ufl
+from petsc4py import PETSc
+from ufl.core.expr import Expr
+
+if TYPE_CHECKING:
+    import basix.ufl
 
 from dgplate.errors import UnsupportedVersionError
 
 MIN_VERSION = (0, 9)
 MAX_TESTED_VERSION = (0, 11)
 
+Mesh: TypeAlias = "dolfinx.mesh.Mesh[np.float64]"
+MeshTags: TypeAlias = "dolfinx.mesh.MeshTags"
+FunctionSpace: TypeAlias = "dolfinx.fem.FunctionSpace[np.float64]"
+Function: TypeAlias = "dolfinx.fem.Function[np.float64]"
+Constant: TypeAlias = "dolfinx.fem.Constant[np.float64]"
+Form: TypeAlias = "dolfinx.fem.Form[np.float64]"
+Expression: TypeAlias = "dolfinx.fem.Expression[np.float64]"
+FiniteElement: TypeAlias = "dolfinx.fem.FiniteElement[np.float64]"
+#: A real array, e.g. coordinates or the values of a function's degrees of freedom.
+Array: TypeAlias = "npt.NDArray[np.float64]"
+#: An array of local indices (cells, facets, degrees of freedom).
+Indices: TypeAlias = "npt.NDArray[np.int32]"
+
 
 def _parse_version(text: str) -> tuple[int, int]:
+    """``(major, minor)`` of a version string such as ``0.11.0.post0``."""
     parts = text.split(".")
     return int(parts[0]), int(parts[1])
 
@@ -42,17 +73,23 @@ def require_supported_version(version: tuple[int, int] = DOLFINX_VERSION) -> Non
 require_supported_version()
 
 
-def shared_facet_partitioner() -> Callable[..., Any]:
-    """A cell partitioner that ghosts the cells across shared facets (needed by dS integrals)."""
+def shared_facet_partitioner() -> Callable[..., object]:
+    """A cell partitioner that ghosts the cells across shared facets (needed by dS integrals).
+
+    The C++ partitioner has no Python type: it maps (comm, parts, cell types, cells) to the
+    destination ranks of each cell.
+    """
     cpp_create = dolfinx.cpp.mesh.create_cell_partitioner
     mode = dolfinx.mesh.GhostMode.shared_facet
     if DOLFINX_VERSION >= (0, 10):
-        return cpp_create(mode, 2)
-    return cpp_create(mode)
+        return cpp_create(mode, 2)  # type: ignore[no-any-return]  # untyped C++ binding
+    return cpp_create(mode)  # type: ignore[no-any-return]
 
 
-def gmsh_model_to_mesh(model: Any, comm: MPI.Comm, rank: int, gdim: int):
-    """Build a shared-facet-ghosted mesh from a gmsh model.
+def gmsh_model_to_mesh(
+    model: object, comm: MPI.Comm, rank: int, gdim: int
+) -> tuple[Mesh, MeshTags | None, MeshTags | None]:
+    """Build a shared-facet-ghosted mesh from a gmsh model (``gmsh.model`` on ``rank``).
 
     Returns ``(mesh, cell_tags, facet_tags)``; physical-group names are read by the caller
     from gmsh itself, which works the same in every version.
@@ -63,46 +100,124 @@ def gmsh_model_to_mesh(model: Any, comm: MPI.Comm, rank: int, gdim: int):
 
         data = gmshio.model_to_mesh(model, comm, rank, gdim=gdim, partitioner=partitioner)
         return data.mesh, data.cell_tags, data.facet_tags
-    from dolfinx.io import gmshio  # type: ignore[attr-defined, no-redef]
-
-    mesh, cell_tags, facet_tags = gmshio.model_to_mesh(
+    legacy: Any = importlib.import_module("dolfinx.io.gmshio")  # 0.9: returns a plain tuple
+    mesh, cell_tags, facet_tags = legacy.model_to_mesh(
         model, comm, rank, gdim=gdim, partitioner=partitioner
     )
     return mesh, cell_tags, facet_tags
 
 
-def interpolation_points(element: Any):
+def interpolation_points(element: FiniteElement) -> Array:
     """Reference interpolation points of a DOLFINx element (method in 0.9, property later)."""
-    points = element.interpolation_points
-    return points() if callable(points) else points
+    points: object = element.interpolation_points
+    return np.asarray(points() if callable(points) else points, dtype=np.float64)
 
 
-def rectangle_kwargs() -> dict[str, Any]:
+def rectangle_kwargs() -> dict[str, object]:
     """Extra keyword arguments of ``create_rectangle`` that not every version accepts."""
     return {}
 
 
-def petsc_problem_kwargs(prefix: str) -> dict[str, Any]:
+def petsc_problem_kwargs(prefix: str) -> dict[str, str]:
     """``LinearProblem``/``NonlinearProblem`` need an options prefix from 0.10 on."""
     return {"petsc_options_prefix": prefix} if DOLFINX_VERSION >= (0, 10) else {}
 
 
-def collapse(subspace):
+def collapse(subspace: FunctionSpace) -> tuple[FunctionSpace, Indices]:
     """``(V, dofs)``: the collapsed subspace and the parent-space indices of its local dofs.
 
     0.11 returns the map as a list holding one array, 0.9 as a flat list.
     """
-    import numpy as np
-
     space, dofs = subspace.collapse()
     return space, np.asarray(dofs, dtype=np.int32).reshape(-1)
 
 
-def geometry_dofmap(mesh):
+def geometry_dofmap(mesh: Mesh) -> Indices:
     """The cell → geometry node array: 0.11 deprecates ``geometry.dofmap`` for ``dofmaps[0]``."""
-    geometry = mesh.geometry
-    return geometry.dofmaps[0] if hasattr(geometry, "dofmaps") else geometry.dofmap
+    geometry: Any = mesh.geometry  # the attribute depends on the version
+    return np.asarray(geometry.dofmaps[0] if hasattr(geometry, "dofmaps") else geometry.dofmap)
+
+
+def coordinate_element_degree(mesh: Mesh) -> int:
+    """The degree of the mesh's coordinate element (2 for curved gmsh ``order = 2`` cells).
+
+    DOLFINx 0.11 deprecates ``geometry.cmap`` for ``geometry.cmaps[0]``.
+    """
+    geometry: Any = mesh.geometry  # the attribute depends on the version
+    cmap = geometry.cmaps[0] if hasattr(geometry, "cmaps") else geometry.cmap
+    return int(cmap.degree)
+
+
+# petsc4py's stubs declare the members of its enumerations as int while its methods are
+# annotated to take the enumeration classes: the members dgplate passes are typed here, once.
+INSERT = cast("PETSc.InsertMode", PETSc.InsertMode.INSERT)
+ADD = cast("PETSc.InsertMode", PETSc.InsertMode.ADD)
+FORWARD = cast("PETSc.ScatterMode", PETSc.ScatterMode.FORWARD)
+REVERSE = cast("PETSc.ScatterMode", PETSc.ScatterMode.REVERSE)
+SAME_NONZERO_PATTERN = cast("PETSc.Mat.Structure", PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+NORM_INFINITY = cast("PETSc.NormType", PETSc.NormType.INFINITY)
+IGNORE_ZERO_ENTRIES = cast("PETSc.Mat.Option", PETSc.Mat.Option.IGNORE_ZERO_ENTRIES)
+NEW_NONZERO_LOCATION_ERR = cast("PETSc.Mat.Option", PETSc.Mat.Option.NEW_NONZERO_LOCATION_ERR)
+
+
+def converged_reason(ksp: PETSc.KSP) -> int:
+    """The KSP's converged reason as the int it is (negative: diverged)."""
+    return cast(int, ksp.getConvergedReason())  # the stubs call it a ConvergedReason
+
+
+def accumulate_ghosts(vector: PETSc.Vec) -> None:
+    """Add the contributions assembled into ghost entries to their owners' entries."""
+    vector.ghostUpdate(addv=ADD, mode=REVERSE)
+
+
+# ``dolfinx.fem.petsc.assemble_matrix`` and ``assemble_vector`` dispatch on their first
+# argument; their annotations show only the variants that create the matrix or vector.
+
+
+def assemble_matrix_into(matrix: PETSc.Mat, form: Form) -> None:
+    """Zero ``matrix`` and assemble the bilinear ``form`` into it (in its sparsity pattern)."""
+    matrix.zeroEntries()
+    dolfinx.fem.petsc.assemble_matrix(matrix, form)  # type: ignore[arg-type]
+    matrix.assemble()
+
+
+def assemble_vector_into(vector: PETSc.Vec, form: Form) -> None:
+    """Zero the ghosted ``vector``, assemble the linear ``form`` into it, add up the ghosts."""
+    with vector.localForm() as local:
+        local.set(0.0)
+    dolfinx.fem.petsc.assemble_vector(vector, form)  # type: ignore[arg-type]
+    accumulate_ghosts(vector)
+
+
+# UFL is not annotated, and mypy (strict) refuses calls of unannotated functions outside
+# dg/, solvers/ and models/: the few UFL functions that other modules call get their types here.
+spatial_coordinate: Callable[[Mesh], Expr] = ufl.SpatialCoordinate
+grad: Callable[[Expr], Expr] = ufl.grad
+as_ufl: Callable[[float], Expr] = ufl.as_ufl
+as_vector: Callable[[Sequence[object]], Expr] = ufl.as_vector
+as_tensor: Callable[[Sequence[object]], Expr] = ufl.as_tensor
+
+
+def ufl_element(space: FunctionSpace) -> basix.ufl._ElementBase:
+    """The basix.ufl element of a function space (its degree, continuity, shape)."""
+    element: Callable[[], basix.ufl._ElementBase] = space.ufl_element
+    return element()
+
+
+def vtk_mesh(
+    space: FunctionSpace, cells: Indices
+) -> tuple[npt.NDArray[np.integer[Any]], npt.NDArray[np.integer[Any]], Array]:
+    """VTK topology, cell types and points of the given cells of a Lagrange space.
+
+    ``dolfinx.plot.vtk_mesh`` dispatches on its first argument; its annotations show only the
+    variant that takes a mesh.
+    """
+    import dolfinx.plot
+
+    topology, types, points = dolfinx.plot.vtk_mesh(space, entities=cells)  # type: ignore[arg-type]
+    return np.asarray(topology), np.asarray(types), np.asarray(points)
 
 
 def version_string() -> str:
+    """The installed DOLFINx version, as reported in ``summary.json``."""
     return dolfinx.__version__

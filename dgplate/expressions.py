@@ -19,21 +19,29 @@ import ast
 import math
 import operator
 from collections.abc import Callable, Mapping
-from typing import Any, NamedTuple
-
-from mpi4py import MPI
+from typing import NamedTuple, NoReturn, TypeAlias
 
 import numpy as np
 import ufl
+from ufl.core.expr import Expr
 
-from dgplate import compat
+from dgplate import compat, mpi
+from dgplate.compat import Array, Mesh
 from dgplate.errors import InputError
+from dgplate.schema import is_number
+
+#: What a formula evaluates to: a folded constant, a UFL expression, or NumPy values.
+Value: TypeAlias = "float | Expr | Array"
+#: Symbols of a formula besides x and y: UFL expressions, or numbers and arrays.
+Names: TypeAlias = "Mapping[str, object]"
 
 
 class _Function(NamedTuple):
+    """A function allowed in formulas: its number of arguments, in UFL and in NumPy."""
+
     arity: int
-    ufl: Callable[..., Any]
-    numpy: Callable[..., Any]
+    ufl: Callable[..., Value]
+    numpy: Callable[..., Array]
 
 
 _FUNCTIONS: dict[str, _Function] = {
@@ -60,7 +68,8 @@ _BINARY = {
     ast.Div: operator.truediv,
     ast.Pow: operator.pow,
 }
-_COMPARE = {  # (UFL, NumPy)
+_COMPARE: dict[type[ast.cmpop], tuple[Callable[..., Value], Callable[..., Value]]] = {
+    # (UFL, NumPy)
     ast.Lt: (ufl.lt, np.less),
     ast.LtE: (ufl.le, np.less_equal),
     ast.Gt: (ufl.gt, np.greater),
@@ -74,11 +83,11 @@ def _shown(text: str) -> str:
     return repr(text) if len(text) <= 80 else repr(text[:60]) + "…"
 
 
-def _literal(text: Any, key: str) -> float | str:
+def _literal(text: object, key: str) -> float | str:
     """A finite number as float, or a formula string; anything else is an InputError."""
     if isinstance(text, str):
         return text
-    if isinstance(text, int | float) and not isinstance(text, bool):
+    if is_number(text):
         value = float(text)
         if not math.isfinite(value):
             raise InputError(f"{key} must be a finite number, got {text!r}")
@@ -86,7 +95,15 @@ def _literal(text: Any, key: str) -> float | str:
     raise InputError(f"{key} must be a number or a formula string, got {text!r}")
 
 
-def parse(text: str | float | int, mesh, key: str, names: Mapping[str, Any] | None = None):
+def finite_number(value: object, key: str) -> float:
+    """A finite number as float; anything else, a formula string too, is an InputError."""
+    literal = _literal(value, key)
+    if isinstance(literal, str):
+        raise InputError(f"{key} must be a number, got {value!r}")
+    return literal
+
+
+def parse(text: object, mesh: Mesh, key: str, names: Names | None = None) -> float | Expr:
     """The UFL expression of ``text`` on ``mesh`` (a number passes through as a float).
 
     ``names`` adds symbols such as ``t``; ``key`` is the problem-file key, named in the error
@@ -95,27 +112,37 @@ def parse(text: str | float | int, mesh, key: str, names: Mapping[str, Any] | No
     for formulas (every rank parses the same data).
     """
     value = _literal(text, key)
-    if isinstance(value, float):
-        return value
-    _check_finite_on_mesh(value, mesh, key, names)
-    x = ufl.SpatialCoordinate(mesh)
-    builder = _Builder(key, value, (x[0], x[1]), names or {}, numeric=False)
+    return value if isinstance(value, float) else formula(value, mesh, key, names)
+
+
+def formula(text: str, mesh: Mesh, key: str, names: Names | None = None) -> float | Expr:
+    """The UFL expression of the formula ``text`` (:func:`parse` of a string).
+
+    A constant formula such as ``"2*pi"`` is folded to a float.
+    """
+    _check_finite_on_mesh(text, mesh, key, names)
+    x = compat.spatial_coordinate(mesh)
+    builder = _Builder(key, text, (x[0], x[1]), names or {}, numeric=False)
     try:
-        return builder.build()
+        built = builder.build()
     except InputError:
         raise
     except (ArithmeticError, ValueError, TypeError) as err:  # what UFL raises on odd input
-        raise InputError(f"{key}: cannot build formula {_shown(value)}: {err}") from None
+        raise InputError(f"{key}: cannot build formula {_shown(text)}: {err}") from None
+    assert not isinstance(built, np.ndarray)  # UFL coordinates give UFL expressions
+    return built
 
 
-def parse_vector(values, mesh, key: str, size: int, names: Mapping[str, Any] | None = None):
+def parse_vector(
+    values: object, mesh: Mesh, key: str, size: int, names: Names | None = None
+) -> Expr:
     """A UFL vector from a list of numbers/formulas of the given size."""
     if not isinstance(values, list | tuple) or len(values) != size:
         raise InputError(f"{key} must be a list of {size} numbers or formulas, got {values!r}")
-    return ufl.as_vector([parse(v, mesh, f"{key}[{i}]", names) for i, v in enumerate(values)])
+    return compat.as_vector([parse(v, mesh, f"{key}[{i}]", names) for i, v in enumerate(values)])
 
 
-def check(value: Any, key: str, names: Mapping[str, Any] | None = None) -> None:
+def check(value: object, key: str, names: Names | None = None) -> None:
     """Validate a number, a formula, or (nested) lists of them, without a mesh.
 
     Catches what does not depend on the domain: syntax, disallowed names and calls, constant
@@ -132,18 +159,14 @@ def check(value: Any, key: str, names: Mapping[str, Any] | None = None) -> None:
         evaluate(text, np.empty((0, 2)), key, placeholders)
 
 
-def evaluate(
-    text: str, points: np.ndarray, key: str, names: Mapping[str, Any] | None = None
-) -> np.ndarray | None:
+def evaluate(text: str, points: Array, key: str, names: Names | None = None) -> Array | None:
     """The formula's values at ``points`` (shape (n, 2)); a scalar when it is a constant.
 
     None when a name has no numeric value (e.g. a UFL constant), so it cannot be evaluated.
     """
-    numeric: dict[str, Any] = {}
+    numeric: dict[str, object] = {}
     for name, value in (names or {}).items():
-        if isinstance(value, np.ndarray) or (
-            isinstance(value, int | float) and not isinstance(value, bool)
-        ):
+        if isinstance(value, np.ndarray) or is_number(value):
             numeric[name] = value
         else:
             return None
@@ -152,14 +175,14 @@ def evaluate(
         return np.asarray(_Builder(key, text, coords, numeric, numeric=True).build())
 
 
-def sample_points(mesh) -> np.ndarray:
+def sample_points(mesh: Mesh) -> Array:
     """This rank's geometry nodes and cell midpoints (ghosts included), shape (n, 2)."""
     x = mesh.geometry.x
     midpoints = x[compat.geometry_dofmap(mesh)].mean(axis=1)
     return np.vstack([x, midpoints])[:, :2]
 
 
-def agree(a: Any, b: Any, mesh, key: str = "value") -> bool:
+def agree(a: object, b: object, mesh: Mesh, key: str = "value") -> bool:
     """True when two numbers or formulas are equal at every sample point (collective).
 
     False when one cannot be evaluated numerically; an InputError when one is not valid.
@@ -167,16 +190,17 @@ def agree(a: Any, b: Any, mesh, key: str = "value") -> bool:
     points = sample_points(mesh)
     first, second = (_values_at(v, points, key) for v in (a, b))
     local = first is not None and second is not None and bool(np.array_equal(first, second))
-    return bool(mesh.comm.allreduce(local, op=MPI.LAND))
+    return mpi.global_all(mesh.comm, local)
 
 
-def _values_at(value: Any, points: np.ndarray, key: str) -> np.ndarray | None:
+def _values_at(value: object, points: Array, key: str) -> Array | None:
+    """A number or formula at ``points``, one value per point; None: not evaluable."""
     text = _literal(value, key)
     values = text if isinstance(text, float) else evaluate(text, points, key)
     return None if values is None else np.broadcast_to(values, len(points))
 
 
-def _check_finite_on_mesh(text: str, mesh, key: str, names: Mapping[str, Any] | None) -> None:
+def _check_finite_on_mesh(text: str, mesh: Mesh, key: str, names: Names | None) -> None:
     """InputError (on every rank) when the formula is not finite at some sample point."""
     points = sample_points(mesh)
     values = evaluate(text, points, key, names)
@@ -203,12 +227,15 @@ class _Builder(ast.NodeVisitor):
     divides by zero or is not real fails the same way with or without a mesh.
     """
 
-    def __init__(self, key: str, text: str, coords: tuple, names: Mapping[str, Any], numeric: bool):
+    def __init__(
+        self, key: str, text: str, coords: tuple[Value, Value], names: Names, numeric: bool
+    ):
         self.key, self.text, self.coords, self.numeric = key, text, coords, numeric
         self.shown = _shown(text)
-        self.symbols: dict[str, Any] = {"x": coords[0], "y": coords[1], **_CONSTANTS, **names}
+        self.symbols: dict[str, object] = {"x": coords[0], "y": coords[1], **_CONSTANTS, **names}
 
-    def build(self):
+    def build(self) -> Value:
+        """The formula's value: a UFL expression, NumPy values (``numeric``) or a constant."""
         try:
             tree = ast.parse(self.text.strip(), mode="eval")
         except (SyntaxError, ValueError) as err:
@@ -217,20 +244,29 @@ class _Builder(ast.NodeVisitor):
         except (RecursionError, MemoryError):
             self.fail("nesting this deep")
         try:
-            return self.visit(tree.body)
+            return self.value(tree.body)
         except RecursionError:
             self.fail("nesting this deep")
 
-    def fail(self, what: str):
+    def value(self, node: ast.expr) -> Value:
+        """The value of a node of the syntax tree (``visit``, typed)."""
+        result: Value = self.visit(node)
+        return result
+
+    def fail(self, what: str) -> NoReturn:
+        """Refuse a construct of the formula: an InputError naming it."""
         raise InputError(f"{self.key}: {what} is not allowed in formula {self.shown}")
 
-    def not_finite(self, what: str):
+    def not_finite(self, what: str) -> NoReturn:
+        """Refuse a constant part that is not a finite real number."""
         raise InputError(f"{self.key}: formula {self.shown} {what}")
 
-    def generic_visit(self, node):
+    def generic_visit(self, node: ast.AST) -> NoReturn:
+        """Every node without a ``visit_`` method is refused."""
         self.fail(type(node).__name__)
 
-    def visit_Constant(self, node: ast.Constant):
+    def visit_Constant(self, node: ast.Constant) -> float:
+        """A number (a bool, a string or anything else is refused)."""
         if isinstance(node.value, bool) or not isinstance(node.value, int | float):
             self.fail(f"the constant {node.value!r}")
         try:
@@ -241,7 +277,8 @@ class _Builder(ast.NodeVisitor):
             self.not_finite(f"overflows: the number {value} is not finite")
         return value
 
-    def visit_Name(self, node: ast.Name):
+    def visit_Name(self, node: ast.Name) -> object:
+        """x, y, pi, e or a named parameter."""
         if node.id not in self.symbols:
             known = ", ".join(sorted(self.symbols))
             raise InputError(
@@ -249,27 +286,35 @@ class _Builder(ast.NodeVisitor):
             )
         return self.symbols[node.id]
 
-    def visit_Attribute(self, node: ast.Attribute):
+    def visit_Attribute(self, node: ast.Attribute) -> NoReturn:
+        """Attribute access is refused (no way out of the formula's names)."""
         self.fail(f"attribute access '{ast.unparse(node)}'")
 
-    def visit_Subscript(self, node: ast.Subscript):
+    def visit_Subscript(self, node: ast.Subscript) -> Value:
+        """x[0] or x[1]."""
         if not (isinstance(node.value, ast.Name) and node.value.id == "x"):
             self.fail("indexing anything but x")
         index = node.slice
         if not (isinstance(index, ast.Constant) and index.value in (0, 1)):
             self.fail("an index other than x[0] or x[1]")
-        return self.coords[index.value]
+        return self.coords[0] if index.value == 0 else self.coords[1]
 
-    def visit_BinOp(self, node: ast.BinOp):
+    def visit_BinOp(self, node: ast.BinOp) -> Value:
+        """+, −, *, / and ** (constants folded as Python floats)."""
         op = _BINARY.get(type(node.op))
         if op is None:
             self.fail(f"the operator {type(node.op).__name__}")
-        left, right = self.visit(node.left), self.visit(node.right)
+        left, right = self.value(node.left), self.value(node.right)
         if op is operator.truediv and isinstance(right, float) and right == 0.0:
             self.not_finite("divides by zero")
         if not (isinstance(left, float) and isinstance(right, float)):
-            return op(left, right)
-        try:  # constant folding, as Python floats
+            result: Value = op(left, right)
+            return result
+        return self._fold(op, left, right)
+
+    def _fold(self, op: Callable[[float, float], object], left: float, right: float) -> float:
+        """``op(left, right)`` of two constants, which must be a finite real number."""
+        try:
             value = op(left, right)
         except OverflowError:
             self.not_finite("overflows (beyond ±1.8e308)")
@@ -277,30 +322,35 @@ class _Builder(ast.NodeVisitor):
             self.not_finite("divides by zero")
         if isinstance(value, complex):
             self.not_finite(f"is not a real number ({left!r} ** {right!r})")
+        assert isinstance(value, float)
         if not math.isfinite(value):
             self.not_finite("overflows (beyond ±1.8e308)")
         return value
 
-    def visit_UnaryOp(self, node: ast.UnaryOp):
+    def visit_UnaryOp(self, node: ast.UnaryOp) -> Value:
+        """Unary minus and plus."""
         if isinstance(node.op, ast.USub):
-            return -self.visit(node.operand)
+            return -self.value(node.operand)
         if isinstance(node.op, ast.UAdd):
-            return self.visit(node.operand)
+            return self.value(node.operand)
         self.fail(f"the operator {type(node.op).__name__}")
 
-    def visit_Compare(self, node: ast.Compare):
+    def visit_Compare(self, node: ast.Compare) -> NoReturn:
+        """Comparisons are allowed only as the condition of ``where``."""
         self.fail("a comparison outside the condition of where(condition, a, b)")
 
-    def condition(self, node: ast.expr):
+    def condition(self, node: ast.expr) -> Value:
         """The first argument of ``where``: one comparison <, <=, > or >=."""
         if not isinstance(node, ast.Compare):
             self.fail("a condition that is not a comparison (<, <=, >, >=) in where()")
         if len(node.ops) != 1 or type(node.ops[0]) not in _COMPARE:
             self.fail("a chained or equality comparison")
         compare = _COMPARE[type(node.ops[0])][self.numeric]
-        return compare(self.visit(node.left), self.visit(node.comparators[0]))
+        result: Value = compare(self.value(node.left), self.value(node.comparators[0]))
+        return result
 
-    def visit_Call(self, node: ast.Call):
+    def visit_Call(self, node: ast.Call) -> Value:
+        """A call of one of the allowed functions, with positional arguments only."""
         func = node.func
         if not (isinstance(func, ast.Name) and func.id in _FUNCTIONS):
             what = "a lambda" if isinstance(func, ast.Lambda) else f"'{ast.unparse(func)[:40]}'"
@@ -315,17 +365,17 @@ class _Builder(ast.NodeVisitor):
             self.fail(f"{func.id}() with {len(node.args)} argument(s) (it takes {function.arity})")
         args = list(node.args)
         values = [self.condition(args.pop(0))] if func.id == "where" else []
-        values += [self.visit(arg) for arg in args]
+        values += [self.value(arg) for arg in args]
         if all(isinstance(v, float) for v in values):  # a constant: finite and real, or refused
             with np.errstate(all="ignore"):
                 folded = function.numpy(*values)
             if np.iscomplexobj(folded) or not np.isfinite(folded):
-                args_text = ", ".join(f"{float(v):g}" for v in values)
+                args_text = ", ".join(f"{v:g}" for v in values)
                 self.not_finite(f"is not finite: {func.id}({args_text}) = {folded}")
         return (function.numpy if self.numeric else function.ufl)(*values)
 
 
-def is_constant(values) -> bool:
+def is_constant(values: object) -> bool:
     """True when no entry is a formula string."""
     if isinstance(values, list | tuple):
         return all(is_constant(v) for v in values)

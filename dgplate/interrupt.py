@@ -14,9 +14,14 @@ import os
 import signal
 import sys
 import threading
+from collections.abc import Callable
 from types import FrameType, TracebackType
+from typing import TypeAlias
 
 from mpi4py import MPI
+
+#: What ``signal.signal`` installs and returns.
+Handler: TypeAlias = "Callable[[int, FrameType | None], object] | int | signal.Handlers | None"
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _received = 0
@@ -24,6 +29,7 @@ _depth = 0  # nested StopOnSignal contexts: only the outermost installs and rest
 
 
 def _handler(signum: int, _frame: FrameType | None) -> None:
+    """Record the first signal (and say so on rank 0); exit at once on the second."""
     global _received
     if _received:
         os._exit(128 + signum)  # the second signal: no clean-up, now
@@ -45,7 +51,7 @@ class StopOnSignal:
 
     def __enter__(self) -> StopOnSignal:
         global _received, _depth
-        self._previous: dict[int, object] = {}
+        self._previous: dict[int, Handler] = {}
         _depth += 1
         if _depth == 1 and threading.current_thread() is threading.main_thread():
             _received = 0
@@ -62,7 +68,7 @@ class StopOnSignal:
         global _depth
         _depth -= 1
         for sig, previous in self._previous.items():
-            signal.signal(sig, previous)  # type: ignore[arg-type]
+            signal.signal(sig, previous)
 
 
 def requested(comm: MPI.Comm) -> int:

@@ -1,13 +1,11 @@
-"""Small MPI helpers on NumPy arrays (a base module: it imports nothing from dgplate).
+"""Reductions over a communicator, written once with their types.
 
-mpi4py's lower-case ``allreduce`` pickles its argument and reduces whole objects, so it cannot
-take the element-wise minimum or maximum of an array; these helpers use the buffer interface.
-All of them are collective on ``comm``.
+mpi4py's object-based ``comm.allreduce`` returns ``Any`` and cannot take the element-wise
+minimum or maximum of arrays; these helpers say what comes back and are collective: every
+rank of ``comm`` must call them, and every rank gets the same result.
 """
 
 from __future__ import annotations
-
-from typing import Any
 
 from mpi4py import MPI
 
@@ -15,20 +13,56 @@ import numpy as np
 import numpy.typing as npt
 
 
-def allreduce_array(comm: MPI.Comm, values: npt.ArrayLike, op: MPI.Op = MPI.SUM) -> np.ndarray:
-    """Element-wise reduction of a float array over ``comm`` (``op``: SUM, MIN, MAX, …)."""
-    local = np.ascontiguousarray(values, dtype=np.float64)
-    out = np.empty_like(local)
-    comm.Allreduce(local, out, op=op)
+def global_sum(comm: MPI.Comm, local: float) -> float:
+    """The sum of a number over the ranks."""
+    return float(comm.allreduce(float(local), op=MPI.SUM))
+
+
+def global_max(comm: MPI.Comm, local: float) -> float:
+    """The largest of a number over the ranks."""
+    return float(comm.allreduce(float(local), op=MPI.MAX))
+
+
+def global_min(comm: MPI.Comm, local: float) -> float:
+    """The smallest of a number over the ranks."""
+    return float(comm.allreduce(float(local), op=MPI.MIN))
+
+
+def global_count(comm: MPI.Comm, local: int) -> int:
+    """The sum of a count over the ranks."""
+    return int(comm.allreduce(int(local), op=MPI.SUM))
+
+
+def global_all(comm: MPI.Comm, local: bool) -> bool:
+    """True when the flag holds on every rank."""
+    return bool(comm.allreduce(bool(local), op=MPI.LAND))
+
+
+def sum_arrays(comm: MPI.Comm, local: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """The element-wise sum of equally shaped arrays over the ranks."""
+    return np.asarray(comm.allreduce(np.asarray(local, dtype=np.float64), op=MPI.SUM))
+
+
+def allreduce_array(
+    comm: MPI.Comm, values: npt.ArrayLike, op: MPI.Op = MPI.SUM
+) -> npt.NDArray[np.float64]:
+    """Element-wise reduction of a float array by ``op`` (SUM, MIN, MAX, …)."""
+    send = np.ascontiguousarray(values, dtype=np.float64)
+    out = np.empty_like(send)
+    comm.Allreduce(send, out, op=op)
     return out
 
 
-def bounds(comm: MPI.Comm, points: npt.NDArray[Any]) -> tuple[np.ndarray, np.ndarray]:
-    """Element-wise minimum and maximum over the rows of ``points`` (n × d) on all ranks.
+def bounding_box(
+    comm: MPI.Comm, points: npt.NDArray[np.float64]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """The corners (lo, hi) of the box around the rows of ``points`` of all ranks.
 
-    A rank without rows contributes nothing (±inf).
+    A rank may hold no points (shape (0, d)): it contributes ±inf.
     """
-    points = np.asarray(points, dtype=np.float64)
     lo = allreduce_array(comm, points.min(axis=0, initial=np.inf), op=MPI.MIN)
     hi = allreduce_array(comm, points.max(axis=0, initial=-np.inf), op=MPI.MAX)
     return lo, hi
+
+
+bounds = bounding_box  # the name the FvK probes use

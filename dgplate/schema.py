@@ -8,40 +8,63 @@ string. :func:`from_dict` rejects unknown keys and wrong types with a one-line
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import types
 import typing
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeGuard, TypeVar
 
 from dgplate.errors import InputError
 
-T = TypeVar("T")
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
+
+T = TypeVar("T", bound="DataclassInstance")
+
+
+def is_number(value: object) -> TypeGuard[int | float]:
+    """True for an int or a float, but not a bool (TOML's ``true`` is no number)."""
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def is_integer(value: object) -> TypeGuard[int]:
+    """True for an int, but not a bool."""
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def is_matrix(value: object, rows: int, cols: int) -> TypeGuard[list[list[object]]]:
+    """True for a list of ``rows`` lists of ``cols`` entries each (a matrix in TOML)."""
+    return (
+        isinstance(value, list)
+        and len(value) == rows
+        and all(isinstance(row, list) and len(row) == cols for row in value)
+    )
 
 
 def option(default: Any, doc: str) -> Any:
-    """A dataclass field with a default (copied if mutable) and a documentation string."""
+    """A dataclass field with a default (copied if mutable) and a documentation string.
+
+    Returns ``Any`` like :func:`dataclasses.field`, so that a field of any type may take it.
+    """
     if isinstance(default, list | dict):
-        return dataclasses.field(default_factory=lambda: _copy(default), metadata={"doc": doc})
+        return dataclasses.field(
+            default_factory=lambda: copy.deepcopy(default), metadata={"doc": doc}
+        )
     return dataclasses.field(default=default, metadata={"doc": doc})
 
 
-def _copy(value):
-    import copy
-
-    return copy.deepcopy(value)
-
-
-def _type_name(tp) -> str:
+def _type_name(tp: Any) -> str:
+    """A field type as named in messages: ``float or str``, ``list``, ``none``."""
     origin = typing.get_origin(tp)
     if origin in (typing.Union, types.UnionType):
         return " or ".join(_type_name(a) for a in typing.get_args(tp))
-    if origin is not None:
-        return origin.__name__
-    return {"NoneType": "none"}.get(tp.__name__, tp.__name__)
+    name = str((tp if origin is None else origin).__name__)
+    return "none" if name == "NoneType" else name
 
 
-def _matches(value: Any, tp) -> bool:
+def _matches(value: object, tp: Any) -> bool:
+    """Whether ``value`` fits the field type ``tp`` (an int passes for a float, a bool not)."""
     origin = typing.get_origin(tp)
     if origin in (typing.Union, types.UnionType):
         return any(_matches(value, arg) for arg in typing.get_args(tp))
@@ -52,19 +75,19 @@ def _matches(value: Any, tp) -> bool:
     if origin is not None:
         tp = origin
     if tp is float:
-        return isinstance(value, int | float) and not isinstance(value, bool)
+        return is_number(value)
     if tp is int:
-        return isinstance(value, int) and not isinstance(value, bool)
+        return is_integer(value)
     return isinstance(value, tp)
 
 
-def from_dict(cls: type[T], data: Any, section: str) -> T:
+def from_dict(cls: type[T], data: object, section: str) -> T:
     """Build ``cls`` from a problem-file table, checking keys and types."""
     if data is None:
         data = {}
     if not isinstance(data, dict):
         raise InputError(f"[{section}] must be a table, got {data!r}")
-    fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    fields = {f.name: f for f in dataclasses.fields(cls)}
     hints = typing.get_type_hints(cls)
     for key in data:
         if key not in fields:
@@ -83,7 +106,8 @@ def from_dict(cls: type[T], data: Any, section: str) -> T:
     return cls(**values)
 
 
-def to_dict(obj: Any) -> dict:
+def to_dict(obj: Any) -> dict[str, Any]:
+    """The fields of a section dataclass as a (deep-copied) dict."""
     return dataclasses.asdict(obj)
 
 
@@ -97,7 +121,8 @@ def describe(cls: type, section: str) -> str:
     return "\n".join(lines)
 
 
-def _toml(value: Any) -> str:
+def _toml(value: object) -> str:
+    """A default value as written in TOML (None, an automatic choice, as ``"auto"``)."""
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, str):
@@ -116,7 +141,7 @@ def _toml(value: Any) -> str:
 INT_MAX = 2**31 - 1
 
 
-def require_finite(value: Any, key: str) -> None:
+def require_finite(value: object, key: str) -> None:
     """Every number in ``value`` (nested tables and lists) must be finite and fit a C int.
 
     One check for the whole input instead of one per key: NaN and ±inf (TOML's ``nan``,
@@ -131,5 +156,5 @@ def require_finite(value: Any, key: str) -> None:
             require_finite(entry, f"{key}[{i}]")
     elif isinstance(value, float) and not math.isfinite(value):
         raise InputError(f"{key} must be a finite number, got {value!r}")
-    elif isinstance(value, int) and not isinstance(value, bool) and abs(value) > INT_MAX:
+    elif is_integer(value) and abs(value) > INT_MAX:
         raise InputError(f"{key} must be at most {INT_MAX} in magnitude, got {value}")

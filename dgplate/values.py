@@ -8,7 +8,7 @@ Z, μ, the penalties γ₀ and γ₁, α, anchor stiffness, FvK data, …) there
 cell group), whose values the generated code reads at assembly time.
 
 The signature, and so the cache, still tells problem *shapes* apart: the model and its terms,
-degrees, elements and cell types, the face sets, the power p of h⁻ᵖ, and the text of formulas
+degrees, elements and cell types, the facet sets, the power p of h⁻ᵖ, and the text of formulas
 in x, y. A formula such as ``"0.1*sin(pi*x)"`` stays symbolic, numbers in it included: it is a
 piece of the form, not a value, so a sweep over its amplitude compiles once per amplitude.
 """
@@ -16,49 +16,59 @@ piece of the form, not a value, so a sweep over its amplitude compiles once per 
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import TypeAlias, TypeVar
 
 import dolfinx.fem
 import numpy as np
-import ufl
+import numpy.typing as npt
 from petsc4py import PETSc
+from ufl.core.expr import Expr
 
-from dgplate import expressions
+from dgplate import compat, expressions
+from dgplate.compat import Constant, Mesh
+
+T = TypeVar("T")
+#: An entry of nested lists, or the nested lists of such entries.
+Nested: TypeAlias = "T | list[Nested[T]]"
 
 
-def constant(mesh, value) -> dolfinx.fem.Constant:
-    """``value`` (a number or an array of numbers) as a Constant of the DOLFINx ``mesh``, in
-    PETSc's scalar type like every form of dgplate.
+def constant(mesh: Mesh, value: npt.ArrayLike | Nested[float]) -> Constant:
+    """``value`` (a number or an array of numbers) as a Constant of the DOLFINx ``mesh``.
+
+    The Constant has PETSc's scalar type, like every form of dgplate.
     """
     return dolfinx.fem.Constant(mesh, np.asarray(value, dtype=PETSc.ScalarType))
 
 
-def _map(values, key: str, leaf: Callable[[Any, str], Any]):
+def _map(values: object, key: str, leaf: Callable[[object, str], T]) -> Nested[T]:
     """``leaf(value, key[i][j])`` on every entry of nested lists."""
     if isinstance(values, list | tuple):
         return [_map(v, f"{key}[{i}]", leaf) for i, v in enumerate(values)]
     return leaf(values, key)
 
 
-def array(values, mesh, key: str):
+def array(values: object, mesh: Mesh, key: str) -> float | Expr:
     """A number, a formula, or nested lists of them (shape checked by the caller) as UFL.
 
     Numbers only: one Constant of their shape. With formulas: a UFL tensor whose numeric
     entries are scalar Constants. Entries are checked by :func:`dgplate.expressions.parse`.
     """
     if expressions.is_constant(values):
-        return constant(mesh, _map(values, key, lambda v, k: expressions.parse(v, mesh, k)))
+        numbers: Nested[float] = _map(values, key, expressions.finite_number)
+        return constant(mesh, numbers)
 
-    def leaf(value, k: str):
+    def leaf(value: object, k: str) -> float | Expr:
         if isinstance(value, str):
-            return expressions.parse(value, mesh, k)
-        return constant(mesh, expressions.parse(value, mesh, k))
+            return expressions.formula(value, mesh, k)
+        return constant(mesh, expressions.finite_number(value, k))
 
     entries = _map(values, key, leaf)
-    return ufl.as_tensor(entries) if isinstance(entries, list) else entries
+    return compat.as_tensor(entries) if isinstance(entries, list) else entries
 
 
-def vector(values, mesh, key: str, size: int):
+def vector(values: object, mesh: Mesh, key: str, size: int) -> Expr:
     """:func:`dgplate.expressions.parse_vector`'s checks and messages, numbers as Constants."""
-    expressions.parse_vector(values, mesh, key, size)  # checks only
-    return array(values, mesh, key)
+    expressions.parse_vector(values, mesh, key, size)  # checks only: a list of `size` entries
+    tensor = array(values, mesh, key)
+    assert not isinstance(tensor, float)  # a list gives a vector
+    return tensor

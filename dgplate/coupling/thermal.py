@@ -34,7 +34,7 @@ from dgplate.coupling.heat import HeatSolver
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets
 from dgplate.errors import InputError
-from dgplate.solvers.driver import Observer, RunResult
+from dgplate.solvers.driver import Observer, RunOutcome, RunResult
 from dgplate.solvers.flow import FlowResult, FlowSpec, GradientFlow
 
 #: ``energy(y, θ)``: the plate's energy for the deformation y and the temperature θ.
@@ -357,7 +357,7 @@ class ThermalBilayer:
                 break
         if self.finished:
             converged, reason = self._outcome()
-        result = RunResult(converged, reason, len(history), history, signum)
+        result = RunOutcome(converged, reason, len(history), history, signum)
         for observer in self.observers:
             observer.finish(self, result)
         return result

@@ -1,1 +1,1 @@
-"""dg."""
+"""The discontinuous Galerkin core: forms, energies and the geometry of a deformed plate."""

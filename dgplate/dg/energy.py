@@ -23,4 +23,8 @@ class Energy:
 
     @property
     def total(self) -> ufl.Form:
-        return self.implicit if self.explicit is None else self.implicit + self.explicit
+        """E_h itself: the implicit and the explicit part."""
+        if self.explicit is None:
+            return self.implicit
+        total: ufl.Form = self.implicit + self.explicit
+        return total

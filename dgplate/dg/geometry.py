@@ -1,16 +1,77 @@
-"""Geometry of a mesh that several layers need: cell sizes, written once."""
+"""Geometry that several layers need, written once: cell sizes and areas, deformed surfaces.
+
+The UFL expressions here are those of the differential geometry of a deformed plate
+y: ω → ℝ³ (its unit normal ν, its second fundamental form II, the image ∇y·d of a reference
+direction d); the NumPy functions measure the reference mesh.
+"""
 
 from __future__ import annotations
 
-from mpi4py import MPI
+from collections.abc import Sequence
 
-import dolfinx.mesh
+import dolfinx.fem
 import numpy as np
+import ufl
+from ufl.core.expr import Expr
+
+from dgplate import mpi
+from dgplate.compat import Array, Function, FunctionSpace, Mesh
 
 
-def max_cell_diameter(mesh: dolfinx.mesh.Mesh) -> float:
+def max_cell_diameter(mesh: Mesh) -> float:
     """The largest cell diameter over all ranks (τ = 'h' in problem files, as published)."""
     tdim = mesh.topology.dim
     num_owned = mesh.topology.index_map(tdim).size_local
     local = mesh.h(tdim, np.arange(num_owned, dtype=np.int32))
-    return float(mesh.comm.allreduce(float(local.max(initial=0.0)), op=MPI.MAX))
+    return mpi.global_max(mesh.comm, float(local.max(initial=0.0)))
+
+
+def cell_areas(space: FunctionSpace) -> Array:
+    """|T| at the degree of freedom of each cell T of the DG0 ``space`` (owned dofs first).
+
+    Ghost entries are zero: only owned cells are integrated.
+    """
+    form = dolfinx.fem.form(ufl.TestFunction(space) * ufl.dx)
+    areas: Array = dolfinx.fem.assemble_vector(form).array.copy()
+    return areas
+
+
+def surface(u: Function) -> Expr:
+    """The deformed surface as a UFL 3-vector: y itself, or (x₁, x₂, w) for a deflection w."""
+    if u.ufl_shape == (3,):
+        return u
+    if u.ufl_shape == ():
+        x = ufl.SpatialCoordinate(u.function_space.mesh)
+        embedded: Expr = ufl.as_vector([x[0], x[1], u])
+        return embedded
+    raise ValueError(f"expected a deformation with 3 components or a scalar, got {u.ufl_shape}")
+
+
+def unit_normal(y: Expr) -> Expr:
+    """ν(y) = ∂₁y × ∂₂y / |∂₁y × ∂₂y|, the unit normal of the deformed surface (cell-wise)."""
+    n = ufl.cross(y.dx(0), y.dx(1))
+    nu: Expr = n / ufl.sqrt(ufl.inner(n, n))
+    return nu
+
+
+def second_fundamental_form(y: Expr) -> Expr:
+    """II_ij = ∂_ij y · ν (broken, cell-wise): a 2×2 UFL matrix."""
+    nu = unit_normal(y)
+    II: Expr = ufl.as_matrix([[ufl.dot(y.dx(i).dx(j), nu) for j in range(2)] for i in range(2)])
+    return II
+
+
+def image_of_direction(y: Expr, direction: Sequence[float]) -> Expr:
+    """∇y·d: where y maps the reference direction d (a tangent of the deformed surface)."""
+    image: Expr = ufl.dot(ufl.grad(y), ufl.as_vector([float(d) for d in direction]))
+    return image
+
+
+def oriented_normal(tangent: Array, start: Array, end: Array) -> Array:
+    """The unit normal of a straight facet along ``tangent``, on the side of ``end`` from ``start``.
+
+    In the plane; from a cell's midpoint to the midpoint of one of its facets, it is the
+    cell's outward normal.
+    """
+    normal: Array = np.array([tangent[1], -tangent[0]]) / np.linalg.norm(tangent)
+    return normal if np.dot(normal, end - start) >= 0 else -normal

@@ -27,12 +27,26 @@ from typing import Any
 
 from mpi4py import MPI
 
-import dolfinx
 import numpy as np
+import numpy.typing as npt
 
+from dgplate.compat import Function, FunctionSpace
 from dgplate.errors import InputError
 
 STATE_FILE = "state.npz"
+#: In the .npz file: the driver's JSON state, and the table of each function by name.
+_STATE_KEY = "__state__"
+_FIELD_PREFIX = "field_"
+
+
+def _field_key(name: str) -> str:
+    """The key of the table of the function ``name`` in the .npz file."""
+    return f"{_FIELD_PREFIX}{name}"
+
+
+def _field_name(key: str) -> str | None:
+    """The function name whose table a key of the .npz file holds; None: not a table."""
+    return key.removeprefix(_FIELD_PREFIX) if key.startswith(_FIELD_PREFIX) else None
 
 
 def fingerprint(data: Mapping[str, Any]) -> str:
@@ -51,10 +65,11 @@ def fingerprint(data: Mapping[str, Any]) -> str:
 
 
 def _cell_layout(
-    space: dolfinx.fem.FunctionSpace, ghosts: bool = False
-) -> tuple[np.ndarray, np.ndarray]:
-    """Original indices of the owned cells (``ghosts``: and of the ghost cells, where the
-    mesh records theirs), and their unknowns' positions in ``x.array``.
+    space: FunctionSpace, ghosts: bool = False
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+    """Original indices of the owned cells and their unknowns' positions in ``x.array``.
+
+    With ``ghosts``, the ghost cells too, where the mesh records their original indices.
     """
     mesh = space.mesh
     cells = mesh.topology.index_map(mesh.topology.dim)
@@ -68,13 +83,13 @@ def _cell_layout(
     return original, rows
 
 
-def gather_cells(function: dolfinx.fem.Function) -> np.ndarray | None:
+def gather_cells(function: Function) -> npt.NDArray[np.float64] | None:
     """The per-cell table of ``function`` on rank 0 (None elsewhere). Collective."""
     space = function.function_space
     comm = space.mesh.comm
     original, rows = _cell_layout(space)
     parts = comm.gather((original, function.x.array[rows]), root=0)
-    if comm.rank != 0:
+    if parts is None:  # not rank 0
         return None
     cells = sum(len(o) for o, _ in parts)
     table = np.zeros((cells, rows.shape[1]), dtype=function.x.array.dtype)
@@ -83,7 +98,7 @@ def gather_cells(function: dolfinx.fem.Function) -> np.ndarray | None:
     return table
 
 
-def scatter_cells(function: dolfinx.fem.Function, table: np.ndarray, name: str) -> None:
+def scatter_cells(function: Function, table: npt.NDArray[np.float64], name: str) -> None:
     """Set ``function`` from a per-cell table (on every rank) and update its ghosts.
 
     Ghost cells are set too: an unknown shared between cells (a continuous space) may be
@@ -103,10 +118,10 @@ def scatter_cells(function: dolfinx.fem.Function, table: np.ndarray, name: str) 
 class Checkpoint:
     """What a checkpoint holds: per-cell tables of functions and the driver's JSON state."""
 
-    tables: dict[str, np.ndarray]
+    tables: dict[str, npt.NDArray[np.float64]]
     state: dict[str, Any]
 
-    def restore(self, functions: Mapping[str, dolfinx.fem.Function]) -> None:
+    def restore(self, functions: Mapping[str, Function]) -> None:
         """Set each named function from its table (collective only in the ghost update)."""
         for name, function in functions.items():
             if name not in self.tables:
@@ -117,7 +132,7 @@ class Checkpoint:
 def save(
     directory: Path,
     comm: MPI.Comm,
-    functions: Mapping[str, dolfinx.fem.Function],
+    functions: Mapping[str, Function],
     state: Mapping[str, Any],
 ) -> None:
     """Write a checkpoint atomically (a temporary file renamed): collective.
@@ -130,7 +145,9 @@ def save(
     directory.mkdir(parents=True, exist_ok=True)
     buffer = io.BytesIO()
     meta = np.frombuffer(json.dumps(dict(state), default=_plain).encode(), dtype=np.uint8)
-    np.savez(buffer, __state__=meta, **{f"field_{k}": v for k, v in tables.items()})
+    arrays: dict[str, npt.NDArray[Any]] = {_STATE_KEY: meta}
+    arrays.update({_field_key(name): t for name, t in tables.items() if t is not None})
+    np.savez(buffer, **arrays)  # type: ignore[arg-type]  # keys are array names, not options
     tmp = directory / f".{STATE_FILE}.tmp"
     with open(tmp, "wb") as handle:
         handle.write(buffer.getvalue())
@@ -144,16 +161,13 @@ def load(directory: Path, comm: MPI.Comm, expected_fingerprint: str | None = Non
     data, message = None, None
     if comm.rank == 0:
         try:
-            with np.load(directory / STATE_FILE) as npz:
-                state = json.loads(bytes(npz["__state__"]).decode())
-                tables = {k[6:]: npz[k] for k in npz.files if k.startswith("field_")}
-            data = Checkpoint(tables, state)
+            data = _read(directory / STATE_FILE)
         except (OSError, ValueError, KeyError) as err:
             message = f"--resume: cannot read the checkpoint in {directory}: {err}"
     data, message = comm.bcast((data, message), root=0)
     if message:
         raise InputError(message)
-    assert data is not None
+    assert isinstance(data, Checkpoint)
     found = data.state.get("fingerprint")
     if expected_fingerprint is not None and found != expected_fingerprint:
         raise InputError(
@@ -164,7 +178,17 @@ def load(directory: Path, comm: MPI.Comm, expected_fingerprint: str | None = Non
     return data
 
 
-def _plain(value: Any) -> Any:
+def _read(path: Path) -> Checkpoint:
+    """The checkpoint in the .npz file ``path`` (on one rank)."""
+    with np.load(path) as npz:
+        state = json.loads(bytes(npz[_STATE_KEY]).decode())
+        names = {key: _field_name(key) for key in npz.files}
+        tables = {name: npz[key] for key, name in names.items() if name is not None}
+    return Checkpoint(tables, state)
+
+
+def _plain(value: object) -> object:
+    """A NumPy value as the plain Python value JSON can write (json.dumps' ``default``)."""
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, np.ndarray):

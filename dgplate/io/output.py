@@ -24,13 +24,16 @@ from mpi4py import MPI
 
 import numpy as np
 
+from dgplate import mpi
+from dgplate.compat import Function
 from dgplate.errors import InputError
+from dgplate.solvers.driver import Driver, Record, RunResult
 
 
-def print0(comm: MPI.Comm, *args, **kwargs) -> None:
+def print0(comm: MPI.Comm, *args: object, file: TextIO | None = None) -> None:
     """Print on rank 0 only, flushed (progress on long runs)."""
     if comm.rank == 0:
-        print(*args, **kwargs, flush=True)
+        print(*args, file=file, flush=True)
 
 
 MARKER = ".dgplate-output"
@@ -167,6 +170,7 @@ class OutputDir:
 
 
 def _remove(path: Path) -> None:
+    """Remove a file, a link or a folder with its contents."""
     if path.is_dir() and not path.is_symlink():
         shutil.rmtree(path)
     elif path.exists() or path.is_symlink():
@@ -174,13 +178,15 @@ def _remove(path: Path) -> None:
 
 
 def write_json(comm: MPI.Comm, path: Path, data: dict[str, Any]) -> None:
+    """Write ``data`` as indented JSON, atomically, on rank 0 (NumPy values as plain ones)."""
     if comm.rank == 0:
         tmp = path.with_suffix(".json.tmp")
         tmp.write_text(json.dumps(_jsonable(data), indent=2) + "\n")
         os.replace(tmp, path)
 
 
-def _jsonable(value):
+def _jsonable(value: object) -> object:
+    """``value`` with NumPy arrays and scalars as lists and numbers, and inf/NaN as strings."""
     if isinstance(value, dict):
         return {str(k): _jsonable(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
@@ -200,12 +206,12 @@ class ProgressPrinter:
     def __init__(self, comm: MPI.Comm, every: int = 1, stream: TextIO | None = None):
         self.comm, self.every, self.stream = comm, every, stream or sys.stdout
 
-    def step(self, driver: Any, record: Any) -> None:
+    def step(self, driver: Driver, record: Record) -> None:
         """Print ``record.line()`` every ``every`` steps."""
         if self.every and record.step % self.every == 0:
             print0(self.comm, record.line(), file=self.stream)
 
-    def finish(self, driver: Any, result: Any) -> None:
+    def finish(self, driver: Driver, result: RunResult) -> None:
         """Print how the run ended, and the steps at which the energy went up (if any)."""
         status = "converged" if result.converged else "NOT converged"
         print0(self.comm, f"{status} after {result.steps} steps: {result.reason}", file=self.stream)
@@ -229,15 +235,9 @@ def write_history(comm: MPI.Comm, path: Path, rows: Sequence[Mapping[str, Any]])
         writer.writerows(rows)
 
 
-def bounding_box(y) -> list[list[float]]:
+def bounding_box(y: Function) -> list[list[float]]:
     """[[xmin, ymin, zmin], [xmax, ymax, zmax]] of the deformed surface (nodal values)."""
     space = y.function_space
     owned = space.dofmap.index_map.size_local
-    values = y.x.array.reshape(-1, 3)[:owned]
-    comm = space.mesh.comm
-    lo = values.min(axis=0) if owned else np.full(3, np.inf)
-    hi = values.max(axis=0) if owned else np.full(3, -np.inf)
-    glo, ghi = np.empty(3), np.empty(3)
-    comm.Allreduce(np.ascontiguousarray(lo, dtype=float), glo, op=MPI.MIN)  # element-wise
-    comm.Allreduce(np.ascontiguousarray(hi, dtype=float), ghi, op=MPI.MAX)
-    return [list(map(float, glo)), list(map(float, ghi))]
+    lo, hi = mpi.bounding_box(space.mesh.comm, y.x.array.reshape(-1, 3)[:owned])
+    return [lo.tolist(), hi.tolist()]

@@ -19,16 +19,23 @@ import dolfinx.common
 import dolfinx.fem
 import dolfinx.io
 
+from dgplate import compat
+from dgplate.compat import Function
 from dgplate.errors import InputError
 from dgplate.measure.fields import output_element, set_displacement, to_output_space
 
 BACKENDS = ("auto", "vtx", "xdmf")
 
 
-def _element_key(f: dolfinx.fem.Function) -> tuple:
+def _element_key(f: Function) -> tuple[int, bool]:
     """What a VTX writer needs to share: the scalar Lagrange element (any block size)."""
-    element = f.function_space.ufl_element()
+    element = compat.ufl_element(f.function_space)
     return (element.embedded_superdegree, element.discontinuous)
+
+
+def _is_cellwise(f: Function) -> bool:
+    """Whether ``f`` is a cell-wise constant (DG0) field, written as cell data."""
+    return compat.ufl_element(f.function_space).embedded_superdegree == 0
 
 
 class DeformationWriter:
@@ -43,8 +50,8 @@ class DeformationWriter:
     def __init__(
         self,
         path: str | Path,
-        y: dolfinx.fem.Function,
-        extras: Sequence[dolfinx.fem.Function] = (),
+        y: Function,
+        extras: Sequence[Function] = (),
         backend: str = "auto",
         comm: MPI.Comm | None = None,
     ):
@@ -71,7 +78,8 @@ class DeformationWriter:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         self.comm.barrier()
         self.paths: list[Path] = []
-        self._writers: list = []
+        self._writers: list[dolfinx.io.VTXWriter | dolfinx.io.XDMFFile] = []
+        self._extra_outputs: list[tuple[Function, Function]] = []  # (source, written copy)
         self._closed = False
         if backend == "vtx":
             self._open_vtx()
@@ -83,22 +91,21 @@ class DeformationWriter:
         """The output copies of y and u on ``output_element(degree)`` and their dof coords."""
         mesh = self.y.function_space.mesh
         element = output_element(mesh, degree, self.y.ufl_shape, discontinuous)
-        same = element == self.y.function_space.ufl_element()
+        same = element == compat.ufl_element(self.y.function_space)
         space = self.y.function_space if same else dolfinx.fem.functionspace(mesh, element)
         self._copy = same  # same space: copy the dof values, else interpolate
-        self.y_out = dolfinx.fem.Function(space, name="deformation")
-        self.u_out = dolfinx.fem.Function(space, name="displacement")
+        self.y_out: Function = dolfinx.fem.Function(space, name="deformation")
+        self.u_out: Function = dolfinx.fem.Function(space, name="displacement")
         self._x = space.tabulate_dof_coordinates()
 
     def _open_vtx(self) -> None:
-        element = self.y.function_space.ufl_element()
+        """One VTX writer per element: y and u in one file, extras on other elements apart."""
+        element = compat.ufl_element(self.y.function_space)
         self._outputs(element.embedded_superdegree, element.discontinuous)
         main_key = _element_key(self.y_out)
-        groups: dict[tuple, list] = {main_key: [self.y_out, self.u_out]}
-        self._extra_outputs = []  # (source, output): equispaced copies of degree >= 3 fields
-        for f in self.extras:
-            cellwise = f.function_space.ufl_element().embedded_superdegree == 0
-            out = f if cellwise else to_output_space(f)
+        groups: dict[tuple[int, bool], list[Function]] = {main_key: [self.y_out, self.u_out]}
+        for f in self.extras:  # equispaced copies of degree >= 3 fields
+            out = f if _is_cellwise(f) else to_output_space(f)
             self._extra_outputs.append((f, out))
             groups.setdefault(_element_key(out), []).append(out)
         policy = dolfinx.io.VTXMeshPolicy.reuse  # the reference mesh never changes
@@ -112,11 +119,10 @@ class DeformationWriter:
             self.paths.append(path)
 
     def _open_xdmf(self) -> None:
+        """One XDMF file: P1 copies of y, u and the extras (DG0 fields as they are)."""
         self._outputs(1, discontinuous=False)  # XDMF: geometry-degree (P1) fields only
-        self._extra_outputs = []  # (source, output): P1 copies, DG0 fields as they are
         for f in self.extras:
-            cellwise = f.function_space.ufl_element().embedded_superdegree == 0
-            self._extra_outputs.append((f, f if cellwise else to_output_space(f, 1, False)))
+            self._extra_outputs.append((f, f if _is_cellwise(f) else to_output_space(f, 1, False)))
         mesh = self.y.function_space.mesh
         writer = dolfinx.io.XDMFFile(self.comm, str(self.path), "w")
         writer.write_mesh(mesh)
@@ -125,6 +131,7 @@ class DeformationWriter:
 
     # -- output -----------------------------------------------------------------------------
     def _update(self) -> None:
+        """Bring the written copies up to date with y and the extras."""
         if self._copy:
             self.y_out.x.array[:] = self.y.x.array
         else:
@@ -144,12 +151,14 @@ class DeformationWriter:
                 writer.write(float(t))
             return
         (writer,) = self._writers
+        assert isinstance(writer, dolfinx.io.XDMFFile)
         for f in (self.y_out, self.u_out):
             writer.write_function(f, float(t))
         for _, out in self._extra_outputs:
             writer.write_function(out, float(t))
 
     def close(self) -> None:
+        """Close every file (collective); later calls do nothing."""
         if not self._closed:
             for writer in self._writers:
                 writer.close()
@@ -158,7 +167,7 @@ class DeformationWriter:
     def __enter__(self) -> DeformationWriter:
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
 

@@ -1,1 +1,1 @@
-"""measure."""
+"""Measurements of a deformed plate: fields for output, curvatures, fold angles of creases and hinges."""

@@ -1,6 +1,6 @@
 """Measurements along a crease C: fold angles and the deformed crease lines (docs/design.md §1).
 
-A crease is a union of interior facets (the faces tagged ``CREASE`` by
+A crease is a union of interior facets (the facets tagged ``CREASE`` by
 :func:`dgplate.dg.forms.facet_sets`). The deformation is continuous across C but its gradient may
 jump, so the deformed surface has a kink there. For each crease facet the *fold angle* is the
 angle between the unit normals ν = ∂₁y × ∂₂y / |∂₁y × ∂₂y| of the two adjacent cells, evaluated
@@ -22,29 +22,20 @@ on triangles and quadrilaterals. Every function here is collective on the mesh c
 from __future__ import annotations
 
 from collections import defaultdict
-
-from mpi4py import MPI
+from typing import Any
 
 import basix
 import dolfinx.fem
 import numpy as np
-import ufl
+import numpy.typing as npt
 
-from dgplate import compat
+from dgplate import compat, mpi
+from dgplate.compat import Array, Function, Indices
 from dgplate.dg.forms import CREASE, FacetSets
+from dgplate.dg.geometry import oriented_normal, surface, unit_normal
 
 
-def _surface(u):
-    """The deformed surface as a UFL 3-vector: y itself, or (x₁, x₂, w) for a deflection."""
-    if u.ufl_shape == (3,):
-        return u
-    if u.ufl_shape == ():
-        x = ufl.SpatialCoordinate(u.function_space.mesh)
-        return ufl.as_vector([x[0], x[1], u])
-    raise ValueError(f"expected a deformation with 3 components or a scalar, got {u.ufl_shape}")
-
-
-def _reference_facets(cell_name: str) -> tuple[np.ndarray, np.ndarray]:
+def _reference_facets(cell_name: str) -> tuple[Array, npt.NDArray[np.int64]]:
     """Reference vertex coordinates and the (two) vertices of each facet of a 2D cell."""
     cell = basix.CellType[cell_name]
     vertices = np.asarray(basix.geometry(cell), dtype=np.float64)
@@ -53,39 +44,24 @@ def _reference_facets(cell_name: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 class CreaseMeasure:
-    """Fold angles and deformed crease lines of ``u`` on the crease facets of ``faces``.
+    """Fold angles and deformed crease lines of ``u`` on the crease facets of ``facets``.
 
     The set-up (which cells border which crease facet, and through which of their local
     facets) is done once; ``summary()`` and ``polylines()`` then evaluate the current ``u``.
     ``samples`` is the number of segments each crease facet is drawn with.
     """
 
-    def __init__(self, u: dolfinx.fem.Function, faces: FacetSets, samples: int = 4):
-        mesh = faces.mesh
+    def __init__(self, u: Function, facets: FacetSets, samples: int = 4):
+        mesh = facets.mesh
         self.mesh, self.comm, self.u = mesh, mesh.comm, u
         tdim = mesh.topology.dim
         mesh.topology.create_connectivity(tdim - 1, tdim)
         mesh.topology.create_connectivity(tdim, tdim - 1)
-        fmap = mesh.topology.index_map(tdim - 1)
-        tags = faces.tags
+        num_owned = mesh.topology.index_map(tdim - 1).size_local
+        tags = facets.tags
         crease = tags.indices[tags.values == CREASE]
-        self.facets = crease[crease < fmap.size_local].astype(np.int32)  # owned crease facets
-        f_to_c = mesh.topology.connectivity(tdim - 1, tdim)
-        c_to_f = mesh.topology.connectivity(tdim, tdim - 1)
-        num = self.facets.size
-        cells = np.zeros((num, 2), dtype=np.int32)
-        local = np.zeros((num, 2), dtype=np.int32)
-        for k, facet in enumerate(self.facets):
-            pair = f_to_c.links(facet)
-            if pair.size != 2:  # cannot happen with shared-facet ghosting and interior facets
-                raise RuntimeError(
-                    f"crease facet {facet} sees {pair.size} cell(s) on rank {self.comm.rank}: "
-                    "the mesh must be distributed with shared-facet ghosts"
-                )
-            cells[k] = pair
-            for side in range(2):
-                local[k, side] = int(np.flatnonzero(c_to_f.links(pair[side]) == facet)[0])
-        self.cells, self.local = cells, local
+        self.facets: Indices = crease[crease < num_owned].astype(np.int32)  # owned crease facets
+        self.cells, self.local = self._bordering_cells()
 
         # Reference points: each local facet sampled at samples + 1 equispaced points from its
         # first to its second vertex (the midpoint is among them when samples is even).
@@ -97,49 +73,68 @@ class CreaseMeasure:
         points = start[:, None, :] + t[None, :, None] * (end - start)[:, None, :]
         self._num_per_facet = samples + 1
         self._ref_points = points.reshape(-1, tdim)
+        self._reference_geometry(ref_facets)
 
-        # Reference geometry of each crease facet: its vertices (in the orientation seen from
-        # the first cell), length, and unit normal pointing from the first cell to the second.
-        x = mesh.geometry.x[:, :2]
-        dofmap = compat.geometry_dofmap(mesh)
-        ends = np.zeros((num, 2, 2))
-        normals = np.zeros((num, 2))
-        for k in range(num):
-            nodes = dofmap[cells[k, 0]]
-            a, b = ref_facets[local[k, 0]]
-            ends[k] = x[nodes[a]], x[nodes[b]]
-            tangent = ends[k, 1] - ends[k, 0]
-            normal = np.array([tangent[1], -tangent[0]])
-            centre0 = x[dofmap[cells[k, 0]]].mean(axis=0)
-            centre1 = x[dofmap[cells[k, 1]]].mean(axis=0)
-            normals[k] = normal if np.dot(centre1 - centre0, normal) > 0 else -normal
-        self.ends = ends
-        self.lengths = np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)
-        self.normals = normals / np.maximum(self.lengths, 1e-300)[:, None]
-        # Whether the second cell sees the facet in the same vertex order as the first.
+        y = surface(u)
+        grad, nu = compat.grad(y), unit_normal(y)
+        # y, ν, ∂₁y, ∂₂y at every sample point of every reference facet
+        values = [*[y[i] for i in range(3)], *[nu[i] for i in range(3)]]
+        values += [grad[i, j] for j in range(2) for i in range(3)]
+        self._expr: compat.Expression = dolfinx.fem.Expression(
+            compat.as_vector(values), self._ref_points
+        )
+
+    def _bordering_cells(self) -> tuple[Indices, Indices]:
+        """For each crease facet, its two cells and its local index in each of them."""
+        tdim = self.mesh.topology.dim
+        f_to_c = self.mesh.topology.connectivity(tdim - 1, tdim)
+        c_to_f = self.mesh.topology.connectivity(tdim, tdim - 1)
+        cells = np.zeros((self.facets.size, 2), dtype=np.int32)
+        local = np.zeros((self.facets.size, 2), dtype=np.int32)
+        for k, facet in enumerate(self.facets):
+            pair = f_to_c.links(facet)
+            if pair.size != 2:  # cannot happen with shared-facet ghosting and interior facets
+                raise RuntimeError(
+                    f"crease facet {facet} sees {pair.size} cell(s) on rank {self.comm.rank}: "
+                    "the mesh must be distributed with shared-facet ghosts"
+                )
+            cells[k] = pair
+            for side in range(2):
+                local[k, side] = int(np.flatnonzero(c_to_f.links(pair[side]) == facet)[0])
+        return cells, local
+
+    def _reference_geometry(self, ref_facets: npt.NDArray[np.int64]) -> None:
+        """Each crease facet's vertices (as the first cell sees them), length and unit normal.
+
+        The normal points from the first cell to the second; ``same_order`` says whether the
+        second cell sees the facet's vertices in the same order as the first.
+        """
+        x = self.mesh.geometry.x[:, :2]
+        dofmap = compat.geometry_dofmap(self.mesh)
+        num = self.facets.size
+        self.ends = np.zeros((num, 2, 2))
+        self.normals = np.zeros((num, 2))
         self.same_order = np.ones(num, dtype=bool)
         for k in range(num):
-            nodes = dofmap[cells[k, 1]]
-            a, _ = ref_facets[local[k, 1]]
-            self.same_order[k] = np.allclose(x[nodes[a]], ends[k, 0])
-
-        y = _surface(u)
-        grad = ufl.grad(y)
-        normal = ufl.cross(grad[:, 0], grad[:, 1])
-        nu = normal / ufl.sqrt(ufl.inner(normal, normal))
-        # y, ν, ∂₁y, ∂₂y at every sample point of every reference facet
-        values = ufl.as_vector([*[y[i] for i in range(3)], *[nu[i] for i in range(3)]])
-        values = ufl.as_vector([*values, *[grad[i, j] for j in range(2) for i in range(3)]])
-        self._expr = dolfinx.fem.Expression(values, self._ref_points)
+            first, second = dofmap[self.cells[k, 0]], dofmap[self.cells[k, 1]]
+            a, b = ref_facets[self.local[k, 0]]
+            self.ends[k] = x[first[a]], x[first[b]]
+            tangent = self.ends[k, 1] - self.ends[k, 0]
+            centres = x[first].mean(axis=0), x[second].mean(axis=0)
+            self.normals[k] = oriented_normal(tangent, *centres)
+            a, _ = ref_facets[self.local[k, 1]]
+            self.same_order[k] = np.allclose(x[second[a]], self.ends[k, 0])
+        self.lengths = np.linalg.norm(self.ends[:, 1] - self.ends[:, 0], axis=1)
 
     @property
     def num_facets(self) -> int:
         """Global number of crease facets."""
-        return int(self.comm.allreduce(int(self.facets.size), op=MPI.SUM))
+        return mpi.global_count(self.comm, int(self.facets.size))
 
-    def _evaluate(self) -> np.ndarray:
-        """Values (y, ν, ∂₁y, ∂₂y) at the sample points: shape (facets, 2 sides, points, 12),
-        the points of each side ordered like the first side's facet.
+    def _evaluate(self) -> Array:
+        """Values (y, ν, ∂₁y, ∂₂y) at the sample points: shape (facets, 2 sides, points, 12).
+
+        The points of each side are ordered like the first side's facet.
         """
         num = self.facets.size
         out = np.zeros((num, 2, self._num_per_facet, 12))
@@ -160,9 +155,11 @@ class CreaseMeasure:
             out[:, side] = picked
         return out
 
-    def fold_angles(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Per owned crease facet: fold angle (degrees, 0..180), signed fold angle (valley
-        > 0), and the jump |[y]| at the midpoint (continuity across C).
+    def fold_angles(self) -> tuple[Array, Array, Array]:
+        """Per owned crease facet: fold angle, signed fold angle and the jump |[y]|.
+
+        The fold angle in degrees (0..180), the signed one positive for a valley fold, and
+        the jump at the midpoint (continuity across C).
         """
         data = self._evaluate()
         mid = self.samples // 2
@@ -177,17 +174,17 @@ class CreaseMeasure:
         sign = np.where(np.einsum("ki,ki->k", conormal, nu0) >= 0.0, 1.0, -1.0)
         return angle, sign * angle, np.linalg.norm(y1 - y0, axis=1)
 
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, Any]:
         """Fold-angle statistics over C (same numbers on every rank), for summary.json."""
         comm = self.comm
         angle, signed, gap = self.fold_angles()
         w = self.lengths
-        total = comm.allreduce(float(w.sum()), op=MPI.SUM)
+        total = mpi.global_sum(comm, float(w.sum()))
 
-        def stats(values):
-            lo = comm.allreduce(float(values.min(initial=np.inf)), op=MPI.MIN)
-            hi = comm.allreduce(float(values.max(initial=-np.inf)), op=MPI.MAX)
-            mean = comm.allreduce(float(np.dot(values, w)), op=MPI.SUM) / total if total else 0.0
+        def stats(values: Array) -> dict[str, float]:
+            lo = mpi.global_min(comm, float(values.min(initial=np.inf)))
+            hi = mpi.global_max(comm, float(values.max(initial=-np.inf)))
+            mean = mpi.global_sum(comm, float(np.dot(values, w))) / total if total else 0.0
             return {"min": lo, "max": hi, "mean": mean}
 
         return {
@@ -196,42 +193,46 @@ class CreaseMeasure:
                 "facets": self.num_facets,
                 "length": total,
                 "signed_fold_angle_deg": stats(signed),
-                "max_value_jump": comm.allreduce(float(gap.max(initial=0.0)), op=MPI.MAX),
+                "max_value_jump": mpi.global_max(comm, float(gap.max(initial=0.0))),
             },
         }
 
-    def polylines(self) -> list[np.ndarray]:
-        """The crease in deformed coordinates as polylines (N×3 arrays) on rank 0, [] on the
-        other ranks. Each facet is drawn with ``samples`` segments at the mean of the two
-        sides' values; facets are chained into polylines by their shared reference vertices.
+    def polylines(self) -> list[Array]:
+        """The crease in deformed coordinates as polylines (N×3 arrays) on rank 0.
+
+        [] on the other ranks. Each facet is drawn with ``samples`` segments at the mean of
+        the two sides' values; facets are chained into polylines by their shared reference
+        vertices.
         """
         data = self._evaluate()
         points = 0.5 * (data[:, 0, :, 0:3] + data[:, 1, :, 0:3])
         gathered = self.comm.gather((self.ends, points), root=0)
-        if self.comm.rank != 0:
+        if gathered is None:  # not rank 0
             return []
         ends = np.concatenate([g[0] for g in gathered]) if gathered else np.zeros((0, 2, 2))
         pts = np.concatenate([g[1] for g in gathered]) if gathered else np.zeros((0, 0, 3))
         return _chain(ends, pts)
 
 
-def _chain(ends: np.ndarray, points: np.ndarray) -> list[np.ndarray]:
-    """Join segments (reference end points ``ends[k]``, sampled points ``points[k]``) that
-    share end points into polylines; closed curves come back closed (first point repeated).
+def _chain(ends: Array, points: Array) -> list[Array]:
+    """Join segments that share end points into polylines.
+
+    Segment k has the reference end points ``ends[k]`` and the sampled points ``points[k]``.
+    Closed curves come back closed (first point repeated).
     """
     if ends.shape[0] == 0:
         return []
     scale = float(np.ptp(ends.reshape(-1, 2), axis=0).max()) or 1.0
     keys = np.round(ends / (1e-9 * scale)).astype(np.int64)
-    at: dict[tuple, list[tuple[int, int]]] = defaultdict(list)
+    at: dict[tuple[int, ...], list[tuple[int, int]]] = defaultdict(list)
     for k in range(ends.shape[0]):
         for end in range(2):
             at[tuple(keys[k, end])].append((k, end))
     used = np.zeros(ends.shape[0], dtype=bool)
 
-    def walk(k: int, end: int) -> list[np.ndarray]:
+    def walk(k: int, end: int) -> list[Array]:
         """Follow the chain leaving segment k through its end ``end``."""
-        parts = []
+        parts: list[Array] = []
         while True:
             nxt = [(j, e) for j, e in at[tuple(keys[k, end])] if not used[j]]
             if not nxt:
@@ -241,7 +242,7 @@ def _chain(ends: np.ndarray, points: np.ndarray) -> list[np.ndarray]:
             parts.append(points[j] if e == 0 else points[j, ::-1])
             k, end = j, 1 - e
 
-    lines = []
+    lines: list[Array] = []
     # start at a free end (degree 1) where there is one, so open arcs come out in one piece
     order = sorted(
         range(ends.shape[0]), key=lambda k: min(len(at[tuple(keys[k, e])]) for e in (0, 1))
@@ -260,14 +261,14 @@ def _chain(ends: np.ndarray, points: np.ndarray) -> list[np.ndarray]:
     return lines
 
 
-def fold_angle_summary(u: dolfinx.fem.Function, faces: FacetSets) -> dict:
-    """``CreaseMeasure(u, faces).summary()``: fold angles over C for summary.json."""
-    return CreaseMeasure(u, faces).summary()
+def fold_angle_summary(u: Function, facets: FacetSets) -> dict[str, Any]:
+    """``CreaseMeasure(u, facets).summary()``: fold angles over C for summary.json."""
+    return CreaseMeasure(u, facets).summary()
 
 
-def crease_polylines(u: dolfinx.fem.Function, faces: FacetSets, samples: int = 4) -> list:
+def crease_polylines(u: Function, facets: FacetSets, samples: int = 4) -> list[Array]:
     """The deformed crease lines on rank 0 ([] elsewhere), for ``plot_deformation(lines=)``."""
-    return CreaseMeasure(u, faces, samples).polylines()
+    return CreaseMeasure(u, facets, samples).polylines()
 
 
 __all__ = [

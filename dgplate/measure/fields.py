@@ -18,11 +18,13 @@ from typing import TYPE_CHECKING
 import basix
 import basix.ufl
 import dolfinx.fem
-import dolfinx.plot
 import numpy as np
-import ufl
+import numpy.typing as npt
+from ufl.core.expr import Expr
 
 from dgplate import compat
+from dgplate.compat import Array, Function, FunctionSpace, Mesh
+from dgplate.dg.forms import hessian_norm
 
 if TYPE_CHECKING:
     import pyvista
@@ -31,12 +33,12 @@ if TYPE_CHECKING:
 REFERENCE = "reference position"
 
 
-def num_owned_cells(mesh) -> int:
+def num_owned_cells(mesh: Mesh) -> int:
     """Number of cells this rank owns (ghost cells excluded)."""
-    return mesh.topology.index_map(mesh.topology.dim).size_local
+    return int(mesh.topology.index_map(mesh.topology.dim).size_local)
 
 
-def owned_cell_dofs(space: dolfinx.fem.FunctionSpace) -> np.ndarray:
+def owned_cell_dofs(space: FunctionSpace) -> npt.NDArray[np.int64]:
     """The (block) dof of each owned cell of a DG0 space, in owned-cell order."""
     mesh = space.mesh
     cell_dofs = space.dofmap.list
@@ -45,16 +47,16 @@ def owned_cell_dofs(space: dolfinx.fem.FunctionSpace) -> np.ndarray:
     return np.asarray(cell_dofs[: num_owned_cells(mesh), 0], dtype=np.int64)
 
 
-def dg0_dofs_to_cells(values: np.ndarray, space: dolfinx.fem.FunctionSpace) -> np.ndarray:
+def dg0_dofs_to_cells(values: Array, space: FunctionSpace) -> Array:
     """Reorder per-DG0-dof values (first axis, owned dofs or all local dofs) to owned cells."""
     dofs = owned_cell_dofs(space)
-    values = np.asarray(values)
-    if dofs.size and dofs.max() >= values.shape[0]:
+    array = np.asarray(values)
+    if dofs.size and dofs.max() >= array.shape[0]:
         raise ValueError("an owned cell has a ghost DG0 dof: pass the values of all local dofs")
-    return values[dofs]
+    return array[dofs]
 
 
-def cell_field(expr: ufl.core.expr.Expr, mesh) -> np.ndarray:
+def cell_field(expr: Expr, mesh: Mesh) -> Array:
     """A scalar UFL expression at each owned cell's midpoint, in owned-cell order.
 
     The expression is interpolated into DG0 (one point per cell: the reference midpoint)
@@ -62,21 +64,22 @@ def cell_field(expr: ufl.core.expr.Expr, mesh) -> np.ndarray:
     """
     space = dolfinx.fem.functionspace(mesh, ("DG", 0))
     points = compat.interpolation_points(space.element)
-    compiled = dolfinx.fem.Expression(expr, points)
-    field = dolfinx.fem.Function(space)
+    compiled: compat.Expression = dolfinx.fem.Expression(expr, points)
+    field: Function = dolfinx.fem.Function(space)
     field.interpolate(compiled)
-    return field.x.array[owned_cell_dofs(space)].real.copy()
+    values: Array = field.x.array[owned_cell_dofs(space)].real.copy()
+    return values
 
 
-def bending_density(y: dolfinx.fem.Function) -> np.ndarray:
-    """|D²y| (Frobenius norm of the broken Hessian, y vector or scalar) at the owned cells'
-    midpoints.
+def bending_density(y: Function) -> Array:
+    """|D²y| (Frobenius norm of the broken Hessian) at the owned cells' midpoints.
+
+    For a deformation y or a scalar deflection w alike.
     """
-    hessian = ufl.grad(ufl.grad(y))
-    return cell_field(ufl.sqrt(ufl.inner(hessian, hessian)), y.function_space.mesh)
+    return cell_field(hessian_norm(y), y.function_space.mesh)
 
 
-def defect_density(y: dolfinx.fem.Function) -> np.ndarray:
+def defect_density(y: Function) -> Array:
     """Isometry-defect density |∫_T (∇yᵀ∇y − I)| / |T| per owned cell (owned-cell order)."""
     if y.ufl_shape != (3,):
         raise ValueError("the isometry defect needs a deformation y with three components")
@@ -87,7 +90,9 @@ def defect_density(y: dolfinx.fem.Function) -> np.ndarray:
     return dg0_dofs_to_cells(defect.density(), defect.space)
 
 
-def output_element(mesh, degree: int, shape: tuple[int, ...] = (), discontinuous: bool = True):
+def output_element(
+    mesh: Mesh, degree: int, shape: tuple[int, ...] = (), discontinuous: bool = True
+) -> basix.ufl._ElementBase:
     """A Lagrange element whose nodes VTK reads correctly (VTK Lagrange cells are equispaced).
 
     Basix's default variant (GLL-warped) has equispaced nodes up to degree 2, which is kept
@@ -102,31 +107,31 @@ def output_element(mesh, degree: int, shape: tuple[int, ...] = (), discontinuous
 
 
 def to_output_space(
-    f: dolfinx.fem.Function, degree: int | None = None, discontinuous: bool | None = None
-) -> dolfinx.fem.Function:
+    f: Function, degree: int | None = None, discontinuous: bool | None = None
+) -> Function:
     """``f`` in the ``output_element`` of the given degree (default: f's own degree).
 
     Returns ``f`` itself when it already lives there; otherwise interpolates, which is exact
     between the variants of one degree (same polynomial space).
     """
-    element = f.function_space.ufl_element()
+    element = compat.ufl_element(f.function_space)
     degree = element.embedded_superdegree if degree is None else degree
     discontinuous = element.discontinuous if discontinuous is None else discontinuous
     mesh = f.function_space.mesh
     target = output_element(mesh, degree, f.ufl_shape, discontinuous)
     if element == target:
         return f
-    out = dolfinx.fem.Function(dolfinx.fem.functionspace(mesh, target), name=f.name)
+    out: Function = dolfinx.fem.Function(dolfinx.fem.functionspace(mesh, target), name=f.name)
     out.interpolate(f)
     return out
 
 
-def reference_coordinates(space: dolfinx.fem.FunctionSpace) -> np.ndarray:
+def reference_coordinates(space: FunctionSpace) -> Array:
     """Reference positions x of the local (owned and ghost) dofs, shape (num_dofs, 3)."""
     return space.tabulate_dof_coordinates()
 
 
-def surface_points(u: dolfinx.fem.Function) -> np.ndarray:
+def surface_points(u: Function) -> Array:
     """Deformed positions at the local dofs, shape (num_dofs, 3).
 
     For a vector y with three components this is y itself; for a scalar deflection w it is
@@ -137,44 +142,47 @@ def surface_points(u: dolfinx.fem.Function) -> np.ndarray:
     num_dofs = space.dofmap.index_map.size_local + space.dofmap.index_map.num_ghosts
     values = u.x.array.real[: num_dofs * bs].reshape(num_dofs, bs)
     if bs == 3:
-        return values.copy()
-    if bs == 1:
-        points = reference_coordinates(space).copy()
-        points[:, 2] = values[:, 0]
+        points: Array = values.copy()
         return points
+    if bs == 1:
+        embedded = reference_coordinates(space).copy()
+        embedded[:, 2] = values[:, 0]
+        return embedded
     raise ValueError(f"expected a deformation with 3 components or a scalar, got {bs}")
 
 
-def dof_values(values, u: dolfinx.fem.Function) -> np.ndarray:
-    """Values at u's local dofs: an array indexed by local dof, or any Function (put on u's
-    space by ``to_output_space``, so a P1 temperature can be shown on a DG surface).
+def dof_values(values: Array | Function, u: Function) -> Array:
+    """Values at u's local dofs: an array indexed by local dof, or any Function.
+
+    A Function is put on u's space by ``to_output_space``, so that a P1 temperature can be
+    shown on a DG surface.
     """
     space = u.function_space
     num_dofs = space.dofmap.index_map.size_local + space.dofmap.index_map.num_ghosts
     if isinstance(values, dolfinx.fem.Function):
-        element = space.ufl_element()
-        values = to_output_space(values, element.embedded_superdegree, element.discontinuous)
+        element = compat.ufl_element(space)
+        on_u = to_output_space(values, element.embedded_superdegree, element.discontinuous)
         # Same element layout, possibly other dof numbers: match them node by node per cell.
         same_node = np.empty(num_dofs, dtype=np.int64)
-        same_node[space.dofmap.list.reshape(-1)] = values.function_space.dofmap.list.reshape(-1)
-        bs = values.function_space.dofmap.index_map_bs
-        array = values.x.array.real.reshape(-1, bs)[same_node]
-        return array[:, 0] if bs == 1 else array
+        same_node[space.dofmap.list.reshape(-1)] = on_u.function_space.dofmap.list.reshape(-1)
+        bs = on_u.function_space.dofmap.index_map_bs
+        matched: Array = on_u.x.array.real.reshape(-1, bs)[same_node]
+        return matched[:, 0] if bs == 1 else matched
     array = np.asarray(values)
     if array.shape[0] != num_dofs:
         raise ValueError(f"point values need one entry per local dof ({num_dofs})")
     return array
 
 
-def set_displacement(u: dolfinx.fem.Function, y: dolfinx.fem.Function, x: np.ndarray) -> None:
-    """U ← y − x for the dof coordinates ``x`` (both functions in the same [DG_k]³ space)."""
+def set_displacement(u: Function, y: Function, x: Array) -> None:
+    """Set u ← y − x for the dof coordinates ``x`` (both functions in the same [DG_k]³ space)."""
     u.x.array[:] = y.x.array - x.reshape(-1)
 
 
 def surface_grid(
-    u: dolfinx.fem.Function,
-    cell_values: Mapping[str, np.ndarray] | None = None,
-    point_values: Mapping[str, np.ndarray | dolfinx.fem.Function] | None = None,
+    u: Function,
+    cell_values: Mapping[str, Array] | None = None,
+    point_values: Mapping[str, Array | Function] | None = None,
 ) -> pyvista.UnstructuredGrid | None:
     """The deformed surface of the owned cells of all ranks, as one grid on rank 0.
 
@@ -189,7 +197,7 @@ def surface_grid(
     space = u.function_space
     mesh = space.mesh
     owned = np.arange(num_owned_cells(mesh), dtype=np.int32)
-    cells, types, _ = dolfinx.plot.vtk_mesh(space, entities=owned)
+    cells, types, _ = compat.vtk_mesh(space, owned)
     nodes = space.dofmap.dof_layout.num_dofs  # per cell; reshape works for 0 owned cells too
     topology = np.asarray(cells, dtype=np.int64).reshape(owned.size, nodes + 1)
     used, local = np.unique(topology[:, 1:], return_inverse=True)

@@ -28,10 +28,14 @@ import dolfinx.fem
 import dolfinx.mesh
 import numpy as np
 import ufl
+from ufl.core.expr import Expr
 
-from dgplate.compat import geometry_dofmap
+from dgplate import compat, mpi
+from dgplate.compat import Array, Form, Function, geometry_dofmap
+from dgplate.dg.forms import cell_measure
+from dgplate.dg.geometry import image_of_direction, unit_normal
 from dgplate.errors import InputError
-from dgplate.mesh.tagged import TaggedMesh
+from dgplate.mesh.tagged import TaggedMesh, local_entities, make_tags
 
 
 @dataclass(frozen=True)
@@ -43,29 +47,26 @@ class Hinge:
     outer: str
 
 
-def _normal(y):
-    n = ufl.cross(y.dx(0), y.dx(1))
-    return n / ufl.sqrt(ufl.inner(n, n))
-
-
 class RegionIntegrals:
     """∫_R expr dx for UFL expressions and named cell groups R, summed over all ranks."""
 
     def __init__(self, tagged: TaggedMesh, quadrature_degree: int | None = None):
         self.tagged = tagged
         self.mesh = tagged.mesh
-        md = {} if quadrature_degree is None else {"quadrature_degree": quadrature_degree}
-        self.dx = ufl.Measure("dx", domain=self.mesh, subdomain_data=tagged.cell_tags, metadata=md)
+        self.dx = cell_measure(self.mesh, quadrature_degree, tagged.cell_tags)
 
-    def forms(self, exprs: Sequence, region: str) -> list:
+    def forms(self, exprs: Sequence[Expr], region: str) -> list[Form]:
+        """The compiled forms ∫_R expr dx of the region ``region``."""
         tag = self.tagged.tag(region, self.mesh.topology.dim)
         return [dolfinx.fem.form(e * self.dx(tag)) for e in exprs]
 
-    def evaluate(self, forms: Sequence) -> np.ndarray:
+    def evaluate(self, forms: Sequence[Form]) -> Array:
+        """The values of compiled forms, summed over the ranks (collective)."""
         local = np.array([dolfinx.fem.assemble_scalar(f) for f in forms], dtype=float)
-        return self.mesh.comm.allreduce(local, op=MPI.SUM)
+        return mpi.sum_arrays(self.mesh.comm, local)
 
-    def __call__(self, exprs: Sequence, region: str) -> np.ndarray:
+    def __call__(self, exprs: Sequence[Expr], region: str) -> Array:
+        """∫_R expr dx for each expression (collective)."""
         return self.evaluate(self.forms(exprs, region))
 
 
@@ -75,19 +76,17 @@ class FoldAngles:
     The forms are compiled once; calling the object evaluates them for the current ``y``.
     """
 
-    def __init__(
-        self, y: dolfinx.fem.Function, tagged: TaggedMesh, hinges: Sequence[Hinge], sense=1
-    ):
+    def __init__(self, y: Function, tagged: TaggedMesh, hinges: Sequence[Hinge], sense: int = 1):
         if sense not in (1, -1):
             raise InputError(f"fold-angle sense must be +1 or -1, got {sense!r}")
         if not hinges:
             raise InputError("FoldAngles needs at least one hinge")
         self.y, self.hinges, self.sense = y, list(hinges), sense
         self._int = RegionIntegrals(tagged)
-        x = ufl.SpatialCoordinate(tagged.mesh)
-        one = ufl.as_ufl(1.0)
+        x = compat.spatial_coordinate(tagged.mesh)
+        one = compat.as_ufl(1.0)
         faces = sorted({h.inner for h in hinges} | {h.outer for h in hinges})
-        nu = _normal(y)
+        nu = unit_normal(y)
         self._normal_forms = {f: self._int.forms([nu[i] for i in range(3)], f) for f in faces}
         centroids = {}
         for region in faces:
@@ -99,11 +98,10 @@ class FoldAngles:
             if not np.linalg.norm(d) > 0:
                 raise InputError(f"hinge {h.name}: faces {h.inner} and {h.outer} coincide")
             d /= np.linalg.norm(d)
-            t = ufl.as_vector([-float(d[1]), float(d[0])])
-            tangent = ufl.dot(ufl.grad(y), t)
+            tangent = image_of_direction(y, [-float(d[1]), float(d[0])])
             self._axis_forms[h.name] = self._int.forms([tangent[i] for i in range(3)], h.name)
 
-    def normals(self) -> dict[str, np.ndarray]:
+    def normals(self) -> dict[str, Array]:
         """Area-weighted mean unit normal of each face region."""
         out = {}
         for region, forms in self._normal_forms.items():
@@ -112,6 +110,7 @@ class FoldAngles:
         return out
 
     def __call__(self) -> dict[str, float]:
+        """The signed fold angle of each hinge, in radians, by hinge name (collective)."""
         normals = self.normals()
         angles = {}
         for h in self.hinges:
@@ -123,6 +122,7 @@ class FoldAngles:
         return angles
 
     def degrees(self) -> dict[str, float]:
+        """The signed fold angles in degrees (collective)."""
         return {k: math.degrees(v) for k, v in self().items()}
 
 
@@ -134,15 +134,15 @@ class RegionFrame:
     points into the region's reference placement (c_ref the reference centroid, z = 0).
     """
 
-    def __init__(self, y: dolfinx.fem.Function, tagged: TaggedMesh, region: str):
+    def __init__(self, y: Function, tagged: TaggedMesh, region: str):
         self._int = RegionIntegrals(tagged)
-        x = ufl.SpatialCoordinate(tagged.mesh)
-        G = ufl.grad(y)
-        exprs = [ufl.as_ufl(1.0), x[0], x[1]] + [y[i] for i in range(3)]
+        x = compat.spatial_coordinate(tagged.mesh)
+        G = compat.grad(y)
+        exprs = [compat.as_ufl(1.0), x[0], x[1]] + [y[i] for i in range(3)]
         exprs += [G[i, j] for i in range(3) for j in range(2)]
         self._forms = self._int.forms(exprs, region)
 
-    def __call__(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def __call__(self) -> tuple[Array, Array, Array]:
         """(c, Q, c_ref) for the current deformation."""
         values = self._int.evaluate(self._forms)
         area = values[0]
@@ -154,16 +154,21 @@ class RegionFrame:
         Q = np.column_stack([P[:, 0], P[:, 1], np.cross(P[:, 0], P[:, 1])])
         return c, Q, c_ref
 
-    def to_reference(self, points: np.ndarray) -> np.ndarray:
+    def to_reference(self, points: Array) -> Array:
+        """Qᵀ(p − c) + c_ref for each row p of ``points`` (collective)."""
         c, Q, c_ref = self()
-        return (np.asarray(points) - c) @ Q + c_ref
+        mapped: Array = (np.asarray(points) - c) @ Q + c_ref
+        return mapped
 
 
 def _facet_nodes(
     space: dolfinx.fem.FunctionSpace, tagged: TaggedMesh, group: str
 ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """For each facet of ``group`` and each owned cell beside it: the cell's dofs on the facet
-    and their positions along it (0 at one vertex, 1 at the other)."""
+    """For each facet of ``group`` and each owned cell beside it: its dofs on the facet.
+
+    Yields the cell's dofs on the facet and their positions along it (0 at one vertex, 1 at
+    the other).
+    """
     mesh = space.mesh
     tdim = mesh.topology.dim
     mesh.topology.create_connectivity(tdim - 1, tdim)
@@ -202,8 +207,11 @@ def edge_nodes(
 
 
 def edge_segments(y: dolfinx.fem.Function, tagged: TaggedMesh, group: str) -> list[np.ndarray]:
-    """The deformed facets of a facet group as polylines (one N×3 array of y's nodes per facet
-    and owned cell beside it, in order along the facet; local: gather them yourself)."""
+    """The deformed facets of a facet group as polylines.
+
+    One N×3 array of y's nodes per facet and owned cell beside it, in order along the facet
+    (local: gather them yourself).
+    """
     values = y.x.array.real.reshape(-1, 3)
     return [
         values[dofs[np.argsort(s)]] for dofs, s in _facet_nodes(y.function_space, tagged, group)
@@ -212,8 +220,11 @@ def edge_segments(y: dolfinx.fem.Function, tagged: TaggedMesh, group: str) -> li
 
 @dataclass(frozen=True)
 class HingeGeometry:
-    """A hinge strip's extent across (``width``, from the inner to the outer face) and along
-    (``length``), and its cells: ``across`` × ``along`` (a structured strip)."""
+    """A hinge strip's extent and cells.
+
+    Its extent across (``width``, from the inner to the outer panel) and along (``length``),
+    and its cells: ``across`` × ``along`` (a structured strip).
+    """
 
     width: float
     length: float
@@ -278,6 +289,7 @@ class ClosureGap:
         self.frame = RegionFrame(y, tagged, panel)
 
     def __call__(self) -> float:
+        """The largest distance of a node from its target (collective)."""
         ref, pos = edge_nodes(self.y, self.tagged, self.edge)
         local = self.frame.to_reference(pos)
         gap = np.linalg.norm(local - self.target(ref), axis=1).max(initial=0.0)
@@ -298,6 +310,7 @@ class EdgePlacement:
         self.frame = RegionFrame(y, tagged, panel)
 
     def __call__(self) -> tuple[float, float]:
+        """The nodes' mean height above the panel and mean distance from its centroid."""
         _, pos = edge_nodes(self.y, self.tagged, self.edge)
         c, Q, c_ref = self.frame()
         local = (pos - c) @ Q + c_ref
@@ -316,8 +329,6 @@ def hinge_strip(comm: MPI.Comm, width: float = math.pi / 24, n: int = 4, m: int 
     [1, 1 + width] × [0, 1] and ``right``; structured quadrilaterals, n × n per square and
     m × n in the hinge (the same cells as ``meshes/box_net.geo``), shared-facet ghosts.
     """
-    from dgplate.mesh.tagged import _make_tags
-
     if not width > 0 or n < 1 or m < 1:
         raise InputError(f"hinge_strip needs width > 0 and n, m >= 1, got {width}, {n}, {m}")
     cols = 2 * n + m
@@ -335,12 +346,11 @@ def hinge_strip(comm: MPI.Comm, width: float = math.pi / 24, n: int = 4, m: int 
     )
     tdim = mesh.topology.dim
     mesh.topology.create_connectivity(tdim - 1, tdim)
-    cmap = mesh.topology.index_map(tdim)
-    cells = np.arange(cmap.size_local + cmap.num_ghosts, dtype=np.int32)
+    cells = local_entities(mesh, tdim)
     mid = dolfinx.mesh.compute_midpoints(mesh, tdim, cells)[:, 0]
     values = np.where(mid < 1, 1, np.where(mid < 1 + width, 2, 3)).astype(np.int32)
-    cell_tags = _make_tags(mesh, tdim, cells, values)
-    facet_tags = _make_tags(mesh, tdim - 1, np.zeros(0, np.int32), np.zeros(0, np.int32))
+    cell_tags = make_tags(mesh, tdim, cells, values)
+    facet_tags = make_tags(mesh, tdim - 1, np.zeros(0, np.int32), np.zeros(0, np.int32))
     groups = {"left": (tdim, 1), "hinge": (tdim, 2), "right": (tdim, 3)}
     return TaggedMesh(mesh, cell_tags, facet_tags, groups, f"hinge strip w={width:g} n={n} m={m}")
 

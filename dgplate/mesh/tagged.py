@@ -9,17 +9,21 @@ that lists the names the mesh does have.
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import ModuleType
 
 from mpi4py import MPI
 
 import dolfinx
+import dolfinx.fem
 import dolfinx.mesh
 import numpy as np
+import numpy.typing as npt
 
-from dgplate import compat
+from dgplate import compat, mpi
+from dgplate.compat import Array, Function, Indices, Mesh, MeshTags
 from dgplate.errors import InputError, read_user_text
 
 MESH_DIR = Path(__file__).resolve().parents[2] / "meshes"
@@ -32,17 +36,20 @@ RECTANGLE_SIDES = ("left", "right", "bottom", "top")
 class TaggedMesh:
     """A DOLFINx mesh with its cell/facet tags and the physical-group names."""
 
-    mesh: dolfinx.mesh.Mesh
-    cell_tags: dolfinx.mesh.MeshTags | None
-    facet_tags: dolfinx.mesh.MeshTags | None
+    mesh: Mesh
+    cell_tags: MeshTags | None
+    facet_tags: MeshTags | None
     groups: dict[str, tuple[int, int]] = field(default_factory=dict)  # name -> (dim, tag)
     source: str = "built-in"
 
     @property
     def comm(self) -> MPI.Comm:
-        return self.mesh.comm
+        """The mesh's communicator."""
+        comm: MPI.Comm = self.mesh.comm
+        return comm
 
     def names(self, dim: int) -> list[str]:
+        """The names of the groups of dimension ``dim`` (2: cells, 1: facets), sorted."""
         return sorted(name for name, (d, _) in self.groups.items() if d == dim)
 
     def tag(self, name: str, dim: int) -> int:
@@ -56,13 +63,13 @@ class TaggedMesh:
             )
         return entry[1]
 
-    def facets(self, name: str) -> np.ndarray:
+    def facets(self, name: str) -> Indices:
         """Local indices of the facets in group ``name`` (owned and ghost)."""
         tag = self.tag(name, self.mesh.topology.dim - 1)
         assert self.facet_tags is not None
         return self.facet_tags.find(tag)
 
-    def cells(self, name: str) -> np.ndarray:
+    def cells(self, name: str) -> Indices:
         """Local indices of the cells in group ``name`` (owned and ghost)."""
         tag = self.tag(name, self.mesh.topology.dim)
         assert self.cell_tags is not None
@@ -70,11 +77,11 @@ class TaggedMesh:
 
     def group_function(
         self,
-        values: Mapping[str, float | Sequence],
-        default: float | Sequence | None = None,
+        values: Mapping[str, npt.ArrayLike],
+        default: npt.ArrayLike | None = None,
         shape: tuple[int, ...] = (),
         key: str = "value",
-    ):
+    ) -> Function:
         """A DG0 function (scalar or of ``shape``) with one value per cell group.
 
         A number stands for all entries of a ``shape``d value. Cells of no listed group get
@@ -82,11 +89,9 @@ class TaggedMesh:
         says how many are not (``key`` names the problem-file entry). An unknown group name
         raises an InputError that names it. Collective.
         """
-        import dolfinx.fem
-
         mesh = self.mesh
         space = dolfinx.fem.functionspace(mesh, ("DG", 0, shape) if shape else ("DG", 0))
-        function = dolfinx.fem.Function(space, name=key.split(".")[-1])
+        function: Function = dolfinx.fem.Function(space, name=key.split(".")[-1])
         size = int(np.prod(shape))
         blocks = function.x.array.reshape(-1, size)
         if default is not None:
@@ -101,7 +106,7 @@ class TaggedMesh:
         function.x.scatter_forward()
         if default is None:
             local = int(np.count_nonzero(~covered[: cell_map.size_local]))
-            missing = int(mesh.comm.allreduce(local))
+            missing = mpi.global_count(mesh.comm, local)
             if missing:
                 raise InputError(
                     f"{key} leaves {missing} cell(s) without a value "
@@ -143,36 +148,52 @@ def rectangle(
     )
     tdim = mesh.topology.dim
     mesh.topology.create_connectivity(tdim - 1, tdim)
-    tol = 1e-10 * max(x1 - x0, y1 - y0)
-    sides = {
-        "left": lambda x: np.isclose(x[0], x0, atol=tol),
-        "right": lambda x: np.isclose(x[0], x1, atol=tol),
-        "bottom": lambda x: np.isclose(x[1], y0, atol=tol),
-        "top": lambda x: np.isclose(x[1], y1, atol=tol),
-    }
     indices, values = [], []
+    sides = _rectangle_sides(corners)
     for tag, name in enumerate(RECTANGLE_SIDES, start=1):
         found = dolfinx.mesh.locate_entities_boundary(mesh, tdim - 1, sides[name])
         indices.append(found)
         values.append(np.full(found.size, tag, dtype=np.int32))
-    facet_tags = _make_tags(mesh, tdim - 1, np.concatenate(indices), np.concatenate(values))
-    num_cells = mesh.topology.index_map(tdim).size_local + mesh.topology.index_map(tdim).num_ghosts
-    cell_tags = _make_tags(
-        mesh, tdim, np.arange(num_cells, dtype=np.int32), np.ones(num_cells, dtype=np.int32)
-    )
+    facet_tags = make_tags(mesh, tdim - 1, np.concatenate(indices), np.concatenate(values))
+    cells_here = local_entities(mesh, tdim)
+    cell_tags = make_tags(mesh, tdim, cells_here, np.ones(cells_here.size, dtype=np.int32))
     groups = {name: (tdim - 1, tag) for tag, name in enumerate(RECTANGLE_SIDES, start=1)}
     groups["plate"] = (tdim, 1)
     source = f"rectangle {list(corners)} {list(cells)} {cell_type}"
     return TaggedMesh(mesh, cell_tags, facet_tags, groups, source)
 
 
-def _make_tags(mesh, dim: int, indices: np.ndarray, values: np.ndarray):
+def _rectangle_sides(
+    corners: Sequence[Sequence[float]],
+) -> dict[str, Callable[[Array], npt.NDArray[np.bool_]]]:
+    """The markers of the sides of the rectangle, by name."""
+    (x0, y0), (x1, y1) = corners
+    tol = 1e-10 * max(x1 - x0, y1 - y0)
+    return {
+        "left": lambda x: np.isclose(x[0], x0, atol=tol),
+        "right": lambda x: np.isclose(x[0], x1, atol=tol),
+        "bottom": lambda x: np.isclose(x[1], y0, atol=tol),
+        "top": lambda x: np.isclose(x[1], y1, atol=tol),
+    }
+
+
+def local_entities(mesh: Mesh, dim: int) -> Indices:
+    """The local indices of this rank's entities of dimension ``dim``, owned and ghost."""
+    index_map = mesh.topology.index_map(dim)
+    return np.arange(index_map.size_local + index_map.num_ghosts, dtype=np.int32)
+
+
+def make_tags(mesh: Mesh, dim: int, indices: npt.ArrayLike, values: npt.ArrayLike) -> MeshTags:
     """MeshTags from possibly repeated, unsorted entity indices (the last value wins)."""
-    indices = np.asarray(indices, dtype=np.int32)
-    order = np.argsort(indices, kind="stable")
-    indices, values = indices[order], np.asarray(values, dtype=np.int32)[order]
-    keep = np.append(indices[1:] != indices[:-1], True) if indices.size else np.array([], bool)
-    return dolfinx.mesh.meshtags(mesh, dim, indices[keep], values[keep])
+    entities = np.asarray(indices, dtype=np.int32)
+    order = np.argsort(entities, kind="stable")
+    entities, tags = entities[order], np.asarray(values, dtype=np.int32)[order]
+    keep = np.append(entities[1:] != entities[:-1], True) if entities.size else np.array([], bool)
+    return dolfinx.mesh.meshtags(mesh, dim, entities[keep], tags[keep])
+
+
+#: The old, private name of :func:`make_tags`.
+_make_tags = make_tags
 
 
 def resolve_geo(name: str | Path) -> Path:
@@ -210,36 +231,14 @@ def load_geo(
     """
     path = resolve_geo(name)
     parameters = dict(parameters or {})
-    known = geo_parameters(path)
-    unknown = sorted(set(parameters) - set(known))
-    if unknown:
-        raise InputError(
-            f"mesh parameter(s) {', '.join(unknown)} not defined in {path.name} "
-            f"(DefineConstant there: {', '.join(sorted(known)) or 'none'})"
-        )
+    _check_parameters(path, parameters)
     import gmsh
 
     error, groups = None, None
     if comm.rank == 0:
         gmsh.initialize(["dgplate"], readConfigFiles=False)
         gmsh.option.setNumber("General.Terminal", 0)
-        try:
-            for key, value in parameters.items():
-                gmsh.parser.setNumber(key, [float(value)])
-            for key, value in (gmsh_options or {}).items():
-                gmsh.option.setNumber(key, float(value))
-            if recombine:
-                gmsh.option.setNumber("Mesh.RecombineAll", 1)
-            gmsh.merge(str(path))
-            gmsh.model.mesh.generate(2)
-            groups = {}
-            for dim, tag in gmsh.model.getPhysicalGroups():
-                label = gmsh.model.getPhysicalName(dim, tag) or f"{dim}:{tag}"
-                groups[label] = (int(dim), int(tag))
-            if not any(dim == 2 for dim, _ in groups.values()):
-                error = f"{path.name} defines no Physical Surface: name the plate's cell regions"
-        except Exception as exc:  # gmsh raises plain Exceptions with its log message
-            error = f"gmsh failed on {path.name}: {exc}"
+        error, groups = _generate(gmsh, path, parameters, recombine, gmsh_options or {})
     error = comm.bcast(error, root=0)
     if error is not None:
         if comm.rank == 0:
@@ -257,11 +256,40 @@ def load_geo(
     return TaggedMesh(mesh, cell_tags, facet_tags, groups, source=path.name)
 
 
-def global_count(comm: MPI.Comm, local_owned: int) -> int:
-    """Sum of a per-rank count over the communicator (collective)."""
-    return int(comm.allreduce(int(local_owned), op=MPI.SUM))
+def _check_parameters(path: Path, parameters: Mapping[str, float]) -> None:
+    """Every overridden parameter must be a ``DefineConstant`` of the file."""
+    known = geo_parameters(path)
+    unknown = sorted(set(parameters) - set(known))
+    if unknown:
+        raise InputError(
+            f"mesh parameter(s) {', '.join(unknown)} not defined in {path.name} "
+            f"(DefineConstant there: {', '.join(sorted(known)) or 'none'})"
+        )
 
 
-def owned(indices: np.ndarray, index_map) -> np.ndarray:
-    """The entries of ``indices`` that this rank owns."""
-    return indices[indices < index_map.size_local]
+def _generate(
+    gmsh: ModuleType,
+    path: Path,
+    parameters: Mapping[str, float],
+    recombine: bool | None,
+    options: Mapping[str, float],
+) -> tuple[str | None, dict[str, tuple[int, int]] | None]:
+    """Mesh the file with gmsh (initialised, on rank 0): ``(error, physical groups)``."""
+    try:
+        for key, value in parameters.items():
+            gmsh.parser.setNumber(key, [float(value)])
+        for key, value in options.items():
+            gmsh.option.setNumber(key, float(value))
+        if recombine:
+            gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.merge(str(path))
+        gmsh.model.mesh.generate(2)
+        groups = {}
+        for dim, tag in gmsh.model.getPhysicalGroups():
+            label = gmsh.model.getPhysicalName(dim, tag) or f"{dim}:{tag}"
+            groups[label] = (int(dim), int(tag))
+    except Exception as exc:  # gmsh raises plain Exceptions with its log message
+        return f"gmsh failed on {path.name}: {exc}", None
+    if not any(dim == 2 for dim, _ in groups.values()):
+        return f"{path.name} defines no Physical Surface: name the plate's cell regions", groups
+    return None, groups

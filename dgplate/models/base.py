@@ -13,21 +13,29 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-import dolfinx.fem
-import numpy as np
 import ufl
+from ufl.core.expr import Expr
 
+from dgplate import values
+from dgplate.compat import Array, Function, Mesh
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets
+from dgplate.errors import InputError
 from dgplate.measure.creases import crease_polylines, fold_angle_summary
+from dgplate.mesh.tagged import TaggedMesh
+from dgplate.schema import is_matrix, is_number
 from dgplate.solvers.driver import Driver, Observer
-from dgplate.solvers.flow import FlowSpec, GradientFlow
+from dgplate.solvers.flow import FlowSpec, GradientFlow, Initial
 
-Initial = Callable[[np.ndarray], np.ndarray]
+__all__ = ["Initial", "Model", "PlateModel", "clamped_data", "flat_identity", "piecewise_constant"]
 
 
 class Model(Protocol):
-    """What the runner needs of a model (all methods collective)."""
+    """What the runner needs of a model (all methods collective).
+
+    ``figures`` and ``lines`` take the driver that :meth:`driver` returned, whose type each
+    model knows (a protocol cannot say "the type of my driver"): hence ``Any``.
+    """
 
     def driver(
         self, flow: FlowSpec, observers: Sequence[Observer], initial: Initial | None
@@ -39,7 +47,7 @@ class Model(Protocol):
         """Model-specific numbers for ``summary.json`` (e.g. fold angles)."""
         ...
 
-    def lines(self, driver: Any) -> list[np.ndarray]:
+    def lines(self, driver: Any) -> list[Array]:
         """Polylines drawn on the picture of the final shape (e.g. deformed creases)."""
         ...
 
@@ -54,10 +62,8 @@ class PlateModel:
 
     facets: FacetSets
     degree: int
-    energy: Callable[[dolfinx.fem.Function], Energy]
-    measures: Sequence[Callable[[dolfinx.fem.Function], dict[str, Any]]] = field(
-        default_factory=tuple
-    )
+    energy: Callable[[Function], Energy]
+    measures: Sequence[Callable[[Function], dict[str, Any]]] = field(default_factory=tuple)
 
     def driver(
         self, flow: FlowSpec, observers: Sequence[Observer], initial: Initial | None
@@ -74,48 +80,43 @@ class PlateModel:
             out.update(measure(driver.y))
         return out
 
-    def lines(self, driver: GradientFlow) -> list[np.ndarray]:
+    def lines(self, driver: GradientFlow) -> list[Array]:
         """The deformed crease lines."""
         return crease_polylines(driver.y, self.facets) if self.facets.num_crease else []
 
 
-def flat_identity(mesh):
+def flat_identity(mesh: Mesh) -> tuple[Expr, Expr]:
     """The flat reference deformation y⁰(x) = (x₁, x₂, 0) and its gradient [I₂; 0]."""
     x = ufl.SpatialCoordinate(mesh)
-    g = ufl.as_vector([x[0], x[1], 0.0])
-    Phi = ufl.as_matrix([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])
+    g: Expr = ufl.as_vector([x[0], x[1], 0.0])
+    Phi: Expr = ufl.as_matrix([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])
     return g, Phi
 
 
-def piecewise_constant(tagged, values, key: str):
-    """μ-like data: a number (a Constant), or {cell group name: number} turned into a DG0
-    function; either way a value of the forms, not part of their code (:mod:`dgplate.values`).
+def piecewise_constant(tagged: TaggedMesh, data: object, key: str) -> Expr:
+    """μ-like data: a number (a Constant), or {cell group name: number} as a DG0 function.
+
+    Either way a value of the forms, not part of their code (:mod:`dgplate.values`).
     """
-    from dgplate.errors import InputError
-    from dgplate.values import constant
-
-    if isinstance(values, int | float) and not isinstance(values, bool):
-        if not values > 0:
-            raise InputError(f"{key} must be > 0, got {values}")
-        return constant(tagged.mesh, values)
-    if not isinstance(values, dict) or not values:
-        raise InputError(f"{key} must be a number or a table {{group = value}}, got {values!r}")
-    for name, value in values.items():
-        if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
+    if is_number(data):
+        if not data > 0:
+            raise InputError(f"{key} must be > 0, got {data}")
+        return values.constant(tagged.mesh, data)
+    if not isinstance(data, dict) or not data:
+        raise InputError(f"{key} must be a number or a table {{group = value}}, got {data!r}")
+    for name, value in data.items():
+        if not (is_number(value) and value > 0):
             raise InputError(f"{key}.{name} must be a number > 0, got {value!r}")
-    return tagged.group_function(values, key=key)
+    return tagged.group_function(data, key=key)
 
 
-def clamped_data(value, mesh, key: str = "model.boundary_data"):
-    """Nitsche data (g, Φ) on clamped faces from a problem file.
+def clamped_data(value: object, mesh: Mesh, key: str = "model.boundary_data") -> tuple[Expr, Expr]:
+    """Nitsche data (g, Φ) on clamped facets from a problem file.
 
     ``"flat"``: g = (x, y, 0), Φ = [I₂; 0]. A table ``{g = [3 formulas], Phi = [[2], [2], [2]]}``
     gives any data, e.g. a folded sheet; Φ defaults to ∇g. Numbers in the table are Constants
     (:mod:`dgplate.values`).
     """
-    from dgplate import values
-    from dgplate.errors import InputError
-
     if value == "flat":
         return flat_identity(mesh)
     if not isinstance(value, dict) or "g" not in value or set(value) - {"g", "Phi"}:
@@ -124,12 +125,11 @@ def clamped_data(value, mesh, key: str = "model.boundary_data"):
         )
     g = values.vector(value["g"], mesh, f"{key}.g", 3)
     if "Phi" not in value:
-        return g, ufl.grad(g)
+        gradient: Expr = ufl.grad(g)
+        return g, gradient
     rows = value["Phi"]
-    if not (
-        isinstance(rows, list)
-        and len(rows) == 3
-        and all(isinstance(r, list) and len(r) == 2 for r in rows)
-    ):
+    if not is_matrix(rows, 3, 2):
         raise InputError(f"{key}.Phi must be a 3×2 matrix [[..], [..], [..]], got {rows!r}")
-    return g, values.array(rows, mesh, f"{key}.Phi")
+    Phi = values.array(rows, mesh, f"{key}.Phi")
+    assert not isinstance(Phi, float)  # a matrix gives a tensor
+    return g, Phi

@@ -10,10 +10,10 @@ satisfies the discrete equations (consistency):
 
     ⟨H(y), T⟩ = Σ_T ∫ D²y : T − Σ_e ∫ [∇y] : {T n} + Σ_e ∫ [y] · {div T · n},   T = μ ν ⊗ Z.
 
-Without the face terms the broken Hessian misses the curvature concentrated in gradient jumps
+Without the facet terms the broken Hessian misses the curvature concentrated in gradient jumps
 and the interior-penalty consistency terms −{D²y n}:[∇v] are left unbalanced: the plate then
 rolls to a wrong radius (``consistent=False`` keeps that variant for comparison; the cylinder
-test shows the difference). On crease faces the [∇y] term is dropped, like in the bending form.
+test shows the difference). On crease facets the [∇y] term is dropped, like in the bending form.
 The coupling term is not quadratic: the gradient flow treats it explicitly (at yⁿ).
 """
 
@@ -22,89 +22,89 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import ufl
+from ufl.core.expr import Expr
 
 from dgplate import expressions, values
+from dgplate.compat import Function
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import (
-    CLAMPED,
-    CREASE,
-    SMOOTH,
+    Coefficient,
     FacetSets,
     Penalty,
     bending_energy,
+    cell_measure,
     facet_sets,
     jump,
 )
+from dgplate.dg.geometry import second_fundamental_form, unit_normal
 from dgplate.errors import InputError
+from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import PlateModel, clamped_data, piecewise_constant
 from dgplate.models.kirchhoff import KirchhoffSpec
-from dgplate.schema import option
+from dgplate.schema import is_matrix, is_number, option
 
-
-def unit_normal(y):
-    """ν(y) = ∂₁y × ∂₂y / |∂₁y × ∂₂y|, the unit normal of the deformed surface."""
-    n = ufl.cross(y.dx(0), y.dx(1))
-    return n / ufl.sqrt(ufl.inner(n, n))
-
-
-def second_fundamental_form(y):
-    """II_ij = ∂_ij y · ν (broken, cell-wise)."""
-    nu = unit_normal(y)
-    return ufl.as_matrix([[ufl.dot(y.dx(i).dx(j), nu) for j in range(2)] for i in range(2)])
+__all__ = [
+    "BilayerSpec",
+    "bilayer_energy",
+    "build_bilayer",
+    "curvature_coupling",
+    "second_fundamental_form",
+    "spontaneous_curvature",
+    "unit_normal",
+]
 
 
 def curvature_coupling(
-    y, faces: FacetSets, Z, mu=1.0, g=None, Phi=None, consistent=True, degree=None
-):
+    y: Expr,
+    facets: FacetSets,
+    Z: Expr,
+    mu: Coefficient = 1.0,
+    g: Expr | None = None,
+    Phi: Expr | None = None,
+    consistent: bool = True,
+    degree: int | None = None,
+) -> ufl.Form:
     """−⟨H(y), μ ν⊗Z⟩: the spontaneous-curvature term of the energy (see module docstring)."""
-    md = {} if degree is None else {"quadrature_degree": degree}
-    dx = ufl.Measure("dx", domain=faces.mesh, metadata=md)
     nu = unit_normal(y)
     T = mu * ufl.outer(nu, Z)  # 3 × 2 × 2
-    form = -ufl.inner(ufl.grad(ufl.grad(y)), T) * dx
+    form: ufl.Form = -ufl.inner(ufl.grad(ufl.grad(y)), T) * cell_measure(facets.mesh, degree)
     if not consistent:
         return form
-    n = faces.n
-    dS = faces.dS.reconstruct(metadata=md)
-    ds = faces.ds.reconstruct(metadata=md)
-    form += ufl.inner(jump(ufl.grad(y)), ufl.dot(ufl.avg(T), n("+"))) * dS(SMOOTH)
-    value_faces = dS(SMOOTH) + dS(CREASE) if faces.num_crease else dS(SMOOTH)
-    form -= ufl.inner(jump(y), ufl.dot(ufl.avg(ufl.div(T)), n("+"))) * value_faces
-    if faces.has_clamped:
-        form += ufl.inner(ufl.grad(y) - Phi, ufl.dot(T, n)) * ds(CLAMPED)
-        form -= ufl.inner(y - g, ufl.dot(ufl.div(T), n)) * ds(CLAMPED)
+    n = facets.n
+    form += ufl.inner(jump(ufl.grad(y)), ufl.dot(ufl.avg(T), n("+"))) * facets.dS_smooth(degree)
+    form -= ufl.inner(jump(y), ufl.dot(ufl.avg(ufl.div(T)), n("+"))) * facets.dS_all(degree)
+    if facets.has_clamped:
+        form += ufl.inner(ufl.grad(y) - Phi, ufl.dot(T, n)) * facets.ds_clamped(degree)
+        form -= ufl.inner(y - g, ufl.dot(ufl.div(T), n)) * facets.ds_clamped(degree)
     return form
 
 
 def bilayer_energy(
-    y,
-    faces: FacetSets,
+    y: Expr,
+    facets: FacetSets,
     penalty: Penalty,
-    Z,
-    mu=None,
-    load=None,
-    g=None,
-    Phi=None,
+    Z: Expr,
+    mu: Coefficient | None = None,
+    load: Expr | None = None,
+    g: Expr | None = None,
+    Phi: Expr | None = None,
     consistent: bool = True,
     degree: int | None = None,
 ) -> Energy:
     """Bending (implicit) + curvature coupling and ½∫μ|Z|² (explicit) − load."""
-    mu_ = 1.0 if mu is None else mu
-    implicit = bending_energy(y, faces, penalty, mu=mu, g=g, Phi=Phi)
+    rigidity = 1.0 if mu is None else mu
+    implicit = bending_energy(y, facets, penalty, mu=mu, g=g, Phi=Phi)
     if load is not None:
-        implicit -= ufl.inner(load, y) * faces.dx
-    explicit = curvature_coupling(y, faces, Z, mu_, g, Phi, consistent, degree)
-    explicit += 0.5 * mu_ * ufl.inner(Z, Z) * faces.dx
+        implicit -= ufl.inner(load, y) * facets.dx
+    explicit = curvature_coupling(y, facets, Z, rigidity, g, Phi, consistent, degree)
+    explicit += 0.5 * rigidity * ufl.inner(Z, Z) * facets.dx
     return Energy(implicit=implicit, explicit=explicit)
 
 
 # -- problem files -----------------------------------------------------------------------------
-def _check_symmetric(matrix, key: str) -> None:
-    if not (
-        isinstance(matrix, list)
-        and len(matrix) == 2
-        and all(isinstance(r, list) and len(r) == 2 for r in matrix)
-    ):
+def _check_symmetric(matrix: object, key: str) -> None:
+    """A 2×2 matrix whose off-diagonal entries agree (formulas: up to spaces)."""
+    if not is_matrix(matrix, 2, 2):
         raise InputError(f"{key} must be a 2×2 matrix [[Z11, Z12], [Z21, Z22]], got {matrix!r}")
     a, b = matrix[0][1], matrix[1][0]
     same = (
@@ -118,35 +118,40 @@ def _check_symmetric(matrix, key: str) -> None:
         )
 
 
-def spontaneous_curvature(value, tagged, key: str = "model.Z"):
-    """Z from a problem file: a number α (Z = αI), a 2×2 matrix of numbers or formulas in x, y,
-    or {cell group = number or matrix} (piecewise constant). Numbers are Constants, tables DG0
-    functions (:mod:`dgplate.values`).
+def spontaneous_curvature(value: object, tagged: TaggedMesh, key: str = "model.Z") -> Expr:
+    """Z from a problem file.
+
+    A number α (Z = αI), a 2×2 matrix of numbers or formulas in x, y, or {cell group = number
+    or matrix} (piecewise constant). Numbers are Constants, tables DG0 functions
+    (:mod:`dgplate.values`).
     """
     mesh = tagged.mesh
-    if isinstance(value, int | float) and not isinstance(value, bool):
-        return values.constant(mesh, value) * ufl.Identity(2)
+    if is_number(value):
+        scaled: Expr = values.constant(mesh, value) * ufl.Identity(2)
+        return scaled
     if isinstance(value, list):
         _check_symmetric(value, key)
-        return values.array(value, mesh, key)
+        matrix = values.array(value, mesh, key)
+        assert not isinstance(matrix, float)  # a 2×2 matrix gives a tensor
+        return matrix
     if isinstance(value, dict) and value:
-        matrices = {}
-        for name, entry in value.items():
-            sub = f"{key}.{name}"
-            if isinstance(entry, int | float) and not isinstance(entry, bool):
-                entry = [[float(entry), 0.0], [0.0, float(entry)]]
-            _check_symmetric(entry, sub)
-            if not all(
-                isinstance(v, int | float) and not isinstance(v, bool) for row in entry for v in row
-            ):
-                raise InputError(
-                    f"{sub} must hold numbers (formulas go in a single matrix), got {entry!r}"
-                )
-            matrices[name] = entry
+        matrices = {name: _group_matrix(entry, f"{key}.{name}") for name, entry in value.items()}
         return tagged.group_function(matrices, shape=(2, 2), key=key)
     raise InputError(
         f"{key} must be a number, a 2×2 matrix or a table {{group = value}}, got {value!r}"
     )
+
+
+def _group_matrix(entry: object, key: str) -> list[list[float]]:
+    """The value of one cell group of a Z table: a number α (αI) or a symmetric 2×2 matrix."""
+    if is_number(entry):
+        entry = [[float(entry), 0.0], [0.0, float(entry)]]
+    _check_symmetric(entry, key)
+    assert is_matrix(entry, 2, 2)
+    numbers = [[float(v) for v in row if is_number(v)] for row in entry]
+    if any(len(row) != 2 for row in numbers):  # an entry is no number
+        raise InputError(f"{key} must hold numbers (formulas go in a single matrix), got {entry!r}")
+    return numbers
 
 
 @dataclass
@@ -154,7 +159,7 @@ class BilayerSpec(KirchhoffSpec):
     """[model] of a bilayer plate: the Kirchhoff keys plus the spontaneous curvature."""
 
     name: str = option("bilayer", "the model")
-    Z: float | list | dict = option(
+    Z: float | list[list[float | str]] | dict[str, float | list[list[float]]] = option(
         1.0,
         "spontaneous curvature: α (Z = αI), [[Z11, Z12], [Z12, Z22]] (numbers or formulas in x, y), or {cell group = value}",
     )
@@ -168,10 +173,11 @@ class BilayerSpec(KirchhoffSpec):
             expressions.check(self.Z, "model.Z")
 
 
-def build_bilayer(spec: BilayerSpec, tagged) -> PlateModel:
+def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
+    """Facet sets, the energy and the curvature figures of a bilayer problem."""
     from dgplate.measure.analysis import curvature_summary
 
-    faces = facet_sets(tagged, clamped=spec.clamped, crease=spec.crease)
+    facets = facet_sets(tagged, clamped=spec.clamped, crease=spec.crease)
     load = values.vector(spec.load, tagged.mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     Z = spontaneous_curvature(spec.Z, tagged)
@@ -179,7 +185,7 @@ def build_bilayer(spec: BilayerSpec, tagged) -> PlateModel:
     penalty = spec.penalty_params
     degree = 3 * spec.degree + 2
 
-    def energy_fn(y) -> Energy:
-        return bilayer_energy(y, faces, penalty, Z, mu, load, g, Phi, spec.consistent, degree)
+    def energy_fn(y: Function) -> Energy:
+        return bilayer_energy(y, facets, penalty, Z, mu, load, g, Phi, spec.consistent, degree)
 
-    return PlateModel(faces, spec.degree, energy_fn, measures=[curvature_summary])
+    return PlateModel(facets, spec.degree, energy_fn, measures=[curvature_summary])

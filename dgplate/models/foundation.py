@@ -10,16 +10,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-import dolfinx.fem
 import ufl
 
 from dgplate import values
+from dgplate.compat import Function
 from dgplate.dg.energy import Energy
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import PlateModel, flat_identity
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
-from dgplate.schema import option
+from dgplate.schema import is_number, option
 
 
 @dataclass
@@ -31,7 +31,7 @@ class FoundationSpec(KirchhoffSpec):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if isinstance(self.k, bool) or not self.k > 0:
+        if not (is_number(self.k) and self.k > 0):
             raise InputError(f"model.k must be a number > 0, got {self.k!r}")
 
 
@@ -41,7 +41,7 @@ def build_foundation(spec: FoundationSpec, tagged: TaggedMesh) -> PlateModel:
     k = values.constant(tagged.mesh, spec.k)
     rest, _ = flat_identity(tagged.mesh)
 
-    def energy(y: dolfinx.fem.Function) -> Energy:
+    def energy(y: Function) -> Energy:
         bending = plate.energy(y)
         spring = 0.5 * k * ufl.inner(y - rest, y - rest) * ufl.dx
         return replace(bending, implicit=bending.implicit + spring)

@@ -1,37 +1,42 @@
 """Isometry-constrained Kirchhoff plate: E_h[y] = ½ a_h(y, y) − ∫ f·y (docs/design.md §1–§2).
 
 The bending part is the interior-penalty form of :mod:`dgplate.dg.forms` with rigidity μ (a cell-wise
-coefficient) and Nitsche data g, Φ on clamped faces. The isometry constraint is not part of the
+coefficient) and Nitsche data g, Φ on clamped facets. The isometry constraint is not part of the
 energy: the gradient flow imposes its linearisation (:mod:`dgplate.solvers.constraint`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Unpack
 
 import ufl
+from ufl.core.expr import Expr
 
 from dgplate import expressions, values
+from dgplate.compat import Function
 from dgplate.dg.energy import Energy
-from dgplate.dg.forms import FacetSets, Penalty, bending_energy, facet_sets
+from dgplate.dg.forms import BendingData, FacetSets, Penalty, bending_energy, facet_sets
 from dgplate.errors import InputError
+from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import PlateModel, clamped_data, piecewise_constant
 from dgplate.schema import option
 
 
 def kirchhoff_energy(
-    y,
-    faces: FacetSets,
+    y: Expr,
+    facets: FacetSets,
     penalty: Penalty,
-    load=None,
-    mu=None,
-    g=None,
-    Phi=None,
+    load: Expr | None = None,
+    **data: Unpack[BendingData],
 ) -> Energy:
-    """The discrete Kirchhoff energy of the deformation ``y`` (a UFL Function in [DG_k]³)."""
-    energy = bending_energy(y, faces, penalty, mu=mu, g=g, Phi=Phi)
+    """The discrete Kirchhoff energy of the deformation ``y`` (a UFL Function in [DG_k]³).
+
+    ``data``: the rigidity ``mu`` and the clamped data ``g``, ``Phi`` of the bending energy.
+    """
+    energy = bending_energy(y, facets, penalty, **data)
     if load is not None:
-        energy -= ufl.inner(load, y) * faces.dx
+        energy -= ufl.inner(load, y) * facets.dx
     return Energy(implicit=energy)
 
 
@@ -41,15 +46,17 @@ class KirchhoffSpec:
 
     name: str = option("kirchhoff", "the model")
     degree: int = option(2, "polynomial degree k >= 2 of the DG space")
-    clamped: list = option([], "facet groups with clamped data (Γ_D); empty: a free plate")
-    crease: list = option([], "interior facet groups along which the plate may fold")
-    load: list = option([0.0, 0.0, 0.0], "body force f: three numbers or formulas in x, y")
-    mu: float | dict = option(1.0, "bending rigidity: a number or {cell group = value}")
-    penalty: dict = option(
+    clamped: list[str] = option([], "facet groups with clamped data (Γ_D); empty: a free plate")
+    crease: list[str] = option([], "interior facet groups along which the plate may fold")
+    load: list[float | str] = option(
+        [0.0, 0.0, 0.0], "body force f: three numbers or formulas in x, y"
+    )
+    mu: float | dict[str, float] = option(1.0, "bending rigidity: a number or {cell group = value}")
+    penalty: dict[str, float] = option(
         {"gamma0": 5000.0, "gamma1": 1100.0},
         "IP penalties γ₀ (h⁻³[y]) and γ₁ (h⁻ᵖ[∇y]); gradient_power p (default 1, at most 3) over-penalises gradient jumps",
     )
-    boundary_data: str | dict = option(
+    boundary_data: str | dict[str, object] = option(
         "flat",
         "clamped data: 'flat' (g = (x, y, 0), Φ = [I; 0]) or {g = [3 formulas], Phi = [[..], [..], [..]]} (Φ defaults to ∇g)",
     )
@@ -66,6 +73,10 @@ class KirchhoffSpec:
                 f"model.boundary_data must be 'flat' or a table {{g, Phi}}, got {self.boundary_data!r}"
             )
         self._penalty = Penalty.from_table(self.penalty, "model.penalty")
+        self._check_data()
+
+    def _check_data(self) -> None:
+        """The load and the clamped data: numbers and valid formulas (shapes of the load)."""
         if not isinstance(self.load, list) or len(self.load) != 3:
             raise InputError(
                 f"model.load must be a list of 3 numbers or formulas, got {self.load!r}"
@@ -82,15 +93,15 @@ class KirchhoffSpec:
         return self._penalty
 
 
-def build_kirchhoff(spec: KirchhoffSpec, tagged) -> PlateModel:
-    """Face sets and the energy of a Kirchhoff problem (validates group names)."""
-    faces = facet_sets(tagged, clamped=spec.clamped, crease=spec.crease)
+def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
+    """Facet sets and the energy of a Kirchhoff problem (validates group names)."""
+    facets = facet_sets(tagged, clamped=spec.clamped, crease=spec.crease)
     load = values.vector(spec.load, tagged.mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     g, Phi = clamped_data(spec.boundary_data, tagged.mesh)
     penalty = spec.penalty_params
 
-    def energy_fn(y) -> Energy:
-        return kirchhoff_energy(y, faces, penalty, load=load, mu=mu, g=g, Phi=Phi)
+    def energy_fn(y: Function) -> Energy:
+        return kirchhoff_energy(y, facets, penalty, load=load, mu=mu, g=g, Phi=Phi)
 
-    return PlateModel(faces, spec.degree, energy_fn)
+    return PlateModel(facets, spec.degree, energy_fn)

@@ -17,8 +17,12 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 
 import numpy as np
+import numpy.typing as npt
+
+Array = npt.NDArray[np.float64]
 
 SIMPLY_SUPPORTED_PUBLISHED, CLAMPED_PUBLISHED = 0.00406, 0.00126
 CLAMPED_SERIES = 0.0012653
@@ -41,8 +45,13 @@ def navier_simply_supported(terms: int = 401, compression: float = 0.0) -> float
     return float(16 / np.pi**6 * np.sum(signs / (M * N * (k2**2 - 2 * compression * k2))))
 
 
-def _series(z, coefficients, direct):
-    """direct(z), or its Taylor series in z² where |z| < 1 (no cancellation for small z)."""
+def _series(
+    z: npt.ArrayLike, coefficients: Sequence[float], direct: Callable[[Array], Array]
+) -> Array:
+    """The function ``direct`` at z, or its Taylor series in z² where |z| < 1.
+
+    The series has no cancellation for small z.
+    """
     z = np.atleast_1d(np.asarray(z, dtype=float))
     small = np.abs(z) < 1
     out = np.empty_like(z)
@@ -51,26 +60,26 @@ def _series(z, coefficients, direct):
     return out
 
 
-def _sinhc(z):
-    """Sinh z / z"""
+def _sinhc(z: npt.ArrayLike) -> Array:
+    """The function sinh z / z."""
     terms = [1 / math.factorial(2 * i + 1) for i in range(9)]
     return _series(z, terms, lambda z: np.sinh(z) / z)
 
 
-def _coshc(z):
-    """2 (cosh z − 1) / z²"""
+def _coshc(z: npt.ArrayLike) -> Array:
+    """The function 2 (cosh z − 1) / z²."""
     terms = [2 / math.factorial(2 * i + 2) for i in range(9)]
     return _series(z, terms, lambda z: 2 * (np.cosh(z) - 1) / z**2)
 
 
-def _f3(z):
-    """(sinh z − z) / z³"""
+def _f3(z: npt.ArrayLike) -> Array:
+    """The function (sinh z − z) / z³."""
     terms = [1 / math.factorial(2 * i + 3) for i in range(9)]
     return _series(z, terms, lambda z: (np.sinh(z) - z) / z**3)
 
 
-def _f4(z):
-    """(cosh z − 1 − z²/2) / z⁴"""
+def _f4(z: npt.ArrayLike) -> Array:
+    """The function (cosh z − 1 − z²/2) / z⁴."""
     terms = [1 / math.factorial(2 * i + 4) for i in range(9)]
     return _series(z, terms, lambda z: (np.cosh(z) - 1 - z**2 / 2) / z**4)
 
@@ -87,7 +96,8 @@ def strip_centre_deflection(q: float, L: float, E: float, t: float, hinge: bool)
     D, A, ell = E * t**3 / 12, E * t, L / 2
     x = np.linspace(0.0, ell, 4001)
 
-    def shape(N):
+    def shape(N: float) -> tuple[float, Array]:
+        """w(ℓ) and w' at the points x for the tension N."""
         k = np.sqrt(N / D)
         z, zl = k * x, k * ell
         sh_k = ell * _sinhc(zl)[0]  # sinh(kℓ)/k
@@ -100,16 +110,17 @@ def strip_centre_deflection(q: float, L: float, E: float, t: float, hinge: bool)
         else:  # w'(ℓ) = 0, w'''(ℓ) = 0
             M = np.array([[sh_k, cm_k2], [k**2 * sh_k, ch]])
             c2, c3 = np.linalg.solve(M, [-q * s_l / D, -q * sh_k / D])
-        w_l = c2 * cm_k2 + c3 * s_l + q * ell**4 * _f4(zl)[0] / D
+        w_l = float(c2 * cm_k2 + c3 * s_l + q * ell**4 * _f4(zl)[0] / D)
         dw = c2 * x * _sinhc(z) + c3 * x**2 * _coshc(z) / 2 + q * x**3 * _f3(z) / D
         return w_l, dw
 
-    def excess(N):
+    def excess(N: float) -> float:
+        """N minus the tension that the deflection of N stretches the strip to."""
         dw = shape(N)[1]
         return N - A / L * float(np.sum((dw[1:] ** 2 + dw[:-1] ** 2) / 2 * np.diff(x)))
 
     lo, hi = 1e-14 * A, A
     for _ in range(200):
-        mid = np.sqrt(lo * hi)
+        mid = math.sqrt(lo * hi)
         lo, hi = (mid, hi) if excess(mid) < 0 else (lo, mid)
-    return float(shape(np.sqrt(lo * hi))[0])
+    return shape(math.sqrt(lo * hi))[0]

@@ -12,38 +12,42 @@ from dataclasses import dataclass
 import dolfinx.fem
 import dolfinx.fem.petsc
 import ufl
-from petsc4py import PETSc
+from ufl.core.expr import Expr
 
+from dgplate import compat
+from dgplate.compat import Function
 from dgplate.dg.forms import FacetSets, Penalty, bending_energy, broken_norms
 from dgplate.solvers import linear as solvers
 
 
 @dataclass
 class BiharmonicResult:
-    u: dolfinx.fem.Function
+    """The discrete solution, its broken H², H¹ and L² errors, and the number of unknowns."""
+
+    u: Function
     errors: dict[str, float]
     dofs: int
 
 
 def solve_biharmonic(
-    faces: FacetSets,
+    facets: FacetSets,
     degree: int,
-    exact,
+    exact: Expr,
     penalty: Penalty,
     shape: tuple[int, ...] = (),
 ) -> BiharmonicResult:
     """Solve the clamped biharmonic problem whose solution is the UFL expression ``exact``.
 
     The load is f = Δ²(exact) and the clamped data are g = exact, Φ = ∇exact on the clamped
-    faces; ``shape=(3,)`` solves the same problem component-wise for a vector unknown, as the
+    facets; ``shape=(3,)`` solves the same problem component-wise for a vector unknown, as the
     plate models do. Returns the discrete solution and its broken H², H¹, L² errors.
     """
-    mesh = faces.mesh
+    mesh = facets.mesh
     V = dolfinx.fem.functionspace(mesh, ("DG", degree, shape) if shape else ("DG", degree))
-    u = dolfinx.fem.Function(V, name="u")
+    u: Function = dolfinx.fem.Function(V, name="u")
     f = ufl.div(ufl.grad(ufl.div(ufl.grad(exact))))
-    energy = bending_energy(u, faces, penalty, g=exact, Phi=ufl.grad(exact))
-    energy -= ufl.inner(f, u) * faces.dx
+    energy = bending_energy(u, facets, penalty, g=exact, Phi=ufl.grad(exact))
+    energy -= ufl.inner(f, u) * facets.dx
     v, du = ufl.TestFunction(V), ufl.TrialFunction(V)
     residual = ufl.derivative(energy, u, v)
     jacobian = ufl.derivative(residual, u, du)
@@ -51,11 +55,11 @@ def solve_biharmonic(
     A = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(jacobian))
     A.assemble()
     b = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(-residual))
-    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    compat.accumulate_ghosts(b)
     ksp = solvers.make_ksp(mesh.comm, A)
     solvers.solve(ksp, b, u.x.petsc_vec)
     u.x.scatter_forward()
-    errors = broken_norms(u - exact, faces, degree=2 * degree + 6)
+    errors = broken_norms(u - exact, facets, degree=2 * degree + 6)
     dofs = V.dofmap.index_map.size_global * V.dofmap.index_map_bs
     ksp.destroy()
     A.destroy()

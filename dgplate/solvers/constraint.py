@@ -7,15 +7,24 @@ linearised constraint ∇δyᵀ∇yⁿ + ∇yⁿᵀ∇δy = 0 holds for the inte
 
 from __future__ import annotations
 
-from mpi4py import MPI
+from dataclasses import dataclass
 
 import basix.ufl
 import dolfinx.fem
+import dolfinx.mesh
 import numpy as np
+import numpy.typing as npt
 import ufl
+from ufl.core.expr import Expr
+
+from dgplate import mpi
+from dgplate.compat import Array, Function, Mesh
+from dgplate.dg.forms import FREE, FacetSets
+from dgplate.dg.geometry import cell_areas, oriented_normal
+from dgplate.mesh.tagged import local_entities
 
 
-def multiplier_element(mesh, degree: int = 0):
+def multiplier_element(mesh: Mesh, degree: int = 0) -> basix.ufl._ElementBase:
     """DG_degree with three components: the entries (11, 12, 22) of a symmetric 2×2 matrix.
 
     Degree 0 imposes the linearised constraint on cell means (the published method); degree 1
@@ -24,15 +33,17 @@ def multiplier_element(mesh, degree: int = 0):
     return basix.ufl.element("DG", mesh.basix_cell(), degree, shape=(3,))
 
 
-def symmetric(q):
+def symmetric(q: Expr) -> Expr:
     """The symmetric matrix [[q₀, q₁], [q₁, q₂]] of a three-component multiplier."""
-    return ufl.as_matrix([[q[0], q[1]], [q[1], q[2]]])
+    matrix: Expr = ufl.as_matrix([[q[0], q[1]], [q[1], q[2]]])
+    return matrix
 
 
-def linearised_isometry(v, y, q):
+def linearised_isometry(v: Expr, y: Expr, q: Expr) -> ufl.Form:
     """b_n(v, q) = ∫ (∇vᵀ∇yⁿ + ∇yⁿᵀ∇v) : q, the constraint linearised at y = yⁿ."""
     Gv, Gy = ufl.grad(v), ufl.grad(y)
-    return ufl.inner(Gv.T * Gy + Gy.T * Gv, symmetric(q)) * ufl.dx
+    form: ufl.Form = ufl.inner(Gv.T * Gy + Gy.T * Gv, symmetric(q)) * ufl.dx
+    return form
 
 
 class EdgeConstraint:
@@ -63,70 +74,107 @@ class EdgeConstraint:
     #: number of moments (multiplier components) per cell
     SIZE = 2
 
-    def __init__(self, faces):
-        from dgplate.dg.forms import FREE
-
-        mesh = faces.mesh
+    def __init__(self, facets: FacetSets):
+        mesh = facets.mesh
         tdim, fdim = mesh.topology.dim, mesh.topology.dim - 1
         mesh.topology.create_connectivity(tdim, fdim)
-        c2f = mesh.topology.connectivity(tdim, fdim)
-        cmap, fmap = mesh.topology.index_map(tdim), mesh.topology.index_map(fdim)
-        free = np.zeros(fmap.size_local + fmap.num_ghosts, dtype=bool)
-        free[faces.tags.indices[faces.tags.values == FREE]] = True
-        facets = np.arange(free.size, dtype=np.int32)
-        facet_mid = dolfinx.mesh.compute_midpoints(mesh, fdim, facets)[:, :2]
-        lengths = mesh.h(fdim, facets)
-        facet_nodes = dolfinx.mesh.entities_to_geometry(mesh, fdim, facets)
-        cells = np.arange(cmap.size_local + cmap.num_ghosts, dtype=np.int32)
-        cell_mid = dolfinx.mesh.compute_midpoints(mesh, tdim, cells)[:, :2]
-        x = mesh.geometry.x[:, :2]
-
         scalar = dolfinx.fem.functionspace(mesh, ("DG", 0))
         vector = dolfinx.fem.functionspace(mesh, ("DG", 0, (2,)))
-        self.interior = dolfinx.fem.Function(scalar, name="interior_cells")
-        half_length = dolfinx.fem.Function(scalar)
-        normal, midpoint = dolfinx.fem.Function(vector), dolfinx.fem.Function(vector)
+        self.interior: Function = dolfinx.fem.Function(scalar, name="interior_cells")
+        half_length: Function = dolfinx.fem.Function(scalar)
+        normal: Function = dolfinx.fem.Function(vector)
+        midpoint: Function = dolfinx.fem.Function(vector)
         half_length.x.array[:] = 1.0
-        for cell in cells:
+        chosen = _chosen_free_facets(facets)
+        for cell, facet in enumerate(chosen.facet):
             dof = scalar.dofmap.list[cell, 0]
-            candidates = [f for f in c2f.links(cell) if free[f]]
-            if not candidates:
+            if facet < 0:
                 self.interior.x.array[dof] = 1.0
                 continue
-            f = min(candidates, key=lambda f: (-round(lengths[f], 12), *facet_mid[f].round(12)))
-            tangent = x[facet_nodes[f][-1]] - x[facet_nodes[f][0]]
-            outward = np.array([tangent[1], -tangent[0]]) / np.linalg.norm(tangent)
-            if np.dot(outward, facet_mid[f] - cell_mid[cell]) < 0:
-                outward = -outward
             vdof = vector.dofmap.list[cell, 0]
-            normal.x.array[2 * vdof : 2 * vdof + 2] = outward
-            midpoint.x.array[2 * vdof : 2 * vdof + 2] = facet_mid[f]
-            half_length.x.array[dof] = 0.5 * lengths[f]
-        n = ufl.FacetNormal(mesh)
-        self._chosen = ufl.conditional(ufl.gt(ufl.dot(n, normal), 0.5), 1.0, 0.0)
-        self._ds = faces.ds(FREE)
-        self._t, self._n = ufl.as_vector([-n[1], n[0]]), n
+            normal.x.array[2 * vdof : 2 * vdof + 2] = chosen.normal[cell]
+            midpoint.x.array[2 * vdof : 2 * vdof + 2] = chosen.midpoint[cell]
+            half_length.x.array[dof] = 0.5 * chosen.length[cell]
+        n = facets.n
+        self._chosen: Expr = ufl.conditional(ufl.gt(ufl.dot(n, normal), 0.5), 1.0, 0.0)
+        self._ds = facets.ds(FREE)
+        self._t: Expr = ufl.as_vector([-n[1], n[0]])
+        self._n = n
         s = ufl.dot(ufl.SpatialCoordinate(mesh) - midpoint, self._t) / half_length
-        self._legendre2 = 1.5 * s**2 - 0.5
+        self._legendre2: Expr = 1.5 * s**2 - 0.5
 
-    def quantities(self, y):
+    def quantities(self, y: Expr) -> Expr:
         """(|∂_t y|² − 1, (|∂_n y|² − 1) L₂(s)) on boundary facets: zero for an isometry."""
         G = ufl.grad(y)
         Gt, Gn = G * self._t, G * self._n
-        return ufl.as_vector([ufl.inner(Gt, Gt) - 1.0, (ufl.inner(Gn, Gn) - 1.0) * self._legendre2])
+        values: Expr = ufl.as_vector(
+            [ufl.inner(Gt, Gt) - 1.0, (ufl.inner(Gn, Gn) - 1.0) * self._legendre2]
+        )
+        return values
 
-    def residual(self, y, p):
+    def residual(self, y: Expr, p: Expr) -> ufl.Form:
         """∫_e quantities(y) · p over the chosen facets: the nonlinear constraint."""
-        return self._chosen * ufl.inner(self.quantities(y), p) * self._ds
+        form: ufl.Form = self._chosen * ufl.inner(self.quantities(y), p) * self._ds
+        return form
 
-    def linearised(self, v, y, p):
+    def linearised(self, v: Expr, y: Expr, p: Expr) -> ufl.Form:
         """Its derivative at y = yⁿ in the direction v: the rows of the step's constraint."""
-        return ufl.derivative(self.residual(y, p), y, v)
+        form: ufl.Form = ufl.derivative(self.residual(y, p), y, v)
+        return form
 
 
-def metric_tensor_defect(y):
+@dataclass
+class _ChosenFacets:
+    """The free facet chosen for each local cell: index (−1: none), outward normal, midpoint, length."""
+
+    facet: npt.NDArray[np.int32]
+    normal: Array
+    midpoint: Array
+    length: Array
+
+
+def _chosen_free_facets(facets: FacetSets) -> _ChosenFacets:
+    """For each local cell, the free facet whose metric moments :class:`EdgeConstraint` takes.
+
+    The longest free facet of the cell, then the one with the smallest midpoint (rounded):
+    a choice by geometry, the same on any partition.
+    """
+    mesh = facets.mesh
+    tdim, fdim = mesh.topology.dim, mesh.topology.dim - 1
+    c2f = mesh.topology.connectivity(tdim, fdim)
+    free = np.zeros(local_entities(mesh, fdim).size, dtype=bool)
+    free[facets.tags.indices[facets.tags.values == FREE]] = True
+    all_facets = np.arange(free.size, dtype=np.int32)
+    facet_mid = dolfinx.mesh.compute_midpoints(mesh, fdim, all_facets)[:, :2]
+    lengths = mesh.h(fdim, all_facets)
+    rounded_lengths = lengths.round(12)
+    facet_nodes = dolfinx.mesh.entities_to_geometry(mesh, fdim, all_facets)
+    cells = local_entities(mesh, tdim)
+    cell_mid = dolfinx.mesh.compute_midpoints(mesh, tdim, cells)[:, :2]
+    x = mesh.geometry.x[:, :2]
+    chosen = _ChosenFacets(
+        np.full(cells.size, -1, dtype=np.int32),
+        np.zeros((cells.size, 2)),
+        np.zeros((cells.size, 2)),
+        np.zeros(cells.size),
+    )
+    for cell in cells:
+        candidates = [f for f in c2f.links(cell) if free[f]]
+        if not candidates:
+            continue
+        f = min(candidates, key=lambda f: (-rounded_lengths[f], *facet_mid[f].round(12)))
+        tangent = x[facet_nodes[f][-1]] - x[facet_nodes[f][0]]
+        chosen.facet[cell] = f
+        chosen.normal[cell] = oriented_normal(tangent, cell_mid[cell], facet_mid[f])
+        chosen.midpoint[cell] = facet_mid[f]
+        chosen.length[cell] = lengths[f]
+    return chosen
+
+
+def metric_tensor_defect(y: Expr) -> Expr:
     """∇yᵀ∇y − I₂, zero for an isometry."""
-    return ufl.grad(y).T * ufl.grad(y) - ufl.Identity(2)
+    defect: Expr = ufl.grad(y).T * ufl.grad(y) - ufl.Identity(2)
+    return defect
 
 
 class IsometryDefect:
@@ -136,7 +184,7 @@ class IsometryDefect:
     vector assembly and a reduction over owned cells.
     """
 
-    def __init__(self, y: dolfinx.fem.Function):
+    def __init__(self, y: Function):
         mesh = y.function_space.mesh
         element = basix.ufl.element("DG", mesh.basix_cell(), 0, shape=(2, 2))
         self.space = dolfinx.fem.functionspace(mesh, element)
@@ -144,28 +192,23 @@ class IsometryDefect:
         self.form = dolfinx.fem.form(ufl.inner(metric_tensor_defect(y), test) * ufl.dx)
         self.comm = mesh.comm
         self.num_owned = mesh.topology.index_map(mesh.topology.dim).size_local
-        self.volumes = self._cell_volumes(mesh)
+        self.volumes = cell_areas(dolfinx.fem.functionspace(mesh, ("DG", 0)))
 
-    @staticmethod
-    def _cell_volumes(mesh) -> np.ndarray:
-        space = dolfinx.fem.functionspace(mesh, ("DG", 0))
-        form = dolfinx.fem.form(ufl.TestFunction(space) * ufl.dx)
-        vec = dolfinx.fem.assemble_vector(form)
-        return vec.array.copy()
-
-    def cell_values(self) -> np.ndarray:
-        """|∫_T (∇yᵀ∇y − I)| for each owned cell."""
+    def cell_values(self) -> Array:
+        """|∫_T (∇yᵀ∇y − I)| for each owned cell (in the order of the DG0 dofs)."""
         vec = dolfinx.fem.assemble_vector(self.form)
         per_cell = vec.array.reshape(-1, 4)[: self.num_owned]
-        return np.linalg.norm(per_cell, axis=1)
+        norms: Array = np.linalg.norm(per_cell, axis=1)
+        return norms
 
     def __call__(self) -> float:
-        local = float(np.sum(self.cell_values()))
-        return float(self.comm.allreduce(local, op=MPI.SUM))
+        """D_h[y] for the current y (collective)."""
+        return mpi.global_sum(self.comm, float(np.sum(self.cell_values())))
 
-    def density(self) -> np.ndarray:
-        """Cell-wise defect per unit area, for plots (owned cells)."""
-        return self.cell_values() / self.volumes[: self.num_owned]
+    def density(self) -> Array:
+        """Cell-wise defect per unit area, for plots (owned cells, in the order of the dofs)."""
+        density: Array = self.cell_values() / self.volumes[: self.num_owned]
+        return density
 
 
 __all__ = [

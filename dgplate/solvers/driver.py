@@ -10,12 +10,13 @@ the checkpoints, and after the run it writes ``history.csv``, ``summary.json`` a
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from mpi4py import MPI
 
-import dolfinx.fem
+from dgplate.compat import Function
 
 
 class Record(Protocol):
@@ -28,13 +29,42 @@ class Record(Protocol):
         ...
 
 
-@dataclass
-class RunResult:
+class RunResult(Protocol):
     """How a driver's run ended.
 
     ``history`` holds this run's records. ``interrupted`` is the signal (SIGINT, SIGTERM)
-    that stopped the run, 0 if none.
+    that stopped the run, 0 if none. Each driver returns its own dataclass of this shape.
     """
+
+    @property
+    def converged(self) -> bool:
+        """Whether the stopping rule held."""
+        ...
+
+    @property
+    def reason(self) -> str:
+        """Why the run ended, in words."""
+        ...
+
+    @property
+    def steps(self) -> int:
+        """The number of steps of this run."""
+        ...
+
+    @property
+    def history(self) -> Sequence[Record]:
+        """This run's records."""
+        ...
+
+    @property
+    def interrupted(self) -> int:
+        """The signal that stopped the run; 0: none."""
+        ...
+
+
+@dataclass
+class RunOutcome:
+    """A plain :class:`RunResult`, for drivers without a result type of their own."""
 
     converged: bool
     reason: str
@@ -46,11 +76,11 @@ class RunResult:
 class Observer(Protocol):
     """Told of every step and of the end of a run."""
 
-    def step(self, driver: Any, record: Any) -> None:
+    def step(self, driver: Driver, record: Record) -> None:
         """After each step (collective)."""
         ...
 
-    def finish(self, driver: Any, result: Any) -> None:
+    def finish(self, driver: Driver, result: RunResult) -> None:
         """At the end of ``run`` (collective)."""
         ...
 
@@ -69,7 +99,7 @@ class Driver(Protocol):
         ...
 
     @property
-    def shape(self) -> dolfinx.fem.Function:
+    def shape(self) -> Function:
         """The deformed surface y: ω → ℝ³ (written to VTX and drawn)."""
         ...
 
@@ -81,7 +111,7 @@ class Driver(Protocol):
         """How many steps ``run()`` may still take (0: the budget is spent)."""
         ...
 
-    def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function]:
+    def checkpoint_fields(self) -> dict[str, Function]:
         """The functions a checkpoint stores."""
         ...
 
@@ -94,7 +124,7 @@ class Driver(Protocol):
         ...
 
     def summary(self) -> dict[str, Any]:
-        """Numbers for ``summary.json``: dofs, energy, defect, …"""
+        """Numbers for ``summary.json``: dofs, energy, defect and so on."""
         ...
 
     def destroy(self) -> None:

@@ -33,12 +33,13 @@ import numpy as np
 import ufl
 from petsc4py import PETSc
 
-from dgplate import compat, interrupt
+from dgplate import compat, interrupt, mpi, values
+from dgplate.compat import Array, Function
 from dgplate.dg.energy import Energy
-from dgplate.dg.forms import FacetSets, h2_metric
+from dgplate.dg.forms import FacetSets, h2_metric, integral
 from dgplate.dg.geometry import max_cell_diameter
 from dgplate.errors import InputError, SolverError
-from dgplate.schema import option
+from dgplate.schema import is_integer, is_number, option
 from dgplate.solvers import linear as solvers
 from dgplate.solvers import ordering, sparsity
 from dgplate.solvers.constraint import (
@@ -50,8 +51,12 @@ from dgplate.solvers.constraint import (
     symmetric,
 )
 from dgplate.solvers.driver import Observer
+from dgplate.solvers.linear import OptionValue
 
 _OPTION = re.compile(r"^[A-Za-z0-9_]+$")
+
+#: The initial deformation: points x (shape (3, n)) to their images (shape (3, n)).
+Initial = Callable[[Array], Array]
 
 
 @dataclass
@@ -70,7 +75,9 @@ class FlowSpec:
     l2_metric: bool | str = option(
         "auto", "add the L² product to the metric; 'auto': when nothing is clamped"
     )
-    solver: dict = option({}, "PETSc options for the step solve (default: MUMPS LU)")
+    solver: dict[str, OptionValue] = option(
+        {}, "PETSc options for the step solve (default: MUMPS LU)"
+    )
     multiplier_degree: int = option(
         0,
         "degree of the isometry multiplier: 0 = cell means (published), 1 = also first moments (stronger)",
@@ -106,8 +113,13 @@ class FlowSpec:
             ("checkpoint_every", 0),
         ):
             value = getattr(self, key)
-            if isinstance(value, bool) or not isinstance(value, int) or value < least:
+            if not is_integer(value) or value < least:
                 raise InputError(f"flow.{key} must be an integer >= {least}, got {value!r}")
+        self._check_choices()
+        self._check_solver_options()
+
+    def _check_choices(self) -> None:
+        """The keys that take one of a few values."""
         if self.multiplier_degree not in (0, 1) or isinstance(self.multiplier_degree, bool):
             raise InputError(
                 f"flow.multiplier_degree must be 0 or 1, got {self.multiplier_degree!r}"
@@ -124,21 +136,17 @@ class FlowSpec:
             raise InputError(
                 f"flow.edge_constraint must be true or false, got {self.edge_constraint!r}"
             )
-        self._check_solver_options()
 
     def _check_tau(self) -> None:
+        """τ: a finite number > 0, or 'h'."""
         if isinstance(self.tau, str):
             if self.tau != "h":
                 raise InputError(f"flow.tau must be a number > 0 or 'h', got {self.tau!r}")
-        elif not (
-            isinstance(self.tau, int | float)
-            and not isinstance(self.tau, bool)
-            and self.tau > 0
-            and math.isfinite(self.tau)
-        ):
+        elif not (is_number(self.tau) and self.tau > 0 and math.isfinite(self.tau)):
             raise InputError(f"flow.tau must be > 0, got {self.tau!r}")
 
     def _check_solver_options(self) -> None:
+        """PETSc option names (without '-') and values that PETSc can take."""
         for key, value in self.solver.items():
             if not _OPTION.match(key):
                 raise InputError(
@@ -185,6 +193,8 @@ class StepInfo:
 
 @dataclass
 class FlowResult:
+    """How a run of the flow ended, and the records of its steps."""
+
     converged: bool
     reason: str
     steps: int
@@ -200,17 +210,17 @@ class GradientFlow:
 
     def __init__(
         self,
-        faces: FacetSets,
+        facets: FacetSets,
         degree: int,
-        energy_fn: Callable[[dolfinx.fem.Function], Energy],
+        energy_fn: Callable[[Function], Energy],
         settings: FlowSpec,
         observers: Sequence[Observer] = (),
-        initial: Callable | None = None,
+        initial: Initial | None = None,
     ):
         if degree < 2:
             raise InputError(f"model.degree must be >= 2 for the H² dG method, got {degree}")
-        self.faces, self.settings, self.observers = faces, settings, list(observers)
-        mesh = faces.mesh
+        self.facets, self.settings, self.observers = facets, settings, list(observers)
+        mesh = facets.mesh
         self.comm: MPI.Comm = mesh.comm
         ve = basix.ufl.element("DG", mesh.basix_cell(), degree, shape=(3,))
         elements = [ve, multiplier_element(mesh, settings.multiplier_degree)]
@@ -219,44 +229,51 @@ class GradientFlow:
             elements.append(edge)
         self.W = dolfinx.fem.functionspace(mesh, basix.ufl.mixed_element(elements))
         self.V, self._vdofs = compat.collapse(self.W.sub(0))
-        self.y = dolfinx.fem.Function(self.V, name="deformation")
-        self.y.interpolate(initial or (lambda x: np.vstack([x[0], x[1], np.zeros_like(x[0])])))
+        self.y: Function = dolfinx.fem.Function(self.V, name="deformation")
+        self.y.interpolate(initial or _flat)
         self.energy = energy_fn(self.y)
         self.defect = IsometryDefect(self.y)
         self.time, self.step_count = 0.0, 0
         self.energy_increases: list[int] = []  # steps at which E_h went up, over all runs
         self.fallbacks = 0  # solver fall-backs over all runs
+        self._last_increment: Array = np.zeros(0)  # δy of the last step (for undo)
         tau = max_cell_diameter(mesh) if settings.tau == "h" else float(settings.tau)
-        self._tau = dolfinx.fem.Constant(mesh, PETSc.ScalarType(tau))
+        self._tau = values.constant(mesh, tau)
         self._build_forms()
         self._E_form = dolfinx.fem.form(self.energy.total)
         self._last_energy = self.evaluate_energy()
 
+    @property
+    def faces(self) -> FacetSets:
+        """The old name of :attr:`facets`."""
+        return self.facets
+
     # -- set-up -----------------------------------------------------------------------------
     def _build_forms(self) -> None:
-        y, faces = self.y, self.faces
-        dy, lam, *edge_lam = ufl.TrialFunctions(self.W)
+        """The step's forms and matrices, and its solver."""
+        y, facets = self.y, self.facets
+        dy, multiplier, *edge_multiplier = ufl.TrialFunctions(self.W)
         v, q, *edge_q = ufl.TestFunctions(self.W)
         l2 = self.settings.l2
         # rigid motions, or a flap that can turn freely about a crease, leave the H² metric
         # singular: the L² product controls them
-        l2 = (not faces.has_clamped or faces.num_crease > 0) if l2 is None else l2
+        l2 = (not facets.has_clamped or facets.num_crease > 0) if l2 is None else l2
         hessian = ufl.derivative(ufl.derivative(self.energy.implicit, y, v), y, dy)
-        a_const = (1.0 / self._tau) * h2_metric(dy, v, faces, l2=l2) + hessian
+        a_const = (1.0 / self._tau) * h2_metric(dy, v, facets, l2=l2) + hessian
         # The constraint rows are scaled by s (λ by 1/s, δy unchanged) so that they weigh like
         # the displacement rows: unscaled, ‖b_n‖ ~ 1 against ‖a‖ ~ h⁻³/τ, and a residual test
         # on the whole system would hardly see the constraint (see _balance_constraint_rows).
-        s = self._constraint_scale = dolfinx.fem.Constant(faces.mesh, PETSc.ScalarType(1.0))
-        b = linearised_isometry(v, y, lam) + linearised_isometry(dy, y, q)
+        s = self._constraint_scale = values.constant(facets.mesh, 1.0)
+        b = linearised_isometry(v, y, multiplier) + linearised_isometry(dy, y, q)
         # residual of the nonlinear constraint in the multiplier rows: ∫ (∇yᵀ∇y − I) : q
         residual = -ufl.inner(metric_tensor_defect(y), symmetric(q)) * ufl.dx
         if self.settings.edge_constraint:
-            (mu,), (p,) = edge_lam, edge_q
-            edge = EdgeConstraint(faces)
-            b += edge.linearised(v, y, mu) + edge.linearised(dy, y, p)
-            residual -= edge.residual(y, p)
+            (edge_trial,), (edge_test,) = edge_multiplier, edge_q
+            edge = EdgeConstraint(facets)
+            b += edge.linearised(v, y, edge_trial) + edge.linearised(dy, y, edge_test)
+            residual -= edge.residual(y, edge_test)
             # cells without a free facet: their edge multipliers are pinned to zero
-            a_const += edge.interior * ufl.inner(mu, p) / faces.h * ufl.dx
+            a_const += edge.interior * ufl.inner(edge_trial, edge_test) / facets.h * ufl.dx
         b, residual = s * b, s * residual
         self._a_const = dolfinx.fem.form(a_const)
         self._b = dolfinx.fem.form(b)
@@ -267,38 +284,34 @@ class GradientFlow:
         # one sparsity pattern for the three matrices, so that K = A_const + B is a cheap axpy
         self.B = self.A_const.duplicate(copy=False)
         self.K = self.A_const.duplicate(copy=False)
-        self._rhs_fn = dolfinx.fem.Function(self.W)  # a ghosted vector in every version
+        self._rhs_fn: Function = dolfinx.fem.Function(self.W)  # a ghosted vector in every version
         self.rhs = self._rhs_fn.x.petsc_vec
-        self.solution = dolfinx.fem.Function(self.W)
+        self.solution: Function = dolfinx.fem.Function(self.W)
         self._balance_constraint_rows()
         self.solver = self._make_solver()
 
     def _make_solver(self) -> solvers.StepSolver:
         """The solver of the step systems K x = b (see :mod:`dgplate.solvers.linear`)."""
-        return solvers.make_step_solver(
-            self.settings.linear_solver,
-            self.comm,
-            self.K,
-            self.settings.solver,
-            prefix=None,
-            refactor_its=self.settings.refactor_its,
-            numbering=ordering.cellwise_numbering(self.W),
+        settings = self.settings
+        if settings.linear_solver == "direct":
+            return solvers.DirectStepSolver(self.comm, self.K, settings.solver, prefix=None)
+        numbering = ordering.cellwise_numbering(self.W)
+        return solvers.LaggedStepSolver(
+            self.comm, self.K, settings.solver, None, settings.refactor_its, numbering
         )
 
     def _balance_constraint_rows(self) -> None:
-        """S = ‖A_const‖_∞ / ‖B(y⁰)‖_∞: the constraint rows then weigh like the others.
+        """Scale the constraint rows by s = ‖A_const‖_∞ / ‖B(y⁰)‖_∞, to weigh like the others.
 
         Only λ changes with s. The iterative solves stop on the residual of the whole system;
         with s = 1 its constraint part counts ~h³ less than the displacement part, and
         solutions that meet the tolerance drift off the constraint step by step (E_h to only
         ~1e-8 after a flow). Balanced, fewer iterations give E_h to ~1e-9.
         """
-        self.B.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(self.B, self._b)
-        self.B.assemble()
-        norm_b = self.B.norm(PETSc.NormType.INFINITY)
+        compat.assemble_matrix_into(self.B, self._b)
+        norm_b = _max_row_sum(self.B)
         if norm_b > 0:
-            self._constraint_scale.value = self.A_const.norm(PETSc.NormType.INFINITY) / norm_b
+            self._constraint_scale.value = np.asarray(_max_row_sum(self.A_const) / norm_b)
 
     def _compact_constant_block(self) -> PETSc.Mat:
         """A_const in the pattern of the step form minus the constant block's exact zeros.
@@ -309,7 +322,7 @@ class GradientFlow:
         """
         # DOLFINx's pattern of a_const is that of the whole step form: b_n only couples the
         # dofs of one cell, which the cell integrals of a_const already do
-        full = dolfinx.fem.petsc.assemble_matrix(self._a_const)
+        full = dolfinx.fem.petsc.assemble_matrix(self._a_const)  # DOLFINx's pattern
         full.assemble()
         imap, bs = self.W.dofmap.index_map, self.W.dofmap.index_map_bs
         is_multiplier = np.ones((imap.size_local + imap.num_ghosts) * bs, dtype=bool)
@@ -323,46 +336,39 @@ class GradientFlow:
         full.destroy()
         return compact
 
-    def _assemble_constant(self) -> None:
-        self.A_const.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(self.A_const, self._a_const)
-        self.A_const.assemble()
-
     @property
     def tau(self) -> float:
+        """The time step τ; setting it reassembles the constant block."""
         return float(self._tau.value)
 
     @tau.setter
     def tau(self, value: float) -> None:
         if not value > 0:
             raise InputError(f"flow.tau must be > 0, got {value}")
-        self._tau.value = value
-        self._assemble_constant()
+        self._tau.value = np.asarray(value)
+        compat.assemble_matrix_into(self.A_const, self._a_const)
 
     @property
     def num_dofs(self) -> int:
+        """The global number of unknowns of the step system."""
         imap = self.W.dofmap.index_map
-        return imap.size_global * self.W.dofmap.index_map_bs
+        return int(imap.size_global * self.W.dofmap.index_map_bs)
 
     # -- evaluation -------------------------------------------------------------------------
     def evaluate_energy(self) -> float:
-        local = dolfinx.fem.assemble_scalar(self._E_form)
-        return float(self.comm.allreduce(local, op=MPI.SUM)) + self.energy.constant
+        """E_h[y] of the current state (collective)."""
+        return integral(self._E_form, self.comm) + self.energy.constant
 
     # -- one step ---------------------------------------------------------------------------
     def assemble_system(self) -> None:
         """K = A_const + B(yⁿ) and the right-hand side −DE_h[yⁿ]."""
-        self.B.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(self.B, self._b)
-        self.B.assemble()
-        self.A_const.copy(self.K, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        self.K.axpy(1.0, self.B, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        with self.rhs.localForm() as local:
-            local.set(0.0)
-        dolfinx.fem.petsc.assemble_vector(self.rhs, self._rhs)
-        self.rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        compat.assemble_matrix_into(self.B, self._b)
+        self.A_const.copy(self.K, structure=compat.SAME_NONZERO_PATTERN)
+        self.K.axpy(1.0, self.B, structure=compat.SAME_NONZERO_PATTERN)
+        compat.assemble_vector_into(self.rhs, self._rhs)
 
     def step(self) -> StepInfo:
+        """One step of the flow from yⁿ to yⁿ⁺¹ (collective)."""
         t0 = time.perf_counter()
         self.assemble_system()
         t1 = time.perf_counter()
@@ -375,7 +381,7 @@ class GradientFlow:
             dy += self._project(stats)
         self._last_increment = dy
         owned = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
-        increment = self.comm.allreduce(float(np.max(np.abs(dy[:owned]), initial=0.0)), op=MPI.MAX)
+        increment = mpi.global_max(self.comm, float(np.max(np.abs(dy[:owned]), initial=0.0)))
         energy = self.evaluate_energy()
         rate = (self._last_energy - energy) / self.tau
         self._last_energy = energy
@@ -398,15 +404,13 @@ class GradientFlow:
         )
         return info
 
-    def _project(self, stats: solvers.SolveStats):
-        """One correction towards ∫_T (∇yᵀ∇y − I) q = 0, reusing the step's factorisation;
-        its fall-backs are added to the step's ``stats``.
+    def _project(self, stats: solvers.SolveStats) -> Array:
+        """One correction towards ∫_T (∇yᵀ∇y − I) q = 0, reusing the step's factorisation.
+
+        Its fall-backs are added to the step's ``stats``; returns the change of y's dofs.
         """
-        with self.rhs.localForm() as local:
-            local.set(0.0)
-        dolfinx.fem.petsc.assemble_vector(self.rhs, self._constraint_residual)
-        self.rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        correction = dolfinx.fem.Function(self.W)
+        compat.assemble_vector_into(self.rhs, self._constraint_residual)
+        correction: Function = dolfinx.fem.Function(self.W)
         more = self.solver.solve(self.rhs, correction.x.petsc_vec, refactor=False)
         stats.fallbacks += more.fallbacks
         correction.x.scatter_forward()
@@ -422,9 +426,10 @@ class GradientFlow:
         """
         self._last_energy = self.evaluate_energy()
 
-    def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function]:
-        """The functions a checkpoint must hold to continue the flow exactly: the state and
-        the last step's solution (the next step solve's initial guess).
+    def checkpoint_fields(self) -> dict[str, Function]:
+        """The functions a checkpoint must hold to continue the flow exactly.
+
+        The state and the last step's solution (the next step solve's initial guess).
         """
         return {"y": self.y, "step_solution": self.solution}
 
@@ -448,7 +453,7 @@ class GradientFlow:
         return max(self.settings.max_steps - self.step_count, 0)
 
     @property
-    def shape(self) -> dolfinx.fem.Function:
+    def shape(self) -> Function:
         """The deformation y (the :class:`~dgplate.solvers.driver.Driver` protocol)."""
         return self.y
 
@@ -463,7 +468,7 @@ class GradientFlow:
             "solver_fallbacks": self.fallbacks,
         }
 
-    def restore_state(self, state: dict) -> None:
+    def restore_state(self, state: dict[str, Any]) -> None:
         """Continue from a checkpoint's counters (after its fields were restored)."""
         self.step_count, self.time = int(state["step"]), float(state["time"])
         self._last_energy = float(state["energy"])
@@ -529,6 +534,19 @@ class GradientFlow:
         return result
 
     def destroy(self) -> None:
+        """Free the solver and the matrices."""
         self.solver.destroy()
         for obj in (self.A_const, self.B, self.K):
             obj.destroy()
+
+
+def _flat(x: Array) -> Array:
+    """The flat reference deformation y(x) = (x₁, x₂, 0), at points of shape (3, n)."""
+    return np.vstack([x[0], x[1], np.zeros_like(x[0])])
+
+
+def _max_row_sum(matrix: PETSc.Mat) -> float:
+    """‖A‖_∞, the largest absolute row sum."""
+    norm = matrix.norm(compat.NORM_INFINITY)
+    assert isinstance(norm, float)  # a tuple only for NORM_1_AND_2
+    return norm

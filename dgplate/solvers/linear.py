@@ -18,11 +18,19 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from mpi4py import MPI
+
 from petsc4py import PETSc
 
+from dgplate import compat
 from dgplate.errors import InputError, SolverError
 
-DIRECT_MUMPS: dict[str, str | int | float] = {
+#: The value of a PETSc option (a bool is an int).
+OptionValue = str | int | float
+#: PETSc options without the leading '-' and the solver's prefix: ``{"ksp_type": "cg"}``.
+Options = Mapping[str, OptionValue]
+
+DIRECT_MUMPS: dict[str, OptionValue] = {
     # one step of iterative refinement after the LU solve: the saddle-point systems are
     # ill-conditioned (h⁻³ penalties), and refinement makes the results agree between
     # partitions (different pivot orders) to ~1e-12 instead of ~1e-10
@@ -43,18 +51,18 @@ _log = logging.getLogger(__name__)
 
 
 def make_ksp(
-    comm,
+    comm: MPI.Comm,
     A: PETSc.Mat,
-    options: Mapping[str, object] | None = None,
+    options: Options | None = None,
     prefix: str | None = None,
-    defaults: Mapping[str, object] = DIRECT_MUMPS,
+    defaults: Options = DIRECT_MUMPS,
 ) -> PETSc.KSP:
     """A KSP on ``A`` configured from ``defaults`` updated by ``options``."""
     prefix = prefix or f"dgplate_{next(_counter)}_"
     opts = PETSc.Options()
     for key, value in {**defaults, **(options or {})}.items():
-        opts[f"{prefix}{key}"] = value
-    ksp = PETSc.KSP().create(comm)
+        opts.setValue(f"{prefix}{key}", value)
+    ksp = PETSc.KSP().create(comm)  # type: ignore[arg-type]  # an mpi4py comm is taken
     ksp.setOptionsPrefix(prefix)
     ksp.setOperators(A)
     ksp.setFromOptions()
@@ -90,7 +98,7 @@ def factorise(ksp: PETSc.KSP) -> None:
         if factor.getMumpsInfog(1) not in (-8, -9):
             return
         workspace = 2 * max(factor.getMumpsIcntl(14), 20)
-        PETSc.Options()[f"{ksp.getOptionsPrefix() or ''}mat_mumps_icntl_14"] = workspace
+        PETSc.Options().setValue(f"{ksp.getOptionsPrefix() or ''}mat_mumps_icntl_14", workspace)
         A, P = ksp.getOperators()
         pc.reset()
         ksp.setOperators(A, P)
@@ -100,13 +108,14 @@ def factorise(ksp: PETSc.KSP) -> None:
 def solve(ksp: PETSc.KSP, b: PETSc.Vec, x: PETSc.Vec) -> int:
     """Solve and check the converged reason; returns the iteration count."""
     ksp.solve(b, x)
-    reason = ksp.getConvergedReason()
+    reason = compat.converged_reason(ksp)
     if reason < 0:
         raise SolverError(f"linear solve failed: KSP reason {_reason_name(reason)}")
     return ksp.getIterationNumber()
 
 
 def _reason_name(reason: int) -> str:
+    """The name of a KSP converged reason, e.g. ``DIVERGED_MAX_IT``."""
     names = {v: k for k, v in PETSc.KSP.ConvergedReason.__dict__.items() if isinstance(v, int)}
     return str(names.get(reason, reason))
 
@@ -117,7 +126,7 @@ def _reason_name(reason: int) -> str:
 # factorisation. Right preconditioning makes the stopping test use the true residual. FGMRES
 # keeps the preconditioned directions, so the solution is their combination; right-preconditioned
 # GMRES would apply the factors once more per solve to form it (about a tenth of the solve time).
-LAGGED_MUMPS: dict[str, str | int | float] = {
+LAGGED_MUMPS: dict[str, OptionValue] = {
     **{k: v for k, v in DIRECT_MUMPS.items() if not k.startswith("ksp_")},
     "ksp_type": "fgmres",
     "ksp_pc_side": "right",
@@ -144,14 +153,13 @@ class SolveStats:
 class DirectStepSolver:
     """A fresh numeric LU factorisation of K for every solve (symbolic analysis reused)."""
 
-    def __init__(
-        self, comm, K: PETSc.Mat, options: Mapping[str, object] | None, prefix: str | None
-    ):
+    def __init__(self, comm: MPI.Comm, K: PETSc.Mat, options: Options | None, prefix: str | None):
         self.K = K
         self.ksp = make_ksp(comm, K, options, prefix)
         self.ksp.setInitialGuessNonzero(True)  # see LaggedStepSolver
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec, refactor: bool = True) -> SolveStats:
+        """Solve K x = b, refactorising K first unless ``refactor`` is False (same K)."""
         t0 = time.perf_counter()
         factorised = refactor
         if refactor:
@@ -162,6 +170,7 @@ class DirectStepSolver:
         return SolveStats(factorised, its, (t1 - t0) * factorised, time.perf_counter() - t1)
 
     def destroy(self) -> None:
+        """Free the KSP, its factors and its options."""
         destroy_ksp(self.ksp)
 
 
@@ -183,10 +192,10 @@ class PermutedFactors:
         here.destroy()
 
     def apply(self, pc: PETSc.PC, x: PETSc.Vec, y: PETSc.Vec) -> None:
-        forward, reverse = PETSc.ScatterMode.FORWARD, PETSc.ScatterMode.REVERSE
-        self.scatter.scatter(x, self.xp, PETSc.InsertMode.INSERT, forward)
+        """Apply the factors: y = P⁻¹x, with x and y in K's numbering (called by petsc4py)."""
+        self.scatter.scatter(x, self.xp, compat.INSERT, compat.FORWARD)
         self.factor_pc.apply(self.xp, self.yp)
-        self.scatter.scatter(self.yp, y, PETSc.InsertMode.INSERT, reverse)
+        self.scatter.scatter(self.yp, y, compat.INSERT, compat.REVERSE)
 
     def destroy(self, pc: PETSc.PC) -> None:
         """Called by petsc4py when the PC is destroyed."""
@@ -213,9 +222,9 @@ class LaggedStepSolver:
 
     def __init__(
         self,
-        comm,
+        comm: MPI.Comm,
         K: PETSc.Mat,
-        options: Mapping[str, object] | None,
+        options: Options | None,
         prefix: str | None,
         refactor_its: int = 12,
         numbering: PETSc.IS | None = None,
@@ -262,7 +271,7 @@ class LaggedStepSolver:
 
     def _refactor(self) -> None:
         if self.numbering is None:
-            self.K.copy(self.P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            self.K.copy(self.P, structure=compat.SAME_NONZERO_PATTERN)
             self.ksp.setOperators(self.K, self.P)
         else:
             self.K.createSubMatrix(self.numbering, self.numbering, submat=self.P)
@@ -272,8 +281,10 @@ class LaggedStepSolver:
         self._stale = False
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec, refactor: bool = True) -> SolveStats:
-        """Solve K x = b from the guess x; ``refactor=False`` (a re-solve with the same K)
-        refactorises only to redo a failed solve.
+        """Solve K x = b from the guess x.
+
+        ``refactor=False`` (a re-solve with the same K) refactorises only to redo a failed
+        solve.
         """
         stats = SolveStats(False, 0, 0.0, 0.0)
         if refactor and self._stale:
@@ -311,13 +322,14 @@ class LaggedStepSolver:
         self.ksp.solve(b, x)
         stats.solve_s += time.perf_counter() - t0
         stats.iterations += self.ksp.getIterationNumber()
-        return self.ksp.getConvergedReason()
+        return compat.converged_reason(self.ksp)
 
     def _fall_back(
         self, stats: SolveStats, reason: int, which: str, action: str, quiet: bool = False
     ) -> None:
-        """Count a fall-back and say why on one line (rank 0); ``quiet``: neither (the
-        lagged method's ordinary refactorisation).
+        """Count a fall-back and say why on one line (rank 0).
+
+        ``quiet``: neither (the lagged method's ordinary refactorisation).
         """
         if quiet:
             return
@@ -332,11 +344,14 @@ class LaggedStepSolver:
             )
 
     def _direct_solve(self, b: PETSc.Vec, x: PETSc.Vec, stats: SolveStats) -> None:
-        """Solve by a fresh LU factorisation of K from a zero guess; its factors are freed
-        right away (a failure here is rare, and they would double the memory held).
+        """Solve by a fresh LU factorisation of K from a zero guess.
+
+        Its factors are freed right away (a failure here is rare, and they would double the
+        memory held).
         """
         prefix = f"{self.ksp.getOptionsPrefix()}direct_"
-        direct = DirectStepSolver(self.K.getComm(), self.K, self._direct_options, prefix)
+        comm = self.K.getComm().tompi4py()
+        direct = DirectStepSolver(comm, self.K, self._direct_options, prefix)
         try:
             x.zeroEntries()
             more = direct.solve(b, x)
@@ -348,6 +363,7 @@ class LaggedStepSolver:
         stats.solve_s += more.solve_s
 
     def destroy(self) -> None:
+        """Free the KSPs, the factors, their options and P."""
         if self.numbering is not None:
             # PCReset frees MUMPS's factors now: without it the 2-rank factors outlived the
             # solver (about 300 MB per 32² flow stayed allocated)
@@ -358,22 +374,3 @@ class LaggedStepSolver:
 
 
 StepSolver = DirectStepSolver | LaggedStepSolver
-
-
-def make_step_solver(
-    kind: str,
-    comm,
-    K: PETSc.Mat,
-    options: Mapping[str, object] | None,
-    prefix: str | None,
-    refactor_its: int = 12,
-    numbering: PETSc.IS | None = None,
-) -> StepSolver:
-    """The solver of the flow's step systems: ``lagged`` (default) or ``direct``;
-    ``refactor_its`` and ``numbering`` configure the lagged solver (ignored by ``direct``).
-    """
-    if kind == "lagged":
-        return LaggedStepSolver(comm, K, options, prefix, refactor_its, numbering)
-    if kind == "direct":
-        return DirectStepSolver(comm, K, options, prefix)
-    raise InputError(f"flow.linear_solver must be one of {STEP_SOLVERS}, got {kind!r}")

@@ -46,7 +46,7 @@ from petsc4py import PETSc
 from dgplate import interrupt
 from dgplate.errors import SolverError
 from dgplate.solvers import linear
-from dgplate.solvers.driver import Observer, RunResult
+from dgplate.solvers.driver import Observer, RunOutcome, RunResult
 
 #: SNES defaults; the ``options`` of a :class:`Continuation` override any key.
 NEWTON_DEFAULTS: dict[str, Any] = {
@@ -276,7 +276,7 @@ class Continuation:
             signum = interrupt.requested(self.comm)
             if signum:
                 break
-        result = RunResult(
+        result = RunOutcome(
             *self._outcome(failure, signum), len(records), records, interrupted=signum
         )
         for observer in self.observers:

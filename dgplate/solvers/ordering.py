@@ -16,14 +16,14 @@ ranks, 59 M per rank, at 64²), and the pivot order no longer depends on the par
 
 from __future__ import annotations
 
-from mpi4py import MPI
-
-import dolfinx
 import numpy as np
 from petsc4py import PETSc
 
+from dgplate import mpi
+from dgplate.compat import FunctionSpace
 
-def cellwise_numbering(space: dolfinx.fem.FunctionSpace) -> PETSc.IS | None:
+
+def cellwise_numbering(space: FunctionSpace) -> PETSc.IS | None:
     """Rows of the cell-wise numbering owned here, as global indices of the space's numbering.
 
     The cell-wise number of the j-th unknown of the cell with original index c is c·n + j (n
@@ -51,15 +51,18 @@ def cellwise_numbering(space: dolfinx.fem.FunctionSpace) -> PETSc.IS | None:
         and (dofs.size == 0 or int(dofs.max()) < owned)
         and len(original) == cells.size_local
     )
-    largest = comm.allreduce(int(original.max(initial=-1)), op=MPI.MAX)
-    if not comm.allreduce(local_ok, op=MPI.LAND) or largest != cells.size_global - 1:
+    largest = int(mpi.global_max(comm, int(original.max(initial=-1))))
+    if not mpi.global_all(comm, local_ok) or largest != cells.size_global - 1:
         return None  # no usable original cell indices (a mesh built in an unusual way)
     start = imap.local_range[0] * bs
     cellwise = (original[:, None] * per_cell + np.arange(per_cell)).reshape(-1)
     native = start + dofs.reshape(-1).astype(np.int64)
+    # petsc4py's stubs want sequences where it takes arrays
     ordering = PETSc.AO().createMemoryScalable(
         cellwise.astype(PETSc.IntType), native.astype(PETSc.IntType), comm=comm
     )
-    rows = ordering.app2petsc(np.arange(start, start + owned, dtype=PETSc.IntType))
+    wanted = np.arange(start, start + owned, dtype=PETSc.IntType)
+    rows = ordering.app2petsc(wanted)  # type: ignore[arg-type]
     ordering.destroy()
-    return PETSc.IS().createGeneral(np.asarray(rows, dtype=PETSc.IntType), comm=comm)
+    indices = np.asarray(rows, dtype=PETSc.IntType)
+    return PETSc.IS().createGeneral(indices, comm=comm)  # type: ignore[arg-type]

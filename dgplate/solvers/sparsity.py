@@ -10,11 +10,19 @@ LU factors (fewer structural nonzeros for the ordering).
 
 from __future__ import annotations
 
+from typing import cast
+
+import dolfinx.common
 import numpy as np
+import numpy.typing as npt
 from petsc4py import PETSc
 
+from dgplate import compat
 
-def without_exact_zeros(A: PETSc.Mat, keep_rows: np.ndarray, keep_cols: np.ndarray) -> PETSc.Mat:
+
+def without_exact_zeros(
+    A: PETSc.Mat, keep_rows: npt.NDArray[np.bool_], keep_cols: npt.NDArray[np.int64]
+) -> PETSc.Mat:
     """A copy of the assembled ``A`` without its exact zeros.
 
     Entries in the owned rows flagged by ``keep_rows`` (a mask over the local rows) and in the
@@ -29,19 +37,21 @@ def without_exact_zeros(A: PETSc.Mat, keep_rows: np.ndarray, keep_cols: np.ndarr
     keep = (values != 0.0) | keep_rows[rows] | np.isin(indices, keep_cols)
     counts = np.bincount(rows[keep], minlength=len(indptr) - 1)
     new_indptr = np.concatenate([[0], np.cumsum(counts)]).astype(PETSc.IntType)
-    compact = PETSc.Mat().createAIJ(
-        size=A.getSizes(),
-        csr=(new_indptr, indices[keep].astype(PETSc.IntType), values[keep]),
-        comm=A.comm,
-    )
+    # petsc4py's stubs want sequences where it takes arrays, and call sizes layouts
+    sizes = cast("tuple[tuple[int, int], tuple[int, int]]", A.getSizes())
+    csr = (new_indptr, indices[keep].astype(PETSc.IntType), values[keep])
+    compact = PETSc.Mat().createAIJ(size=sizes, csr=csr, comm=A.comm)  # type: ignore[arg-type]
     compact.setLGMap(*A.getLGMap())
     compact.assemble()
-    compact.setOption(PETSc.Mat.Option.IGNORE_ZERO_ENTRIES, True)
-    compact.setOption(PETSc.Mat.Option.NEW_NONZERO_LOCATION_ERR, True)
+    compact.setOption(compat.IGNORE_ZERO_ENTRIES, True)
+    compact.setOption(compat.NEW_NONZERO_LOCATION_ERR, True)
     return compact
 
 
-def global_indices(index_map, bs: int, local: np.ndarray) -> np.ndarray:
+def global_indices(
+    index_map: dolfinx.common.IndexMap, bs: int, local: npt.NDArray[np.int64]
+) -> npt.NDArray[np.int64]:
     """Global indices of local (owned or ghost) degrees of freedom of a blocked index map."""
     blocks = index_map.local_to_global(np.asarray(local // bs, dtype=np.int32))
-    return np.asarray(blocks, dtype=np.int64) * bs + local % bs
+    indices: npt.NDArray[np.int64] = np.asarray(blocks, dtype=np.int64) * bs + local % bs
+    return indices
