@@ -26,9 +26,12 @@ test-mpi: setup
 
 LINT_DIRS = $(wildcard dgplate tests demos benchmarks)
 
+# ruff (with Google docstrings and complexity ≤ 10 on dgplate/) and mypy (strict on the
+# numerical core: dg, solvers, models; see pyproject.toml)
 lint: setup
 	$(VENV)/bin/ruff check $(LINT_DIRS)
 	$(VENV)/bin/ruff format --check $(LINT_DIRS)
+	$(VENV)/bin/mypy
 
 format: setup
 	$(VENV)/bin/ruff format $(LINT_DIRS)

@@ -93,12 +93,12 @@ def main(argv: list[str] | None = None) -> int:
 def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
     if args.command == "schema":
         return _schema(args.model)
-    from dgplate.problems.runner import run_problem
+    from dgplate.problems.runner import run
     from dgplate.problems.specs import load_problem
 
     problem = load_problem(args.problem, args.overrides)
     with interrupt.StopOnSignal():
-        summary = run_problem(problem, args.out, comm, force=args.force, resume=args.resume)
+        summary = run(problem, args.out, comm, force=args.force, resume=args.resume).summary
     if summary.get("interrupted"):
         if comm.rank == 0:
             print(

@@ -23,7 +23,7 @@ from dgplate.dg.forms import CREASE, facet_sets
 from dgplate.measure.creases import CreaseMeasure
 from dgplate.mesh.tagged import load_geo
 from dgplate.problems.registry import MODELS
-from dgplate.problems.runner import build_mesh, run_problem
+from dgplate.problems.runner import build_mesh, run
 from dgplate.problems.specs import load_problem
 from dgplate.solvers.flow import FlowSpec, GradientFlow
 
@@ -75,7 +75,7 @@ def test_straight_fold_is_exact_and_kept_gradient_jumps_cost_energy(tmp_path):
 
     # from the flat sheet (as `dgplate run` does; projection keeps the iterates isometric)
     quiet = [*QUIET, "output.png=false", "output.vtx=false"]
-    summary = run_problem(load_problem(STRAIGHT, quiet), tmp_path / "flat", MPI.COMM_SELF)
+    summary = run(load_problem(STRAIGHT, quiet), tmp_path / "flat", MPI.COMM_SELF).summary
     print(f"from flat: E_h = {summary['energy']:.3e}, D_h = {summary['isometry_defect']:.3e}")
     assert summary["converged"] and not summary["energy_increases"]
     assert abs(summary["energy"]) < 1e-10 and summary["isometry_defect"] < 1e-10

@@ -143,7 +143,7 @@ class HeatSolver:
         source: HeatSource | Callable[..., Any] | None = None,
         degree: int = 1,
         theta0: float | Callable[..., Any] = 0.0,
-        solver_options: Mapping[str, object] | None = None,
+        solver_options: Mapping[str, str | int | float] | None = None,
         t0: float = 0.0,
     ) -> None:
         kappa = _number(kappa, "heat kappa")

@@ -177,10 +177,7 @@ class ThermalBilayer:
         """The deformation y: ω → ℝ³."""
         return self.flow.y
 
-    @property
-    def shape(self) -> dolfinx.fem.Function[np.float64]:
-        """The deformed surface (written to VTX and drawn): :attr:`y`."""
-        return self.flow.y
+    shape = y  # the deformed surface of the Driver protocol (written to VTX and drawn)
 
     @property
     def num_dofs(self) -> int:

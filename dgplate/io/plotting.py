@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -38,9 +38,10 @@ def _smooth_surface(grid: pyvista.UnstructuredGrid, levels: int = 3) -> pyvista.
         surface = grid.extract_surface(nonlinear_subdivision=levels, algorithm="dataset_surface")
     except TypeError:  # pyvista < 0.47 has no ``algorithm`` argument
         surface = grid.extract_surface(nonlinear_subdivision=levels)
-    return surface.compute_normals(
+    smooth: pyvista.PolyData = surface.compute_normals(
         cell_normals=False, split_vertices=False, auto_orient_normals=False
     )
+    return smooth
 
 
 def _reference_outline(grid: pyvista.UnstructuredGrid) -> pyvista.PolyData:
@@ -67,7 +68,7 @@ def _boundary_edges(surface: pyvista.PolyData) -> pyvista.PolyData:
     )
 
 
-def _set_camera(plotter: pyvista.Plotter, camera: str | Sequence, bounds: np.ndarray) -> None:
+def _set_camera(plotter: pyvista.Plotter, camera: str | Sequence[Any], bounds: np.ndarray) -> None:
     """Look at the centre of ``bounds`` from a named view, a direction or a camera position."""
     if isinstance(camera, str):
         if camera not in _VIEWS:
@@ -77,18 +78,18 @@ def _set_camera(plotter: pyvista.Plotter, camera: str | Sequence, bounds: np.nda
         direction = np.asarray(_VIEWS[camera])
         up = (0.0, 1.0, 0.0) if camera in ("top", "xy") else (0.0, 0.0, 1.0)
         if camera != "iso":  # axis views read best without perspective
-            plotter.enable_parallel_projection()
+            plotter.enable_parallel_projection()  # type: ignore[call-arg]  # pyvista's _Wrapped stub
     elif len(camera) == 3 and np.ndim(camera[0]) == 0:
         direction, up = np.asarray(camera, dtype=float), (0.0, 0.0, 1.0)
     else:  # a full pyvista camera position: (position, focal point, view up)
-        plotter.camera_position = camera
-        plotter.reset_camera(bounds=bounds)
+        plotter.camera_position = camera  # type: ignore[assignment]  # pyvista accepts any position
+        plotter.reset_camera(bounds=bounds)  # type: ignore[call-arg]  # pyvista's _Wrapped stub
         return
     centre = 0.5 * (bounds[0::2] + bounds[1::2])
     distance = 4.0 * max(float(np.linalg.norm(bounds[1::2] - bounds[0::2])), 1e-12)
     eye = centre + distance * direction / np.linalg.norm(direction)
     plotter.camera_position = [tuple(eye), tuple(centre), up]
-    plotter.reset_camera(bounds=bounds)
+    plotter.reset_camera(bounds=bounds)  # type: ignore[call-arg]  # pyvista's _Wrapped stub
 
 
 def _fit(plotter: pyvista.Plotter, points: np.ndarray, top: float, bottom: float) -> None:
@@ -115,7 +116,7 @@ def _fit(plotter: pyvista.Plotter, points: np.ndarray, top: float, bottom: float
     plotter.reset_camera_clipping_range()
 
 
-def _colour_range(values: np.ndarray, clim) -> tuple[float, float]:
+def _colour_range(values: np.ndarray, clim: tuple[float, float] | None) -> tuple[float, float]:
     """``clim`` or the data range, widened so a (nearly) constant field reads as one colour."""
     if clim is not None:
         return float(clim[0]), float(clim[1])
@@ -127,7 +128,7 @@ def _colour_range(values: np.ndarray, clim) -> tuple[float, float]:
 
 
 @contextmanager
-def _plain_text():
+def _plain_text() -> Iterator[None]:
     """Render all text with FreeType.
 
     Render all text with FreeType: VTK hands strings containing '|' to matplotlib's
@@ -191,7 +192,7 @@ def render_png(
     path: str | Path,
     scalars: str | None = None,
     title: str = "",
-    camera: str | Sequence = "iso",
+    camera: str | Sequence[Any] = "iso",
     clim: tuple[float, float] | None = None,
     show_edges: bool = False,
     lines: Sequence[np.ndarray] | None = None,
@@ -227,13 +228,24 @@ def render_png(
             os.unlink(tmp)
 
 
-def _draw(plotter, grid, scalars, title, camera, clim, show_edges, lines, reference, cmap) -> None:
+def _draw(  # the plotter is Any: pyvista's stubs reject its documented keyword tables
+    plotter: Any,
+    grid: pyvista.UnstructuredGrid,
+    scalars: str | None,
+    title: str,
+    camera: str | Sequence[Any],
+    clim: tuple[float, float] | None,
+    show_edges: bool,
+    lines: Sequence[np.ndarray] | None,
+    reference: Any,
+    cmap: str,
+) -> None:
     """Put the surface, outline, lines, labels and camera of ``render_png`` into ``plotter``."""
     surface = _smooth_surface(grid)
     plotter.set_background("white")
     if scalars:
         # The bar's own title overlaps its labels and drops some glyphs: label it with a text.
-        colour = {"scalars": scalars, "cmap": cmap, "scalar_bar_args": _BAR}
+        colour: dict[str, Any] = {"scalars": scalars, "cmap": cmap, "scalar_bar_args": _BAR}
         colour["clim"] = _colour_range(np.asarray(surface[scalars], dtype=float), clim)
         label = plotter.add_text(
             scalars, position=(0.5, 0.115), viewport=True, font_size=13, color="black"
@@ -273,11 +285,11 @@ def plot_deformation(
     path: str | Path,
     title: str = "",
     color_by: str | None = "curvature",
-    camera: str | Sequence = "iso",
+    camera: str | Sequence[Any] = "iso",
     clim: tuple[float, float] | None = None,
     show_edges: bool = False,
     lines: Sequence[np.ndarray] | None = None,
-    **options,
+    **options: Any,
 ) -> None:
     """Picture of the deformed plate, coloured or plain.
 
@@ -293,10 +305,10 @@ def plot_deformation(
     scalars = COLOR_LABELS[color_by] if color_by else None
     if scalars and not u.ufl_shape:  # a scalar deflection w
         scalars = scalars.replace("y", "w")
-    values = {}
-    if color_by == "curvature":
+    values: dict[str, np.ndarray] = {}
+    if scalars and color_by == "curvature":
         values[scalars] = bending_density(u)
-    elif color_by == "defect":
+    elif scalars and color_by == "defect":
         values[scalars] = defect_density(u)
     grid = surface_grid(u, cell_values=values)
     render_png(grid, path, scalars, title, camera, clim, show_edges, lines, **options)

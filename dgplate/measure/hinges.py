@@ -27,7 +27,6 @@ from mpi4py import MPI
 import dolfinx.fem
 import dolfinx.mesh
 import numpy as np
-import ufl
 from ufl.core.expr import Expr
 
 from dgplate import compat, mpi
@@ -162,7 +161,7 @@ class RegionFrame:
 
 
 def _facet_nodes(
-    space: dolfinx.fem.FunctionSpace, tagged: TaggedMesh, group: str
+    space: compat.FunctionSpace, tagged: TaggedMesh, group: str
 ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """For each facet of ``group`` and each owned cell beside it: its dofs on the facet.
 
@@ -190,9 +189,7 @@ def _facet_nodes(
             yield cell_dofs[on], s[on]
 
 
-def edge_nodes(
-    y: dolfinx.fem.Function, tagged: TaggedMesh, group: str
-) -> tuple[np.ndarray, np.ndarray]:
+def edge_nodes(y: Function, tagged: TaggedMesh, group: str) -> tuple[np.ndarray, np.ndarray]:
     """Reference positions (N×3) and deformed positions (N×3) of y's nodes on a facet group.
 
     For the Lagrange nodes of y's (DG) space that lie on the facets of ``group`` in owned
@@ -206,7 +203,7 @@ def edge_nodes(
     return space.tabulate_dof_coordinates()[dofs], values[dofs]
 
 
-def edge_segments(y: dolfinx.fem.Function, tagged: TaggedMesh, group: str) -> list[np.ndarray]:
+def edge_segments(y: Function, tagged: TaggedMesh, group: str) -> list[np.ndarray]:
     """The deformed facets of a facet group as polylines.
 
     One N×3 array of y's nodes per facet and owned cell beside it, in order along the facet
@@ -242,10 +239,10 @@ def hinge_geometry(tagged: TaggedMesh, hinge: Hinge) -> HingeGeometry:
     mesh = tagged.mesh
     comm = mesh.comm
     integrals = RegionIntegrals(tagged)
-    x = ufl.SpatialCoordinate(mesh)
+    x = compat.spatial_coordinate(mesh)
     centroids = []
     for region in (hinge.inner, hinge.outer):
-        area, cx, cy = integrals([ufl.as_ufl(1.0), x[0], x[1]], region)
+        area, cx, cy = integrals([compat.as_ufl(1.0), x[0], x[1]], region)
         centroids.append(np.array([cx, cy]) / area)
     d = centroids[1] - centroids[0]
     if not np.linalg.norm(d) > 0:
@@ -278,7 +275,7 @@ class ClosureGap:
 
     def __init__(
         self,
-        y: dolfinx.fem.Function,
+        y: Function,
         tagged: TaggedMesh,
         edge: str,
         panel: str,
@@ -304,7 +301,7 @@ class EdgePlacement:
     reference centroid, both in the panel's frame (:class:`RegionFrame`; collective).
     """
 
-    def __init__(self, y: dolfinx.fem.Function, tagged: TaggedMesh, edge: str, panel: str):
+    def __init__(self, y: Function, tagged: TaggedMesh, edge: str, panel: str) -> None:
         tagged.facets(edge)  # an unknown group is an InputError now
         self.y, self.tagged, self.edge = y, tagged, edge
         self.frame = RegionFrame(y, tagged, panel)

@@ -182,19 +182,7 @@ def run(
     with interrupt.StopOnSignal():
         tagged = build_mesh(problem.mesh, comm)
         model = MODELS[problem.model.name].build(problem.model, tagged)
-        return _solve(problem, tagged, model, target, initial, force, start, wall0)
-
-
-def run_problem(
-    problem: Problem,
-    out_dir: str | Path | None = None,
-    comm: MPI.Comm = MPI.COMM_WORLD,
-    initial: Initial | None = None,
-    force: bool = False,
-    resume: bool = False,
-) -> dict[str, Any]:
-    """:func:`run`, returning only the summary."""
-    return run(problem, out_dir, comm, initial, force, resume).summary
+        return _solve(_Job(problem, tagged, target, initial, force, start, wall0), model)
 
 
 def _start(
@@ -213,36 +201,33 @@ def _start(
     return list(start.state["history"])
 
 
-def _solve(
-    problem: Problem,
-    tagged: TaggedMesh,
-    model: Model,
-    target: Path,
-    initial: Initial | None,
-    force: bool,
-    start: checkpoint.Checkpoint | None,
-    wall0: float,
-) -> Result:
-    comm = tagged.comm
-    observers = [ProgressPrinter(comm, problem.output.progress)] if problem.output.progress else []
-    driver = model.driver(problem.flow, observers, initial)
+@dataclass
+class _Job:
+    """What one run is asked to do: the problem on its mesh, where to write, how to start."""
+
+    problem: Problem
+    tagged: TaggedMesh
+    target: Path
+    initial: Initial | None
+    force: bool
+    start: checkpoint.Checkpoint | None
+    wall0: float
+
+
+def _solve(job: _Job, model: Model) -> Result:
+    comm = job.tagged.comm
+    progress = job.problem.output.progress
+    observers = [ProgressPrinter(comm, progress)] if progress else []
+    driver = model.driver(job.problem.flow, observers, job.initial)
     # no destroy() on an error: it is collective, and the error may have hit one rank only
-    result = _run_driver(problem, tagged, model, driver, target, initial, force, start, wall0)
+    result = _run_driver(job, model, driver)
     driver.destroy()
     return result
 
 
-def _run_driver(
-    problem: Problem,
-    tagged: TaggedMesh,
-    model: Model,
-    driver: Driver,
-    target: Path,
-    initial: Initial | None,
-    force: bool,
-    start: checkpoint.Checkpoint | None,
-    wall0: float,
-) -> Result:
+def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
+    problem, tagged, target, start = job.problem, job.tagged, job.target, job.start
+    initial, force, wall0 = job.initial, job.force, job.wall0
     comm = tagged.comm
     earlier = _start(driver, start, target)
     if start is None:

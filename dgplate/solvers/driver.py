@@ -91,7 +91,11 @@ class Driver(Protocol):
     comm: MPI.Comm
     observers: list[Observer]
     step_count: int  # steps done so far, including those before a resume
-    checkpoint_every: int  # steps between checkpoints (0: only at the end)
+
+    @property
+    def checkpoint_every(self) -> int:
+        """Steps between checkpoints (0: only at the end)."""
+        ...
 
     @property
     def time(self) -> float:
