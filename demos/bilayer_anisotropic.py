@@ -34,9 +34,10 @@
 # them takes a fine mesh and thousands of small steps (`--paper`: 24 × 36 cells). The problem
 # file `demos/problems/bilayer_anisotropic.toml` scales the plate by 1/2 (8 × 12 cells, a
 # minute or two per case). By default the demo scales it by 1/4, $(-\tfrac12, \tfrac12) \times
-# (-\tfrac34, \tfrac34)$, on 4 × 6 Q2 cells with τ = 0.02 and a loose tolerance, as
-# `tests/test_bilayer.py` does: a cell spans more than a radian of the roll, so radius and
-# energy are far from converged, but the rolling direction is right.
+# (-\tfrac34, \tfrac34)$, on 4 × 6 Q2 cells with a loose tolerance, as `tests/test_bilayer.py`
+# does (there τ = 0.02, here 0.04: half the steps, the same directions): a cell spans more than
+# a radian of the roll, so radius and energy are far from converged, but the rolling direction
+# is right.
 #
 # Run: `python demos/bilayer_anisotropic.py` (seconds), `--only Z2` for the corkscrew alone,
 # `--paper` for the seed's plate (long). Output: `out/bilayer_anisotropic/Z1/` and `.../Z2/`
@@ -63,7 +64,7 @@ if args.paper:
     size = {"mesh.corners": [[-2.0, -3.0], [2.0, 3.0]], "mesh.cells": [24, 36]}
     size |= {"flow.tau": 0.01, "flow.tol": 0.01, "flow.max_steps": 20000}
 else:
-    size = {"mesh.corners": [[-0.5, -0.75], [0.5, 0.75]], "mesh.cells": [4, 6]}
+    size = {"mesh.corners": [[-0.5, -0.75], [0.5, 0.75]], "mesh.cells": [4, 6], "flow.tau": 0.04}
 summaries = {}
 for name, Z in CASES.items():
     if args.only and name != args.only:
@@ -83,7 +84,7 @@ for name, Z in CASES.items():
 # small; the fitted cylinder's radius should approach $1/5$ as the mesh is refined.
 #
 # Measured by default: Z₁ bends along (1, 0) exactly, mean II eigenvalues about −4.1 and 0,
-# radius 0.254, 206 steps; Z₂ along (0.72, −0.69), 1.3° from (1, −1)/√2, radius 0.230, 330 steps.
+# radius 0.256, 105 steps; Z₂ along (0.72, −0.69), 1.3° from (1, −1)/√2, radius 0.233, 168 steps.
 # The problem file's plate (docs/bilayer.md): 0.0° and 1.4°, radii 0.255 and 0.235.
 #
 # The demo asserts what `tests/test_bilayer.py` asserts of the corkscrew, for both cases: the

@@ -4,18 +4,22 @@ A demo is a literate script that builds or loads a problem, runs it with :func:`
 and compares what it computed with a published or exact value. This module keeps those
 scripts to the physics::
 
+    import dgplate
     from dgplate import demo
 
-    args = demo.arguments("cantilever", paper="64 × 16 cells")
-    result = demo.run(dgplate.load_problem(PROBLEM, overrides), args)
-    demo.report(result, "the flat plate: E = 0")
+    args = demo.arguments("vertical_load", paper="the published rows 16², 32², 64²")
+    result = demo.run(dgplate.load_problem(PROBLEM, overrides={"mesh.cells": [16, 16]}), args)
+    demo.report(result, "BNN 2021, Table 1: −7.53e−3")
     demo.check_close("E_h", result["energy"], -7.53e-3, rel=5e-3, source="BNN 2021, Table 1")
 
 Every demo takes ``--paper`` (the published resolution; the default is small, so that the
 test suite can run every demo), ``--out DIR``, ``--force``, ``--resume`` and ``--figure PATH``
 (a copy of the final picture, e.g. for the documentation). The checks raise
 :class:`AssertionError`, so a demo that no longer reproduces its number fails; they print one
-line on rank 0 either way. All functions here are collective only where they say so.
+line on rank 0 either way. Pictures beyond each run's final.png are drawn with the public
+functions of :mod:`dgplate.io.plotting` (``plot_deformation``, ``render_png``, ``montage``,
+``frames_to_gif``; ``start_offscreen`` before a pyvista plotter of one's own). All functions
+here are collective only where they say so.
 """
 
 from __future__ import annotations
@@ -106,6 +110,10 @@ def run(
 ) -> Any:
     """:func:`dgplate.run` with the demo's ``--out``, ``--force`` and ``--resume``. Collective.
 
+    With ``--resume``, a run that has a checkpoint in its folder continues from it, one that
+    finished there returns its summary.json (a dict) without running again, and one that has
+    not started yet starts: a demo of several runs can be resumed wherever it was stopped.
+
     Args:
         problem: A validated problem (:func:`dgplate.load_problem`).
         args: The parsed command line (:func:`arguments`).
@@ -115,9 +123,46 @@ def run(
 
     Returns:
         What :func:`dgplate.run` returns; ``result["energy"]`` reads the summary.
+
+    Raises:
+        InputError: The output folder is not dgplate's (without ``--force``), or with
+            ``--resume`` holds the checkpoint of another problem.
     """
     out = Path(args.out).joinpath(*subfolder)
-    return _run(problem, out=out, comm=comm, force=args.force, resume=args.resume, **options)
+    resume = False
+    if args.resume:
+        state = _checkpoint_state(problem, out, comm)
+        if state is not None and state.get("finished"):
+            summary = comm.bcast(_read_summary(out) if comm.rank == 0 else None, root=0)
+            if summary is not None:
+                say(f"{out}: finished earlier, its summary.json is reused", comm=comm)
+                return summary
+        resume = state is not None
+    return _run(problem, out=out, comm=comm, force=args.force, resume=resume, **options)
+
+
+def _checkpoint_state(problem: Problem, out: Path, comm: MPI.Comm) -> dict[str, Any] | None:
+    """The state of the checkpoint of ``problem`` in ``out``, or ``None`` if there is none.
+
+    Collective. Raises ``InputError`` for another problem's checkpoint.
+    """
+    from dgplate.io import checkpoint
+    from dgplate.io.output import CHECKPOINT
+
+    folder = out / CHECKPOINT
+    exists = comm.bcast((folder / checkpoint.STATE_FILE).is_file() if comm.rank == 0 else None)
+    if not exists:
+        return None
+    return checkpoint.load(folder, comm, checkpoint.fingerprint(problem.raw)).state
+
+
+def _read_summary(out: Path) -> dict[str, Any] | None:
+    import json
+
+    try:
+        return json.loads((out / "summary.json").read_text())
+    except (OSError, ValueError):
+        return None
 
 
 def say(*text: Any, comm: MPI.Comm = MPI.COMM_WORLD) -> None:

@@ -89,3 +89,24 @@ def test_arguments_and_axis_angle():
     assert demo.parse(parser, ["--cells", "8", "--out", "o"]).cells == 8
     assert demo.axis_angle({"axis": [0.0, -1.0, 0.0]}, (0, 1, 0)) == pytest.approx(0.0)
     assert demo.axis_angle({"axis": [1.0, 1.0, 0.0]}, (0, 1, 0)) == pytest.approx(45.0)
+
+
+def test_demo_run_resumes_each_run_where_it_stopped(tmp_path):
+    import dgplate
+    from dgplate import demo
+
+    problem_file = ROOT / "demos" / "problems" / "vertical_load.toml"
+    small = {"mesh.cells": [4, 4], "output.png": False, "output.progress": 0}
+    args = demo.arguments("vertical_load", argv=["--out", str(tmp_path)])
+    stopped = demo.run(
+        dgplate.load_problem(problem_file, {**small, "flow.max_steps": 3}), args, "a"
+    )
+    assert not stopped["converged"] and stopped["steps"] == 3
+    args = demo.arguments("vertical_load", argv=["--out", str(tmp_path), "--resume"])
+    problem = dgplate.load_problem(problem_file, small)
+    resumed = demo.run(problem, args, "a")  # from the checkpoint at step 3
+    assert resumed["converged"] and resumed["steps"] > 3
+    again = demo.run(problem, args, "a")  # finished: its summary, not a second run
+    assert again["steps"] == resumed["steps"] and again["energy"] == resumed["energy"]
+    fresh = demo.run(problem, args, "b")  # nothing to resume yet: it starts
+    assert fresh["steps"] == resumed["steps"]
