@@ -160,9 +160,10 @@ def _read_summary(out: Path) -> dict[str, Any] | None:
     import json
 
     try:
-        return json.loads((out / "summary.json").read_text())
+        summary: dict[str, Any] = json.loads((out / "summary.json").read_text())
     except (OSError, ValueError):
         return None
+    return summary
 
 
 def say(*text: Any, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
