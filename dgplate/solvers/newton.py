@@ -210,6 +210,9 @@ class Continuation:
         self._norms.append(float(norm))
 
     def _update(self, x: PETSc.Vec) -> None:
+        # SNES updates only the owned entries of x: its ghosts (read by apply_lifting, e.g. the
+        # values of load-dependent Dirichlet data on another rank's unknowns) must be refreshed
+        x.ghostUpdate(PETSc.InsertMode.INSERT, PETSc.ScatterMode.FORWARD)  # type: ignore[arg-type]
         x.copy(self.state.x.petsc_vec)
         self.state.x.scatter_forward()
 
