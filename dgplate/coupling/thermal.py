@@ -22,7 +22,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import Any, TypeAlias
 
 from mpi4py import MPI
 
@@ -38,11 +38,12 @@ from dgplate.solvers.driver import Observer, RunOutcome, RunResult
 from dgplate.solvers.flow import FlowResult, FlowSpec, GradientFlow
 
 #: ``energy(y, θ)``: the plate's energy for the deformation y and the temperature θ.
-ThermalEnergy = Callable[
-    [dolfinx.fem.Function[np.float64], dolfinx.fem.Function[np.float64]], Energy
-]
+ThermalEnergy: TypeAlias = (
+    "Callable[[dolfinx.fem.Function[np.float64], dolfinx.fem.Function[np.float64]], Energy]"
+)
 #: ``measure(y) -> {name: number}``: figures of a shape added to every record (collective).
-Measure = Callable[[dolfinx.fem.Function[np.float64]], dict[str, float]]
+# a string: DOLFINx 0.9's Function is not subscriptable at run time
+Measure: TypeAlias = "Callable[[dolfinx.fem.Function[np.float64]], dict[str, float]]"
 
 
 @dataclass

@@ -52,7 +52,7 @@ import math
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, TypeAlias
 
 from mpi4py import MPI
 
@@ -374,7 +374,8 @@ def _component_values(tagged: TaggedMesh, group: str, condition: Any) -> list[An
     return list(condition)
 
 
-BCValues = list[tuple[dolfinx.fem.Constant[np.float64], float]]
+# a string: DOLFINx 0.9's Constant is not subscriptable at run time
+BCValues: TypeAlias = "list[tuple[dolfinx.fem.Constant[np.float64], float]]"
 
 
 def membrane_bcs(

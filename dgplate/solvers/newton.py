@@ -32,7 +32,7 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
-from typing import Any, cast
+from typing import Any, TypeAlias, cast
 
 from mpi4py import MPI
 
@@ -66,7 +66,10 @@ _REASONS: dict[int, str] = {
 #: Options prefixes of the live drivers: two at once would read each other's options.
 _LIVE_PREFIXES: set[str] = set()
 
-Shape = dolfinx.fem.Function[np.float64] | Callable[[], dolfinx.fem.Function[np.float64]]
+# strings: DOLFINx 0.9's Function is not subscriptable at run time
+Shape: TypeAlias = (
+    "dolfinx.fem.Function[np.float64] | Callable[[], dolfinx.fem.Function[np.float64]]"
+)
 Probes = Callable[[], Mapping[str, float]]
 
 
