@@ -148,6 +148,19 @@ def coordinate_element_degree(mesh: Mesh) -> int:
     return int(cmap.degree)
 
 
+def entities_to_geometry(mesh: Mesh, dim: int, entities: npt.ArrayLike) -> Indices:
+    """Geometry nodes of each entity (one row per entity), also for no entities.
+
+    DOLFINx 0.9 divides by the number of entities and dies of SIGFPE on an empty list, which
+    is what a rank holds when none of a facet group's facets are its own.
+    """
+    entities = np.asarray(entities, dtype=np.int32)
+    if entities.size:
+        return np.asarray(dolfinx.mesh.entities_to_geometry(mesh, dim, entities))
+    one = dolfinx.mesh.entities_to_geometry(mesh, dim, np.zeros(1, dtype=np.int32))
+    return np.asarray(one)[:0]
+
+
 # petsc4py's stubs declare the members of its enumerations as int while its methods are
 # annotated to take the enumeration classes: the members dgplate passes are typed here, once.
 INSERT = cast("PETSc.InsertMode", PETSc.InsertMode.INSERT)

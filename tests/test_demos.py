@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from test_reliability import OPEN_MPI, _mpirun
+from test_reliability import _mpirun
 
 ROOT = Path(__file__).resolve().parent.parent
 DEMOS = sorted((ROOT / "demos").glob("*.py"))
@@ -46,8 +46,6 @@ def run_demo(
 def test_demo_runs_and_checks_its_results(demo, ranks, tmp_path):
     if ranks > 1 and _mpirun() is None:
         pytest.skip("no mpirun")
-    if ranks > 1 and OPEN_MPI and demo.stem.startswith("fvk"):
-        pytest.skip("FvK on 2 ranks of Open MPI stops in PETSc (see tests/test_reliability.py)")
     out = tmp_path / "out"
     done = run_demo(demo, out, ranks)
     tail = "\n".join((done.stdout + done.stderr).splitlines()[-30:])

@@ -30,7 +30,7 @@ import numpy as np
 from ufl.core.expr import Expr
 
 from dgplate import compat, mpi
-from dgplate.compat import Array, Form, Function, geometry_dofmap
+from dgplate.compat import Array, Form, Function, entities_to_geometry, geometry_dofmap
 from dgplate.dg.forms import cell_measure
 from dgplate.dg.geometry import image_of_direction, unit_normal
 from dgplate.errors import InputError
@@ -175,7 +175,7 @@ def _facet_nodes(
     num_owned = mesh.topology.index_map(tdim).size_local
     coords = space.tabulate_dof_coordinates()
     facets = tagged.facets(group)
-    nodes = dolfinx.mesh.entities_to_geometry(mesh, tdim - 1, facets.astype(np.int32))
+    nodes = entities_to_geometry(mesh, tdim - 1, facets.astype(np.int32))
     for facet, facet_nodes in zip(facets, nodes):
         a, b = mesh.geometry.x[facet_nodes[:2]]  # the two vertices come first
         length = np.linalg.norm(b - a)

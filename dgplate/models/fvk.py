@@ -349,7 +349,7 @@ def _edge_axis(tagged: TaggedMesh, group: str) -> int:
     """Component of u normal to an axis-parallel edge group: 0 for x = const, 1 for y = const."""
     mesh = tagged.mesh
     facets = tagged.facets(group)
-    x = mesh.geometry.x[dolfinx.mesh.entities_to_geometry(mesh, mesh.topology.dim - 1, facets)]
+    x = mesh.geometry.x[compat.entities_to_geometry(mesh, mesh.topology.dim - 1, facets)]
     spread = np.ptp(x[:, :, :2], axis=1) if facets.size else np.zeros((0, 2))
     scale = np.ptp(mesh.geometry.x[:, :2], axis=0).max()
     flags = np.array([np.all(spread[:, 0] < 1e-10 * scale), np.all(spread[:, 1] < 1e-10 * scale)])

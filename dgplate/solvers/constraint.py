@@ -18,7 +18,7 @@ import ufl
 from ufl.core.expr import Expr
 
 from dgplate import mpi
-from dgplate.compat import Array, Function, Mesh
+from dgplate.compat import Array, Function, Mesh, entities_to_geometry
 from dgplate.dg.forms import FREE, FacetSets
 from dgplate.dg.geometry import cell_areas, oriented_normal
 from dgplate.mesh.tagged import local_entities
@@ -148,7 +148,7 @@ def _chosen_free_facets(facets: FacetSets) -> _ChosenFacets:
     facet_mid = dolfinx.mesh.compute_midpoints(mesh, fdim, all_facets)[:, :2]
     lengths = mesh.h(fdim, all_facets)
     rounded_lengths = lengths.round(12)
-    facet_nodes = dolfinx.mesh.entities_to_geometry(mesh, fdim, all_facets)
+    facet_nodes = entities_to_geometry(mesh, fdim, all_facets)
     cells = local_entities(mesh, tdim)
     cell_mid = dolfinx.mesh.compute_midpoints(mesh, tdim, cells)[:, :2]
     x = mesh.geometry.x[:, :2]
