@@ -7,7 +7,7 @@ NP     ?= 2
 DEMO   ?= $(firstword $(wildcard demos/box_folding.py demos/vertical_load.py demos/biharmonic.py))
 PYTEST_FLAGS ?= -q
 
-.PHONY: setup demo test test-serial test-mpi lint format check-debian bench clean
+.PHONY: setup demo test test-serial test-mpi lint format check-debian bench docs docs-check clean
 
 setup:
 	@bash .ci/setup-venv.sh
@@ -24,7 +24,7 @@ test-serial: setup
 test-mpi: setup
 	$(MPIRUN) -n $(NP) $(PY) -m mpi4py -m pytest $(PYTEST_FLAGS) -p no:cacheprovider -m mpi tests
 
-LINT_DIRS = $(wildcard dgplate tests demos benchmarks)
+LINT_DIRS = $(wildcard dgplate tests demos benchmarks docs)
 
 # ruff (with Google docstrings and complexity ≤ 10 on dgplate/) and mypy (strict on the
 # numerical core: dg, solvers, models; see pyproject.toml)
@@ -51,10 +51,21 @@ bench: setup
 	done
 	$(PY) benchmarks/report.py --results $(BENCH_OUT)
 
+# The documentation site in docs/_build/html (entry page index.html), warnings as errors.
+docs: setup
+	@$(PY) -c "import sphinx, myst_nb, furo" 2>/dev/null || $(PY) -m pip install --quiet -e ".[docs]"
+	$(PY) -m sphinx -W --keep-going -q -b html docs docs/_build/html
+
+# The site in headless Chromium (Debian's chromium and chromium-driver, installed if missing):
+# console errors, broken links and images; screenshots in docs/_build/screenshots.
+docs-check: docs
+	@bash .ci/install-chromium.sh
+	$(PY) -m pytest -q -p no:cacheprovider docs/test_site.py
+
 # Serial tests with Debian 13's DOLFINx 0.9 in a debootstrap chroot (cached in .cache/).
 check-debian:
 	bash .ci/check-debian.sh
 
 clean:
-	rm -rf $(VENV) .cache build dist *.egg-info .pytest_cache .ruff_cache out results
+	rm -rf $(VENV) .cache build dist *.egg-info .pytest_cache .ruff_cache out results docs/_build docs/_generated
 	find . -name __pycache__ -type d -prune -exec rm -rf {} +

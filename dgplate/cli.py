@@ -149,23 +149,16 @@ def _exit(status: int = 0, message: str | None = None) -> NoReturn:
 
 def _schema(model: str) -> int:
     from dgplate.problems.registry import MODELS
-    from dgplate.problems.specs import MeshSpec, OutputSpec
+    from dgplate.problems.specs import sections
     from dgplate.schema import describe
-    from dgplate.solvers.flow import FlowSpec
 
     if model not in MODELS:
         print(
             f"dgplate: error: unknown model {model!r} (known: {', '.join(MODELS)})", file=sys.stderr
         )
         return 2
-    parts = [
-        describe(MeshSpec, "mesh"),
-        describe(MODELS[model].spec, "model"),
-        describe(FlowSpec, "flow"),
-        describe(OutputSpec, "output"),
-    ]
     if MPI.COMM_WORLD.rank == 0:
-        print("\n\n".join(parts))
+        print("\n\n".join(describe(spec, section) for section, spec in sections(model)))
     return 0
 
 

@@ -111,13 +111,24 @@ def to_dict(obj: Any) -> dict[str, Any]:
     return dataclasses.asdict(obj)
 
 
+def options(cls: type) -> list[tuple[str, str, str]]:
+    """``(key, default as TOML, documentation)`` of each key of a spec dataclass.
+
+    One source for ``dgplate schema`` and the documentation site's problem-file reference.
+    """
+    rows = []
+    for f in dataclasses.fields(cls):
+        default = f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default
+        rows.append((f.name, _toml(default), str(f.metadata.get("doc", ""))))
+    return rows
+
+
 def describe(cls: type, section: str) -> str:
     """The section's keys, defaults and documentation, as commented TOML."""
     lines = [f"[{section}]"]
-    for f in dataclasses.fields(cls):
-        default = f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default
-        lines.append(f"# {f.metadata.get('doc', '')}")
-        lines.append(f"{f.name} = {_toml(default)}")
+    for key, default, doc in options(cls):
+        lines.append(f"# {doc}")
+        lines.append(f"{key} = {default}")
     return "\n".join(lines)
 
 

@@ -188,3 +188,14 @@ def problem_from_dict(data: dict[str, Any], name: str, overrides: Overrides = ()
             "anchor) the metric needs the L² product (rigid motions); set flow.l2_metric = 'auto'"
         )
     return Problem(name, mesh, model, flow, output, data)
+
+
+def sections(model: str) -> list[tuple[str, type]]:
+    """The sections of a problem file of model ``model`` and their spec dataclasses.
+
+    What ``dgplate schema --model NAME`` prints and the documentation's reference lists.
+    """
+    from dgplate.problems.registry import MODELS
+
+    spec = MODELS[model].spec
+    return [("mesh", MeshSpec), ("model", spec), ("flow", FlowSpec), ("output", OutputSpec)]
