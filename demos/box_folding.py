@@ -52,9 +52,10 @@
 #   with α > 0 the box folds towards −ν). The closure gap is the largest distance of a node of
 #   the lid's edge from there, in the base's frame.
 #
-# Run: `python demos/box_folding.py` (4 × 4 cells per panel, 4 across a hinge, Δt = 2.35; a
-# few minutes) or `mpirun -n 2 python demos/box_folding.py`; `--paper` runs the published
-# resolution (8 × 8 cells, 8 across, the seed's Δt = 0.1; hours). `--out DIR` chooses the
+# Run: `python demos/box_folding.py` (2 × 2 cells per panel, 2 across a hinge, Δt = 7.05;
+# about 10 s) or `mpirun -n 2 python demos/box_folding.py`; `dgplate run
+# demos/problems/box_folding.toml` runs the problem file's 4 × 4 cells (about 5 min), and
+# `--paper` the published resolution (8 × 8 cells, 8 across, the seed's Δt = 0.1; hours). `--out DIR` chooses the
 # output folder, `--force` writes into a folder of other files, `--resume` continues an
 # interrupted run from its checkpoint.
 

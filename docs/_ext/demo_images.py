@@ -18,6 +18,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 IMAGES = ROOT / "docs" / "img" / "demos"
+#: Demos whose page shows a picture of docs/img instead: the box's final state is after
+#: cooling, open again; its page shows the box closed at the switch (docs/box.md).
+CURATED = {"box_folding": "box_closed.png"}
 
 
 def picture(out: Path) -> Path | None:
@@ -36,6 +39,9 @@ def main(names: list[str]) -> int:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     failed = []
     for demo in demos:
+        if demo.stem in CURATED:
+            shutil.copyfile(IMAGES.parent / CURATED[demo.stem], IMAGES / f"{demo.stem}.png")
+            continue
         with tempfile.TemporaryDirectory() as tmp:
             out = Path(tmp) / "out"
             done = subprocess.run(
