@@ -60,7 +60,9 @@ class LCESpec(KirchhoffSpec):
         "twist",
         "director profile through the thickness: 'twist' (A₀ = diag(−1, 1)) or 'splay' (A₀ = diag(−1, 0))",
     )
-    gamma: float = option(1.0, "actuation strength γ (curvature): A = γ R(θ) A₀ R(θ)ᵀ")
+    gamma: float = option(
+        1.0, "actuation strength γ (a curvature; γ < 0 bends the other way): A = γ R(θ) A₀ R(θ)ᵀ"
+    )
     theta: float | str = option(
         0.0,
         "director angle θ in radians from the x axis: a number or a formula in x, y; the eigenvalue −γ of A is along (cos θ, sin θ)",
