@@ -13,6 +13,7 @@ from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.foundation import FoundationSpec, build_foundation
 from dgplate.models.fvk import FvKSpec, build_fvk
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
+from dgplate.models.lce import LCESpec, build_lce
 from dgplate.models.thermal import ThermalSpec, build_thermal
 from dgplate.schema import from_dict
 
@@ -50,6 +51,7 @@ MODELS: dict[str, ModelEntry] = {
     "bilayer": ModelEntry(BilayerSpec, build_bilayer),
     "foundation": ModelEntry(FoundationSpec, build_foundation),
     "thermal": ModelEntry(ThermalSpec, build_thermal),
+    "lce": ModelEntry(LCESpec, build_lce),
     "fvk": ModelEntry(
         FvKSpec,
         build_fvk,
