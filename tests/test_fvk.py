@@ -513,3 +513,39 @@ def test_lowest_eigenvalue_crosses_zero_at_timoshenko_load():
     assert pushed["eigensolver"] == "lanczos" and min(pushed["lowest_eigenvalues"]) > 0
     # post-buckling: w_c ∝ √(Δ/Δ_cr − 1); at 1.1 Δ_cr about 0.57 t on 8×8
     assert 0.3 * T < pushed["w_center"] < 1.0 * T
+
+
+# -- natural shapes ----------------------------------------------------------------------------
+def test_natural_shape_sets_the_metric():
+    """A plate whose natural shape is the tilted plane w₀ = a x, clamped and held at x = 0.
+
+    Its natural length along x is that of the tilted plane: ε = sym∇u + ½(∇w⊗∇w − a² eₓ⊗eₓ)
+    vanishes for w = 0 and u = (½a² x, 0), which is exact in the discrete space (energy 0).
+    Held at both ends (u_x = 0 at x = 1) it is compressed by ½a² instead, as with an equal
+    prestrain along x; prescribing u_x = ½a² on the right edge relieves it again.
+    """
+    a = 0.1
+    tagged = rectangle(MPI.COMM_WORLD, [[0, 0], [1, 1]], [4, 4])
+    keys = dict(E=E, nu=NU, thickness=T, clamped=["left"], natural_shape=f"{a}*x",
+                stability=False, load_steps=1)  # fmt: skip
+    for membrane in ({}, {"right": [0.5 * a**2, "free"]}):
+        with newton(tagged, membrane=membrane, **keys) as (model, driver):
+            assert driver.run().converged
+            _, dofs = model.space.sub(1).sub(0).collapse()
+            ux = driver.state.x.array[dofs]
+            top = driver.comm.allreduce(float(ux.max(initial=-np.inf)), op=MPI.MAX)
+            assert top == pytest.approx(0.5 * a**2, rel=1e-8)
+            assert abs(driver.history[-1].w_max) < 1e-10 and abs(driver.energy_value()) < 1e-16
+
+
+@pytest.mark.parametrize(
+    "value,message",
+    [
+        ("0.1*x +", "model.natural_shape: "),
+        ("foo(x)", "model.natural_shape"),
+        ([1, 2], "model.natural_shape"),
+    ],
+)
+def test_bad_natural_shape(value, message):
+    with pytest.raises(InputError, match=message):
+        from_dict(FvKSpec, {"natural_shape": value}, "model")

@@ -42,6 +42,14 @@ predictor, SNES newtonls with the NLEQ-ERR line search, MUMPS LU; ``model.snes``
 option under the prefix ``dgplate_fvk_``). A load step that does not converge ends the run
 with ``converged = false``, the SNES reason and the last converged state.
 
+Natural shape. ``natural_shape = w₀`` (a number or a formula in x, y) sets the plate's natural
+metric to that of the surface (x, y, w₀(x, y)): the strain becomes
+ε = sym∇u + ½(∇w⊗∇w − ∇w₀⊗∇w₀) − ε₀ I, so (u, w) = (0, w₀) is stretch-free. Bending is still
+measured from flat (κ = D²w), as in the energy of indented cones of Conti, Olbermann & Tobasco
+(a cone w₀ = −α r has D²w₀ ∉ L²). w₀ is not scaled with the load, and the path starts from the
+flat plate as always (Newton from w = w₀ against clamped edges crawls under the NLEQ-ERR
+damping); ``[initial]`` gives another start.
+
 Stability. With ``stability = true`` (the default) the driver reports after each load step the
 lowest eigenvalue of the Hessian D²Π at the converged state (the Newton Jacobian on the free
 unknowns; ``lowest_eigenvalue`` in history.csv, the path and the interpolated load factor where
@@ -70,7 +78,7 @@ import dolfinx.mesh
 import numpy as np
 import ufl
 
-from dgplate import compat, values
+from dgplate import compat, expressions, values
 from dgplate.dg.forms import (
     FREE,
     FacetSets,
@@ -126,6 +134,9 @@ class FvKSpec:
     thickness: float = option(0.01, "plate thickness t > 0")
     pressure: float = option(0.0, "uniform pressure p at full load (along +z)")
     prestrain: float = option(0.0, "isotropic in-plane prestrain ε₀ at full load (expansion > 0)")
+    natural_shape: float | str = option(
+        0.0, "natural shape w₀(x, y), a number or formula: strain ½(∇w⊗∇w − ∇w₀⊗∇w₀) + sym∇u"
+    )
     clamped: list[Any] = option([], "facet groups with w = 0 and ∇w = 0")
     simply_supported: list[Any] = option([], "facet groups with w = 0, rotation free")
     crease: list[Any] = option([], "interior facet groups where ∇w may jump (hinges)")
@@ -168,6 +179,7 @@ class FvKSpec:
             raise InputError(f"model.probe must be a point [x, y], got {self.probe!r}")
         _check_options(self.snes, "model.snes")
         self._check_stability()
+        expressions.check(self.natural_shape, "model.natural_shape")
 
     def _check_material(self) -> None:
         for key in ("E", "thickness"):
@@ -287,10 +299,23 @@ def _check_options(options: dict[Any, Any], key: str) -> None:
 
 
 # -- the energy --------------------------------------------------------------------------------
-def membrane_strain(u: Any, w: Any, prestrain: Any = 0.0) -> Any:
-    """ε = sym∇u + ½∇w⊗∇w − ε₀ I (with the element-wise gradient of a dG deflection)."""
+def membrane_strain(u: Any, w: Any, prestrain: Any = 0.0, natural: Any = None) -> Any:
+    """ε = sym∇u + ½(∇w⊗∇w − ∇w₀⊗∇w₀) − ε₀ I (element-wise gradient of a dG deflection).
+
+    ``natural`` is the natural shape w₀ as a UFL expression (None: flat).
+    """
     gw = ufl.grad(w)
-    return ufl.sym(ufl.grad(u)) + 0.5 * ufl.outer(gw, gw) - prestrain * ufl.Identity(2)
+    eps = ufl.sym(ufl.grad(u)) + 0.5 * ufl.outer(gw, gw) - prestrain * ufl.Identity(2)
+    if natural is not None:
+        g0 = ufl.grad(natural)
+        eps -= 0.5 * ufl.outer(g0, g0)
+    return eps
+
+
+def natural_shape(spec: FvKSpec, mesh: dolfinx.mesh.Mesh[np.float64]) -> Any:
+    """w₀ of ``model.natural_shape`` as a UFL expression, None for a flat (constant) w₀."""
+    shape = expressions.parse(spec.natural_shape, mesh, "model.natural_shape")
+    return None if isinstance(shape, float) else shape
 
 
 def plane_stress(eps: Any, stiffness: Any, nu: Any) -> Any:
@@ -350,7 +375,7 @@ def fvk_energy(
     D = E * t**3 / (12 * (1 - nu**2))
     A = E * t / (1 - nu**2)
     w, u = ufl.split(state)
-    eps = membrane_strain(u, w, load_factor * prestrain)
+    eps = membrane_strain(u, w, load_factor * prestrain, natural_shape(spec, mesh))
     energy: ufl.Form = 0.5 * ufl.inner(plane_stress(eps, A, nu), eps) * faces.dx
     simply_supported = bool(spec.simply_supported)
     energy += fvk_bending_energy(w, faces, spec.penalty_params, D, nu, simply_supported)
