@@ -12,6 +12,7 @@ import pytest
 import ufl
 from petsc4py import PETSc
 
+from dgplate.errors import SolverError
 from dgplate.mesh.tagged import rectangle
 from dgplate.solvers import eigen
 from dgplate.solvers.newton import Continuation, LoadStep, Stability, record_type
@@ -184,3 +185,15 @@ def test_eigenvalue_path_crossing_and_perturbation(solver):
         assert last.u_max == pytest.approx(np.sqrt(4 * (0.8 / 0.5 - 1) * np.pi**2 / 4 / 3),
                                            rel=0.05)  # fmt: skip
         assert last.lowest_eigenvalue > 0 and summary["eigensolver"] in ("slepc", "lanczos")
+
+
+@pytest.mark.parametrize("solver", ["slepc", "lanczos"])
+def test_singular_shift_is_a_solver_error(solver):
+    """K − σI singular (here K = 0): a SolverError, which the driver turns into a NaN."""
+    if solver == "slepc" and not eigen.have_slepc():
+        pytest.skip("slepc4py is not importable")
+    A, _ = laplacian_1d(20, shift=2.0, comm=MPI.COMM_SELF)
+    A.zeroEntries()
+    A.assemble()
+    with pytest.raises(SolverError, match=f"the eigensolver \\({solver}\\) failed near 0"):
+        eigen.nearest_eigenpairs(A, 2, solver=solver)

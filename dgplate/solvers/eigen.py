@@ -32,6 +32,7 @@ import numpy as np
 import numpy.typing as npt
 from petsc4py import PETSc
 
+from dgplate.errors import SolverError
 from dgplate.solvers import linear
 
 #: The eigensolvers: "auto" is "slepc" when slepc4py is importable, else "lanczos".
@@ -79,13 +80,17 @@ def nearest_eigenpairs(
     """The ``count`` eigenpairs of the symmetric matrix K nearest ``shift`` (collective).
 
     Fewer pairs when K is smaller than ``count``; an empty result when nothing converged.
+    A :class:`SolverError` when K − σI cannot be factorised (σ an eigenvalue: singular).
     """
     count = max(1, min(count, K.getSize()[0]))
     name = resolve_solver(solver)
-    if name == "slepc":
-        values, vectors = _slepc(K, count, shift, tol, max_it)
-    else:
-        values, vectors = _lanczos(K, count, shift, tol, max_it)
+    try:
+        if name == "slepc":
+            values, vectors = _slepc(K, count, shift, tol, max_it)
+        else:
+            values, vectors = _lanczos(K, count, shift, tol, max_it)
+    except (PETSc.Error, SystemError, np.linalg.LinAlgError) as err:
+        raise SolverError(f"the eigensolver ({name}) failed near {shift:g}: {err}") from None
     order = np.argsort(values)
     for vector in vectors:
         _fix_sign(vector)
@@ -164,15 +169,33 @@ def _lanczos(
 ) -> tuple[list[float], list[PETSc.Vec]]:
     shifted = _shifted(K, shift)
     ksp = linear.make_ksp(K.getComm().tompi4py(), shifted)
-    linear.factorise(ksp)
     basis = [_start_vector(K)]
+    try:
+        linear.factorise(ksp)
+        theta, s = _lanczos_basis(ksp, basis, count, tol, min(max_it, K.getSize()[0]))
+        wanted = np.argsort(-np.abs(theta))[:count]
+        values = [shift + 1 / theta[i] for i in wanted]
+        vectors = [_combination(basis, s[:, i]) for i in wanted]
+    finally:
+        linear.destroy_ksp(ksp)
+        shifted.destroy()
+        for vector in basis:
+            vector.destroy()
+    return values, vectors
+
+
+def _lanczos_basis(
+    ksp: PETSc.KSP, basis: list[PETSc.Vec], count: int, tol: float, steps: int
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """Extend ``basis`` by Lanczos on the KSP's inverse: the Ritz values θ and vectors s."""
     alphas: list[float] = []
     betas: list[float] = []
-    w = K.createVecRight()
-    steps = min(max_it, K.getSize()[0])
+    w = basis[0].duplicate()
     for _ in range(steps):
         linear.solve(ksp, basis[-1], w)
         alphas.append(_real(w.dot(basis[-1])))
+        if not np.isfinite(alphas[-1]):
+            raise np.linalg.LinAlgError("the shifted matrix is singular")
         for _twice in range(2):  # full reorthogonalisation, twice is enough
             for q in basis:
                 w.axpy(-w.dot(q), q)
@@ -185,13 +208,8 @@ def _lanczos(
             break
         basis.append(w.copy())
         basis[-1].scale(1 / betas[-1])
-    linear.destroy_ksp(ksp)
-    shifted.destroy()
-    values = [shift + 1 / theta[i] for i in wanted]
-    vectors = [_combination(basis, s[:, i]) for i in wanted]
-    for vector in [*basis, w]:
-        vector.destroy()
-    return values, vectors
+    w.destroy()
+    return theta, s
 
 
 def _tridiagonal(alphas: list[float], betas: list[float]) -> npt.NDArray[np.float64]:

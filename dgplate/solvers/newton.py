@@ -40,6 +40,7 @@ a stable one. The next step then starts from the new state alone (no secant thro
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -74,6 +75,8 @@ _REASONS: dict[int, str] = {
     for name, value in vars(PETSc.SNES.ConvergedReason).items()
     if isinstance(value, int)
 }
+
+_log = logging.getLogger(__name__)
 
 #: Options prefixes of the live drivers: two at once would read each other's options.
 _LIVE_PREFIXES: set[str] = set()
@@ -496,8 +499,15 @@ class Continuation:
             free.destroy()
 
     def _check_stability(self, factor: float, stability: Stability) -> tuple[float, int]:
-        """The lowest eigenvalue after the step (and after a perturbation), Newton its spent."""
-        pairs = self.lowest_eigenpairs(stability)
+        """The lowest eigenvalue after the step (and after a perturbation), Newton its spent.
+
+        NaN when the eigensolver fails (a singular Hessian at the shift): the run goes on.
+        """
+        try:
+            pairs = self.lowest_eigenpairs(stability)
+        except SolverError as err:
+            _log.warning("no lowest eigenvalue at load factor %g: %s", factor, err)
+            return math.nan, 0
         lowest = float(pairs.values[0]) if len(pairs.values) else math.nan
         previous = getattr(self.history[-1], LOWEST) if self.history else math.nan
         if previous >= 0 > lowest:
