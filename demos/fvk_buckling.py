@@ -75,6 +75,7 @@ spec = FvKSpec(
         "top": "free",
     },
     load_steps=steps,
+    stability=False,  # the eigenvalues are the subject of the next section
 )
 model = build_fvk(spec, tagged)
 driver = model.driver(None, [], None)
