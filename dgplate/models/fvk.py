@@ -42,6 +42,22 @@ predictor, SNES newtonls with the NLEQ-ERR line search, MUMPS LU; ``model.snes``
 option under the prefix ``dgplate_fvk_``). A load step that does not converge ends the run
 with ``converged = false``, the SNES reason and the last converged state.
 
+Natural shape. ``natural_shape = w₀`` (a number or a formula in x, y) sets the plate's natural
+metric to that of the surface (x, y, w₀(x, y)): the strain becomes
+ε = sym∇u + ½(∇w⊗∇w − ∇w₀⊗∇w₀) − ε₀ I, so (u, w) = (0, w₀) is stretch-free. Bending is still
+measured from flat (κ = D²w), as in the energy of indented cones of Conti, Olbermann & Tobasco
+(a cone w₀ = −α r has D²w₀ ∉ L²). w₀ is not scaled with the load, and the path starts from the
+flat plate as always (Newton from w = w₀ against clamped edges crawls under the NLEQ-ERR
+damping); ``[initial]`` gives another start.
+
+Stability. With ``stability = true`` (the default) the driver reports after each load step the
+lowest eigenvalue of the Hessian D²Π at the converged state (the Newton Jacobian on the free
+unknowns; ``lowest_eigenvalue`` in history.csv, the path and the interpolated load factor where
+it crosses zero in summary.json). ``perturb_unstable = a`` moves a state whose lowest eigenvalue
+has just turned negative by a·φ (φ the unstable mode, max |φ| = 1, so a is a deflection) and
+solves again: a perfect plate then leaves the flat, unstable branch at the first step past
+buckling. See :mod:`dgplate.solvers.newton` and :mod:`dgplate.solvers.eigen`.
+
 The driver's shape is the deformation y = (x₁ + u₁, x₂ + u₂, w) in [DG_k]³, written and drawn
 like every other model's; its records carry ``w_center`` (w at ``model.probe``) and ``w_max``.
 """
@@ -62,7 +78,7 @@ import dolfinx.mesh
 import numpy as np
 import ufl
 
-from dgplate import compat, values
+from dgplate import compat, expressions, values
 from dgplate.dg.forms import (
     FREE,
     FacetSets,
@@ -79,8 +95,9 @@ from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import Initial
 from dgplate.mpi import allreduce_array, bounds
 from dgplate.schema import option
+from dgplate.solvers import eigen
 from dgplate.solvers.driver import Observer
-from dgplate.solvers.newton import Continuation
+from dgplate.solvers.newton import Continuation, Stability
 
 #: Facet-set id of simply supported boundary facets (beside dg.SMOOTH … dg.FREE = 1 … 4).
 SIMPLY_SUPPORTED = 5
@@ -117,6 +134,9 @@ class FvKSpec:
     thickness: float = option(0.01, "plate thickness t > 0")
     pressure: float = option(0.0, "uniform pressure p at full load (along +z)")
     prestrain: float = option(0.0, "isotropic in-plane prestrain ε₀ at full load (expansion > 0)")
+    natural_shape: float | str = option(
+        0.0, "natural shape w₀(x, y), a number or formula: strain ½(∇w⊗∇w − ∇w₀⊗∇w₀) + sym∇u"
+    )
     clamped: list[Any] = option([], "facet groups with w = 0 and ∇w = 0")
     simply_supported: list[Any] = option([], "facet groups with w = 0, rotation free")
     crease: list[Any] = option([], "interior facet groups where ∇w may jump (hinges)")
@@ -133,6 +153,17 @@ class FvKSpec:
         None, "point [x, y] for w_center (default: bounding-box centre)"
     )
     snes: dict[str, Any] = option({}, "PETSc options for SNES/KSP/PC, e.g. {snes_rtol = 1e-8}")
+    stability: bool = option(
+        True, "report the lowest Hessian eigenvalue after each load step (and its zero crossing)"
+    )
+    stability_modes: int = option(
+        3, "eigenvalues nearest 0 computed per step; the lowest is reported"
+    )
+    perturb_unstable: float = option(
+        0.0,
+        "amplitude (a deflection) of the push along the unstable mode when the lowest eigenvalue turns negative; 0: none",
+    )
+    eigensolver: str = option("auto", "'auto' (SLEPc when importable), 'slepc' or 'lanczos'")
 
     def __post_init__(self) -> None:
         """Check every key once: one-line InputErrors naming ``model.<key>``."""
@@ -147,6 +178,8 @@ class FvKSpec:
         ):
             raise InputError(f"model.probe must be a point [x, y], got {self.probe!r}")
         _check_options(self.snes, "model.snes")
+        self._check_stability()
+        expressions.check(self.natural_shape, "model.natural_shape")
 
     def _check_material(self) -> None:
         for key in ("E", "thickness"):
@@ -162,6 +195,37 @@ class FvKSpec:
                 raise InputError(f"model.{key} must be a number, got {getattr(self, key)!r}")
         if not (_number(self.degree) and isinstance(self.degree, int) and self.degree >= 2):
             raise InputError(f"model.degree must be an integer >= 2, got {self.degree!r}")
+
+    def _check_stability(self) -> None:
+        if not isinstance(self.stability, bool):
+            raise InputError(f"model.stability must be true or false, got {self.stability!r}")
+        modes = self.stability_modes
+        if not (isinstance(modes, int) and not isinstance(modes, bool) and modes >= 1):
+            raise InputError(f"model.stability_modes must be an integer >= 1, got {modes!r}")
+        if not (_number(self.perturb_unstable) and math.isfinite(self.perturb_unstable)):
+            raise InputError(
+                f"model.perturb_unstable must be a number, got {self.perturb_unstable!r}"
+            )
+        if self.eigensolver not in eigen.SOLVERS:
+            raise InputError(
+                f"model.eigensolver must be one of {', '.join(eigen.SOLVERS)}, "
+                f"got {self.eigensolver!r}"
+            )
+        if self.eigensolver == "slepc" and not eigen.have_slepc():
+            raise InputError("model.eigensolver = 'slepc' but slepc4py cannot be imported")
+        if self.perturb_unstable and not self.stability:
+            raise InputError("model.perturb_unstable needs model.stability = true")
+
+    @property
+    def stability_options(self) -> Stability | None:
+        """The driver's :class:`Stability` (None with ``stability = false``)."""
+        if not self.stability:
+            return None
+        return Stability(
+            modes=self.stability_modes,
+            perturb=float(self.perturb_unstable),
+            solver=self.eigensolver,
+        )
 
     def _check_groups(self) -> None:
         for key in ("clamped", "simply_supported", "crease"):
@@ -235,10 +299,23 @@ def _check_options(options: dict[Any, Any], key: str) -> None:
 
 
 # -- the energy --------------------------------------------------------------------------------
-def membrane_strain(u: Any, w: Any, prestrain: Any = 0.0) -> Any:
-    """ε = sym∇u + ½∇w⊗∇w − ε₀ I (with the element-wise gradient of a dG deflection)."""
+def membrane_strain(u: Any, w: Any, prestrain: Any = 0.0, natural: Any = None) -> Any:
+    """ε = sym∇u + ½(∇w⊗∇w − ∇w₀⊗∇w₀) − ε₀ I (element-wise gradient of a dG deflection).
+
+    ``natural`` is the natural shape w₀ as a UFL expression (None: flat).
+    """
     gw = ufl.grad(w)
-    return ufl.sym(ufl.grad(u)) + 0.5 * ufl.outer(gw, gw) - prestrain * ufl.Identity(2)
+    eps = ufl.sym(ufl.grad(u)) + 0.5 * ufl.outer(gw, gw) - prestrain * ufl.Identity(2)
+    if natural is not None:
+        g0 = ufl.grad(natural)
+        eps -= 0.5 * ufl.outer(g0, g0)
+    return eps
+
+
+def natural_shape(spec: FvKSpec, mesh: dolfinx.mesh.Mesh[np.float64]) -> Any:
+    """w₀ of ``model.natural_shape`` as a UFL expression, None for a flat (constant) w₀."""
+    shape = expressions.parse(spec.natural_shape, mesh, "model.natural_shape")
+    return None if isinstance(shape, float) else shape
 
 
 def plane_stress(eps: Any, stiffness: Any, nu: Any) -> Any:
@@ -298,7 +375,7 @@ def fvk_energy(
     D = E * t**3 / (12 * (1 - nu**2))
     A = E * t / (1 - nu**2)
     w, u = ufl.split(state)
-    eps = membrane_strain(u, w, load_factor * prestrain)
+    eps = membrane_strain(u, w, load_factor * prestrain, natural_shape(spec, mesh))
     energy: ufl.Form = 0.5 * ufl.inner(plane_stress(eps, A, nu), eps) * faces.dx
     simply_supported = bool(spec.simply_supported)
     energy += fvk_bending_energy(w, faces, spec.penalty_params, D, nu, simply_supported)
@@ -515,6 +592,7 @@ class FvKModel:
             shape=Deformation(state, self.spec.degree),
             probes=DeflectionProbes(state, self.probe),
             hint=_HINT,
+            stability=self.spec.stability_options,
         )
 
     def figures(self, driver: Continuation) -> dict[str, Any]:

@@ -23,11 +23,24 @@ boundary (on every rank together), and reports a load step whose Newton iteratio
 ``converged = False`` with the SNES reason, keeping the last converged state. A checkpoint
 holds the state, the state before it (the predictor's second point) and the history, so a
 resumed run continues the schedule.
+
+Stability (``stability``, a :class:`Stability`). After each converged load step the driver
+computes the eigenvalues of the Hessian D²Π nearest a shift (default 0), i.e. of the Jacobian
+at the converged state restricted to the free unknowns (the rows and columns of the Dirichlet
+unknowns removed), by :func:`dgplate.solvers.eigen.nearest_eigenpairs` (SLEPc when importable,
+else Lanczos with a MUMPS factorisation). The lowest of them is the record's
+``lowest_eigenvalue``; where it changes sign from one step to the next, the load factor of the
+crossing is interpolated linearly (``critical_load_factors`` in the summary). With
+``perturb = a`` the state of a step whose lowest eigenvalue has just turned negative is moved
+by a·φ (φ the unstable mode, max |φ_i| = 1, signed by :mod:`dgplate.solvers.eigen`) and Newton
+is run again at the same load factor: the path leaves an unstable (e.g. symmetric) branch for
+a stable one. The next step then starts from the new state alone (no secant through the jump).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -45,7 +58,7 @@ from petsc4py import PETSc
 
 from dgplate import interrupt
 from dgplate.errors import SolverError
-from dgplate.solvers import linear
+from dgplate.solvers import eigen, linear
 from dgplate.solvers.driver import Observer, RunOutcome, RunResult
 
 #: SNES defaults; the ``options`` of a :class:`Continuation` override any key.
@@ -63,6 +76,8 @@ _REASONS: dict[int, str] = {
     if isinstance(value, int)
 }
 
+_log = logging.getLogger(__name__)
+
 #: Options prefixes of the live drivers: two at once would read each other's options.
 _LIVE_PREFIXES: set[str] = set()
 
@@ -71,6 +86,30 @@ Shape: TypeAlias = (
     "dolfinx.fem.Function[np.float64] | Callable[[], dolfinx.fem.Function[np.float64]]"
 )
 Probes = Callable[[], Mapping[str, float]]
+
+#: The record field of the lowest Hessian eigenvalue.
+LOWEST = "lowest_eigenvalue"
+
+
+@dataclass(frozen=True)
+class Stability:
+    """The Hessian eigenvalues computed after each load step (module docstring).
+
+    Attributes:
+        modes: how many eigenvalues nearest ``shift`` are computed; the lowest is reported.
+            A few (default 3) make it the lowest one also where two modes come close.
+        shift: where the eigenvalues are looked for (0: the stability limit).
+        perturb: amplitude a of the perturbation a·φ along the unstable mode when the lowest
+            eigenvalue turns negative; 0 for none.
+        solver: "auto", "slepc" or "lanczos" (:data:`dgplate.solvers.eigen.SOLVERS`).
+        tol: relative tolerance of the eigenvalues.
+    """
+
+    modes: int = 3
+    shift: float = 0.0
+    perturb: float = 0.0
+    solver: str = "auto"
+    tol: float = 1e-10
 
 
 @dataclass
@@ -139,6 +178,8 @@ class Continuation:
             names are those it returns at the start.
         hint: what to try when Newton fails, appended to the reason.
         checkpoint_every: load steps between checkpoints (a load step is expensive: each).
+        stability: compute the lowest Hessian eigenvalue after each step (:class:`Stability`);
+            None: not.
 
     All methods are collective on the state's communicator.
     """
@@ -160,6 +201,7 @@ class Continuation:
         probes: Probes | None = None,
         hint: str = "",
         checkpoint_every: int = 1,
+        stability: Stability | None = None,
     ) -> None:
         self.schedule = _checked_schedule(schedule, float(load_factor.value))
         if prefix in _LIVE_PREFIXES:
@@ -187,7 +229,13 @@ class Continuation:
         ]
         self._set_load(self.time)
         self._shape = self._update_shape()
-        self._record = record_type(list(probes()) if probes else [])
+        self.stability = stability
+        self.eigensolver = eigen.resolve_solver(stability.solver) if stability else None
+        self._free = _free_rows(space, self.bcs)
+        self.crossings: list[float] = []
+        self.perturbations: list[dict[str, float]] = []
+        names = list(probes()) if probes else []
+        self._record = record_type([*names, LOWEST] if stability else names)
         self._prefix = prefix
         self._options = {**NEWTON_DEFAULTS, **(options or {})}
         self._setup_snes()
@@ -315,6 +363,8 @@ class Continuation:
             "load_factors": [factor for factor, _ in self._states],
             "history": [asdict(record) for record in self.history],
             "residual_norms": self.residual_norms,
+            "crossings": self.crossings,
+            "perturbations": self.perturbations,
         }
 
     def restore_state(self, state: Mapping[str, Any]) -> None:
@@ -322,6 +372,8 @@ class Continuation:
         self.step_count = int(state["step"])
         self.history = [self._record(**row) for row in state["history"]]
         self.residual_norms = [list(norms) for norms in state["residual_norms"]]
+        self.crossings = [float(f) for f in state.get("crossings", [])]
+        self.perturbations = [dict(p) for p in state.get("perturbations", [])]
         factors = [float(factor) for factor in state["load_factors"]]
         for function in (self.state, self._previous):
             function.x.scatter_forward()
@@ -331,8 +383,13 @@ class Continuation:
         self._shape = self._update_shape()
 
     def summary(self) -> dict[str, Any]:
-        """Numbers for ``summary.json``: dofs, load factors, Newton iterations, energy."""
-        return {
+        """Numbers for ``summary.json``: dofs, load factors, Newton iterations, energy.
+
+        With :class:`Stability`: the lowest eigenvalue per step, the interpolated load factors
+        where it crosses zero (the first as ``critical_load_factor``, None if none), the
+        perturbations (load factor and the eigenvalue before) and the eigensolver.
+        """
+        summary: dict[str, Any] = {
             "dofs": self.num_dofs,
             "load_factor": self.time,
             "load_steps": len(self.schedule),
@@ -341,6 +398,15 @@ class Continuation:
             "residual_norms": self.residual_norms,
             "energy": self.energy_value(),
         }
+        if self.stability:
+            summary.update(
+                lowest_eigenvalues=[getattr(record, LOWEST) for record in self.history],
+                critical_load_factors=self.crossings,
+                critical_load_factor=self.crossings[0] if self.crossings else None,
+                perturbations=self.perturbations,
+                eigensolver=self.eigensolver,
+            )
+        return summary
 
     def destroy(self) -> None:
         """Free the PETSc objects and delete this driver's options (idempotent)."""
@@ -350,7 +416,7 @@ class Continuation:
         opts = PETSc.Options()
         for key in self._options:
             opts.delValue(f"{self._prefix}{key}")
-        for obj in (self.snes, self._A, self._b, self._x):
+        for obj in (self.snes, self._A, self._b, self._x, self._free[0]):
             obj.destroy()
         _LIVE_PREFIXES.discard(self._prefix)
 
@@ -378,8 +444,32 @@ class Continuation:
         start = time.perf_counter()
         self._predict(factor)
         self._set_load(factor)
-        self.state.x.petsc_vec.copy(self._x)
         self._norms = []
+        its = self._newton(factor)
+        self._states = [*self._states[-1:], (factor, self.state.x.array.copy())]
+        probes: dict[str, float] = {}
+        if self.stability:
+            probes[LOWEST], more = self._check_stability(factor, self.stability)
+            its += more
+        self.step_count += 1
+        self.residual_norms.append(list(self._norms))
+        self._shape = self._update_shape()
+        probes.update(self._probes() if self._probes else {})
+        record = self._record(
+            step=self.step_count,
+            load_factor=factor,
+            iterations=its,
+            residual=self._norms[-1] if self._norms else math.nan,
+            energy=self.energy_value(),
+            seconds=time.perf_counter() - start,
+            **probes,
+        )
+        self.history.append(record)
+        return record
+
+    def _newton(self, factor: float) -> int:
+        """SNES from the current state at ``factor``: its iterations, or a SolverError."""
+        self.state.x.petsc_vec.copy(self._x)
         self.snes.solve(None, self._x)
         # an int at run time (petsc4py's stubs say ConvergedReason)
         reason = cast(int, self.snes.getConvergedReason())
@@ -392,22 +482,76 @@ class Continuation:
                 f"Newton failed at load step {self.step_count + 1} (load factor {factor:g}): "
                 f"SNES reason {snes_reason(reason)} after {its} iterations{hint}"
             )
-        self._states = [*self._states[-1:], (factor, self.state.x.array.copy())]
-        self.step_count += 1
-        self.residual_norms.append(list(self._norms))
-        self._shape = self._update_shape()
-        probes = dict(self._probes()) if self._probes else {}
-        record = self._record(
-            step=self.step_count,
-            load_factor=factor,
-            iterations=its,
-            residual=self._norms[-1] if self._norms else math.nan,
-            energy=self.energy_value(),
-            seconds=time.perf_counter() - start,
-            **probes,
-        )
-        self.history.append(record)
-        return record
+        return int(its)
+
+    def lowest_eigenpairs(self, stability: Stability) -> eigen.Eigenpairs:
+        """The Hessian eigenpairs of the current state nearest ``stability.shift`` (free dofs).
+
+        The eigenvectors live on the free unknowns (:meth:`free_rows`); destroy them after use.
+        """
+        self._assemble_jacobian(self.snes, self.state.x.petsc_vec, self._A, self._A)
+        free = self._A.createSubMatrix(self._free[0], self._free[0])
+        try:
+            return eigen.nearest_eigenpairs(
+                free, stability.modes, stability.shift, stability.solver, stability.tol
+            )
+        finally:
+            free.destroy()
+
+    def _check_stability(self, factor: float, stability: Stability) -> tuple[float, int]:
+        """The lowest eigenvalue after the step (and after a perturbation), Newton its spent.
+
+        NaN when the eigensolver fails (a singular Hessian at the shift): the run goes on.
+        """
+        try:
+            pairs = self.lowest_eigenpairs(stability)
+        except SolverError as err:
+            _log.warning("no lowest eigenvalue at load factor %g: %s", factor, err)
+            return math.nan, 0
+        lowest = float(pairs.values[0]) if len(pairs.values) else math.nan
+        previous = getattr(self.history[-1], LOWEST) if self.history else math.nan
+        if previous >= 0 > lowest:
+            f0 = self.history[-1].load_factor
+            self.crossings.append(f0 + (factor - f0) * previous / (previous - lowest))
+        its = 0
+        if stability.perturb and lowest < 0 and not previous < 0:
+            amplitude, its = self._leave_unstable(factor, stability, pairs.vectors[0])
+            self.perturbations.append(
+                {"load_factor": factor, "eigenvalue": lowest, "amplitude": amplitude}
+            )
+            pairs.destroy()
+            pairs = self.lowest_eigenpairs(stability)
+            lowest = float(pairs.values[0]) if len(pairs.values) else math.nan
+        pairs.destroy()
+        return lowest, its
+
+    def _leave_unstable(
+        self, factor: float, stability: Stability, mode: PETSc.Vec
+    ) -> tuple[float, int]:
+        """Push the state along ``mode`` and solve again at ``factor``: (amplitude, Newton its).
+
+        Newton may fall back to the unstable state when the push is small against the distance
+        to the stable branch (near a pitchfork, from inside the inflection point): the push is
+        then doubled, at most three times.
+        """
+        unstable = self.state.x.array.copy()
+        values = eigen.values_of(mode)
+        largest = self.comm.allreduce(float(np.abs(values).max(initial=0.0)), op=MPI.MAX)
+        direction = values / largest
+        amplitude, its = stability.perturb, 0
+        for attempt in range(4):
+            amplitude = stability.perturb * 2**attempt
+            self.state.x.array[:] = unstable
+            self.state.x.array[self._free[1]] += amplitude * direction
+            self.state.x.scatter_forward()
+            its += self._newton(factor)
+            pairs = self.lowest_eigenpairs(stability)
+            stable = len(pairs.values) > 0 and pairs.values[0] >= 0
+            pairs.destroy()
+            if stable:
+                break
+        self._states = [(factor, self.state.x.array.copy())]
+        return amplitude, its
 
     def _predict(self, factor: float) -> None:
         """The secant extrapolation of the last two states to ``factor`` (if there are two)."""
@@ -436,6 +580,24 @@ class Continuation:
         """Π of the current state (collective)."""
         local = dolfinx.fem.assemble_scalar(self._energy)
         return float(self.comm.allreduce(local, op=MPI.SUM))
+
+
+def _free_rows(
+    space: dolfinx.fem.FunctionSpace[np.float64],
+    bcs: Sequence[dolfinx.fem.DirichletBC[np.float64]],
+) -> tuple[PETSc.IS, npt.NDArray[np.int64]]:
+    """The owned unknowns without Dirichlet conditions: global rows (an IS) and local indices."""
+    imap, bs = space.dofmap.index_map, space.dofmap.index_map_bs
+    owned = imap.size_local * bs
+    free = np.ones(owned, dtype=bool)
+    for bc in bcs:
+        dofs = bc.dof_indices()[0]
+        free[dofs[dofs < owned]] = False
+    local = np.flatnonzero(free).astype(np.int64)
+    rows = PETSc.IS().createGeneral(
+        (imap.local_range[0] * bs + local).astype(PETSc.IntType), comm=space.mesh.comm
+    )
+    return rows, local
 
 
 def _checked_schedule(schedule: Sequence[float], start: float) -> list[float]:
