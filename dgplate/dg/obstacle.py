@@ -115,8 +115,7 @@ class Obstacle:
     def distance(self, y: Expr, mesh: Mesh, key: str = "model.obstacle") -> Expr:
         """s(y): ≥ 0 where y is admissible, < 0 by the penetration depth (a UFL scalar)."""
         if self.kind in ("above", "below"):
-            psi = expressions.parse(self.psi, mesh, f"{key}.psi")
-            height = values.constant(mesh, psi) if isinstance(psi, float) else psi
+            height = _height(expressions.parse(self.psi, mesh, f"{key}.psi"), mesh)
             gap: Expr = y[2] - height if self.kind == "above" else height - y[2]
             return gap
         if self.kind == "plane":
@@ -155,6 +154,13 @@ class Obstacle:
             implicit = 0.5 * inv * ufl.dot(shift, shift) * dx
             explicit = 0.5 * inv * (negative**2 - ufl.dot(shift, shift)) * dx
         return Energy(implicit=implicit, explicit=explicit)
+
+
+def _height(psi: float | Expr, mesh: Mesh) -> Expr:
+    """ψ as a value of the forms: a Constant when it is a number or folds to one."""
+    if isinstance(psi, float | ufl.constantvalue.ScalarValue):  # "0.2 + 0*x" folds to 0.2
+        return values.constant(mesh, float(psi))
+    return psi
 
 
 def _parse_geometry(kind: str, table: dict[str, Any], key: str) -> dict[str, Any]:
