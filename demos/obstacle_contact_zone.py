@@ -43,7 +43,7 @@ comm = MPI.COMM_WORLD
 MU, HEIGHT, LENGTH, WIDTH = 1.0, 0.02, 2.0, 0.25
 cells = 16 if args.paper else 8
 weights_plate = [0.5, 1.0, 2.0, 4.0] if args.paper else [1.0, 2.0, 4.0]
-weights_bilayer = [2.0, 3.0, 4.0, 6.0] if args.paper else [2.0, 4.0]
+weights_bilayer = [2.0, 3.0, 4.0, 6.0] if args.paper else [3.0, 4.0]
 EPS_PLATE, EPS_BILAYER = 2e-4, 1e-3
 
 
@@ -63,7 +63,7 @@ def strip(model: dict, q: float, epsilon: float, tau: float) -> dgplate.Problem:
                 **model,
             },
             "flow": {"tau": tau, "tol": 1e-7, "max_steps": 2000},
-            "output": {"png": False, "vtx": False, "progress": 0},
+            "output": {"progress": 0},
         },
         "contact_zone",
     )
