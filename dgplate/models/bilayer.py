@@ -41,6 +41,7 @@ from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import PlateModel, clamped_data, piecewise_constant
 from dgplate.models.kirchhoff import KirchhoffSpec
+from dgplate.models.obstacle import with_obstacle
 from dgplate.schema import is_matrix, is_number, option
 
 __all__ = [
@@ -188,4 +189,5 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
     def energy_fn(y: Function) -> Energy:
         return bilayer_energy(y, facets, penalty, Z, mu, load, g, Phi, spec.consistent, degree)
 
-    return PlateModel(facets, spec.degree, energy_fn, measures=[curvature_summary])
+    plate = PlateModel(facets, spec.degree, energy_fn, measures=[curvature_summary])
+    return with_obstacle(plate, spec.obstacle_params, g)

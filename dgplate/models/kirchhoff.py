@@ -17,9 +17,11 @@ from dgplate import expressions, values
 from dgplate.compat import Function
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import BendingData, FacetSets, Penalty, bending_energy, facet_sets
+from dgplate.dg.obstacle import Obstacle
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import PlateModel, clamped_data, piecewise_constant
+from dgplate.models.obstacle import with_obstacle
 from dgplate.schema import option
 
 
@@ -60,6 +62,10 @@ class KirchhoffSpec:
         "flat",
         "clamped data: 'flat' (g = (x, y, 0), Φ = [I; 0]) or {g = [3 formulas], Phi = [[..], [..], [..]]} (Φ defaults to ∇g)",
     )
+    obstacle: dict[str, object] = option(
+        {},
+        "rigid obstacle (penalty (1/2ε)∫(s)₋², docs/obstacle.md): {} none, or {type = 'above'|'below' (y₃ ≥ ψ | y₃ ≤ ψ), psi = number or formula in x, y}, {type = 'plane', normal = [3], point = [3]} (n·(y − p) ≥ 0), {type = 'sphere', center = [3], radius = R, side = 'outside'|'inside'}; each with epsilon = ε > 0 (default 1e-4)",
+    )
 
     def __post_init__(self) -> None:
         if self.degree < 2:
@@ -73,6 +79,7 @@ class KirchhoffSpec:
                 f"model.boundary_data must be 'flat' or a table {{g, Phi}}, got {self.boundary_data!r}"
             )
         self._penalty = Penalty.from_table(self.penalty, "model.penalty")
+        self._obstacle = Obstacle.from_table(self.obstacle, "model.obstacle")
         self._check_data()
 
     def _check_data(self) -> None:
@@ -92,6 +99,11 @@ class KirchhoffSpec:
         """The validated ``penalty`` table (missing keys: :class:`Penalty`'s defaults)."""
         return self._penalty
 
+    @property
+    def obstacle_params(self) -> Obstacle | None:
+        """The validated ``obstacle`` table (None: no obstacle)."""
+        return self._obstacle
+
 
 def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     """Facet sets and the energy of a Kirchhoff problem (validates group names)."""
@@ -104,4 +116,4 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     def energy_fn(y: Function) -> Energy:
         return kirchhoff_energy(y, facets, penalty, load=load, mu=mu, g=g, Phi=Phi)
 
-    return PlateModel(facets, spec.degree, energy_fn)
+    return with_obstacle(PlateModel(facets, spec.degree, energy_fn), spec.obstacle_params, g)

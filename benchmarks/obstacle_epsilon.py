@@ -1,0 +1,101 @@
+"""How the penalty ε of a rigid obstacle shows in the contact: lift-off length and penetration.
+
+The heavy strip of ``tests/test_obstacle.py`` (ω = (0, 2) × (0, 0.25), clamped horizontally at
+height H = 0.02 above the table y₃ ≥ 0, weight q = 1, μ = 1) is run from the flat start at the
+clamp's height for several ε on one mesh. Reported per ε: the plate's lift-off point (where the
+contact starts), the lift-off ℓ_ε of the one-dimensional penalised beam
+(:func:`dgplate.reference.obstacle.penalised_lift_off`), the rigid-table ℓ, the maximal
+penetration (also in units of qε, the sinking of the part that the penalty carries alone),
+steps and seconds.
+
+    python benchmarks/obstacle_epsilon.py --cells 16 --json benchmarks/results/obstacle_epsilon.json
+
+The 1D reference alone (no plate runs, seconds) for smaller ε: ``--beam-only``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+
+import dgplate
+from dgplate.io.output import print0
+from dgplate.reference.obstacle import lift_off_length, penalised_lift_off
+
+MU, HEIGHT, WEIGHT, LENGTH, WIDTH = 1.0, 0.02, 1.0, 2.0, 0.25
+
+
+def strip(cells: int, epsilon: float, max_steps: int) -> dgplate.Problem:
+    """The strip problem at penalty ε."""
+    return dgplate.problem_from_dict(
+        {
+            "mesh": {
+                "corners": [[0.0, 0.0], [LENGTH, WIDTH]],
+                "cells": [cells, 2],
+                "cell_type": "quadrilateral",
+            },
+            "model": {
+                "clamped": ["left"],
+                "load": [0.0, 0.0, -WEIGHT],
+                "boundary_data": {"g": ["x", "y", HEIGHT], "Phi": [[1, 0], [0, 1], [0, 0]]},
+                "obstacle": {"type": "above", "psi": 0.0, "epsilon": epsilon},
+            },
+            "flow": {"tau": 1.0, "tol": 1e-8, "max_steps": max_steps},
+            "output": {"png": False, "vtx": False, "progress": 0},
+        },
+        "strip",
+    )
+
+
+def main() -> None:
+    """Run the strip for each ε and print (and write) the table."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cells", type=int, default=16)
+    parser.add_argument("--eps", type=float, nargs="+", default=[1e-3, 5e-4, 2e-4, 1e-4, 5e-5])
+    parser.add_argument("--max-steps", type=int, default=3000)
+    parser.add_argument("--beam-only", action="store_true", help="only the 1D penalised beam")
+    parser.add_argument("--out", default="out/obstacle_epsilon")
+    parser.add_argument("--json", default=None)
+    args = parser.parse_args()
+    comm = MPI.COMM_WORLD
+    ell = lift_off_length(MU, HEIGHT, WEIGHT)
+    rows = []
+    for eps in args.eps:
+        row: dict[str, object] = {
+            "epsilon": eps,
+            "ell": ell,
+            "ell_eps_beam": penalised_lift_off(MU, HEIGHT, WEIGHT, eps, LENGTH, n=800),
+        }
+        if not args.beam_only:
+            t0 = time.perf_counter()
+            result = dgplate.run(
+                strip(args.cells, eps, args.max_steps),
+                out=Path(args.out) / f"eps{eps:g}",
+                comm=comm,
+                initial=lambda x: np.vstack([x[0], x[1], np.full_like(x[0], HEIGHT)]),
+                force=True,
+            )
+            row.update(
+                lift_off=result["contact_extent"][0] if result["contact_extent"] else None,
+                max_penetration=result["max_penetration"],
+                penetration_over_q_eps=result["max_penetration"] / (WEIGHT * eps),
+                contact_force=result["contact_force"],
+                steps=result["steps"],
+                converged=result["converged"],
+                energy_increases=len(result["energy_increases"]),
+                seconds=time.perf_counter() - t0,
+            )
+        rows.append(row)
+        print0(comm, json.dumps(row))
+    if args.json and comm.rank == 0:
+        Path(args.json).write_text(json.dumps({"cells": args.cells, "rows": rows}, indent=1))
+
+
+if __name__ == "__main__":
+    main()
