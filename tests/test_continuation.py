@@ -62,8 +62,10 @@ def check_rigid_flap(result) -> None:
 
 
 @pytest.mark.mpi
-def test_rigid_motion_of_the_data_gives_a_rigid_plate(tmp_path, comm):
-    result = dgplate.run(flap(), out=out_dir(tmp_path, comm), comm=comm)
+@pytest.mark.parametrize("model", [{}, {"model.name": "bilayer", "model.Z": 0.0}])
+def test_rigid_motion_of_the_data_gives_a_rigid_plate(tmp_path, comm, model):
+    """Kirchhoff, and a bilayer without spontaneous curvature: the same rigid flap."""
+    result = dgplate.run(flap(**model), out=out_dir(tmp_path, comm), comm=comm)
     check_rigid_flap(result)
     # α along the path: every step reports its α, the stages in order, each ending converged
     alphas = [row["alpha"] for row in result.history]
