@@ -47,11 +47,14 @@ def _map(values: object, key: str, leaf: Callable[[object, str], T]) -> Nested[T
     return leaf(values, key)
 
 
-def array(values: object, mesh: Mesh, key: str) -> float | Expr:
+def array(
+    values: object, mesh: Mesh, key: str, names: expressions.Names | None = None
+) -> float | Expr:
     """A number, a formula, or nested lists of them (shape checked by the caller) as UFL.
 
     Numbers only: one Constant of their shape. With formulas: a UFL tensor whose numeric
-    entries are scalar Constants. Entries are checked by :func:`dgplate.expressions.parse`.
+    entries are scalar Constants. Entries are checked by :func:`dgplate.expressions.parse`;
+    ``names`` adds symbols of the formulas (e.g. a Constant ``alpha``).
     """
     if expressions.is_constant(values):
         numbers: Nested[float] = _map(values, key, expressions.finite_number)
@@ -59,16 +62,18 @@ def array(values: object, mesh: Mesh, key: str) -> float | Expr:
 
     def leaf(value: object, k: str) -> float | Expr:
         if isinstance(value, str):
-            return expressions.formula(value, mesh, k)
+            return expressions.formula(value, mesh, k, names)
         return constant(mesh, expressions.finite_number(value, k))
 
     entries = _map(values, key, leaf)
     return compat.as_tensor(entries) if isinstance(entries, list) else entries
 
 
-def vector(values: object, mesh: Mesh, key: str, size: int) -> Expr:
+def vector(
+    values: object, mesh: Mesh, key: str, size: int, names: expressions.Names | None = None
+) -> Expr:
     """:func:`dgplate.expressions.parse_vector`'s checks and messages, numbers as Constants."""
-    expressions.parse_vector(values, mesh, key, size)  # checks only: a list of `size` entries
-    tensor = array(values, mesh, key)
+    expressions.parse_vector(values, mesh, key, size, names)  # checks only: `size` entries
+    tensor = array(values, mesh, key, names)
     assert not isinstance(tensor, float)  # a list gives a vector
     return tensor

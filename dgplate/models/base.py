@@ -3,12 +3,15 @@
 A model is an energy written once in UFL plus what its driver needs. :class:`Model` is the
 protocol the runner sees; :class:`PlateModel` is the shape of every isometry-constrained plate
 (Kirchhoff, bilayer, foundation, …): facets, degree and the energy of the deformation, run by the
-constrained gradient flow. Models with another state or driver (FvK: Newton over a load
-schedule; thermal: heat steps coupled to the flow) implement :class:`Model` themselves.
+constrained gradient flow, or, when its clamped data move along a path in α
+(:class:`Continuation`), by the flow staged in α (:mod:`dgplate.solvers.continuation`). Models
+with another state or driver (FvK: Newton over a load schedule; thermal: heat steps coupled to
+the flow) implement :class:`Model` themselves.
 """
 
 from __future__ import annotations
 
+import ast
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -17,17 +20,29 @@ import ufl
 from ufl.core.expr import Expr
 
 from dgplate import values
-from dgplate.compat import Array, Function, Mesh
+from dgplate.compat import Array, Constant, Function, Mesh
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets
 from dgplate.errors import InputError
 from dgplate.measure.creases import crease_polylines, fold_angle_summary
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import is_matrix, is_number
+from dgplate.solvers.continuation import ContinuationFlow, Schedule
 from dgplate.solvers.driver import Driver, Observer
 from dgplate.solvers.flow import FlowSpec, GradientFlow, Initial
 
-__all__ = ["Initial", "Model", "PlateModel", "clamped_data", "flat_identity", "piecewise_constant"]
+__all__ = [
+    "Continuation",
+    "Initial",
+    "Model",
+    "PlateModel",
+    "clamped_data",
+    "continuation_path",
+    "continuation_schedule",
+    "flat_identity",
+    "mentions",
+    "piecewise_constant",
+]
 
 
 class Model(Protocol):
@@ -52,26 +67,48 @@ class Model(Protocol):
         ...
 
 
+@dataclass(frozen=True)
+class Continuation:
+    """Clamped data on a path: the Constant α of the forms and the schedule that moves it."""
+
+    alpha: Constant
+    schedule: Schedule
+
+
 @dataclass
 class PlateModel:
     """An isometry-constrained plate: the energy of y ∈ [DG_k]³, run by the gradient flow.
 
     ``measures`` add numbers of the final deformation to ``summary.json``; fold angles of
-    crease facets are always reported.
+    crease facets are always reported. With ``continuation`` the clamped data move along α
+    and the flow is staged (:class:`~dgplate.solvers.continuation.ContinuationFlow`).
     """
 
     facets: FacetSets
     degree: int
     energy: Callable[[Function], Energy]
     measures: Sequence[Callable[[Function], dict[str, Any]]] = field(default_factory=tuple)
+    continuation: Continuation | None = None
 
     def driver(
         self, flow: FlowSpec, observers: Sequence[Observer], initial: Initial | None
-    ) -> GradientFlow:
-        """The constrained gradient flow of :attr:`energy`."""
-        return GradientFlow(self.facets, self.degree, self.energy, flow, observers, initial)
+    ) -> GradientFlow | ContinuationFlow:
+        """The constrained gradient flow of :attr:`energy`, staged in α with a continuation."""
+        path = self.continuation
+        if path is None:
+            return GradientFlow(self.facets, self.degree, self.energy, flow, observers, initial)
+        return ContinuationFlow(
+            self.facets,
+            self.degree,
+            self.energy,
+            flow,
+            path.alpha,
+            path.schedule,
+            observers,
+            initial,
+        )
 
-    def figures(self, driver: GradientFlow) -> dict[str, Any]:
+    def figures(self, driver: GradientFlow | ContinuationFlow) -> dict[str, Any]:
         """Fold angles along creases and the numbers of :attr:`measures`."""
         out: dict[str, Any] = {}
         if self.facets.num_crease:
@@ -80,7 +117,7 @@ class PlateModel:
             out.update(measure(driver.y))
         return out
 
-    def lines(self, driver: GradientFlow) -> list[Array]:
+    def lines(self, driver: GradientFlow | ContinuationFlow) -> list[Array]:
         """The deformed crease lines."""
         return crease_polylines(driver.y, self.facets) if self.facets.num_crease else []
 
@@ -110,12 +147,68 @@ def piecewise_constant(tagged: TaggedMesh, data: object, key: str) -> Expr:
     return tagged.group_function(data, key=key)
 
 
-def clamped_data(value: object, mesh: Mesh, key: str = "model.boundary_data") -> tuple[Expr, Expr]:
+def continuation_schedule(
+    table: dict[str, object], clamped: Sequence[str], data: object, key: str = "model.continuation"
+) -> Schedule | None:
+    """The schedule of ``model.continuation`` (None if empty), checked against the data.
+
+    A continuation needs clamped faces and data other than 'flat' (the end of the path);
+    formulas in ``alpha`` need a continuation.
+    """
+    if not table:
+        if mentions(data, "alpha"):
+            raise InputError(
+                "model.boundary_data uses alpha, which needs model.continuation (e.g. {steps = 10})"
+            )
+        return None
+    schedule = Schedule.from_table(table, key)
+    if not clamped:
+        raise InputError(f"{key} moves clamped data, but model.clamped is empty")
+    if data == "flat":
+        raise InputError(
+            f"{key} needs model.boundary_data = {{g = [...]}}: the data at the end of the path"
+        )
+    return schedule
+
+
+def continuation_path(schedule: Schedule | None, mesh: Mesh) -> Continuation | None:
+    """The Constant α (at its first value) with the schedule; None without a schedule."""
+    if schedule is None:
+        return None
+    return Continuation(values.constant(mesh, schedule.alpha(0)), schedule)
+
+
+def mentions(value: object, name: str) -> bool:
+    """True when a formula of ``value`` (a string, or nested lists and tables) uses ``name``.
+
+    Formulas that do not parse use nothing (their errors are reported where they are parsed).
+    """
+    if isinstance(value, dict):
+        return any(mentions(v, name) for v in value.values())
+    if isinstance(value, list | tuple):
+        return any(mentions(v, name) for v in value)
+    if not isinstance(value, str):
+        return False
+    try:
+        tree = ast.parse(value.strip(), mode="eval")
+    except (SyntaxError, ValueError, RecursionError, MemoryError):
+        return False
+    return any(isinstance(node, ast.Name) and node.id == name for node in ast.walk(tree))
+
+
+def clamped_data(
+    value: object,
+    mesh: Mesh,
+    key: str = "model.boundary_data",
+    alpha: Constant | None = None,
+) -> tuple[Expr, Expr]:
     """Nitsche data (g, Φ) on clamped facets from a problem file.
 
     ``"flat"``: g = (x, y, 0), Φ = [I₂; 0]. A table ``{g = [3 formulas], Phi = [[2], [2], [2]]}``
     gives any data, e.g. a folded sheet; Φ defaults to ∇g. Numbers in the table are Constants
-    (:mod:`dgplate.values`).
+    (:mod:`dgplate.values`). With the Constant ``alpha`` the data follow a path
+    (docs/continuation.md): formulas that use ``alpha`` are the path themselves; otherwise the
+    path is (1 − α)·id + α·g, and Φ likewise (1 − α)·[I₂; 0] + α·Φ.
     """
     if value == "flat":
         return flat_identity(mesh)
@@ -123,13 +216,20 @@ def clamped_data(value: object, mesh: Mesh, key: str = "model.boundary_data") ->
         raise InputError(
             f"{key} must be 'flat' or a table {{g = [..3..], Phi = [[..2..] x3]}}, got {value!r}"
         )
-    g = values.vector(value["g"], mesh, f"{key}.g", 3)
+    names = {"alpha": alpha} if alpha is not None else None
+    g = values.vector(value["g"], mesh, f"{key}.g", 3, names)
     if "Phi" not in value:
-        gradient: Expr = ufl.grad(g)
-        return g, gradient
-    rows = value["Phi"]
-    if not is_matrix(rows, 3, 2):
-        raise InputError(f"{key}.Phi must be a 3×2 matrix [[..], [..], [..]], got {rows!r}")
-    Phi = values.array(rows, mesh, f"{key}.Phi")
-    assert not isinstance(Phi, float)  # a matrix gives a tensor
-    return g, Phi
+        Phi: Expr = ufl.grad(g)
+    else:
+        rows = value["Phi"]
+        if not is_matrix(rows, 3, 2):
+            raise InputError(f"{key}.Phi must be a 3×2 matrix [[..], [..], [..]], got {rows!r}")
+        matrix = values.array(rows, mesh, f"{key}.Phi", names)
+        assert not isinstance(matrix, float)  # a matrix gives a tensor
+        Phi = matrix
+    if alpha is None or mentions(value, "alpha"):
+        return g, Phi
+    identity, gradient = flat_identity(mesh)
+    path: Expr = (1 - alpha) * identity + alpha * g
+    path_gradient: Expr = (1 - alpha) * gradient + alpha * Phi
+    return path, path_gradient

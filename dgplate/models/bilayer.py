@@ -39,7 +39,7 @@ from dgplate.dg.forms import (
 from dgplate.dg.geometry import second_fundamental_form, unit_normal
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
-from dgplate.models.base import PlateModel, clamped_data, piecewise_constant
+from dgplate.models.base import PlateModel, clamped_data, continuation_path, piecewise_constant
 from dgplate.models.kirchhoff import KirchhoffSpec
 from dgplate.models.obstacle import with_obstacle
 from dgplate.schema import is_matrix, is_number, option
@@ -182,12 +182,15 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
     load = values.vector(spec.load, tagged.mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     Z = spontaneous_curvature(spec.Z, tagged)
-    g, Phi = clamped_data(spec.boundary_data, tagged.mesh)
+    path = continuation_path(spec.schedule, tagged.mesh)
+    g, Phi = clamped_data(spec.boundary_data, tagged.mesh, alpha=path.alpha if path else None)
     penalty = spec.penalty_params
     degree = 3 * spec.degree + 2
 
     def energy_fn(y: Function) -> Energy:
         return bilayer_energy(y, facets, penalty, Z, mu, load, g, Phi, spec.consistent, degree)
 
-    plate = PlateModel(facets, spec.degree, energy_fn, measures=[curvature_summary])
+    plate = PlateModel(
+        facets, spec.degree, energy_fn, measures=[curvature_summary], continuation=path
+    )
     return with_obstacle(plate, spec.obstacle_params, g)

@@ -20,9 +20,16 @@ from dgplate.dg.forms import BendingData, FacetSets, Penalty, bending_energy, fa
 from dgplate.dg.obstacle import Obstacle
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
-from dgplate.models.base import PlateModel, clamped_data, piecewise_constant
+from dgplate.models.base import (
+    PlateModel,
+    clamped_data,
+    continuation_path,
+    continuation_schedule,
+    piecewise_constant,
+)
 from dgplate.models.obstacle import with_obstacle
 from dgplate.schema import option
+from dgplate.solvers.continuation import Schedule
 
 
 def kirchhoff_energy(
@@ -58,6 +65,10 @@ class KirchhoffSpec:
         {"gamma0": 5000.0, "gamma1": 1100.0},
         "IP penalties γ₀ (h⁻³[y]) and γ₁ (h⁻ᵖ[∇y]); gradient_power p (default 1, at most 3) over-penalises gradient jumps",
     )
+    continuation: dict[str, object] = option(
+        {},
+        "move the clamped data along α ∈ (0, 1]: {steps = N} (α = 1/N, …, 1), {alpha = [increasing values]} or {rate = δα} (α grows by δα per flow step); stage_steps = flow steps per stage (200). Path: boundary_data formulas in x, y, alpha, else (1 − α)·id + α·g",
+    )
     boundary_data: str | dict[str, object] = option(
         "flat",
         "clamped data: 'flat' (g = (x, y, 0), Φ = [I; 0]) or {g = [3 formulas], Phi = [[..], [..], [..]]} (Φ defaults to ∇g)",
@@ -89,10 +100,19 @@ class KirchhoffSpec:
                 f"model.load must be a list of 3 numbers or formulas, got {self.load!r}"
             )
         expressions.check(self.load, "model.load")
+        self._schedule = continuation_schedule(self.continuation, self.clamped, self.boundary_data)
+        moving = {"alpha": 1.0} if self.continuation else None
         if isinstance(self.boundary_data, dict):
             for name in ("g", "Phi"):
                 if name in self.boundary_data:
-                    expressions.check(self.boundary_data[name], f"model.boundary_data.{name}")
+                    expressions.check(
+                        self.boundary_data[name], f"model.boundary_data.{name}", moving
+                    )
+
+    @property
+    def schedule(self) -> Schedule | None:
+        """The validated ``continuation`` (None: the clamped data do not move)."""
+        return self._schedule
 
     @property
     def penalty_params(self) -> Penalty:
@@ -110,10 +130,12 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     facets = facet_sets(tagged, clamped=spec.clamped, crease=spec.crease)
     load = values.vector(spec.load, tagged.mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
-    g, Phi = clamped_data(spec.boundary_data, tagged.mesh)
+    path = continuation_path(spec.schedule, tagged.mesh)
+    g, Phi = clamped_data(spec.boundary_data, tagged.mesh, alpha=path.alpha if path else None)
     penalty = spec.penalty_params
 
     def energy_fn(y: Function) -> Energy:
         return kirchhoff_energy(y, facets, penalty, load=load, mu=mu, g=g, Phi=Phi)
 
-    return with_obstacle(PlateModel(facets, spec.degree, energy_fn), spec.obstacle_params, g)
+    plate = PlateModel(facets, spec.degree, energy_fn, continuation=path)
+    return with_obstacle(plate, spec.obstacle_params, g)

@@ -77,7 +77,7 @@ def nothing_to_solve(problem: Problem, mesh: Mesh, starts_flat: bool = True) -> 
     An empty problem file (no [model]) is the first case. None for other models.
     """
     spec = problem.model
-    if not starts_flat or spec.name not in ("kirchhoff", "bilayer"):
+    if not starts_flat or spec.name not in ("kirchhoff", "bilayer") or spec.continuation:
         return None
     if not all(_agree(f, 0.0, mesh) for f in spec.load):
         return None

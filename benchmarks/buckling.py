@@ -1,0 +1,73 @@
+"""The compressed strip of Bonito–Nochetto–Ntogkas (M3AS 2021), §6.3, by boundary continuation.
+
+ω = (−2, 2) × (0, 1) clamped at x₁ = ±2 with g = (x₁ − 1.4·sign(x₁), x₂, 0), f = (0, 0, 1e-2),
+φ(α) = (1 − α)·id + α·g with α += δα per flow step, γ₀ = γ₁ = 1e4, τ = 0.04625 (published:
+δα = 5e-5, final D_h ≈ 5.04e-3). Runs ``demos/problems/buckling_strip.toml`` with the given
+mesh and δα and writes E_h, D_h, the height and its elastica value, steps and time as JSON:
+
+    python benchmarks/buckling.py --cells 16 2 --rate 5e-5 --json benchmarks/results/buckling.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+import dgplate
+from dgplate.reference.elastica import clamped_elastica
+
+PROBLEM = Path(__file__).parents[1] / "demos" / "problems" / "buckling_strip.toml"
+PUBLISHED_DEFECT = 5.04e-3
+
+
+def main() -> None:
+    """Run one strip and print (and write) its figures."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cells", type=int, nargs=2, default=[16, 2])
+    parser.add_argument("--rate", type=float, default=5e-5, help="δα per flow step")
+    parser.add_argument("--projection-steps", type=int, default=0)
+    parser.add_argument("--out", default="out/benchmark_buckling")
+    parser.add_argument("--json", default="")
+    args = parser.parse_args()
+    overrides = {
+        "mesh.cells": args.cells,
+        "model.continuation": {"rate": args.rate},
+        "flow.projection_steps": args.projection_steps,
+        "output.vtx": False,
+        "output.progress": 1000,
+    }
+    problem = dgplate.load_problem(PROBLEM, overrides)
+    t0 = time.perf_counter()
+    result = dgplate.run(problem, out=args.out, force=True)
+    height = result["bbox"][1][2]
+    elastica = clamped_elastica(4.0, 2.8)["height"]
+    figures = {
+        "cells": args.cells,
+        "rate": args.rate,
+        "projection_steps": args.projection_steps,
+        "ranks": MPI.COMM_WORLD.size,
+        "dofs": result["dofs"],
+        "steps": result["steps"],
+        "converged": result["converged"],
+        "energy": result["energy"],
+        "isometry_defect": result["isometry_defect"],
+        "published_defect": PUBLISHED_DEFECT,
+        "defect_ratio": result["isometry_defect"] / PUBLISHED_DEFECT,
+        "height": height,
+        "elastica_height": elastica,
+        "height_error": height / elastica - 1,
+        "energy_increases": len(result["energy_increases"]),
+        "wall_time_s": time.perf_counter() - t0,
+    }
+    if MPI.COMM_WORLD.rank == 0:
+        print(json.dumps(figures, indent=1))
+        if args.json:
+            Path(args.json).write_text(json.dumps(figures, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
