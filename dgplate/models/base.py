@@ -4,7 +4,7 @@ A model is an energy written once in UFL plus what its driver needs. :class:`Mod
 protocol the runner sees; :class:`PlateModel` is the shape of every isometry-constrained plate
 (Kirchhoff, bilayer, foundation, …): facets, degree and the energy of the deformation, run by the
 constrained gradient flow, or, when its clamped data move along a path in α
-(:class:`Continuation`), by the flow staged in α (:mod:`dgplate.solvers.continuation`). Models
+(:class:`DataPath`), by the flow staged in α (:mod:`dgplate.solvers.continuation`). Models
 with another state or driver (FvK: Newton over a load schedule; thermal: heat steps coupled to
 the flow) implement :class:`Model` themselves.
 """
@@ -27,12 +27,12 @@ from dgplate.errors import InputError
 from dgplate.measure.creases import crease_polylines, fold_angle_summary
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import is_matrix, is_number
-from dgplate.solvers.continuation import ContinuationFlow, Schedule
+from dgplate.solvers.continuation import AlphaSchedule, ContinuationFlow
 from dgplate.solvers.driver import Driver, Observer
 from dgplate.solvers.flow import FlowSpec, GradientFlow, Initial
 
 __all__ = [
-    "Continuation",
+    "DataPath",
     "Initial",
     "Model",
     "PlateModel",
@@ -68,11 +68,11 @@ class Model(Protocol):
 
 
 @dataclass(frozen=True)
-class Continuation:
+class DataPath:
     """Clamped data on a path: the Constant α of the forms and the schedule that moves it."""
 
     alpha: Constant
-    schedule: Schedule
+    schedule: AlphaSchedule
 
 
 @dataclass
@@ -88,7 +88,7 @@ class PlateModel:
     degree: int
     energy: Callable[[Function], Energy]
     measures: Sequence[Callable[[Function], dict[str, Any]]] = field(default_factory=tuple)
-    continuation: Continuation | None = None
+    continuation: DataPath | None = None
 
     def driver(
         self, flow: FlowSpec, observers: Sequence[Observer], initial: Initial | None
@@ -149,7 +149,7 @@ def piecewise_constant(tagged: TaggedMesh, data: object, key: str) -> Expr:
 
 def continuation_schedule(
     table: dict[str, object], clamped: Sequence[str], data: object, key: str = "model.continuation"
-) -> Schedule | None:
+) -> AlphaSchedule | None:
     """The schedule of ``model.continuation`` (None if empty), checked against the data.
 
     A continuation needs clamped faces and data other than 'flat' (the end of the path);
@@ -161,7 +161,7 @@ def continuation_schedule(
                 "model.boundary_data uses alpha, which needs model.continuation (e.g. {steps = 10})"
             )
         return None
-    schedule = Schedule.from_table(table, key)
+    schedule = AlphaSchedule.from_table(table, key)
     if not clamped:
         raise InputError(f"{key} moves clamped data, but model.clamped is empty")
     if data == "flat":
@@ -171,11 +171,11 @@ def continuation_schedule(
     return schedule
 
 
-def continuation_path(schedule: Schedule | None, mesh: Mesh) -> Continuation | None:
+def continuation_path(schedule: AlphaSchedule | None, mesh: Mesh) -> DataPath | None:
     """The Constant α (at its first value) with the schedule; None without a schedule."""
     if schedule is None:
         return None
-    return Continuation(values.constant(mesh, schedule.alpha(0)), schedule)
+    return DataPath(values.constant(mesh, schedule.alpha(0)), schedule)
 
 
 def mentions(value: object, name: str) -> bool:

@@ -29,7 +29,7 @@ from dgplate.models.base import (
 )
 from dgplate.models.obstacle import with_obstacle
 from dgplate.schema import option
-from dgplate.solvers.continuation import Schedule
+from dgplate.solvers.continuation import AlphaSchedule
 
 
 def kirchhoff_energy(
@@ -110,7 +110,7 @@ class KirchhoffSpec:
                     )
 
     @property
-    def schedule(self) -> Schedule | None:
+    def schedule(self) -> AlphaSchedule | None:
         """The validated ``continuation`` (None: the clamped data do not move)."""
         return self._schedule
 

@@ -6,7 +6,7 @@ forms, so a new value changes the data without recompiling anything, and since g
 the Nitsche terms linearly the flow's constant matrix does not depend on α either: only the
 right-hand side and the energy see it.
 
-:class:`Schedule` says how α advances: a list of increasing values, each a *stage* relaxed by
+:class:`AlphaSchedule` says how α advances: a list of increasing values, each a *stage* relaxed by
 the flow (warm-started from the last) until its stopping rule holds or the stage's budget is
 spent; or a fixed increment δα per flow step (Bonito–Nochetto–Ntogkas, §6.3), after which the
 flow relaxes at α = 1 until it converges. Every change of α rebases the flow's energy, so that
@@ -37,14 +37,14 @@ from dgplate.schema import is_integer, is_number
 from dgplate.solvers.driver import Driver, Observer, Record, RunOutcome, RunResult
 from dgplate.solvers.flow import FlowResult, FlowSpec, GradientFlow, Initial, StepInfo
 
-__all__ = ["ContinuationFlow", "ContinuationStep", "Schedule", "StageRecord"]
+__all__ = ["AlphaSchedule", "ContinuationFlow", "ContinuationStep", "StageRecord"]
 
 _KEYS = ("steps", "alpha", "rate", "stage_steps")
 _MAX_PATH = 200  # stages listed in summary.json (a δα schedule has thousands)
 
 
 @dataclass(frozen=True)
-class Schedule:
+class AlphaSchedule:
     """How α advances: the values of the stages and the flow steps each may take.
 
     ``alphas``: increasing values in (0, 1], one stage each, relaxed until the flow's
@@ -58,7 +58,7 @@ class Schedule:
     stage_steps: int = 200
 
     @classmethod
-    def from_table(cls, table: dict[str, Any], key: str = "model.continuation") -> Schedule:
+    def from_table(cls, table: dict[str, Any], key: str = "model.continuation") -> AlphaSchedule:
         """The schedule of a problem file's table: exactly one of steps, alpha, rate."""
         unknown = sorted(set(table) - set(_KEYS))
         if unknown:
@@ -170,7 +170,7 @@ class ContinuationFlow:
         energy_fn: Callable[[Function], Energy],
         settings: FlowSpec,
         alpha: Constant,
-        schedule: Schedule,
+        schedule: AlphaSchedule,
         observers: Sequence[Observer] = (),
         initial: Initial | None = None,
     ):
