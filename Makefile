@@ -17,8 +17,9 @@ demo: setup
 
 test: setup test-serial test-mpi
 
+# The demos beyond a core set run on 2 ranks in check-debian (marker demo_np2), not here.
 test-serial: setup
-	$(PY) -m pytest $(PYTEST_FLAGS) tests
+	$(PY) -m pytest $(PYTEST_FLAGS) -m "not demo_np2" tests
 
 # Tests marked `mpi` again on NP ranks; `-m mpi4py` aborts all ranks when one fails.
 test-mpi: setup
