@@ -29,27 +29,20 @@ from dgplate.io.output import print0
 from dgplate.reference.obstacle import lift_off_length, penalised_lift_off
 
 MU, HEIGHT, WEIGHT, LENGTH, WIDTH = 1.0, 0.02, 1.0, 2.0, 0.25
+STRIP = Path(__file__).resolve().parent.parent / "demos" / "problems" / "obstacle_strip.toml"
 
 
 def strip(cells: int, epsilon: float, max_steps: int) -> dgplate.Problem:
-    """The strip problem at penalty ε."""
-    return dgplate.problem_from_dict(
+    """The strip problem (demos/problems/obstacle_strip.toml) at penalty ε."""
+    return dgplate.load_problem(
+        STRIP,
         {
-            "mesh": {
-                "corners": [[0.0, 0.0], [LENGTH, WIDTH]],
-                "cells": [cells, 2],
-                "cell_type": "quadrilateral",
-            },
-            "model": {
-                "clamped": ["left"],
-                "load": [0.0, 0.0, -WEIGHT],
-                "boundary_data": {"g": ["x", "y", HEIGHT], "Phi": [[1, 0], [0, 1], [0, 0]]},
-                "obstacle": {"type": "above", "psi": 0.0, "epsilon": epsilon},
-            },
-            "flow": {"tau": 1.0, "tol": 1e-8, "max_steps": max_steps},
-            "output": {"png": False, "vtx": False, "progress": 0},
+            "mesh.cells": [cells, 2],
+            "model.obstacle.epsilon": epsilon,
+            "flow.max_steps": max_steps,
+            "output.png": False,
+            "output.vtx": False,
         },
-        "strip",
     )
 
 

@@ -48,24 +48,18 @@ EPS_PLATE, EPS_BILAYER = 2e-4, 1e-3
 
 
 def strip(model: dict, q: float, epsilon: float, tau: float) -> dgplate.Problem:
-    """The strip under the weight q against the table y₃ ≥ 0."""
-    return dgplate.problem_from_dict(
-        {
-            "mesh": {
-                "corners": [[0.0, 0.0], [LENGTH, WIDTH]],
-                "cells": [cells, 2],
-                "cell_type": "quadrilateral",
-            },
-            "model": {
-                "clamped": ["left"],
-                "load": [0.0, 0.0, -q],
-                "obstacle": {"type": "above", "psi": 0.0, "epsilon": epsilon},
-                **model,
-            },
-            "flow": {"tau": tau, "tol": 1e-7, "max_steps": 2000},
-            "output": {"progress": 0},
-        },
-        "contact_zone",
+    """The strip of demos/problems/obstacle_strip.toml under the weight q, with ``model`` keys."""
+    overrides = {
+        "mesh.cells": [cells, 2],
+        "model.load": [0.0, 0.0, -q],
+        "model.obstacle.epsilon": epsilon,
+        "flow.tau": tau,
+        "flow.tol": 1e-7,
+        "flow.max_steps": 2000,
+    }
+    overrides |= {f"model.{key}": value for key, value in model.items()}
+    return dgplate.load_problem(
+        Path(__file__).parent / "problems" / "obstacle_strip.toml", overrides
     )
 
 
@@ -77,7 +71,6 @@ def strip(model: dict, q: float, epsilon: float, tau: float) -> dgplate.Problem:
 # take more steps.
 
 # %%
-clamp_above = {"boundary_data": {"g": ["x", "y", HEIGHT], "Phi": [[1, 0], [0, 1], [0, 0]]}}
 
 
 def at_height(x: np.ndarray) -> np.ndarray:
@@ -86,7 +79,7 @@ def at_height(x: np.ndarray) -> np.ndarray:
 
 plate = []
 for q in weights_plate:
-    problem = strip(clamp_above, q, EPS_PLATE, tau=1.0)
+    problem = strip({}, q, EPS_PLATE, tau=1.0)  # clamped at height H (the problem file)
     s = demo.run(problem, args, f"plate_q{q:g}", initial=at_height)
     plate.append((q, s))
 
@@ -130,9 +123,10 @@ for q, s in plate:
 # contact zone starts at the clamp and ends where the strip curls off.
 
 # %%
+BILAYER = {"name": "bilayer", "Z": 1.0, "boundary_data": "flat"}  # clamped on the table
 bilayer = []
 for q in weights_bilayer:
-    problem = strip({"name": "bilayer", "Z": 1.0}, q, EPS_BILAYER, tau=0.1)
+    problem = strip(BILAYER, q, EPS_BILAYER, tau=0.1)
     bilayer.append((q, demo.run(problem, args, f"bilayer_q{q:g}")))
 
 demo.say(f"\nbilayer Z = I, ε = {EPS_BILAYER:g}")

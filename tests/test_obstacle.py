@@ -2,6 +2,7 @@
 quadratic–concave splitting, every obstacle type, bad input, and 1 vs 2 ranks."""
 
 import math
+from pathlib import Path
 
 from mpi4py import MPI
 
@@ -14,28 +15,13 @@ from dgplate.reference.obstacle import lift_off_length, penalised_lift_off
 
 MU, HEIGHT, WEIGHT, LENGTH, WIDTH = 1.0, 0.02, 1.0, 2.0, 0.25
 QUIET = {"png": False, "vtx": False, "progress": 0}
+STRIP = Path(__file__).resolve().parent.parent / "demos" / "problems" / "obstacle_strip.toml"
 
 
 def strip(cells: int, epsilon: float) -> dgplate.Problem:
     """A strip clamped horizontally at height H above the table y₃ ≥ 0, under its weight."""
-    return dgplate.problem_from_dict(
-        {
-            "mesh": {
-                "corners": [[0.0, 0.0], [LENGTH, WIDTH]],
-                "cells": [cells, 2],
-                "cell_type": "quadrilateral",
-            },
-            "model": {
-                "clamped": ["left"],
-                "load": [0.0, 0.0, -WEIGHT],
-                "boundary_data": {"g": ["x", "y", HEIGHT], "Phi": [[1, 0], [0, 1], [0, 0]]},
-                "obstacle": {"type": "above", "psi": 0.0, "epsilon": epsilon},
-            },
-            "flow": {"tau": 1.0, "tol": 1e-8, "max_steps": 400},
-            "output": QUIET,
-        },
-        "strip",
-    )
+    overrides = {"mesh.cells": [cells, 2], "model.obstacle.epsilon": epsilon}
+    return dgplate.load_problem(STRIP, overrides | {f"output.{k}": v for k, v in QUIET.items()})
 
 
 def at_height(x: np.ndarray) -> np.ndarray:
