@@ -44,7 +44,8 @@ def run_demo(
 #: Demos that ``make test`` also runs on 2 ranks: the headline box (``make demo``), a gradient
 #: flow with creases, the Newton driver with its eigenvalues, and the continuation in α. The
 #: others run on 2 ranks under the marker ``demo_np2``, which ``make check-debian`` (Open MPI,
-#: DOLFINx 0.9) includes and ``make test`` leaves out, to keep the suite within its 20 minutes.
+#: DOLFINx 0.9) includes (but for its four slowest, see .ci/check-debian.sh) and ``make test``
+#: leaves out, to keep the suite within its 20 minutes.
 CORE_NP2 = {"box_folding", "straight_fold", "fvk_buckling", "buckling_strip"}
 
 
