@@ -34,6 +34,7 @@
 # %%
 import argparse
 import json
+from dataclasses import replace
 from pathlib import Path
 
 from mpi4py import MPI
@@ -116,18 +117,12 @@ for s, w in zip(shortening[1::3], w_t[1::3]):
 
 # %%
 factors = np.array([0.5, 0.9, 0.98, 1.02, 1.1, 1.3])  # Δ / Δ_cr
-perfect = FvKSpec(
-    E=E,
-    nu=NU,
-    thickness=T,
-    simply_supported=["left", "right", "bottom", "top"],
-    membrane={
-        "left": [0.0, "free"],
-        "right": [-factors[-1] * delta_cr, "free"],
-        "bottom": "normal",
-        "top": "free",
-    },
+perfect = replace(  # the same plate, without the imperfection, pushed past Δ_cr
+    spec,
+    pressure=0.0,
+    membrane={**spec.membrane, "right": [-factors[-1] * delta_cr, "free"]},
     load_steps=list(factors / factors[-1]),
+    stability=True,
     perturb_unstable=0.5 * T,
 )
 model = build_fvk(perfect, tagged)
