@@ -22,6 +22,7 @@ from mpi4py import MPI
 import dolfinx
 import dolfinx.fem
 import dolfinx.fem.petsc
+import dolfinx.jit
 import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
@@ -71,6 +72,24 @@ def require_supported_version(version: tuple[int, int] = DOLFINX_VERSION) -> Non
 
 
 require_supported_version()
+
+#: Seconds a process waits for a form that another process is compiling (a second MPI job,
+#: a parallel test worker, runs sharing a cluster's cache). DOLFINx's default, 10 s, is less
+#: than gcc takes for a large dG form, and the waiting process then fails with a timeout.
+JIT_WAIT_SECONDS = 900
+
+
+def wait_longer_for_jit() -> None:
+    """Raise DOLFINx's default JIT timeout to :data:`JIT_WAIT_SECONDS`.
+
+    Only the default changes: a ``dolfinx_jit_options.json`` of the user's still overrides it.
+    """
+    default, doc = dolfinx.jit.DOLFINX_DEFAULT_JIT_OPTIONS["timeout"]
+    if isinstance(default, int) and default < JIT_WAIT_SECONDS:
+        dolfinx.jit.DOLFINX_DEFAULT_JIT_OPTIONS["timeout"] = (JIT_WAIT_SECONDS, doc)
+
+
+wait_longer_for_jit()
 
 
 def shared_facet_partitioner() -> Callable[..., object]:
