@@ -231,7 +231,8 @@ class PlateTangentPoint:
     def update(self) -> float:
         """ρ·TP at the current y; refreshes G, H of :attr:`linearisation` (collective, cached)."""
         state = self.y.x.array
-        if self._state is not None and np.array_equal(state, self._state):
+        same = self._state is not None and np.array_equal(state, self._state)
+        if mpi.global_all(self.comm, same):
             return self._value
         cloud, reach = self.cloud()
         p = self.params

@@ -202,7 +202,8 @@ def _kernel(
     n2 = np.einsum("ij,ij->i", d, d)
     s = np.einsum("ij,ij->i", nu, d)
     ww = cloud.weights[i] * wj
-    f = (np.abs(s) / n2) ** q
+    with np.errstate(divide="ignore", invalid="ignore"):  # coincident points: TP = inf
+        f = (np.abs(s) / n2) ** q
     sq = np.divide(f, s, out=np.zeros_like(f), where=s != 0)  # |s|^(q−2) s |d|^(−2q)
     d_d = ww[:, None] * (sq[:, None] * nu - (2.0 * f / n2)[:, None] * d)
     d_nu = (ww * sq)[:, None] * d
@@ -238,7 +239,8 @@ def evaluate(
     tree = tree or build_tree(cloud.points, cloud.weights)
     mask = np.ones(m, dtype=bool) if targets is None else targets
     leaves = np.flatnonzero(tree.children[:, 0] < 0)
-    has_target = np.add.reduceat(mask[tree.order].astype(int), tree.start[leaves]) > 0
+    count = np.concatenate([[0], np.cumsum(mask[tree.order])])
+    has_target = count[tree.end[leaves]] > count[tree.start[leaves]]
     near_t, near_s, far_t, far_s = interactions(tree, leaves[has_target], 0.0, theta, reach)
     out = TPResult(0.0, np.zeros((m, 3)), np.zeros((m, 3)))
     order = tree.order
