@@ -1,6 +1,8 @@
 """The tangent-point potential (docs/self_avoidance.md): pair sums, tree, derivatives, flow."""
 
+import importlib.util
 import math
+from pathlib import Path
 
 from mpi4py import MPI
 
@@ -17,31 +19,16 @@ from dgplate.dg.self_avoidance import PlateTangentPoint, SelfAvoidance
 from tests.conftest import PARITY_RTOL
 
 
-def spiral(n1: int, n2: int, turns: float = 1.5) -> tuple[tp.Cloud, float]:
-    """Cell centres of an n1×n2 grid on a strip rolled into a spiral of 1.5 turns.
+def _benchmark():
+    """benchmarks/tangent_point.py, whose rolled strip the accuracy tests share."""
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "tangent_point.py"
+    spec = importlib.util.spec_from_file_location("bench_tangent_point", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
-    Returns the cloud (vertex ids of the grid cells) and the cell length.
-    """
-    length = 2 * np.pi * turns
-    s = (np.arange(n1) + 0.5) / n1 * length
-    t = (np.arange(n2) + 0.5) / n2
-    S, T = np.meshgrid(s, t, indexing="ij")
-    R = 1.0 - 0.1 * S / length
-    x = np.stack([R * np.sin(S), T, 1 - R * np.cos(S)], -1).reshape(-1, 3)
-    tangent = np.stack([np.cos(S), 0 * S, np.sin(S)], -1).reshape(-1, 3)
-    nu = np.cross(tangent, [0.0, 1.0, 0.0])
-    w = np.full(len(x), length / n1 / n2)
-    I, J = np.meshgrid(np.arange(n1), np.arange(n2), indexing="ij")
-    v = np.stack(
-        [
-            I * (n2 + 1) + J,
-            I * (n2 + 1) + J + 1,
-            (I + 1) * (n2 + 1) + J,
-            (I + 1) * (n2 + 1) + J + 1,
-        ],
-        -1,
-    )
-    return tp.Cloud(x, nu, w, v.reshape(-1, 4)), length / n1
+
+spiral = _benchmark().spiral
 
 
 def relative(a: np.ndarray, b: np.ndarray) -> float:

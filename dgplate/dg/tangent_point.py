@@ -244,16 +244,11 @@ def evaluate(
     near_t, near_s, far_t, far_s = interactions(tree, leaves[has_target], 0.0, theta, reach)
     out = TPResult(0.0, np.zeros((m, 3)), np.zeros((m, 3)))
     order = tree.order
-    for pi, pj in _expand(*_range(tree, near_t), *_range(tree, near_s)):
-        i, j = order[pi], order[pj]
-        keep = mask[i] & ~_excluded(cloud, i, j, reach)
-        i, j = i[keep], j[keep]
-        e, d_d, d_nu = _kernel(cloud, i, cloud.points[j], cloud.weights[j], q)
-        out.energy += float(e.sum())
-        out.pairs_exact += len(i)
-        _accumulate(out.d_points, i, -d_d)
-        _accumulate(out.d_points, j, d_d)
-        _accumulate(out.d_normals, i, d_nu)
+    padded = _padded_leaves(tree)
+    step = max(1, _BLOCK // padded.shape[1] ** 2)
+    for first in range(0, len(near_t), step):
+        rows = slice(first, first + step)
+        _near_block(cloud, padded[near_t[rows]], padded[near_s[rows]], mask, q, reach, out)
     node_force = np.zeros((len(tree.start), 3))
     ones = np.ones_like(far_s)
     for pi, k in _expand(*_range(tree, far_t), np.arange(len(far_s)), ones):
@@ -268,6 +263,67 @@ def evaluate(
         _accumulate(node_force, node, d_d / tree.weight[node][:, None])
     _push_down(tree, node_force, cloud.weights, out.d_points)
     return out
+
+
+def _padded_leaves(tree: Tree) -> IntArray:
+    """The point indices of every node that is a leaf, padded with −1 to the largest leaf."""
+    sizes = tree.end - tree.start
+    leaf = tree.children[:, 0] < 0
+    width = int(sizes[leaf].max(initial=1))
+    padded = np.full((len(sizes), width), -1, dtype=np.int64)
+    nodes = np.flatnonzero(leaf)
+    owner = np.repeat(nodes, sizes[nodes])
+    column = np.arange(len(owner)) - np.repeat(np.cumsum(sizes[nodes]) - sizes[nodes], sizes[nodes])
+    padded[owner, column] = tree.order[
+        np.concatenate([np.arange(tree.start[n], tree.end[n]) for n in nodes])
+    ]
+    return padded
+
+
+def _near_block(
+    cloud: Cloud,
+    targets: IntArray,
+    sources: IntArray,
+    mask: npt.NDArray[np.bool_],
+    q: float,
+    reach: float,
+    out: TPResult,
+) -> None:
+    """Exact sums over pairs of leaves as dense (pairs, L, L) blocks (padding: index −1).
+
+    Gathering per leaf instead of per pair is what makes the near field cheap.
+    """
+    it, js = np.maximum(targets, 0), np.maximum(sources, 0)
+    wt = np.where((targets >= 0) & mask[it], cloud.weights[it], 0.0)
+    ws = np.where(sources >= 0, cloud.weights[js], 0.0)
+    xt, nu, xs = cloud.points[it], cloud.normals[it], cloud.points[js]
+    d = [xs[:, None, :, k] - xt[:, :, None, k] for k in range(3)]  # components (p, L, L)
+    n2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+    ww = wt[:, :, None] * ws[:, None, :]
+    close = np.flatnonzero((ww > 0) & (n2 <= reach * reach) if reach > 0 else ww > 0)
+    shape = ww.shape
+    t_of = np.broadcast_to(it[:, :, None], shape).reshape(-1)[close]
+    s_of = np.broadcast_to(js[:, None, :], shape).reshape(-1)[close]
+    excluded = _excluded(cloud, t_of, s_of, 0.0)
+    ww.reshape(-1)[close[excluded]] = 0.0
+    n2[ww == 0] = 1.0
+    n = [nu[:, :, None, k] for k in range(3)]
+    s = n[0] * d[0] + n[1] * d[1] + n[2] * d[2]
+    with np.errstate(divide="ignore", invalid="ignore"):  # coincident points: TP = inf
+        f = (np.abs(s) / n2) ** q
+    sq = np.divide(f, s, out=np.zeros_like(f), where=s != 0) * ww
+    wf = ww * f
+    out.energy += float(wf.sum()) / q
+    out.pairs_exact += int(np.count_nonzero(ww))
+    scaled = 2.0 * wf / n2
+    # ∂/∂d per pair = sq ν_t − (2 w f/|d|²) d, summed over sources (targets) and targets (sources)
+    pair = [sq * n[k] - scaled * d[k] for k in range(3)]
+    on_target = np.stack([c.sum(axis=2) for c in pair], axis=-1)
+    on_source = np.stack([c.sum(axis=1) for c in pair], axis=-1)
+    d_nu = np.stack([(sq * d[k]).sum(axis=2) for k in range(3)], axis=-1)
+    _accumulate(out.d_points, it.reshape(-1), -on_target.reshape(-1, 3))
+    _accumulate(out.d_points, js.reshape(-1), on_source.reshape(-1, 3))
+    _accumulate(out.d_normals, it.reshape(-1), d_nu.reshape(-1, 3))
 
 
 def _push_down(tree: Tree, node_force: Array, weights: Array, d_points: Array) -> None:
