@@ -1,6 +1,7 @@
 """The tangent-point potential (docs/self_avoidance.md): pair sums, tree, derivatives, flow."""
 
 import importlib.util
+import itertools
 import math
 from pathlib import Path
 
@@ -187,3 +188,23 @@ def test_short_run_decreases_energy_and_ranks_agree(tmp_path, comm):
         single = dgplate.run(problem, out=tmp_path / f"single{comm.rank}", comm=MPI.COMM_SELF)
         for key in ("energy", "self_avoidance_energy", "min_distance"):
             assert math.isclose(shared[key], single[key], rel_tol=PARITY_RTOL), key
+
+
+def test_the_safety_net_redoes_steps_that_approach_too_fast(tmp_path):
+    """The demo's strip with τ = 1 and approach = 0.97: the first steps close the gap by ~8 %,
+    so they are redone with τ/2 (recorded in history.csv), and the energy still decreases."""
+    problem = dgplate.load_problem(
+        Path(__file__).resolve().parents[1] / "demos" / "problems" / "self_avoiding_strip.toml",
+        {"flow.tau": 1.0, "flow.max_steps": 3, "model.self_avoidance.approach": 0.97,
+         "output.png": False, "output.vtx": False, "output.progress": 0},
+    )  # fmt: skip
+    result = dgplate.run(
+        problem,
+        out=tmp_path / "out",
+        initial=lambda x: np.vstack([np.sin(x[0]), x[1], 1.0 - np.cos(x[0])]),
+    )
+    first = result.history[0]
+    assert first["redone"] >= 1 and first["tau"] == 1.0 / 2 ** first["redone"]
+    assert result["energy_increases"] == []
+    distances = [row["min_distance"] for row in result.history]
+    assert all(b > 0.97 * a for a, b in itertools.pairwise(distances))
