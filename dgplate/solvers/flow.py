@@ -21,7 +21,7 @@ import math
 import re
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from mpi4py import MPI
@@ -181,6 +181,7 @@ class StepInfo:
     solve_s: float  # triangular solves and Krylov iterations
     iterations: int  # Krylov iterations of the step solve (1 for a direct solve)
     fallbacks: int = 0  # failed lagged solves redone (fresh factors, then direct LU)
+    safety: dict[str, float] = field(default_factory=dict)  # nonlocal terms: min_distance, redone
 
     def line(self) -> str:
         """One line of progress output."""
@@ -277,7 +278,10 @@ class GradientFlow:
         b, residual = s * b, s * residual
         self._a_const = dolfinx.fem.form(a_const)
         self._b = dolfinx.fem.form(b)
-        self._rhs = dolfinx.fem.form(-ufl.derivative(self.energy.total, y, v))
+        explicit = self.energy.total
+        for term in self.energy.nonlocal_terms:
+            explicit = explicit + term.linearisation
+        self._rhs = dolfinx.fem.form(-ufl.derivative(explicit, y, v))
         self._constraint_residual = dolfinx.fem.form(residual)
         self.step_form = dolfinx.fem.form(a_const + b)  # the whole step matrix, one form
         self.A_const = self._compact_constant_block()
@@ -357,7 +361,8 @@ class GradientFlow:
     # -- evaluation -------------------------------------------------------------------------
     def evaluate_energy(self) -> float:
         """E_h[y] of the current state (collective)."""
-        return integral(self._E_form, self.comm) + self.energy.constant
+        terms = sum(term.update() for term in self.energy.nonlocal_terms)
+        return integral(self._E_form, self.comm) + self.energy.constant + terms
 
     # -- one step ---------------------------------------------------------------------------
     def assemble_system(self) -> None:
@@ -365,6 +370,8 @@ class GradientFlow:
         compat.assemble_matrix_into(self.B, self._b)
         self.A_const.copy(self.K, structure=compat.SAME_NONZERO_PATTERN)
         self.K.axpy(1.0, self.B, structure=compat.SAME_NONZERO_PATTERN)
+        for term in self.energy.nonlocal_terms:
+            term.update()
         compat.assemble_vector_into(self.rhs, self._rhs)
 
     def step(self) -> StepInfo:
@@ -403,6 +410,37 @@ class GradientFlow:
             fallbacks=stats.fallbacks,
         )
         return info
+
+    def _safe_step(self) -> StepInfo:
+        """A step; with nonlocal terms one they accept and that lowers E_h, else redone with τ/2.
+
+        Nonlocal terms are explicit (self-avoidance): a step too long for them may bring parts
+        of the plate through each other. A refused step is taken back and redone with half
+        the step, at most ``max_redo`` times; τ is restored for the next step.
+        """
+        terms = self.energy.nonlocal_terms
+        if not terms:
+            return self.step()
+        tau, saved = self.tau, (self.y.x.array.copy(), self._last_energy, self.time)
+        limit = max(term.max_redo for term in terms)
+        redone = 0
+        info = self.step()
+        while not self._acceptable(info) and redone < limit:
+            self.y.x.array[:], self._last_energy, self.time = saved[0], saved[1], saved[2]
+            self.step_count -= 1
+            self.tau, redone = self.tau / 2, redone + 1
+            info = self.step()
+        if redone:
+            self.tau = tau
+        distance = min(term.min_distance for term in terms)
+        info.safety = {"min_distance": distance, "redone": float(redone)}
+        return info
+
+    def _acceptable(self, info: StepInfo) -> bool:
+        """The nonlocal terms accept the new state and E_h did not go up (beyond round-off)."""
+        accepted = all([term.accept() for term in self.energy.nonlocal_terms])
+        rises = -info.rate * info.tau > 1e-12 * max(1.0, abs(info.energy))
+        return accepted and not rises
 
     def _project(self, stats: solvers.SolveStats) -> Array:
         """One correction towards ∫_T (∇yᵀ∇y − I) q = 0, reusing the step's factorisation.
@@ -493,7 +531,7 @@ class GradientFlow:
         signum = 0
         for _ in range(budget):
             try:
-                info = self.step()
+                info = self._safe_step()
             except SolverError as exc:
                 reason = f"step {self.step_count + 1} failed: {exc}; the last good state is kept"
                 break
