@@ -14,6 +14,7 @@ from dgplate.models.foundation import FoundationSpec, build_foundation
 from dgplate.models.fvk import FvKSpec, build_fvk
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
 from dgplate.models.lce import LCESpec, build_lce
+from dgplate.models.rod import ROD_IGNORES, RodSpec, build_rod
 from dgplate.models.thermal import ThermalSpec, build_thermal
 from dgplate.schema import from_dict
 
@@ -52,6 +53,7 @@ MODELS: dict[str, ModelEntry] = {
     "foundation": ModelEntry(FoundationSpec, build_foundation),
     "thermal": ModelEntry(ThermalSpec, build_thermal),
     "lce": ModelEntry(LCESpec, build_lce),
+    "rod": ModelEntry(RodSpec, build_rod, ignores=ROD_IGNORES),
     "fvk": ModelEntry(
         FvKSpec,
         build_fvk,

@@ -1,0 +1,262 @@
+"""Inextensible bending–torsion rods (docs/rods.md, docs/design.md §1).
+
+The Mora–Müller rod limit: a centreline u: (0, L) → ℝ³ and a frame [u′, b, d], d = u′ × b,
+with |u′| = 1, |b| = 1, u′·b = 0, minimising
+
+    I[u, b] = (c_b/2)∫ |u″ − κ b|² + (c_t/2)∫ (b′·d)²,
+
+κ a spontaneous curvature towards b (κ = 0: the plain rod). Since |b′|² = (b′·u′)² + (b′·d)²
+and b′·u′ = −b·u″ on the constraint set, the torsion term equals
+(c_t/2)∫|b′|² − (c_t/2)∫(b·u″)² there, and
+
+    I[u, b] ≥ ((c_b − c_t)/2)∫|u″|² + (c_t/2)∫|b′|² − (terms of κ)
+
+is coercive in H² × H¹ when c_t < c_b (Bartels & Reiter 2020): the model uses this form. The
+quadratic part (c_b/2)|u″ − κb|² + (c_t/2)|b′|² is implicit in the flow, the quartic
+−(c_t/2)(b·u″)² explicit.
+
+The rod has its own 1D mesh (``model.cells`` intervals of (0, ``model.length``)); the [mesh]
+section does not apply. Ends: 'clamped-free' (u(0) = 0, u′(0) = tangent, b(0) = frame) or
+'free-free'. The start is the straight rod u(s) = s·tangent with b = frame.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import dolfinx.fem
+import dolfinx.mesh
+import numpy as np
+import ufl
+
+from dgplate import compat, mpi, values
+from dgplate.compat import Array, Constant, Function, Mesh
+from dgplate.dg.energy import Energy
+from dgplate.dg.forms import integral
+from dgplate.errors import InputError
+from dgplate.mesh.tagged import TaggedMesh
+from dgplate.schema import is_integer, is_number, option
+from dgplate.solvers.driver import Observer
+from dgplate.solvers.flow import FlowSpec, Initial
+from dgplate.solvers.rod_flow import RodFlow, RodState, ip_product, nitsche_slope, tangent
+
+__all__ = ["ENDS", "ROD_IGNORES", "RodModel", "RodSpec", "build_rod", "exact_arc", "rod_energy"]
+
+ENDS = ("clamped-free", "free-free")
+#: Keys that do nothing for a rod (an input error, see the registry).
+ROD_IGNORES = {
+    "mesh": "a rod has its own mesh: model.cells intervals of (0, model.length)",
+    **{
+        f"flow.{key}": "the rod flow always has the L² product in its metric, cell-wise DG1 and "
+        "nodal multipliers and a direct solve at every step"
+        for key in (
+            "l2_metric",
+            "multiplier_degree",
+            "projection_steps",
+            "linear_solver",
+            "refactor_its",
+            "edge_constraint",
+        )
+    },
+}
+_CLAMPED = 1  # the tag of the node s = 0
+
+
+def _unit(value: object, key: str) -> Array:
+    """A non-zero 3-vector of numbers, normalised."""
+    if not (isinstance(value, list) and len(value) == 3 and all(is_number(x) for x in value)):
+        raise InputError(f"{key} must be three numbers [x, y, z], got {value!r}")
+    vector = np.asarray(value, dtype=float)
+    norm = float(np.linalg.norm(vector))
+    if not (norm > 0 and math.isfinite(norm)):
+        raise InputError(f"{key} must be a non-zero finite vector, got {value!r}")
+    return vector / norm
+
+
+@dataclass
+class RodSpec:
+    """[model] of an inextensible bending–torsion rod."""
+
+    name: str = option("rod", "the model")
+    length: float = option(1.0, "length L of the rod (its parameter interval is (0, L))")
+    cells: int = option(32, "number of intervals of (0, L)")
+    degree: int = option(2, "polynomial degree k >= 2 of the centreline (C⁰ interior penalty)")
+    c_b: float = option(1.0, "bending rigidity c_b > 0")
+    c_t: float = option(0.5, "torsional rigidity 0 < c_t < c_b (coercivity of the energy)")
+    kappa: float = option(
+        0.0, "spontaneous curvature κ towards the director b: the rest shape has u″ = κ b"
+    )
+    ends: str = option("clamped-free", "'clamped-free' (s = 0 clamped) or 'free-free'")
+    tangent: list[Any] = option([1.0, 0.0, 0.0], "u′ of the straight start (and at a clamp)")
+    frame: list[Any] = option([0.0, 1.0, 0.0], "b of the start (and at a clamp), ⟂ tangent")
+    penalty: float = option(10.0, "C⁰-IP penalty σ of the jumps of u′ (times c_b/h)")
+
+    def __post_init__(self) -> None:
+        for key in ("length", "c_b", "c_t", "penalty"):
+            value = getattr(self, key)
+            if not (is_number(value) and value > 0 and math.isfinite(value)):
+                raise InputError(f"model.{key} must be a finite number > 0, got {value!r}")
+        for key, least in (("cells", 2), ("degree", 2)):
+            value = getattr(self, key)
+            if not (is_integer(value) and value >= least):
+                raise InputError(f"model.{key} must be an integer >= {least}, got {value!r}")
+        if not self.c_t < self.c_b:
+            raise InputError(
+                f"model.c_t must be < model.c_b (got c_t = {self.c_t}, c_b = {self.c_b}): "
+                "the energy with (c_t/2)|b′|² − (c_t/2)(b·u″)² is coercive only for c_t < c_b"
+            )
+        if not (is_number(self.kappa) and math.isfinite(self.kappa)):
+            raise InputError(f"model.kappa must be a finite number, got {self.kappa!r}")
+        if self.ends not in ENDS:
+            raise InputError(f"model.ends must be one of {', '.join(ENDS)}, got {self.ends!r}")
+        t, b = _unit(self.tangent, "model.tangent"), _unit(self.frame, "model.frame")
+        if abs(float(t @ b)) > 1e-10:
+            raise InputError(
+                f"model.frame must be orthogonal to model.tangent, got frame·tangent = "
+                f"{float(t @ b):.3g} (normalised)"
+            )
+
+    @property
+    def clamped(self) -> bool:
+        """Whether s = 0 is clamped."""
+        return self.ends == "clamped-free"
+
+
+def interval(comm: Any, spec: RodSpec) -> tuple[Mesh, ufl.Measure]:
+    """The 1D mesh of (0, L), ghosted across shared nodes, and ds on the node s = 0."""
+    mesh = dolfinx.mesh.create_interval(
+        comm, spec.cells, [0.0, spec.length], partitioner=compat.shared_facet_partitioner()
+    )
+    mesh.topology.create_connectivity(0, 1)
+    start = dolfinx.mesh.locate_entities_boundary(mesh, 0, lambda x: np.isclose(x[0], 0.0))
+    tags = dolfinx.mesh.meshtags(mesh, 0, start, np.full(start.size, _CLAMPED, dtype=np.int32))
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=tags)
+    return mesh, ds(_CLAMPED)
+
+
+@dataclass
+class RodData:
+    """The numbers of the energy as Constants of the rod's mesh."""
+
+    c_b: Constant
+    c_t: Constant
+    kappa: Constant
+    penalty: Constant
+    tangent: Constant
+    clamp: ufl.Measure | None  # ds on the clamped node, None for free ends
+
+    @staticmethod
+    def of(spec: RodSpec, mesh: Mesh, clamp: ufl.Measure) -> RodData:
+        """The Constants of ``spec`` on ``mesh``."""
+        t = _unit(spec.tangent, "model.tangent")
+        return RodData(
+            values.constant(mesh, spec.c_b),
+            values.constant(mesh, spec.c_t),
+            values.constant(mesh, spec.kappa),
+            values.constant(mesh, spec.penalty),
+            values.constant(mesh, t),
+            clamp if spec.clamped else None,
+        )
+
+
+def rod_energy(u: Function, b: Function, data: RodData) -> Energy:
+    """The modified rod energy: implicit (c_b/2)|u″ − κb|² + (c_t/2)|b′|², explicit −(c_t/2)(b·u″)².
+
+    The bending term is the C⁰-IP form of ½∫|u″|² (and Nitsche's terms for u′(0) at a clamp),
+    expanded as ½|u″|² − κ u″·b + ½κ²|b|²: quadratic in (u, b) jointly.
+    """
+    mesh = u.function_space.mesh
+    dx = ufl.dx(domain=mesh)
+    d2 = tangent(tangent(u))
+    kappa = data.kappa
+    bending = (
+        0.5 * ip_product(u, u, mesh, data.penalty)
+        + (-kappa * ufl.dot(d2, b) + 0.5 * kappa**2 * ufl.dot(b, b)) * dx
+    )
+    if data.clamp is not None:
+        bending += nitsche_slope(u, data.tangent, mesh, data.penalty, data.clamp)
+    implicit = data.c_b * bending + 0.5 * data.c_t * ufl.dot(tangent(b), tangent(b)) * dx
+    explicit = -0.5 * data.c_t * ufl.dot(b, d2) ** 2 * dx
+    return Energy(implicit, explicit)
+
+
+def energy_split(u: Function, b: Function, data: RodData) -> dict[str, float]:
+    """The bending (c_b/2)∫|u″ − κb|² and torsion (c_t/2)∫(b′·(u′ × b))² parts (cell terms)."""
+    mesh = u.function_space.mesh
+    dx = ufl.dx(domain=mesh)
+    curvature = tangent(tangent(u)) - data.kappa * b
+    twist = ufl.dot(tangent(b), ufl.cross(tangent(u), b))
+    forms = {
+        "energy_bending": 0.5 * data.c_b * ufl.dot(curvature, curvature) * dx,
+        "energy_torsion": 0.5 * data.c_t * twist**2 * dx,
+        "length": ufl.sqrt(ufl.dot(tangent(u), tangent(u))) * dx,
+    }
+    return {key: integral(dolfinx.fem.form(form), mesh.comm) for key, form in forms.items()}
+
+
+def exact_arc(s: Array, spec: RodSpec) -> Array:
+    """The clamped rod's minimiser for κ ≠ 0: the circular arc (sin κs/κ) t + ((1 − cos κs)/κ) b."""
+    t, b = _unit(spec.tangent, "model.tangent"), _unit(spec.frame, "model.frame")
+    k = spec.kappa
+    return np.outer(t, np.sin(k * s) / k) + np.outer(b, (1.0 - np.cos(k * s)) / k)
+
+
+def arc_error(u: Function, spec: RodSpec) -> dict[str, float]:
+    """The largest over the nodes of |u − exact arc| / L (clamped rods with κ ≠ 0; collective)."""
+    if not (spec.clamped and spec.kappa != 0.0):
+        return {}
+    space = u.function_space
+    owned = space.dofmap.index_map.size_local
+    s = space.tabulate_dof_coordinates()[:owned, 0]
+    exact = exact_arc(s, spec).T
+    local = float(
+        np.max(np.linalg.norm(u.x.array.reshape(-1, 3)[:owned] - exact, axis=1), initial=0.0)
+    )
+    return {"arc_error": mpi.global_max(space.mesh.comm, local) / spec.length}
+
+
+@dataclass
+class RodModel:
+    """A rod: its mesh, energy and start; run by :class:`RodFlow`."""
+
+    spec: RodSpec
+    mesh: Mesh
+    data: RodData
+
+    def driver(
+        self, flow: FlowSpec, observers: Sequence[Observer], initial: Initial | None
+    ) -> RodFlow:
+        """The constrained gradient flow of the rod energy from the straight rod (or ``initial``)."""
+        t, b = _unit(self.spec.tangent, "t"), _unit(self.spec.frame, "b")
+
+        def straight(x: Array) -> Array:
+            return np.outer(t, x[0])
+
+        def frame(x: Array) -> Array:
+            return np.outer(b, np.ones_like(x[0]))
+
+        state = RodState(initial or straight, frame, self.spec.clamped)
+
+        def energy(u: Function, director: Function) -> Energy:
+            return rod_energy(u, director, self.data)
+
+        return RodFlow(self.mesh, self.spec.degree, energy, flow, state, observers)
+
+    def figures(self, driver: RodFlow) -> dict[str, Any]:
+        """Energy split, length, the end point and (clamped, κ ≠ 0) the error to the arc."""
+        out: dict[str, Any] = energy_split(driver.u, driver.b, self.data)
+        out.update(arc_error(driver.u, self.spec))
+        return out
+
+    def lines(self, driver: RodFlow) -> list[Array]:
+        """No extra lines: the picture is the centreline itself."""
+        return []
+
+
+def build_rod(spec: RodSpec, tagged: TaggedMesh) -> RodModel:
+    """The rod's own interval mesh (on the plate mesh's communicator) and energy data."""
+    mesh, clamp = interval(tagged.comm, spec)
+    return RodModel(spec, mesh, RodData.of(spec, mesh, clamp))
