@@ -2,10 +2,12 @@
 
 Exact minimiser: a rod clamped at s = 0 with tangent t and director b and the spontaneous
 curvature κ has the zero-energy arc u(s) = (sin κs/κ) t + ((1 − cos κs)/κ) b (u″ = κ b,
-b′ = −κ u′ ⟂ d: no torsion). The flow imposes the constraints linearised, so their defects
+b′ = −κ u′ ⟂ d: no torsion). A straight rod whose frame is turned by φ at a guided end
+twists uniformly: I = (c_t/2)φ²/L. The flow imposes the constraints linearised, so their defects
 grow like τ; the energy decreases at every step.
 """
 
+import math
 from pathlib import Path
 
 from mpi4py import MPI
@@ -16,12 +18,13 @@ from conftest import PARITY_RTOL
 import dgplate
 from dgplate.cli import main
 
-ARC = Path(__file__).resolve().parent.parent / "demos" / "problems" / "rod_arc.toml"
+PROBLEMS = Path(__file__).resolve().parent.parent / "demos" / "problems"
+ARC, TWIST = PROBLEMS / "rod_arc.toml", PROBLEMS / "rod_twist.toml"
 QUIET = {"output.progress": 0, "output.vtx": False, "output.png": False}
 
 
-def run(tmp_path, overrides, comm=MPI.COMM_SELF, name="out"):
-    problem = dgplate.load_problem(ARC, overrides={**QUIET, **overrides})
+def run(tmp_path, overrides, comm=MPI.COMM_SELF, name="out", path=ARC):
+    problem = dgplate.load_problem(path, overrides={**QUIET, **overrides})
     out = comm.bcast(tmp_path / name if comm.rank == 0 else None)
     return dgplate.run(problem, out=out, comm=comm)
 
@@ -35,6 +38,17 @@ def test_clamped_rod_rolls_into_the_arc(tmp_path):
     assert result["length"] == pytest.approx(1.0, rel=0.01)
     assert (tmp_path / "out" / "final.png").is_file()
     assert (tmp_path / "out" / "deformation.bp").is_dir()
+
+
+def test_twist_spreads_uniformly(tmp_path):
+    """Frame turned by φ = π at the guided end: uniform twist φ/L, I = (c_t/2)φ²/L, no bending."""
+    result = run(tmp_path, {}, path=TWIST)
+    assert result["converged"] and result["energy_increases"] == []
+    exact = 0.5 * 0.5 * math.pi**2
+    assert result["energy"] == pytest.approx(exact, rel=0.01)
+    assert result["energy_torsion"] == pytest.approx(exact, rel=0.02)
+    assert result["twist_angle"] == pytest.approx(math.pi, rel=0.01)
+    assert result["energy_bending"] < 1e-12
 
 
 def test_defects_grow_like_tau(tmp_path):
@@ -52,7 +66,8 @@ def test_defects_grow_like_tau(tmp_path):
         ("model.c_t=1.0", "model.c_t must be < model.c_b (got c_t = 1.0, c_b = 1.0)"),
         ("model.frame=[1, 1, 0]", "model.frame must be orthogonal to model.tangent"),
         ("model.frame=[0, 0, 0]", "model.frame must be a non-zero finite vector"),
-        ("model.ends=closed", "model.ends must be one of clamped-free, free-free"),
+        ("model.ends=closed", "model.ends must be one of clamped-free, clamped-guided, free-free"),
+        ("model.twist=1.0", "model.twist = 1.0 needs model.ends = 'clamped-guided'"),
         ("model.degree=1", "model.degree must be an integer >= 2"),
         ("mesh.cells=[4, 4]", "mesh.cells has no effect with model.name = 'rod'"),
         ("flow.projection_steps=2", "flow.projection_steps has no effect with model.name"),

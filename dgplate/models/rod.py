@@ -16,8 +16,11 @@ quadratic part (c_b/2)|u″ − κb|² + (c_t/2)|b′|² is implicit in the flow
 −(c_t/2)(b·u″)² explicit.
 
 The rod has its own 1D mesh (``model.cells`` intervals of (0, ``model.length``)); the [mesh]
-section does not apply. Ends: 'clamped-free' (u(0) = 0, u′(0) = tangent, b(0) = frame) or
-'free-free'. The start is the straight rod u(s) = s·tangent with b = frame.
+section does not apply. Ends: 'clamped-free' (u(0) = 0, u′(0) = tangent, b(0) = frame),
+'clamped-guided' (also u′(L) = tangent and b(L) = the frame turned by ``model.twist`` about
+the tangent, u(L) free: clamping u(L) = L·tangent too would make the straight rod taut, and
+the linearised length constraints then dependent) or 'free-free'. The start is the straight rod
+u(s) = s·tangent with b turned by twist·(s/L)² (b = frame without twist).
 """
 
 from __future__ import annotations
@@ -45,7 +48,7 @@ from dgplate.solvers.rod_flow import RodFlow, RodState, ip_product, nitsche_slop
 
 __all__ = ["ENDS", "ROD_IGNORES", "RodModel", "RodSpec", "build_rod", "exact_arc", "rod_energy"]
 
-ENDS = ("clamped-free", "free-free")
+ENDS = ("clamped-free", "clamped-guided", "free-free")
 #: Keys that do nothing for a rod (an input error, see the registry).
 ROD_IGNORES = {
     "mesh": "a rod has its own mesh: model.cells intervals of (0, model.length)",
@@ -62,7 +65,7 @@ ROD_IGNORES = {
         )
     },
 }
-_CLAMPED = 1  # the tag of the node s = 0
+_START, _END = 1, 2  # the tags of the nodes s = 0 and s = L
 
 
 def _unit(value: object, key: str) -> Array:
@@ -89,7 +92,14 @@ class RodSpec:
     kappa: float = option(
         0.0, "spontaneous curvature κ towards the director b: the rest shape has u″ = κ b"
     )
-    ends: str = option("clamped-free", "'clamped-free' (s = 0 clamped) or 'free-free'")
+    ends: str = option(
+        "clamped-free",
+        "'clamped-free' (s = 0 clamped), 'clamped-guided' (s = L also has u′ = tangent and a prescribed frame, its position free) or 'free-free'",
+    )
+    twist: float = option(
+        0.0,
+        "clamped-clamped: the frame at s = L is turned by this angle (radians) about the tangent; the start spreads it as twist·(s/L)²",
+    )
     tangent: list[Any] = option([1.0, 0.0, 0.0], "u′ of the straight start (and at a clamp)")
     frame: list[Any] = option([0.0, 1.0, 0.0], "b of the start (and at a clamp), ⟂ tangent")
     penalty: float = option(10.0, "C⁰-IP penalty σ of the jumps of u′ (times c_b/h)")
@@ -108,10 +118,20 @@ class RodSpec:
                 f"model.c_t must be < model.c_b (got c_t = {self.c_t}, c_b = {self.c_b}): "
                 "the energy with (c_t/2)|b′|² − (c_t/2)(b·u″)² is coercive only for c_t < c_b"
             )
+        self._check_shape()
+
+    def _check_shape(self) -> None:
+        """κ, the ends, the twist and the start frame."""
         if not (is_number(self.kappa) and math.isfinite(self.kappa)):
             raise InputError(f"model.kappa must be a finite number, got {self.kappa!r}")
         if self.ends not in ENDS:
             raise InputError(f"model.ends must be one of {', '.join(ENDS)}, got {self.ends!r}")
+        if not (is_number(self.twist) and math.isfinite(self.twist)):
+            raise InputError(f"model.twist must be a finite number, got {self.twist!r}")
+        if self.twist != 0.0 and self.ends != "clamped-guided":
+            raise InputError(
+                f"model.twist = {self.twist} needs model.ends = 'clamped-guided', got {self.ends!r}"
+            )
         t, b = _unit(self.tangent, "model.tangent"), _unit(self.frame, "model.frame")
         if abs(float(t @ b)) > 1e-10:
             raise InputError(
@@ -122,19 +142,35 @@ class RodSpec:
     @property
     def clamped(self) -> bool:
         """Whether s = 0 is clamped."""
-        return self.ends == "clamped-free"
+        return self.ends != "free-free"
+
+    @property
+    def clamped_nodes(self) -> tuple[float, ...]:
+        """The parameters s of the ends with a prescribed frame and slope."""
+        return {"clamped-free": (0.0,), "clamped-guided": (0.0, self.length)}.get(self.ends, ())
+
+    @property
+    def pinned_nodes(self) -> tuple[float, ...]:
+        """The parameters s of the ends with a prescribed position."""
+        return (0.0,) if self.clamped else ()
 
 
 def interval(comm: Any, spec: RodSpec) -> tuple[Mesh, ufl.Measure]:
-    """The 1D mesh of (0, L), ghosted across shared nodes, and ds on the node s = 0."""
+    """The 1D mesh of (0, L), ghosted across shared nodes, and ds on the clamped ends."""
     mesh = dolfinx.mesh.create_interval(
         comm, spec.cells, [0.0, spec.length], partitioner=compat.shared_facet_partitioner()
     )
     mesh.topology.create_connectivity(0, 1)
-    start = dolfinx.mesh.locate_entities_boundary(mesh, 0, lambda x: np.isclose(x[0], 0.0))
-    tags = dolfinx.mesh.meshtags(mesh, 0, start, np.full(start.size, _CLAMPED, dtype=np.int32))
+    ends = [
+        dolfinx.mesh.locate_entities_boundary(mesh, 0, lambda x, s=s: np.isclose(x[0], s))
+        for s in (0.0, spec.length)
+    ]
+    nodes = np.concatenate(ends)
+    marks = np.concatenate([np.full(ends[0].size, _START), np.full(ends[1].size, _END)])
+    order = np.argsort(nodes)
+    tags = dolfinx.mesh.meshtags(mesh, 0, nodes[order], marks[order].astype(np.int32))
     ds = ufl.Measure("ds", domain=mesh, subdomain_data=tags)
-    return mesh, ds(_CLAMPED)
+    return mesh, ds((_START, _END) if spec.ends == "clamped-guided" else _START)
 
 
 @dataclass
@@ -184,7 +220,7 @@ def rod_energy(u: Function, b: Function, data: RodData) -> Energy:
 
 
 def energy_split(u: Function, b: Function, data: RodData) -> dict[str, float]:
-    """The bending (c_b/2)∫|u″ − κb|² and torsion (c_t/2)∫(b′·(u′ × b))² parts (cell terms)."""
+    """Bending (c_b/2)∫|u″ − κb|², torsion (c_t/2)∫(b′·d)², length ∫|u′|, twist angle ∫b′·d."""
     mesh = u.function_space.mesh
     dx = ufl.dx(domain=mesh)
     curvature = tangent(tangent(u)) - data.kappa * b
@@ -193,6 +229,7 @@ def energy_split(u: Function, b: Function, data: RodData) -> dict[str, float]:
         "energy_bending": 0.5 * data.c_b * ufl.dot(curvature, curvature) * dx,
         "energy_torsion": 0.5 * data.c_t * twist**2 * dx,
         "length": ufl.sqrt(ufl.dot(tangent(u), tangent(u))) * dx,
+        "twist_angle": twist * dx,
     }
     return {key: integral(dolfinx.fem.form(form), mesh.comm) for key, form in forms.items()}
 
@@ -206,7 +243,7 @@ def exact_arc(s: Array, spec: RodSpec) -> Array:
 
 def arc_error(u: Function, spec: RodSpec) -> dict[str, float]:
     """The largest over the nodes of |u − exact arc| / L (clamped rods with κ ≠ 0; collective)."""
-    if not (spec.clamped and spec.kappa != 0.0):
+    if not (spec.ends == "clamped-free" and spec.kappa != 0.0):
         return {}
     space = u.function_space
     owned = space.dofmap.index_map.size_local
@@ -235,10 +272,14 @@ class RodModel:
         def straight(x: Array) -> Array:
             return np.outer(t, x[0])
 
-        def frame(x: Array) -> Array:
-            return np.outer(b, np.ones_like(x[0]))
+        d, twist, length = np.cross(t, b), self.spec.twist, self.spec.length
 
-        state = RodState(initial or straight, frame, self.spec.clamped)
+        def frame(x: Array) -> Array:
+            angle = twist * (x[0] / length) ** 2
+            return np.outer(b, np.cos(angle)) + np.outer(d, np.sin(angle))
+
+        spec = self.spec
+        state = RodState(initial or straight, frame, spec.clamped_nodes, spec.pinned_nodes)
 
         def energy(u: Function, director: Function) -> Energy:
             return rod_energy(u, director, self.data)

@@ -65,7 +65,8 @@ class RodState:
 
     centreline: Callable[[Array], Array]
     frame: Callable[[Array], Array]
-    clamped_start: bool  # u(0) and b(0) kept; u′(0) is the energy's Nitsche datum
+    clamped: tuple[float, ...]  # s of the ends where b is kept (u′ is the energy's datum)
+    pinned: tuple[float, ...]  # s of the ends where u is kept
 
 
 @dataclass
@@ -157,35 +158,37 @@ class RodFlow:
         self.defects = Defects(self.u, self.b)
         # clamped: the H² seminorm of u and the H¹ seminorm of b are norms already, and an
         # L² part would only slow down the large rotations of the rod
-        self._l2 = not state.clamped_start
+        self._l2 = not state.pinned
         self.time, self.step_count = 0.0, 0
         self.energy_increases: list[int] = []
         length = integral(dolfinx.fem.form(1.0 * ufl.dx(domain=mesh)), self.comm)
         cells = mesh.topology.index_map(1).size_global
         tau = length / cells if settings.tau == "h" else float(settings.tau)
         self._tau = values.constant(mesh, tau)
-        self._bcs = self._end_conditions(state.clamped_start)
+        self._bcs = self._end_conditions(state.clamped, state.pinned)
         self._build_forms()
         self._E_form = dolfinx.fem.form(self.energy.total)
         self._last_energy = self.evaluate_energy()
         self._last_increment: Array = np.zeros(0)
 
     # -- set-up -----------------------------------------------------------------------------
-    def _end_conditions(self, clamped: bool) -> list[Any]:
-        """δu(0) = 0, δb(0) = 0 and the frame multiplier at s = 0 (its row would be empty).
+    def _end_conditions(self, clamped: tuple[float, ...], pinned: tuple[float, ...]) -> list[Any]:
+        """δu = 0 at pinned ends, δb = 0 and the frame multiplier at clamped ends.
 
-        The slope u′(0) is imposed weakly by the energy (Nitsche's terms).
+        The frame multiplier's row would be empty there. The start meets the end data; the slope u′ is imposed weakly by the energy (Nitsche).
         """
-        if not clamped:
-            return []
         mesh = self.W.mesh
-        start = dolfinx.mesh.locate_entities_boundary(mesh, 0, lambda x: np.isclose(x[0], 0.0))
         bcs: list[Any] = []  # DirichletBC (its generic parameter differs between versions)
-        for index in (0, 1, 4):
+        for index, ends in ((0, pinned), (1, clamped), (4, clamped)):
+            if not ends:
+                continue
+            nodes = dolfinx.mesh.locate_entities_boundary(
+                mesh, 0, lambda x, ends=ends: np.any([np.isclose(x[0], s) for s in ends], axis=0)
+            )
             sub = self.W.sub(index)
             space, _ = compat.collapse(sub)
             zero: Function = dolfinx.fem.Function(space)
-            dofs = dolfinx.fem.locate_dofs_topological((sub, space), 0, start)
+            dofs = dolfinx.fem.locate_dofs_topological((sub, space), 0, nodes)
             bcs.append(dolfinx.fem.dirichletbc(zero, dofs, sub))
         return bcs
 
