@@ -40,6 +40,15 @@ def test_clamped_rod_rolls_into_the_arc(tmp_path):
     assert (tmp_path / "out" / "deformation.bp").is_dir()
 
 
+def test_free_rod_rolls_into_an_arc_of_the_right_chord(tmp_path):
+    """Free ends (L² in the metric): an arc of curvature κ = 2 anywhere, chord 2 sin(κL/2)/κ."""
+    result = run(tmp_path, {"model.ends": "free-free"})
+    assert result["converged"] and result["energy_increases"] == []
+    assert result["energy_bending"] < 0.01 * 0.5 * 2.0**2
+    (x0, _, _), (x1, _, _) = result["bbox"]  # the start is symmetric about s = L/2: chord ∥ e₁
+    assert x1 - x0 == pytest.approx(math.sin(1.0), rel=0.01)
+
+
 def test_twist_spreads_uniformly(tmp_path):
     """Frame turned by φ = π at the guided end: uniform twist φ/L, I = (c_t/2)φ²/L, no bending."""
     result = run(tmp_path, {}, path=TWIST)
