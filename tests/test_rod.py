@@ -19,7 +19,7 @@ import dgplate
 from dgplate.cli import main
 
 PROBLEMS = Path(__file__).resolve().parent.parent / "demos" / "problems"
-ARC, TWIST = PROBLEMS / "rod_arc.toml", PROBLEMS / "rod_twist.toml"
+ARC, TWIST, CLOSED = (PROBLEMS / f"rod_{name}.toml" for name in ("arc", "twist", "closed"))
 QUIET = {"output.progress": 0, "output.vtx": False, "output.png": False}
 
 
@@ -49,6 +49,17 @@ def test_free_rod_rolls_into_an_arc_of_the_right_chord(tmp_path):
     assert x1 - x0 == pytest.approx(math.sin(1.0), rel=0.01)
 
 
+def test_closed_circle_is_stationary_at_its_energy(tmp_path):
+    """A closed rod of length L = 1: the circle, (c_b/2)(2π)²/L, stays put (radius 1/2π)."""
+    result = run(tmp_path, {"output.png": True}, path=CLOSED)
+    assert result["converged"] and result["energy_increases"] == []
+    assert result["energy"] == pytest.approx(0.5 * (2 * math.pi) ** 2, rel=0.005)
+    (x0, y0, z0), (x1, y1, z1) = result["bbox"]
+    assert x1 - x0 == pytest.approx(1 / math.pi, rel=1e-3)
+    assert y1 - y0 == pytest.approx(1 / math.pi, rel=1e-3) and abs(z1 - z0) < 1e-12
+    assert result["energy_torsion"] < 1e-12
+
+
 def test_twist_spreads_uniformly(tmp_path):
     """Frame turned by φ = π at the guided end: uniform twist φ/L, I = (c_t/2)φ²/L, no bending."""
     result = run(tmp_path, {}, path=TWIST)
@@ -75,7 +86,10 @@ def test_defects_grow_like_tau(tmp_path):
         ("model.c_t=1.0", "model.c_t must be < model.c_b (got c_t = 1.0, c_b = 1.0)"),
         ("model.frame=[1, 1, 0]", "model.frame must be orthogonal to model.tangent"),
         ("model.frame=[0, 0, 0]", "model.frame must be a non-zero finite vector"),
-        ("model.ends=closed", "model.ends must be one of clamped-free, clamped-guided, free-free"),
+        (
+            "model.ends=open",
+            "model.ends must be one of clamped-free, clamped-guided, free-free, closed",
+        ),
         ("model.twist=1.0", "model.twist = 1.0 needs model.ends = 'clamped-guided'"),
         ("model.degree=1", "model.degree must be an integer >= 2"),
         ("mesh.cells=[4, 4]", "mesh.cells has no effect with model.name = 'rod'"),
@@ -90,11 +104,19 @@ def test_bad_input_is_one_line_with_exit_2(tmp_path, capsys, setting, message):
 
 
 @pytest.mark.mpi
-def test_rod_same_on_any_number_of_ranks(tmp_path):
-    overrides = {"flow.max_steps": 30, "model.c_t": 0.3, "model.frame": [0.0, 0.6, 0.8]}
-    serial = run(tmp_path, overrides, name="serial")
-    parallel = run(tmp_path, overrides, comm=MPI.COMM_WORLD, name="parallel")
+@pytest.mark.parametrize(
+    "path,overrides",
+    [
+        (ARC, {"model.c_t": 0.3, "model.frame": [0.0, 0.6, 0.8]}),
+        (CLOSED, {"model.kappa": 3.0}),
+    ],
+    ids=["arc", "closed"],
+)
+def test_rod_same_on_any_number_of_ranks(tmp_path, path, overrides):
+    overrides = {"flow.max_steps": 30, **overrides}
+    serial = run(tmp_path, overrides, name="serial", path=path)
+    parallel = run(tmp_path, overrides, comm=MPI.COMM_WORLD, name="parallel", path=path)
     assert parallel["steps"] == serial["steps"]
     assert parallel["energy"] == pytest.approx(serial["energy"], rel=PARITY_RTOL)
-    for key in ("defect_tangent", "defect_frame", "arc_error"):
-        assert parallel[key] == pytest.approx(serial[key], rel=1e-8, abs=1e-12)
+    for key in ("defect_tangent", "defect_frame", "arc_error", "energy_torsion"):
+        assert parallel.get(key, 0.0) == pytest.approx(serial.get(key, 0.0), rel=1e-8, abs=1e-12)

@@ -26,10 +26,11 @@ u(s) = s·tangent with b turned by twist·(s/L)² (b = frame without twist).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import basix.ufl
 import dolfinx.fem
 import dolfinx.mesh
 import numpy as np
@@ -48,7 +49,7 @@ from dgplate.solvers.rod_flow import RodFlow, RodState, ip_product, nitsche_slop
 
 __all__ = ["ENDS", "ROD_IGNORES", "RodModel", "RodSpec", "build_rod", "exact_arc", "rod_energy"]
 
-ENDS = ("clamped-free", "clamped-guided", "free-free")
+ENDS = ("clamped-free", "clamped-guided", "free-free", "closed")
 #: Keys that do nothing for a rod (an input error, see the registry).
 ROD_IGNORES = {
     "mesh": "a rod has its own mesh: model.cells intervals of (0, model.length)",
@@ -94,7 +95,7 @@ class RodSpec:
     )
     ends: str = option(
         "clamped-free",
-        "'clamped-free' (s = 0 clamped), 'clamped-guided' (s = L also has u′ = tangent and a prescribed frame, its position free) or 'free-free'",
+        "'clamped-free' (s = 0 clamped), 'clamped-guided' (s = L also has u′ = tangent and a prescribed frame, its position free), 'free-free' or 'closed' (starts as the circle of length L in the x-y plane with b = e₃; tangent and frame unused)",
     )
     twist: float = option(
         0.0,
@@ -142,7 +143,7 @@ class RodSpec:
     @property
     def clamped(self) -> bool:
         """Whether s = 0 is clamped."""
-        return self.ends != "free-free"
+        return self.ends.startswith("clamped")
 
     @property
     def clamped_nodes(self) -> tuple[float, ...]:
@@ -155,8 +156,44 @@ class RodSpec:
         return (0.0,) if self.clamped else ()
 
 
+def loop(comm: Any, spec: RodSpec) -> Mesh:
+    """A closed rod's parameter domain: the regular polygon of perimeter L, cells in turn."""
+    n = spec.cells
+    radius = spec.length / n / (2.0 * math.sin(math.pi / n))
+    angles = 2.0 * math.pi * np.arange(n) / n
+    points = radius * np.c_[np.cos(angles), np.sin(angles)]
+    cells = np.c_[np.arange(n), (np.arange(n) + 1) % n].astype(np.int64)
+    if comm.rank:  # rank 0 holds the whole mesh; the partitioner distributes it
+        points, cells = points[:0], cells[:0]
+    element = basix.ufl.element("Lagrange", "interval", 1, shape=(2,))
+    return dolfinx.mesh.create_mesh(  # keywords: 0.9 has (x, e), later versions (e, x)
+        comm,
+        cells=cells,
+        e=ufl.Mesh(element),
+        x=points,
+        partitioner=compat.shared_facet_partitioner(),
+    )
+
+
+def circle(length: float) -> tuple[Callable[[Array], Array], Callable[[Array], Array]]:
+    """The closed rod's start: the circle of length L through the polygon's nodes, b = e₃."""
+
+    def centreline(x: Array) -> Array:
+        theta = np.arctan2(x[1], x[0])
+        r = length / (2.0 * math.pi)
+        return np.vstack([r * np.cos(theta), r * np.sin(theta), np.zeros_like(theta)])
+
+    def binormal(x: Array) -> Array:
+        return np.outer([0.0, 0.0, 1.0], np.ones_like(x[0]))
+
+    return centreline, binormal
+
+
 def interval(comm: Any, spec: RodSpec) -> tuple[Mesh, ufl.Measure]:
     """The 1D mesh of (0, L), ghosted across shared nodes, and ds on the clamped ends."""
+    if spec.ends == "closed":
+        mesh = loop(comm, spec)
+        return mesh, ufl.Measure("ds", domain=mesh)
     mesh = dolfinx.mesh.create_interval(
         comm, spec.cells, [0.0, spec.length], partitioner=compat.shared_facet_partitioner()
     )
@@ -279,7 +316,8 @@ class RodModel:
             return np.outer(b, np.cos(angle)) + np.outer(d, np.sin(angle))
 
         spec = self.spec
-        state = RodState(initial or straight, frame, spec.clamped_nodes, spec.pinned_nodes)
+        start, director = circle(spec.length) if spec.ends == "closed" else (straight, frame)
+        state = RodState(initial or start, director, spec.clamped_nodes, spec.pinned_nodes)
 
         def energy(u: Function, director: Function) -> Energy:
             return rod_energy(u, director, self.data)

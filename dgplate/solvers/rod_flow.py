@@ -54,9 +54,20 @@ RodEnergy = Callable[[Function, Function], Energy]
 
 
 def tangent(u: Expr) -> Expr:
-    """u′ = du/ds on the 1D mesh (a 3-vector)."""
-    out: Expr = u.dx(0)
-    return out
+    """u′ = du/ds on the 1D mesh (a 3-vector).
+
+    On an interval of ℝ, d/dx. On a closed polygon in ℝ² (a closed rod), the derivative along
+    the unit tangent T = J/|J| of each cell; the cells are numbered around the polygon, so T
+    turns one way and u′ is continuous where u is smooth.
+    """
+    domain = ufl.domain.extract_unique_domain(u)
+    if ufl.SpatialCoordinate(domain).ufl_shape[0] == 1:
+        out: Expr = u.dx(0)
+        return out
+    J = ufl.Jacobian(domain)
+    column = ufl.as_vector([J[0, 0], J[1, 0]])
+    along: Expr = ufl.dot(ufl.grad(u), column / ufl.sqrt(ufl.dot(column, column)))
+    return along
 
 
 @dataclass
@@ -390,7 +401,8 @@ def ip_product(x: Expr, y: Expr, mesh: Mesh, penalty: Expr) -> ufl.Form:
     n = ufl.FacetNormal(mesh)
 
     def jump(w: Expr) -> Expr:
-        out: Expr = tangent(w)("+") * n("+")[0] + tangent(w)("-") * n("-")[0]
+        """[[∂_n w]] = ∇w⁺n⁺ + ∇w⁻n⁻ (n = ±T: the jump of w′ up to its sign)."""
+        out: Expr = ufl.dot(ufl.grad(w)("+"), n("+")) + ufl.dot(ufl.grad(w)("-"), n("-"))
         return out
 
     def avg2(w: Expr) -> Expr:
