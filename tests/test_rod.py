@@ -60,6 +60,15 @@ def test_closed_circle_is_stationary_at_its_energy(tmp_path):
     assert result["energy_torsion"] < 1e-12
 
 
+def test_twisted_ring_keeps_its_energy(tmp_path):
+    """A closed ring whose frame turns once (k = 1 < √3 c_b/c_t, stable by Michell's criterion)."""
+    result = run(tmp_path, {"model.twist": 2 * math.pi}, path=CLOSED)
+    assert result["converged"] and result["energy_increases"] == []
+    exact = 0.5 * (2 * math.pi) ** 2 + 0.5 * 0.5 * (2 * math.pi) ** 2  # bending + torsion
+    assert result["energy"] == pytest.approx(exact, rel=0.005)
+    assert result["twist_angle"] == pytest.approx(2 * math.pi, rel=0.02)
+
+
 def test_twist_spreads_uniformly(tmp_path):
     """Frame turned by φ = π at the guided end: uniform twist φ/L, I = (c_t/2)φ²/L, no bending."""
     result = run(tmp_path, {}, path=TWIST)
@@ -90,14 +99,16 @@ def test_defects_grow_like_tau(tmp_path):
             "model.ends=open",
             "model.ends must be one of clamped-free, clamped-guided, free-free, closed",
         ),
-        ("model.twist=1.0", "model.twist = 1.0 needs model.ends = 'clamped-guided'"),
+        ("model.twist=1.0", "model.twist = 1.0 needs model.ends = 'clamped-guided' or 'closed'"),
+        ("model.twist=3.0 | model.ends=closed", "model.twist of a closed rod must be a multiple"),
         ("model.degree=1", "model.degree must be an integer >= 2"),
         ("mesh.cells=[4, 4]", "mesh.cells has no effect with model.name = 'rod'"),
         ("flow.projection_steps=2", "flow.projection_steps has no effect with model.name"),
     ],
 )
 def test_bad_input_is_one_line_with_exit_2(tmp_path, capsys, setting, message):
-    code = main(["run", str(ARC), "--out", str(tmp_path / "o"), "--set", setting])
+    sets = [arg for item in setting.split(" | ") for arg in ("--set", item)]
+    code = main(["run", str(ARC), "--out", str(tmp_path / "o"), *sets])
     err = capsys.readouterr().err
     assert code == 2 and message in err and err.count("\n") == 1, err
     assert not (tmp_path / "o").exists()

@@ -129,9 +129,16 @@ class RodSpec:
             raise InputError(f"model.ends must be one of {', '.join(ENDS)}, got {self.ends!r}")
         if not (is_number(self.twist) and math.isfinite(self.twist)):
             raise InputError(f"model.twist must be a finite number, got {self.twist!r}")
-        if self.twist != 0.0 and self.ends != "clamped-guided":
+        if self.twist != 0.0 and self.ends not in ("clamped-guided", "closed"):
             raise InputError(
-                f"model.twist = {self.twist} needs model.ends = 'clamped-guided', got {self.ends!r}"
+                f"model.twist = {self.twist} needs model.ends = 'clamped-guided' or 'closed', "
+                f"got {self.ends!r}"
+            )
+        turns = self.twist / (2.0 * math.pi)
+        if self.ends == "closed" and abs(turns - round(turns)) > 1e-9:
+            raise InputError(
+                f"model.twist of a closed rod must be a multiple of 2π (the frame closes up), "
+                f"got {self.twist} = {turns:.4g}·2π"
             )
         t, b = _unit(self.tangent, "model.tangent"), _unit(self.frame, "model.frame")
         if abs(float(t @ b)) > 1e-10:
@@ -175,8 +182,14 @@ def loop(comm: Any, spec: RodSpec) -> Mesh:
     )
 
 
-def circle(length: float) -> tuple[Callable[[Array], Array], Callable[[Array], Array]]:
-    """The closed rod's start: the circle of length L through the polygon's nodes, b = e₃."""
+def circle(
+    length: float, twist: float
+) -> tuple[Callable[[Array], Array], Callable[[Array], Array]]:
+    """The closed rod's start: the circle of length L and b = cos ψ e₃ − sin ψ ν.
+
+    ν is the inward normal and ψ = twist·θ/2π at the angle θ: b turns twist/2π times about
+    the tangent along the rod (b = e₃ without twist); twist is a multiple of 2π.
+    """
 
     def centreline(x: Array) -> Array:
         theta = np.arctan2(x[1], x[0])
@@ -184,7 +197,12 @@ def circle(length: float) -> tuple[Callable[[Array], Array], Callable[[Array], A
         return np.vstack([r * np.cos(theta), r * np.sin(theta), np.zeros_like(theta)])
 
     def binormal(x: Array) -> Array:
-        return np.outer([0.0, 0.0, 1.0], np.ones_like(x[0]))
+        theta = np.arctan2(x[1], x[0])
+        psi = twist * theta / (2.0 * math.pi)
+        inward = np.vstack([-np.cos(theta), -np.sin(theta), np.zeros_like(theta)])
+        e3 = np.outer([0.0, 0.0, 1.0], np.ones_like(theta))
+        frame: Array = np.cos(psi) * e3 - np.sin(psi) * inward
+        return frame
 
     return centreline, binormal
 
@@ -316,7 +334,9 @@ class RodModel:
             return np.outer(b, np.cos(angle)) + np.outer(d, np.sin(angle))
 
         spec = self.spec
-        start, director = circle(spec.length) if spec.ends == "closed" else (straight, frame)
+        start, director = (
+            circle(spec.length, spec.twist) if spec.ends == "closed" else (straight, frame)
+        )
         state = RodState(initial or start, director, spec.clamped_nodes, spec.pinned_nodes)
 
         def energy(u: Function, director: Function) -> Energy:
