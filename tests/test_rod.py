@@ -131,3 +131,21 @@ def test_rod_same_on_any_number_of_ranks(tmp_path, path, overrides):
     assert parallel["energy"] == pytest.approx(serial["energy"], rel=PARITY_RTOL)
     for key in ("defect_tangent", "defect_frame", "arc_error", "energy_torsion"):
         assert parallel.get(key, 0.0) == pytest.approx(serial.get(key, 0.0), rel=1e-8, abs=1e-12)
+
+
+@pytest.mark.parametrize("version", [(0, 9), (0, 10)])
+def test_create_mesh_passes_coordinates_and_element_in_the_version_order(monkeypatch, version):
+    """0.9 has create_mesh(comm, cells, x, e, partitioner), 0.10/0.11 (comm, cells, e, x, ...)."""
+    from dgplate import compat
+
+    def v09(comm, cells, x, e, partitioner=None):
+        return {"x": x, "e": e}
+
+    def v10(comm, cells, e, x, partitioner=None, max_facet_to_cell_links=2):
+        return {"x": x, "e": e}
+
+    fake = v09 if version == (0, 9) else v10
+    monkeypatch.setattr(compat, "DOLFINX_VERSION", version)
+    monkeypatch.setattr(compat.dolfinx.mesh, "create_mesh", fake)
+    got = compat.create_mesh(MPI.COMM_SELF, "cells", "points", "domain", None)
+    assert got == {"x": "points", "e": "domain"}

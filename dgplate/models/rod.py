@@ -173,12 +173,8 @@ def loop(comm: Any, spec: RodSpec) -> Mesh:
     if comm.rank:  # rank 0 holds the whole mesh; the partitioner distributes it
         points, cells = points[:0], cells[:0]
     element = basix.ufl.element("Lagrange", "interval", 1, shape=(2,))
-    return dolfinx.mesh.create_mesh(  # keywords: 0.9 has (x, e), later versions (e, x)
-        comm,
-        cells=cells,
-        e=ufl.Mesh(element),
-        x=points,
-        partitioner=compat.shared_facet_partitioner(),
+    return compat.create_mesh(
+        comm, cells, points, ufl.Mesh(element), compat.shared_facet_partitioner()
     )
 
 
