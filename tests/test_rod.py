@@ -103,6 +103,7 @@ def test_defects_grow_like_tau(tmp_path):
         ("model.twist=3.0 | model.ends=closed", "model.twist of a closed rod must be a multiple"),
         ("model.degree=1", "model.degree must be an integer >= 2"),
         ("mesh.cells=[4, 4]", "mesh.cells has no effect with model.name = 'rod'"),
+        ("mesh.type=gmsh", "mesh.type has no effect with model.name = 'rod'"),
         ("flow.projection_steps=2", "flow.projection_steps has no effect with model.name"),
     ],
 )
@@ -112,6 +113,23 @@ def test_bad_input_is_one_line_with_exit_2(tmp_path, capsys, setting, message):
     err = capsys.readouterr().err
     assert code == 2 and message in err and err.count("\n") == 1, err
     assert not (tmp_path / "o").exists()
+
+
+def test_schema_of_a_rod_prints_no_key_the_rod_rejects(capsys):
+    """No [mesh] (the rod builds its own from model.length and model.cells), no ignored flow keys."""
+    assert main(["schema", "--model", "rod"]) == 0
+    out = capsys.readouterr().out
+    assert "[mesh]" not in out and "[model]" in out and "[flow]" in out and "cells = 32" in out
+    assert "projection_steps" not in out and "l2_metric" not in out
+    assert "[mesh]" in (main(["schema", "--model", "kirchhoff"]), capsys.readouterr().out)[1]
+
+
+def test_rod_runs_on_its_own_mesh_and_the_tau_advice_uses_its_h(tmp_path, capsys):
+    """16 cells of (0, 1): h = 1/16 (a default [mesh] rectangle of 16 × 16 would say 0.0884)."""
+    result = run(tmp_path, {"flow.tau": 100.0, "flow.max_steps": 2})
+    err = capsys.readouterr().err
+    assert "flow.tau = 100 is more than 1000 h (h = 0.0625)" in err, err
+    assert result["cells"] == 16 and result["dofs"] > 0
 
 
 @pytest.mark.mpi

@@ -47,7 +47,16 @@ from dgplate.solvers.driver import Observer
 from dgplate.solvers.flow import FlowSpec, Initial
 from dgplate.solvers.rod_flow import RodFlow, RodState, ip_product, nitsche_slope, tangent
 
-__all__ = ["ENDS", "ROD_IGNORES", "RodModel", "RodSpec", "build_rod", "exact_arc", "rod_energy"]
+__all__ = [
+    "ENDS",
+    "ROD_IGNORES",
+    "RodModel",
+    "RodSpec",
+    "build_rod",
+    "exact_arc",
+    "rod_energy",
+    "rod_mesh",
+]
 
 ENDS = ("clamped-free", "clamped-guided", "free-free", "closed")
 #: Keys that do nothing for a rod (an input error, see the registry).
@@ -99,7 +108,7 @@ class RodSpec:
     )
     twist: float = option(
         0.0,
-        "clamped-clamped: the frame at s = L is turned by this angle (radians) about the tangent; the start spreads it as twist·(s/L)²",
+        "'clamped-guided': the frame at s = L is turned by this angle (radians) about the tangent, the start spreads it as twist·(s/L)²; 'closed': a multiple of 2π, the start's frame turns uniformly by it about the tangent",
     )
     tangent: list[Any] = option([1.0, 0.0, 0.0], "u′ of the straight start (and at a clamp)")
     frame: list[Any] = option([0.0, 1.0, 0.0], "b of the start (and at a clamp), ⟂ tangent")
@@ -203,11 +212,14 @@ def circle(
     return centreline, binormal
 
 
-def interval(comm: Any, spec: RodSpec) -> tuple[Mesh, ufl.Measure]:
-    """The 1D mesh of (0, L), ghosted across shared nodes, and ds on the clamped ends."""
+def rod_mesh(spec: RodSpec, comm: Any) -> TaggedMesh:
+    """The rod's own mesh from its keys: ``model.cells`` intervals of (0, ``model.length``).
+
+    Ghosted across shared nodes; the end nodes s = 0 and s = L are the facet groups 'start'
+    and 'end'. A closed rod's parameter domain is the regular polygon of perimeter L (no ends).
+    """
     if spec.ends == "closed":
-        mesh = loop(comm, spec)
-        return mesh, ufl.Measure("ds", domain=mesh)
+        return TaggedMesh(loop(comm, spec), None, None, source="closed rod")
     mesh = dolfinx.mesh.create_interval(
         comm, spec.cells, [0.0, spec.length], partitioner=compat.shared_facet_partitioner()
     )
@@ -220,8 +232,17 @@ def interval(comm: Any, spec: RodSpec) -> tuple[Mesh, ufl.Measure]:
     marks = np.concatenate([np.full(ends[0].size, _START), np.full(ends[1].size, _END)])
     order = np.argsort(nodes)
     tags = dolfinx.mesh.meshtags(mesh, 0, nodes[order], marks[order].astype(np.int32))
-    ds = ufl.Measure("ds", domain=mesh, subdomain_data=tags)
-    return mesh, ds((_START, _END) if spec.ends == "clamped-guided" else _START)
+    groups = {"start": (0, _START), "end": (0, _END)}
+    return TaggedMesh(mesh, None, tags, groups, source="rod")
+
+
+def clamp_measure(spec: RodSpec, tagged: TaggedMesh) -> ufl.Measure:
+    """The measure ds on the clamped ends (s = 0, and s = L for a guided end)."""
+    ds = ufl.Measure("ds", domain=tagged.mesh, subdomain_data=tagged.facet_tags)
+    if spec.ends == "closed":
+        return ds
+    clamped: ufl.Measure = ds((_START, _END) if spec.ends == "clamped-guided" else _START)
+    return clamped
 
 
 @dataclass
@@ -352,6 +373,5 @@ class RodModel:
 
 
 def build_rod(spec: RodSpec, tagged: TaggedMesh) -> RodModel:
-    """The rod's own interval mesh (on the plate mesh's communicator) and energy data."""
-    mesh, clamp = interval(tagged.comm, spec)
-    return RodModel(spec, mesh, RodData.of(spec, mesh, clamp))
+    """The rod on its own mesh (:func:`rod_mesh`) and its energy data."""
+    return RodModel(spec, tagged.mesh, RodData.of(spec, tagged.mesh, clamp_measure(spec, tagged)))
