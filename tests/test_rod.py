@@ -167,3 +167,30 @@ def test_create_mesh_passes_coordinates_and_element_in_the_version_order(monkeyp
     monkeypatch.setattr(compat.dolfinx.mesh, "create_mesh", fake)
     got = compat.create_mesh(MPI.COMM_SELF, "cells", "points", "domain", None)
     assert got == {"x": "points", "e": "domain"}
+
+
+@pytest.mark.parametrize(
+    "c_t,unstable", [(0.4, False), (0.8, True)], ids=["below-michell", "above-michell"]
+)
+def test_michell_twisted_ring_stays_below_and_leaves_the_plane_above(tmp_path, c_t, unstable):
+    """A ring twisted 3 times, perturbed by the saddle a = 10⁻³ (out-of-plane extent 2aL/2π).
+
+    Michell: stable iff c_t·k < √3 c_b, i.e. c_t < 0.577 for k = 3, c_b = 1. Below (c_t = 0.4,
+    0.69 of the threshold) the perturbation decays; above (c_t = 0.8, 1.39 times) it grows and
+    the ring writhes. The threshold itself: benchmarks/rod_michell.py (bisection).
+    """
+    overrides = {
+        "model.twist": 6 * math.pi,
+        "model.c_t": c_t,
+        "model.saddle": 1e-3,
+        "flow.tau": 0.1,
+        "flow.max_steps": 200,
+    }
+    result = run(tmp_path, overrides, path=CLOSED)
+    assert result["energy_increases"] == []
+    (_, _, z0), (_, _, z1) = result["bbox"]
+    start = 2e-3 / (2 * math.pi)  # the saddle's out-of-plane extent 2aρ, ρ ≈ L/2π
+    if unstable:
+        assert z1 - z0 > 5 * start and abs(result["writhe"]) > 1e-4
+    else:
+        assert z1 - z0 < 0.7 * start and abs(result["writhe"]) < 1e-4

@@ -40,6 +40,7 @@ from dgplate import compat, mpi, values
 from dgplate.compat import Array, Constant, Function, Mesh
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import integral
+from dgplate.dg.obstacle import Obstacle
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import is_integer, is_number, option
@@ -89,6 +90,20 @@ def _unit(value: object, key: str) -> Array:
     return vector / norm
 
 
+def confinement(table: object) -> Obstacle | None:
+    """``model.confinement`` as the obstacle 'inside a sphere' of :mod:`dgplate.dg.obstacle`."""
+    key = "model.confinement"
+    if isinstance(table, dict):
+        for fixed in ("type", "side"):
+            if fixed in table:
+                raise InputError(
+                    f"{key}.{fixed} has no effect: the confinement is the inside of a sphere; "
+                    "remove it"
+                )
+        table = {**table, "type": "sphere", "side": "inside"} if table else table
+    return Obstacle.from_table(table, key)
+
+
 @dataclass
 class RodSpec:
     """[model] of an inextensible bending–torsion rod."""
@@ -113,6 +128,14 @@ class RodSpec:
     tangent: list[Any] = option([1.0, 0.0, 0.0], "u′ of the straight start (and at a clamp)")
     frame: list[Any] = option([0.0, 1.0, 0.0], "b of the start (and at a clamp), ⟂ tangent")
     penalty: float = option(10.0, "C⁰-IP penalty σ of the jumps of u′ (times c_b/h)")
+    saddle: float = option(
+        0.0,
+        "closed: the start is the saddle ρ(cos φ, sin φ, a sin 2φ) of length L (by arc length) with a = saddle; 0: the circle. A small a perturbs the ring (Michell's instability)",
+    )
+    confinement: dict[str, Any] = option(
+        {},
+        "{} none, or {radius = R, center = [3], epsilon = ε}: the rod is kept in the ball |u − c| ≤ R by the penalty (1/2ε)∫(R − |u − c|)₋² with the quadratic–concave splitting (docs/obstacle.md); ε defaults to 1e-4",
+    )
 
     def __post_init__(self) -> None:
         for key in ("length", "c_b", "c_t", "penalty"):
@@ -129,6 +152,25 @@ class RodSpec:
                 "the energy with (c_t/2)|b′|² − (c_t/2)(b·u″)² is coercive only for c_t < c_b"
             )
         self._check_shape()
+        self._check_start()
+
+    def _check_start(self) -> None:
+        """The saddle (closed rods only) and the confinement, which must hold the start."""
+        if not (is_number(self.saddle) and math.isfinite(self.saddle)):
+            raise InputError(f"model.saddle must be a finite number, got {self.saddle!r}")
+        if self.saddle != 0.0 and self.ends != "closed":
+            raise InputError(
+                f"model.saddle = {self.saddle} needs model.ends = 'closed', got {self.ends!r}"
+            )
+        self._sphere = sphere = confinement(self.confinement)
+        if sphere is None:
+            return
+        extent = start_extent(self, sphere.center)
+        if extent > sphere.radius:
+            raise InputError(
+                f"model.confinement.radius = {sphere.radius:g} is smaller than the rod's "
+                f"initial extent max|u⁰ − center| = {extent:.4g}: the start must lie in the ball"
+            )
 
     def _check_shape(self) -> None:
         """κ, the ends, the twist and the start frame."""
@@ -155,6 +197,11 @@ class RodSpec:
                 f"model.frame must be orthogonal to model.tangent, got frame·tangent = "
                 f"{float(t @ b):.3g} (normalised)"
             )
+
+    @property
+    def sphere(self) -> Obstacle | None:
+        """The validated confinement (None: none)."""
+        return self._sphere
 
     @property
     def clamped(self) -> bool:
@@ -187,29 +234,78 @@ def loop(comm: Any, spec: RodSpec) -> Mesh:
     )
 
 
-def circle(
-    length: float, twist: float
-) -> tuple[Callable[[Array], Array], Callable[[Array], Array]]:
-    """The closed rod's start: the circle of length L and b = cos ψ e₃ − sin ψ ν.
+Start = tuple[Callable[[Array], Array], Callable[[Array], Array]]
 
-    ν is the inward normal and ψ = twist·θ/2π at the angle θ: b turns twist/2π times about
-    the tangent along the rod (b = e₃ without twist); twist is a multiple of 2π.
+
+def closed_start(length: float, twist: float, saddle: float) -> Start:
+    """The closed rod's start: the saddle ρ(cos φ, sin φ, a sin 2φ) of length L, by arc length.
+
+    a = ``saddle`` (0: the circle of length L). The point of angle θ on the polygon has the arc
+    length s = Lθ/2π and goes to the φ with s(φ) = s (a table of 4096 intervals, inverted by
+    linear interpolation; exact for the circle). The frame is b₀ = e₃ made orthogonal to the
+    tangent t and turned by ψ = twist·s/L about t: b = cos ψ b₀ + sin ψ t × b₀ (for the circle
+    cos ψ e₃ − sin ψ ν, ν the inward normal); twist is a multiple of 2π.
     """
+    grid = np.linspace(0.0, 2.0 * math.pi, 4097)
+    speed = np.sqrt(1.0 + (2.0 * saddle * np.cos(2.0 * grid)) ** 2)
+    arc = np.r_[0.0, np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(grid))]
+    rho = length / arc[-1]
+
+    def angle(x: Array) -> tuple[Array, Array]:
+        """(φ, s/L) of the polygon's points."""
+        share = np.mod(np.arctan2(x[1], x[0]), 2.0 * math.pi) / (2.0 * math.pi)
+        return np.interp(share * arc[-1], arc, grid), share
 
     def centreline(x: Array) -> Array:
-        theta = np.arctan2(x[1], x[0])
-        r = length / (2.0 * math.pi)
-        return np.vstack([r * np.cos(theta), r * np.sin(theta), np.zeros_like(theta)])
+        phi, _ = angle(x)
+        curve: Array = rho * np.vstack([np.cos(phi), np.sin(phi), saddle * np.sin(2.0 * phi)])
+        return curve
 
     def binormal(x: Array) -> Array:
-        theta = np.arctan2(x[1], x[0])
-        psi = twist * theta / (2.0 * math.pi)
-        inward = np.vstack([-np.cos(theta), -np.sin(theta), np.zeros_like(theta)])
-        e3 = np.outer([0.0, 0.0, 1.0], np.ones_like(theta))
-        frame: Array = np.cos(psi) * e3 - np.sin(psi) * inward
+        phi, share = angle(x)
+        t = np.vstack([-np.sin(phi), np.cos(phi), 2.0 * saddle * np.cos(2.0 * phi)])
+        t /= np.linalg.norm(t, axis=0)
+        b0 = np.outer([0.0, 0.0, 1.0], np.ones_like(phi)) - t * t[2]
+        b0 /= np.linalg.norm(b0, axis=0)
+        psi = twist * share
+        frame: Array = np.cos(psi) * b0 + np.sin(psi) * np.cross(t, b0, axis=0)
         return frame
 
     return centreline, binormal
+
+
+def open_start(spec: RodSpec) -> Start:
+    """The straight rod u = s·t, its frame b turned by twist·(s/L)² about t."""
+    t, b = _unit(spec.tangent, "model.tangent"), _unit(spec.frame, "model.frame")
+    d, twist, length = np.cross(t, b), spec.twist, spec.length
+
+    def straight(x: Array) -> Array:
+        line: Array = np.outer(t, x[0])
+        return line
+
+    def frame(x: Array) -> Array:
+        angle = twist * (x[0] / length) ** 2
+        return np.outer(b, np.cos(angle)) + np.outer(d, np.sin(angle))
+
+    return straight, frame
+
+
+def start_of(spec: RodSpec) -> Start:
+    """The start (u⁰, b⁰) of the flow as callables of the mesh's points (3, n) → (3, n)."""
+    if spec.ends == "closed":
+        return closed_start(spec.length, spec.twist, spec.saddle)
+    return open_start(spec)
+
+
+def start_extent(spec: RodSpec, center: Sequence[float]) -> float:
+    """The largest |u⁰(s) − c| over 4096 points of the start (the mesh's points are on it)."""
+    theta = np.linspace(0.0, 2.0 * math.pi, 4096, endpoint=False)
+    if spec.ends == "closed":  # points of the polygon's angles
+        points = np.vstack([np.cos(theta), np.sin(theta), np.zeros_like(theta)])
+    else:
+        points = np.vstack([np.linspace(0.0, spec.length, 4096), *np.zeros((2, 4096))])
+    u = start_of(spec)[0](points)
+    return float(np.max(np.linalg.norm(u - np.asarray(center)[:, None], axis=0)))
 
 
 def rod_mesh(spec: RodSpec, comm: Any) -> TaggedMesh:
@@ -255,6 +351,8 @@ class RodData:
     penalty: Constant
     tangent: Constant
     clamp: ufl.Measure | None  # ds on the clamped node, None for free ends
+    sphere: Obstacle | None  # the confinement
+    degree: int  # of the centreline (the penalty's quadrature)
 
     @staticmethod
     def of(spec: RodSpec, mesh: Mesh, clamp: ufl.Measure) -> RodData:
@@ -267,6 +365,8 @@ class RodData:
             values.constant(mesh, spec.penalty),
             values.constant(mesh, t),
             clamp if spec.clamped else None,
+            spec.sphere,
+            spec.degree,
         )
 
 
@@ -288,6 +388,10 @@ def rod_energy(u: Function, b: Function, data: RodData) -> Energy:
         bending += nitsche_slope(u, data.tangent, mesh, data.penalty, data.clamp)
     implicit = data.c_b * bending + 0.5 * data.c_t * ufl.dot(tangent(b), tangent(b)) * dx
     explicit = -0.5 * data.c_t * ufl.dot(b, d2) ** 2 * dx
+    if data.sphere is not None:  # (1/2ε)∫|u − c|² implicit, the concave rest explicit
+        penalty = data.sphere.energy(u, mesh, data.degree)
+        assert penalty.explicit is not None
+        implicit, explicit = implicit + penalty.implicit, explicit + penalty.explicit
     return Energy(implicit, explicit)
 
 
@@ -303,7 +407,57 @@ def energy_split(u: Function, b: Function, data: RodData) -> dict[str, float]:
         "length": ufl.sqrt(ufl.dot(tangent(u), tangent(u))) * dx,
         "twist_angle": twist * dx,
     }
+    if data.sphere is not None:
+        penalty = data.sphere.energy(u, mesh, data.degree)
+        assert penalty.explicit is not None
+        forms["energy_confinement"] = penalty.implicit + penalty.explicit
     return {key: integral(dolfinx.fem.form(form), mesh.comm) for key, form in forms.items()}
+
+
+def nodes_in_order(u: Function) -> Array:
+    """The nodal values of u (degrees of freedom) in the order of the parameter, on every rank.
+
+    The order is s on an interval and the polygon's angle for a closed rod; each rank sends its
+    owned nodes (collective).
+    """
+    space = u.function_space
+    owned = space.dofmap.index_map.size_local
+    x = space.tabulate_dof_coordinates()[:owned]
+    key = np.arctan2(x[:, 1], x[:, 0]) if space.mesh.geometry.dim > 1 else x[:, 0]
+    parts = space.mesh.comm.allgather((key, u.x.array.reshape(-1, 3)[:owned]))
+    keys = np.concatenate([part[0] for part in parts])
+    points: Array = np.concatenate([part[1] for part in parts])[np.argsort(keys, kind="stable")]
+    return points
+
+
+def writhe(points: Array) -> float:
+    """The writhe of the closed polygon through ``points`` (n, 3): Gauss's double integral.
+
+    Wr = (1/4π) ΣΣ_{i≠j} (eᵢ × eⱼ)·(mᵢ − mⱼ)/|mᵢ − mⱼ|³ over the edges eᵢ with midpoints mᵢ,
+    the midpoint rule of (1/4π)∬ (u′(s) × u′(σ))·(u(s) − u(σ))/|u(s) − u(σ)|³. A planar curve
+    has Wr = 0 exactly (the triple product of three vectors in a plane vanishes).
+    """
+    edges = np.roll(points, -1, axis=0) - points
+    mids = points + 0.5 * edges
+    gap = mids[:, None, :] - mids[None, :, :]
+    dist = np.linalg.norm(gap, axis=2)
+    np.fill_diagonal(dist, np.inf)
+    cross = np.cross(edges[:, None, :], edges[None, :, :])
+    return float(np.sum(np.einsum("ijk,ijk->ij", cross, gap) / dist**3) / (4.0 * math.pi))
+
+
+def shape_figures(u: Function, spec: RodSpec) -> dict[str, float]:
+    """Writhe (closed rods) and, in a sphere, max |u − c| at the nodes (collective)."""
+    out: dict[str, float] = {}
+    if spec.ends != "closed" and spec.sphere is None:
+        return out
+    points = nodes_in_order(u)
+    if spec.ends == "closed":
+        out["writhe"] = writhe(points)
+    if spec.sphere is not None:
+        reach = np.linalg.norm(points - np.asarray(spec.sphere.center), axis=1)
+        out["max_distance_to_center"] = float(np.max(reach))
+    return out
 
 
 def exact_arc(s: Array, spec: RodSpec) -> Array:
@@ -339,21 +493,8 @@ class RodModel:
         self, flow: FlowSpec, observers: Sequence[Observer], initial: Initial | None
     ) -> RodFlow:
         """The constrained gradient flow of the rod energy from the straight rod (or ``initial``)."""
-        t, b = _unit(self.spec.tangent, "t"), _unit(self.spec.frame, "b")
-
-        def straight(x: Array) -> Array:
-            return np.outer(t, x[0])
-
-        d, twist, length = np.cross(t, b), self.spec.twist, self.spec.length
-
-        def frame(x: Array) -> Array:
-            angle = twist * (x[0] / length) ** 2
-            return np.outer(b, np.cos(angle)) + np.outer(d, np.sin(angle))
-
         spec = self.spec
-        start, director = (
-            circle(spec.length, spec.twist) if spec.ends == "closed" else (straight, frame)
-        )
+        start, director = start_of(spec)
         state = RodState(initial or start, director, spec.clamped_nodes, spec.pinned_nodes)
 
         def energy(u: Function, director: Function) -> Energy:
@@ -365,6 +506,7 @@ class RodModel:
         """Energy split, length, the end point and (clamped, κ ≠ 0) the error to the arc."""
         out: dict[str, Any] = energy_split(driver.u, driver.b, self.data)
         out.update(arc_error(driver.u, self.spec))
+        out.update(shape_figures(driver.u, self.spec))
         return out
 
     def lines(self, driver: RodFlow) -> list[Array]:
