@@ -13,7 +13,7 @@ unstable when z grows between the half-time and the end (the decaying parts of t
 gone by then), stable when it shrinks. c_t is bisected between a stable and an unstable value
 until the bracket is narrower than ``--rel`` of its midpoint.
 
-    python benchmarks/rod_michell.py --cells 64 --json benchmarks/results/rod_michell.json
+    python benchmarks/rod_michell.py --cells 64 --json benchmarks/results/rod_michell_64.json
 """
 
 from __future__ import annotations

@@ -58,6 +58,7 @@ def test_closed_circle_is_stationary_at_its_energy(tmp_path):
     assert x1 - x0 == pytest.approx(1 / math.pi, rel=1e-3)
     assert y1 - y0 == pytest.approx(1 / math.pi, rel=1e-3) and abs(z1 - z0) < 1e-12
     assert result["energy_torsion"] < 1e-12
+    assert abs(result["writhe"]) < 1e-12  # a planar curve: exactly 0 up to round-off
 
 
 def test_twisted_ring_keeps_its_energy(tmp_path):
@@ -102,6 +103,14 @@ def test_defects_grow_like_tau(tmp_path):
         ("model.twist=1.0", "model.twist = 1.0 needs model.ends = 'clamped-guided' or 'closed'"),
         ("model.twist=3.0 | model.ends=closed", "model.twist of a closed rod must be a multiple"),
         ("model.degree=1", "model.degree must be an integer >= 2"),
+        ("model.saddle=0.5", "model.saddle = 0.5 needs model.ends = 'closed'"),
+        (
+            "model.confinement={radius = 0.5}",
+            "model.confinement.radius = 0.5 is smaller than the rod's initial extent",
+        ),
+        ("model.confinement={radius = -1.0}", "model.confinement.radius must be a number > 0"),
+        ("model.confinement={radius = 2.0, side = 'outside'}", "model.confinement.side has no"),
+        ("model.confinement={radius = 2.0, epsilon = 0}", "model.confinement.epsilon must be"),
         ("mesh.cells=[4, 4]", "mesh.cells has no effect with model.name = 'rod'"),
         ("mesh.type=gmsh", "mesh.type has no effect with model.name = 'rod'"),
         ("flow.projection_steps=2", "flow.projection_steps has no effect with model.name"),
@@ -147,7 +156,7 @@ def test_rod_same_on_any_number_of_ranks(tmp_path, path, overrides):
     parallel = run(tmp_path, overrides, comm=MPI.COMM_WORLD, name="parallel", path=path)
     assert parallel["steps"] == serial["steps"]
     assert parallel["energy"] == pytest.approx(serial["energy"], rel=PARITY_RTOL)
-    for key in ("defect_tangent", "defect_frame", "arc_error", "energy_torsion"):
+    for key in ("defect_tangent", "defect_frame", "arc_error", "energy_torsion", "writhe"):
         assert parallel.get(key, 0.0) == pytest.approx(serial.get(key, 0.0), rel=1e-8, abs=1e-12)
 
 
@@ -194,3 +203,29 @@ def test_michell_twisted_ring_stays_below_and_leaves_the_plane_above(tmp_path, c
         assert z1 - z0 > 5 * start and abs(result["writhe"]) > 1e-4
     else:
         assert z1 - z0 < 0.7 * start and abs(result["writhe"]) < 1e-4
+
+
+def test_closed_rod_longer_than_the_great_circle_stays_in_the_sphere(tmp_path):
+    """The saddle a = 0.5 of length L = 1 in the ball of radius R = its extent (2πR < L).
+
+    The circle of length L (radius L/2π > R) is out of reach: the rod presses against the
+    sphere. The penalty (1/2ε)∫(R − |u|)₋² keeps it inside up to O(ε) times the contact
+    pressure; the energy falls at every step (quadratic–concave splitting).
+    """
+    from dgplate.models.rod import RodSpec, start_extent
+
+    radius = start_extent(RodSpec(ends="closed", saddle=0.5), [0.0, 0.0, 0.0])
+    assert 2 * math.pi * radius < 0.92  # the rod is 9 % longer than the great circle
+    overrides = {
+        "model.saddle": 0.5,
+        "model.cells": 64,
+        "model.confinement": {"radius": radius, "epsilon": 1e-6},
+        "flow.max_steps": 200,
+    }
+    result = run(tmp_path, overrides, path=CLOSED)
+    assert result["energy_increases"] == []
+    assert result["max_distance_to_center"] < radius * 1.01
+    assert result["energy_confinement"] > 0  # in contact
+    start = result.history[0]["energy"]
+    assert result["energy"] < start
+    assert result["length"] == pytest.approx(1.0, rel=0.01)

@@ -320,18 +320,23 @@ def plot_deformation(
 def plot_curve(u: dolfinx.fem.Function[np.float64], path: str | Path, title: str = "") -> None:
     """Picture of a curve u: (0, L) → ℝ³ on a 1D mesh (a rod), as a matplotlib 3D line.
 
-    The nodal values are gathered to rank 0 and joined in the order of the parameter s
-    (collective; rank 0 writes ``path``).
+    The nodal values are gathered to rank 0 and joined in the order of the parameter s: the
+    coordinate of an interval, the angle on a closed rod's polygon (a mesh in the plane), whose
+    curve is closed (collective; rank 0 writes ``path``).
     """
     space = u.function_space
     owned = space.dofmap.index_map.size_local
-    s = space.tabulate_dof_coordinates()[:owned, 0]
+    x = space.tabulate_dof_coordinates()[:owned]
+    closed = space.mesh.geometry.dim > 1
+    s = np.arctan2(x[:, 1], x[:, 0]) if closed else x[:, 0]
     points = u.x.array.reshape(-1, 3)[:owned]
     gathered = space.mesh.comm.gather((s, points), root=0)
     if gathered is None:
         return
     s_all = np.concatenate([g[0] for g in gathered])
     xyz = np.concatenate([g[1] for g in gathered])[np.argsort(s_all)]
+    if closed:
+        xyz = np.vstack([xyz, xyz[:1]])
     import matplotlib
 
     matplotlib.use("Agg")
