@@ -147,8 +147,16 @@ def test_rod_runs_on_its_own_mesh_and_the_tau_advice_uses_its_h(tmp_path, capsys
     [
         (ARC, {"model.c_t": 0.3, "model.frame": [0.0, 0.6, 0.8]}),
         (CLOSED, {"model.kappa": 3.0}),
+        (
+            CLOSED,
+            {
+                "model.saddle": 0.5,
+                "model.twist": 2 * math.pi,
+                "model.confinement": {"radius": 0.1464, "epsilon": 1e-6},
+            },
+        ),
     ],
-    ids=["arc", "closed"],
+    ids=["arc", "closed", "sphere"],
 )
 def test_rod_same_on_any_number_of_ranks(tmp_path, path, overrides):
     overrides = {"flow.max_steps": 30, **overrides}
@@ -156,7 +164,8 @@ def test_rod_same_on_any_number_of_ranks(tmp_path, path, overrides):
     parallel = run(tmp_path, overrides, comm=MPI.COMM_WORLD, name="parallel", path=path)
     assert parallel["steps"] == serial["steps"]
     assert parallel["energy"] == pytest.approx(serial["energy"], rel=PARITY_RTOL)
-    for key in ("defect_tangent", "defect_frame", "arc_error", "energy_torsion", "writhe"):
+    keys = ("defect_tangent", "defect_frame", "arc_error", "energy_torsion", "writhe")
+    for key in (*keys, "energy_confinement", "max_distance_to_center"):
         assert parallel.get(key, 0.0) == pytest.approx(serial.get(key, 0.0), rel=1e-8, abs=1e-12)
 
 
