@@ -238,3 +238,23 @@ def test_closed_rod_longer_than_the_great_circle_stays_in_the_sphere(tmp_path):
     start = result.history[0]["energy"]
     assert result["energy"] < start
     assert result["length"] == pytest.approx(1.0, rel=0.01)
+
+
+def test_writhe_is_a_geometric_invariant_of_the_polygon():
+    """Wr of a (2, 3) torus knot polygon: unchanged by rotation and scaling, negated by a mirror."""
+    import numpy as np
+
+    from dgplate.models.rod import writhe
+
+    t = np.linspace(0.0, 2 * np.pi, 400, endpoint=False)
+    knot = np.c_[(2 + np.cos(3 * t)) * np.cos(2 * t), (2 + np.cos(3 * t)) * np.sin(2 * t)]
+    knot = np.c_[knot, np.sin(3 * t)]
+    c, s = np.cos(0.7), np.sin(0.7)
+    rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ np.array(
+        [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]
+    )
+    wr = writhe(knot)
+    assert abs(wr) > 1.0  # non-planar: it writhes (measured -3.518)
+    assert writhe(3.0 * knot @ rotation.T) == pytest.approx(wr, rel=1e-10)
+    assert writhe(knot * [1.0, 1.0, -1.0]) == pytest.approx(-wr, rel=1e-10)
+    assert writhe(np.c_[knot[:, :2], np.zeros(len(t))]) == 0.0  # planar: exactly zero
