@@ -15,12 +15,17 @@ is coercive in H² × H¹ when c_t < c_b (Bartels & Reiter 2020): the model uses
 quadratic part (c_b/2)|u″ − κb|² + (c_t/2)|b′|² is implicit in the flow, the quartic
 −(c_t/2)(b·u″)² explicit.
 
-The rod has its own 1D mesh (``model.cells`` intervals of (0, ``model.length``)); the [mesh]
-section does not apply. Ends: 'clamped-free' (u(0) = 0, u′(0) = tangent, b(0) = frame),
-'clamped-guided' (also u′(L) = tangent and b(L) = the frame turned by ``model.twist`` about
-the tangent, u(L) free: clamping u(L) = L·tangent too would make the straight rod taut, and
-the linearised length constraints then dependent) or 'free-free'. The start is the straight rod
-u(s) = s·tangent with b turned by twist·(s/L)² (b = frame without twist).
+The rod has its own 1D mesh (``model.cells`` intervals of (0, ``model.length``), built by
+:func:`rod_mesh` from these keys); the [mesh] section does not apply. ``model.confinement``
+keeps the rod in a ball by the sphere obstacle of :mod:`dgplate.dg.obstacle` (the plates'
+penalty and quadratic–concave splitting, applied to u). Ends: 'clamped-free' (u(0) = 0,
+u′(0) = tangent, b(0) = frame), 'clamped-guided' (also u′(L) = tangent and b(L) = the frame
+turned by ``model.twist`` about the tangent, u(L) free: clamping u(L) = L·tangent too would
+make the straight rod taut, and the linearised length constraints then dependent),
+'free-free' or 'closed'. The start is the
+straight rod u(s) = s·tangent with b turned by twist·(s/L)² (b = frame without twist); a
+closed rod starts as the circle of length L, or the saddle of ``model.saddle``
+(:func:`closed_start`), its frame turned twist/2π times.
 """
 
 from __future__ import annotations
