@@ -126,6 +126,27 @@ def gmsh_model_to_mesh(
     return mesh, cell_tags, facet_tags
 
 
+def create_mesh(
+    comm: MPI.Comm,
+    cells: npt.NDArray[np.int64],
+    x: Array,
+    domain: ufl.Mesh,
+    partitioner: Callable[..., object] | None = None,
+) -> Mesh:
+    """A mesh from cells (node indices) and node coordinates ``x`` (num_nodes, gdim).
+
+    ``domain`` is the coordinate element as a ``ufl.Mesh``. DOLFINx 0.9's
+    ``create_mesh(comm, cells, x, e, partitioner)`` takes the coordinates before the element,
+    0.10 and 0.11 have ``create_mesh(comm, cells, e, x, partitioner, max_facet_to_cell_links)``
+    (the same names, another order).
+    """
+    if DOLFINX_VERSION >= (0, 10):
+        return dolfinx.mesh.create_mesh(comm, cells, domain, x, partitioner)
+    legacy: Any = dolfinx.mesh.create_mesh  # 0.9: (comm, cells, x, e, partitioner)
+    mesh: Mesh = legacy(comm, cells, x, domain, partitioner)
+    return mesh
+
+
 def interpolation_points(element: FiniteElement) -> Array:
     """Reference interpolation points of a DOLFINx element (method in 0.9, property later)."""
     points: object = element.interpolation_points
