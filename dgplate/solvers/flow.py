@@ -41,7 +41,7 @@ from dgplate.dg.geometry import max_cell_diameter
 from dgplate.errors import InputError, SolverError
 from dgplate.schema import is_integer, is_number, option
 from dgplate.solvers import linear as solvers
-from dgplate.solvers import ordering, sparsity
+from dgplate.solvers import ordering, schur, sparsity
 from dgplate.solvers.constraint import (
     EdgeConstraint,
     IsometryDefect,
@@ -88,7 +88,7 @@ class FlowSpec:
     )
     linear_solver: str = option(
         "lagged",
-        "step solver: 'lagged' (one LU reused as FGMRES preconditioner, refactorised when needed) or 'direct' (LU every step)",
+        "step solver: 'lagged' (one LU reused as FGMRES preconditioner, refactorised when needed), 'direct' (LU every step) or 'schur' (one Cholesky of the scalar constant block per run, CG on the multipliers' Schur complement; falls back to 'lagged' where the model couples the components of y)",
     )
     refactor_its: int = option(
         12, "lagged solver: refactorise after a solve that needed more FGMRES iterations"
@@ -290,14 +290,39 @@ class GradientFlow:
         self._balance_constraint_rows()
         self.solver = self._make_solver()
 
-    def _make_solver(self) -> solvers.StepSolver:
+    def _make_solver(self) -> schur.StepSolver:
         """The solver of the step systems K x = b (see :mod:`dgplate.solvers.linear`)."""
         settings = self.settings
         if settings.linear_solver == "direct":
             return solvers.DirectStepSolver(self.comm, self.K, settings.solver, prefix=None)
         numbering = ordering.cellwise_numbering(self.W)
+        if settings.linear_solver == "schur":
+            solver = self._schur_solver(numbering)
+            if solver is not None:
+                return solver
         return solvers.LaggedStepSolver(
             self.comm, self.K, settings.solver, None, settings.refactor_its, numbering
+        )
+
+    def _schur_solver(self, numbering: PETSc.IS | None) -> schur.SchurStepSolver | None:
+        """The Schur-complement solver, or None (reason logged) where K lacks its structure."""
+        if numbering is None:
+            schur.fall_back(self.comm, "no cell-wise numbering of the unknowns")
+            return None
+        imap, bs = self.W.dofmap.index_map, self.W.dofmap.index_map_bs
+        owned = imap.size_local * bs
+        component = np.full(owned, -1, dtype=np.int32)
+        kinds = np.arange(self._vdofs.size, dtype=np.int32) % 3
+        mine = self._vdofs < owned
+        component[self._vdofs[mine]] = kinds[mine]
+        split = schur.split_unknowns(self.K, component, numbering)
+        reason = schur.unsupported(self.A_const, split)
+        if reason:
+            schur.fall_back(self.comm, reason)
+            return None
+        nodes = self.V.dofmap.dof_layout.num_dofs
+        return schur.SchurStepSolver(
+            self.comm, self.K, self.A_const, split, nodes, self.settings.solver
         )
 
     def _balance_constraint_rows(self) -> None:
@@ -347,6 +372,8 @@ class GradientFlow:
             raise InputError(f"flow.tau must be > 0, got {value}")
         self._tau.value = np.asarray(value)
         compat.assemble_matrix_into(self.A_const, self._a_const)
+        if isinstance(self.solver, schur.SchurStepSolver):
+            self.solver.constant_changed()
 
     @property
     def num_dofs(self) -> int:
