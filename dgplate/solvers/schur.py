@@ -47,7 +47,7 @@ FACTOR_MUMPS: dict[str, OptionValue] = {
 KRYLOV: dict[str, OptionValue] = {
     "ksp_rtol": 1e-12,
     "ksp_atol": 0.0,
-    "ksp_max_it": 500,
+    "ksp_max_it": 20000,
     "pc_type": "bjacobi",
     "sub_pc_type": "lu",
 }
