@@ -54,6 +54,8 @@ from dgplate.solvers.driver import Observer
 from dgplate.solvers.linear import OptionValue
 
 _OPTION = re.compile(r"^[A-Za-z0-9_]+$")
+#: The stopping tests (``flow.stop``).
+STOPS = ("rate", "stationarity")
 
 #: The initial deformation: points x (shape (3, n)) to their images (shape (3, n)).
 Initial = Callable[[Array], Array]
@@ -70,7 +72,7 @@ class FlowSpec:
     """
 
     tau: float | str = option("h", "time step τ > 0, or 'h' for the largest cell diameter")
-    tol: float = option(1e-6, "stop when (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < tol")
+    tol: float = option(1e-6, "stop when the stopping test (flow.stop) falls below tol")
     max_steps: int = option(1000, "step budget; reaching it is reported as not converged")
     l2_metric: bool | str = option(
         "auto", "add the L² product to the metric; 'auto': when nothing is clamped"
@@ -96,6 +98,10 @@ class FlowSpec:
     edge_constraint: bool = option(
         False,
         "also constrain the metric on free boundary facets (edge length and normal stretch): keeps free edges of a bilayer from curving in two directions",
+    )
+    stop: str = option(
+        "rate",
+        "stopping test: 'rate' ((E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < tol, the published test) or 'stationarity' (‖P DE_h[yⁿ]‖_*' < tol, the dual norm of the projected gradient: does not depend on τ)",
     )
     checkpoint_every: int = option(
         25,
@@ -132,6 +138,8 @@ class FlowSpec:
             raise InputError(
                 f"flow.linear_solver must be one of {solvers.STEP_SOLVERS}, got {self.linear_solver!r}"
             )
+        if self.stop not in STOPS:
+            raise InputError(f"flow.stop must be one of {STOPS}, got {self.stop!r}")
         if not isinstance(self.edge_constraint, bool):
             raise InputError(
                 f"flow.edge_constraint must be true or false, got {self.edge_constraint!r}"
@@ -181,6 +189,7 @@ class StepInfo:
     solve_s: float  # triangular solves and Krylov iterations
     iterations: int  # Krylov iterations of the step solve (1 for a direct solve)
     fallbacks: int = 0  # failed lagged solves redone (fresh factors, then direct LU)
+    stationarity: float = math.nan  # ‖P DE_h[yⁿ]‖_*' (flow.stop = 'stationarity'; else nan)
 
     def line(self) -> str:
         """One line of progress output."""
@@ -259,7 +268,8 @@ class GradientFlow:
         # singular: the L² product controls them
         l2 = (not facets.has_clamped or facets.num_crease > 0) if l2 is None else l2
         hessian = ufl.derivative(ufl.derivative(self.energy.implicit, y, v), y, dy)
-        a_const = (1.0 / self._tau) * h2_metric(dy, v, facets, l2=l2) + hessian
+        metric = h2_metric(dy, v, facets, l2=l2)
+        a_const = (1.0 / self._tau) * metric + hessian
         # The constraint rows are scaled by s (λ by 1/s, δy unchanged) so that they weigh like
         # the displacement rows: unscaled, ‖b_n‖ ~ 1 against ‖a‖ ~ h⁻³/τ, and a residual test
         # on the whole system would hardly see the constraint (see _balance_constraint_rows).
@@ -273,8 +283,13 @@ class GradientFlow:
             b += edge.linearised(v, y, edge_trial) + edge.linearised(dy, y, edge_test)
             residual -= edge.residual(y, edge_test)
             # cells without a free facet: their edge multipliers are pinned to zero
-            a_const += edge.interior * ufl.inner(edge_trial, edge_test) / facets.h * ufl.dx
+            pin = edge.interior * ufl.inner(edge_trial, edge_test) / facets.h * ufl.dx
+            a_const += pin
+            metric += pin
         b, residual = s * b, s * residual
+        # the projected-gradient system (compiled at its first use: see stationarity())
+        self._stationarity_ufl = metric + b
+        self._stationarity: tuple[compat.Form, PETSc.Mat, solvers.DirectStepSolver] | None = None
         self._a_const = dolfinx.fem.form(a_const)
         self._b = dolfinx.fem.form(b)
         self._rhs = dolfinx.fem.form(-ufl.derivative(self.energy.total, y, v))
@@ -445,6 +460,31 @@ class GradientFlow:
         self.y.x.array[:] += c
         return c
 
+    def stationarity(self) -> float:
+        """‖P DE_h[y]‖_*', the dual norm of the projected gradient at the current y (collective).
+
+        The KKT residual of the constrained problem in the flow's metric M = (·,·)_*: with
+        M g + b(·, μ) = −DE_h[y], b(g, q) = 0 (g: the steepest descent in the tangent space of
+        the linearised constraint), it is ‖g‖_M = (−DE_h[y](g))^½. It vanishes exactly at the
+        discrete constrained critical points, and unlike the rate (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ it does
+        not depend on τ. One assembly and one LU solve (its own factors, freed at destroy()).
+        """
+        if self._stationarity is None:
+            form = dolfinx.fem.form(self._stationarity_ufl)
+            matrix = dolfinx.fem.petsc.assemble_matrix(form)
+            matrix.assemble()
+            self._stationarity = (
+                form,
+                matrix,
+                solvers.DirectStepSolver(self.comm, matrix, self.settings.solver, prefix=None),
+            )
+        form, matrix, solver = self._stationarity
+        compat.assemble_matrix_into(matrix, form)
+        compat.assemble_vector_into(self.rhs, self._rhs)
+        gradient: Function = dolfinx.fem.Function(self.W)
+        solver.solve(self.rhs, gradient.x.petsc_vec)
+        return math.sqrt(max(float(self.rhs.dot(gradient.x.petsc_vec)), 0.0))
+
     def rebase_energy(self) -> None:
         """Measure the energy decrease from the current state again.
 
@@ -535,11 +575,9 @@ class GradientFlow:
                 self.energy_increases.append(info.step)
             for obs in self.observers:
                 obs.step(self, info)
-            if abs(info.rate) < self.settings.tol:
-                converged, reason = (
-                    True,
-                    f"(E_h[yⁿ⁻¹] − E_h[yⁿ])/τ = {info.rate:.3e} < {self.settings.tol:g}",
-                )
+            stop = self._stop_reason(info)
+            if stop:
+                converged, reason = True, stop
                 break
             signum = interrupt.requested(self.comm)  # collective: every rank stops together
             if signum:
@@ -560,9 +598,24 @@ class GradientFlow:
             obs.finish(self, result)
         return result
 
+    def _stop_reason(self, info: StepInfo) -> str:
+        """Why the flow stops converged after this step ('' to go on): ``flow.stop``."""
+        tol = self.settings.tol
+        if self.settings.stop == "stationarity":
+            info.stationarity = self.stationarity()
+            if info.stationarity < tol:
+                return f"‖P DE_h[yⁿ]‖_*' = {info.stationarity:.3e} < {tol:g}"
+            return ""
+        if abs(info.rate) < tol:
+            return f"(E_h[yⁿ⁻¹] − E_h[yⁿ])/τ = {info.rate:.3e} < {tol:g}"
+        return ""
+
     def destroy(self) -> None:
         """Free the solver and the matrices."""
         self.solver.destroy()
+        if self._stationarity is not None:
+            self._stationarity[2].destroy()
+            self._stationarity[1].destroy()
         for obj in (self.A_const, self.B, self.K):
             obj.destroy()
 
