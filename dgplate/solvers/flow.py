@@ -103,6 +103,14 @@ class FlowSpec:
         "rate",
         "stopping test: 'rate' ((E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < tol, the published test) or 'stationarity' (‖P DE_h[yⁿ]‖_*' < tol, the dual norm of the projected gradient: does not depend on τ)",
     )
+    adaptive_tau: bool = option(
+        False,
+        "adapt τ: double it after a step that lowered E_h with the isometry defect before projection below defect_bound, else halve it and redo the step",
+    )
+    defect_bound: float = option(
+        1e-2,
+        "adaptive τ: the largest isometry defect D_h of a step before its projection (the linearisation error)",
+    )
     checkpoint_every: int = option(
         25,
         "write a checkpoint (for --resume) every n steps, and always at the end; 0: only at the end",
@@ -138,6 +146,10 @@ class FlowSpec:
             raise InputError(
                 f"flow.linear_solver must be one of {solvers.STEP_SOLVERS}, got {self.linear_solver!r}"
             )
+        if not isinstance(self.adaptive_tau, bool):
+            raise InputError(f"flow.adaptive_tau must be true or false, got {self.adaptive_tau!r}")
+        if not (is_number(self.defect_bound) and self.defect_bound > 0):
+            raise InputError(f"flow.defect_bound must be > 0, got {self.defect_bound!r}")
         if self.stop not in STOPS:
             raise InputError(f"flow.stop must be one of {STOPS}, got {self.stop!r}")
         if not isinstance(self.edge_constraint, bool):
@@ -248,6 +260,9 @@ class GradientFlow:
         self._last_increment: Array = np.zeros(0)  # δy of the last step (for undo)
         tau = max_cell_diameter(mesh) if settings.tau == "h" else float(settings.tau)
         self._tau = values.constant(mesh, tau)
+        self._initial_tau = tau
+        self._linear_defect = 0.0  # D_h after the last linearised step, before projection
+        self.rejected_steps = 0  # steps redone with a smaller τ (flow.adaptive_tau)
         self._build_forms()
         self._E_form = dolfinx.fem.form(self.energy.total)
         self._last_energy = self.evaluate_energy()
@@ -419,6 +434,8 @@ class GradientFlow:
         t2 = time.perf_counter()
         dy = self.solution.x.array[self._vdofs].copy()
         self.y.x.array[:] += dy
+        if self.settings.adaptive_tau:
+            self._linear_defect = self.defect()
         for _ in range(self.settings.projection_steps):
             dy += self._project(stats)
         self._last_increment = dy
@@ -560,7 +577,7 @@ class GradientFlow:
         signum = 0
         for _ in range(budget):
             try:
-                info = self.step()
+                info = self._adaptive_step() if self.settings.adaptive_tau else self.step()
             except SolverError as exc:
                 reason = f"step {self.step_count + 1} failed: {exc}; the last good state is kept"
                 break
@@ -597,6 +614,30 @@ class GradientFlow:
         for obs in self.observers:
             obs.finish(self, result)
         return result
+
+    def _adaptive_step(self) -> StepInfo:
+        """One accepted step with adaptive τ (``flow.adaptive_tau``).
+
+        A step is accepted when E_h did not rise and the isometry defect after the linearised
+        step (before projection) is at most ``flow.defect_bound``; τ is then doubled for the
+        next step. Otherwise the step is taken back and redone with τ/2, down to 10⁻⁶ of the
+        initial τ (below that the step is accepted as it is). Rejected steps are counted in
+        :attr:`rejected_steps`.
+        """
+        y0 = self.y.x.array.copy()
+        energy0, time0, count0 = self._last_energy, self.time, self.step_count
+        tau_min = 1e-6 * self._initial_tau
+        while True:
+            info = self.step()
+            rose = info.energy > energy0 + 1e-12 * max(1.0, abs(energy0))
+            too_far = self._linear_defect > self.settings.defect_bound
+            if not (rose or too_far) or self.tau / 2 < tau_min:
+                self.tau = min(2 * self.tau, 1e3 * self._initial_tau)
+                return info
+            self.rejected_steps += 1
+            self.y.x.array[:] = y0
+            self._last_energy, self.time, self.step_count = energy0, time0, count0
+            self.tau = self.tau / 2
 
     def _stop_reason(self, info: StepInfo) -> str:
         """Why the flow stops converged after this step ('' to go on): ``flow.stop``."""
