@@ -41,7 +41,7 @@ from dgplate.dg.geometry import max_cell_diameter
 from dgplate.errors import InputError, SolverError
 from dgplate.schema import is_integer, is_number, option
 from dgplate.solvers import linear as solvers
-from dgplate.solvers import ordering, sparsity
+from dgplate.solvers import ordering, schur, sparsity
 from dgplate.solvers.constraint import (
     EdgeConstraint,
     IsometryDefect,
@@ -54,6 +54,8 @@ from dgplate.solvers.driver import Observer
 from dgplate.solvers.linear import OptionValue
 
 _OPTION = re.compile(r"^[A-Za-z0-9_]+$")
+#: The stopping tests (``flow.stop``).
+STOPS = ("rate", "stationarity")
 
 #: The initial deformation: points x (shape (3, n)) to their images (shape (3, n)).
 Initial = Callable[[Array], Array]
@@ -70,7 +72,7 @@ class FlowSpec:
     """
 
     tau: float | str = option("h", "time step τ > 0, or 'h' for the largest cell diameter")
-    tol: float = option(1e-6, "stop when (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < tol")
+    tol: float = option(1e-6, "stop when the stopping test (flow.stop) falls below tol")
     max_steps: int = option(1000, "step budget; reaching it is reported as not converged")
     l2_metric: bool | str = option(
         "auto", "add the L² product to the metric; 'auto': when nothing is clamped"
@@ -88,7 +90,7 @@ class FlowSpec:
     )
     linear_solver: str = option(
         "lagged",
-        "step solver: 'lagged' (one LU reused as FGMRES preconditioner, refactorised when needed) or 'direct' (LU every step)",
+        "step solver: 'lagged' (one LU reused as FGMRES preconditioner, refactorised when needed), 'direct' (LU every step) or 'schur' (one Cholesky of the scalar constant block per run, CG on the multipliers' Schur complement; falls back to 'lagged' where the model couples the components of y)",
     )
     refactor_its: int = option(
         12, "lagged solver: refactorise after a solve that needed more FGMRES iterations"
@@ -96,6 +98,18 @@ class FlowSpec:
     edge_constraint: bool = option(
         False,
         "also constrain the metric on free boundary facets (edge length and normal stretch): keeps free edges of a bilayer from curving in two directions",
+    )
+    stop: str = option(
+        "rate",
+        "stopping test: 'rate' ((E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < tol, the published test) or 'stationarity' (‖P DE_h[yⁿ]‖_*' < tol, the dual norm of the projected gradient: does not depend on τ)",
+    )
+    adaptive_tau: bool = option(
+        False,
+        "adapt τ: double it after a step that lowered E_h with the isometry defect before projection below defect_bound, else halve it and redo the step",
+    )
+    defect_bound: float = option(
+        1e-2,
+        "adaptive τ: the largest isometry defect D_h of a step before its projection (the linearisation error)",
     )
     checkpoint_every: int = option(
         25,
@@ -132,6 +146,12 @@ class FlowSpec:
             raise InputError(
                 f"flow.linear_solver must be one of {solvers.STEP_SOLVERS}, got {self.linear_solver!r}"
             )
+        if not isinstance(self.adaptive_tau, bool):
+            raise InputError(f"flow.adaptive_tau must be true or false, got {self.adaptive_tau!r}")
+        if not (is_number(self.defect_bound) and self.defect_bound > 0):
+            raise InputError(f"flow.defect_bound must be > 0, got {self.defect_bound!r}")
+        if self.stop not in STOPS:
+            raise InputError(f"flow.stop must be one of {STOPS}, got {self.stop!r}")
         if not isinstance(self.edge_constraint, bool):
             raise InputError(
                 f"flow.edge_constraint must be true or false, got {self.edge_constraint!r}"
@@ -182,6 +202,7 @@ class StepInfo:
     iterations: int  # Krylov iterations of the step solve (1 for a direct solve)
     fallbacks: int = 0  # failed lagged solves redone (fresh factors, then direct LU)
     safety: dict[str, float] = field(default_factory=dict)  # nonlocal terms: min_distance, redone
+    stationarity: float = math.nan  # ‖P DE_h[yⁿ]‖_*' (flow.stop = 'stationarity'; else nan)
 
     def line(self) -> str:
         """One line of progress output."""
@@ -240,6 +261,9 @@ class GradientFlow:
         self._last_increment: Array = np.zeros(0)  # δy of the last step (for undo)
         tau = max_cell_diameter(mesh) if settings.tau == "h" else float(settings.tau)
         self._tau = values.constant(mesh, tau)
+        self._initial_tau = tau
+        self._linear_defect = 0.0  # D_h after the last linearised step, before projection
+        self.rejected_steps = 0  # steps redone with a smaller τ (flow.adaptive_tau)
         self._build_forms()
         self._E_form = dolfinx.fem.form(self.energy.total)
         self._last_energy = self.evaluate_energy()
@@ -260,7 +284,8 @@ class GradientFlow:
         # singular: the L² product controls them
         l2 = (not facets.has_clamped or facets.num_crease > 0) if l2 is None else l2
         hessian = ufl.derivative(ufl.derivative(self.energy.implicit, y, v), y, dy)
-        a_const = (1.0 / self._tau) * h2_metric(dy, v, facets, l2=l2) + hessian
+        metric = h2_metric(dy, v, facets, l2=l2)
+        a_const = (1.0 / self._tau) * metric + hessian
         # The constraint rows are scaled by s (λ by 1/s, δy unchanged) so that they weigh like
         # the displacement rows: unscaled, ‖b_n‖ ~ 1 against ‖a‖ ~ h⁻³/τ, and a residual test
         # on the whole system would hardly see the constraint (see _balance_constraint_rows).
@@ -274,8 +299,13 @@ class GradientFlow:
             b += edge.linearised(v, y, edge_trial) + edge.linearised(dy, y, edge_test)
             residual -= edge.residual(y, edge_test)
             # cells without a free facet: their edge multipliers are pinned to zero
-            a_const += edge.interior * ufl.inner(edge_trial, edge_test) / facets.h * ufl.dx
+            pin = edge.interior * ufl.inner(edge_trial, edge_test) / facets.h * ufl.dx
+            a_const += pin
+            metric += pin
         b, residual = s * b, s * residual
+        # the projected-gradient system (compiled at its first use: see stationarity())
+        self._stationarity_ufl = metric + b
+        self._stationarity: tuple[compat.Form, PETSc.Mat, solvers.DirectStepSolver] | None = None
         self._a_const = dolfinx.fem.form(a_const)
         self._b = dolfinx.fem.form(b)
         explicit = self.energy.total
@@ -294,14 +324,39 @@ class GradientFlow:
         self._balance_constraint_rows()
         self.solver = self._make_solver()
 
-    def _make_solver(self) -> solvers.StepSolver:
+    def _make_solver(self) -> schur.StepSolver:
         """The solver of the step systems K x = b (see :mod:`dgplate.solvers.linear`)."""
         settings = self.settings
         if settings.linear_solver == "direct":
             return solvers.DirectStepSolver(self.comm, self.K, settings.solver, prefix=None)
         numbering = ordering.cellwise_numbering(self.W)
+        if settings.linear_solver == "schur":
+            solver = self._schur_solver(numbering)
+            if solver is not None:
+                return solver
         return solvers.LaggedStepSolver(
             self.comm, self.K, settings.solver, None, settings.refactor_its, numbering
+        )
+
+    def _schur_solver(self, numbering: PETSc.IS | None) -> schur.SchurStepSolver | None:
+        """The Schur-complement solver, or None (reason logged) where K lacks its structure."""
+        if numbering is None:
+            schur.fall_back(self.comm, "no cell-wise numbering of the unknowns")
+            return None
+        imap, bs = self.W.dofmap.index_map, self.W.dofmap.index_map_bs
+        owned = imap.size_local * bs
+        component = np.full(owned, -1, dtype=np.int32)
+        kinds = np.arange(self._vdofs.size, dtype=np.int32) % 3
+        mine = self._vdofs < owned
+        component[self._vdofs[mine]] = kinds[mine]
+        split = schur.split_unknowns(self.K, component, numbering)
+        reason = schur.unsupported(self.A_const, split)
+        if reason:
+            schur.fall_back(self.comm, reason)
+            return None
+        nodes = self.V.dofmap.dof_layout.num_dofs
+        return schur.SchurStepSolver(
+            self.comm, self.K, self.A_const, split, nodes, self.settings.solver
         )
 
     def _balance_constraint_rows(self) -> None:
@@ -351,6 +406,8 @@ class GradientFlow:
             raise InputError(f"flow.tau must be > 0, got {value}")
         self._tau.value = np.asarray(value)
         compat.assemble_matrix_into(self.A_const, self._a_const)
+        if isinstance(self.solver, schur.SchurStepSolver):
+            self.solver.constant_changed()
 
     @property
     def num_dofs(self) -> int:
@@ -384,6 +441,8 @@ class GradientFlow:
         t2 = time.perf_counter()
         dy = self.solution.x.array[self._vdofs].copy()
         self.y.x.array[:] += dy
+        if self.settings.adaptive_tau:
+            self._linear_defect = self.defect()
         for _ in range(self.settings.projection_steps):
             dy += self._project(stats)
         self._last_increment = dy
@@ -455,6 +514,31 @@ class GradientFlow:
         c = correction.x.array[self._vdofs]
         self.y.x.array[:] += c
         return c
+
+    def stationarity(self) -> float:
+        """‖P DE_h[y]‖_*', the dual norm of the projected gradient at the current y (collective).
+
+        The KKT residual of the constrained problem in the flow's metric M = (·,·)_*: with
+        M g + b(·, μ) = −DE_h[y], b(g, q) = 0 (g: the steepest descent in the tangent space of
+        the linearised constraint), it is ‖g‖_M = (−DE_h[y](g))^½. It vanishes exactly at the
+        discrete constrained critical points, and unlike the rate (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ it does
+        not depend on τ. One assembly and one LU solve (its own factors, freed at destroy()).
+        """
+        if self._stationarity is None:
+            form = dolfinx.fem.form(self._stationarity_ufl)
+            matrix = dolfinx.fem.petsc.assemble_matrix(form)
+            matrix.assemble()
+            self._stationarity = (
+                form,
+                matrix,
+                solvers.DirectStepSolver(self.comm, matrix, self.settings.solver, prefix=None),
+            )
+        form, matrix, solver = self._stationarity
+        compat.assemble_matrix_into(matrix, form)
+        compat.assemble_vector_into(self.rhs, self._rhs)
+        gradient: Function = dolfinx.fem.Function(self.W)
+        solver.solve(self.rhs, gradient.x.petsc_vec)
+        return math.sqrt(max(float(self.rhs.dot(gradient.x.petsc_vec)), 0.0))
 
     def rebase_energy(self) -> None:
         """Measure the energy decrease from the current state again.
@@ -531,7 +615,7 @@ class GradientFlow:
         signum = 0
         for _ in range(budget):
             try:
-                info = self._safe_step()
+                info = self._adaptive_step() if self.settings.adaptive_tau else self._safe_step()
             except SolverError as exc:
                 reason = f"step {self.step_count + 1} failed: {exc}; the last good state is kept"
                 break
@@ -546,11 +630,9 @@ class GradientFlow:
                 self.energy_increases.append(info.step)
             for obs in self.observers:
                 obs.step(self, info)
-            if abs(info.rate) < self.settings.tol:
-                converged, reason = (
-                    True,
-                    f"(E_h[yⁿ⁻¹] − E_h[yⁿ])/τ = {info.rate:.3e} < {self.settings.tol:g}",
-                )
+            stop = self._stop_reason(info)
+            if stop:
+                converged, reason = True, stop
                 break
             signum = interrupt.requested(self.comm)  # collective: every rank stops together
             if signum:
@@ -571,9 +653,50 @@ class GradientFlow:
             obs.finish(self, result)
         return result
 
+    def _adaptive_step(self) -> StepInfo:
+        """One accepted step with adaptive τ (``flow.adaptive_tau``).
+
+        A step is accepted when E_h did not rise and the isometry defect after the linearised
+        step (before projection) is at most ``flow.defect_bound`` and the nonlocal terms (self-avoidance)
+        accept the new state; τ is then doubled for the
+        next step. Otherwise the step is taken back and redone with τ/2, down to 10⁻⁶ of the
+        initial τ (below that the step is accepted as it is). Rejected steps are counted in
+        :attr:`rejected_steps`.
+        """
+        y0 = self.y.x.array.copy()
+        energy0, time0, count0 = self._last_energy, self.time, self.step_count
+        tau_min = 1e-6 * self._initial_tau
+        while True:
+            info = self.step()
+            rose = info.energy > energy0 + 1e-12 * max(1.0, abs(energy0))
+            too_far = self._linear_defect > self.settings.defect_bound
+            refused = not all([term.accept() for term in self.energy.nonlocal_terms])
+            if not (rose or too_far or refused) or self.tau / 2 < tau_min:
+                self.tau = min(2 * self.tau, 1e3 * self._initial_tau)
+                return info
+            self.rejected_steps += 1
+            self.y.x.array[:] = y0
+            self._last_energy, self.time, self.step_count = energy0, time0, count0
+            self.tau = self.tau / 2
+
+    def _stop_reason(self, info: StepInfo) -> str:
+        """Why the flow stops converged after this step ('' to go on): ``flow.stop``."""
+        tol = self.settings.tol
+        if self.settings.stop == "stationarity":
+            info.stationarity = self.stationarity()
+            if info.stationarity < tol:
+                return f"‖P DE_h[yⁿ]‖_*' = {info.stationarity:.3e} < {tol:g}"
+            return ""
+        if abs(info.rate) < tol:
+            return f"(E_h[yⁿ⁻¹] − E_h[yⁿ])/τ = {info.rate:.3e} < {tol:g}"
+        return ""
+
     def destroy(self) -> None:
         """Free the solver and the matrices."""
         self.solver.destroy()
+        if self._stationarity is not None:
+            self._stationarity[2].destroy()
+            self._stationarity[1].destroy()
         for obj in (self.A_const, self.B, self.K):
             obj.destroy()
 

@@ -136,7 +136,7 @@ LAGGED_MUMPS: dict[str, OptionValue] = {
     "ksp_gmres_restart": 30,
 }
 
-STEP_SOLVERS = ("lagged", "direct")
+STEP_SOLVERS = ("lagged", "direct", "schur")
 
 
 @dataclass

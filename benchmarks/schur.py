@@ -1,0 +1,149 @@
+"""The Schur-complement step solver against the lagged LU solver, side by side in one run.
+
+The BNN vertical-load plate (Q2, τ = h) runs a fixed number of steps with each solver, each in
+its own process (so that the resident-set peak is that solver's), on the same number of ranks;
+the record holds the time per step, the Krylov iterations, the MUMPS factor size and memory
+and the peak resident set of each, and their ratios (schur / lagged).
+
+    python benchmarks/schur.py --cells 32 64 --steps 5 --json out.json
+    python benchmarks/schur.py --cells 128 --ranks 2 --steps 3 --json out.json
+
+Run it without mpirun: it launches ``mpirun -n RANKS`` itself for each solver.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+
+SOLVERS = ("lagged", "schur")
+
+
+def child(cells: int, solver: str, steps: int, out: Path) -> None:
+    """Run ``steps`` steps with ``solver`` and write the measurements (rank 0)."""
+    from dgplate.mesh.tagged import rectangle
+    from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
+    from dgplate.solvers.flow import FlowSpec, GradientFlow
+
+    comm = MPI.COMM_WORLD
+    tagged = rectangle(comm, [[0, 0], [4, 4]], [cells, cells])
+    spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
+    model = build_kirchhoff(spec, tagged)
+    settings = FlowSpec(
+        tau=math.sqrt(2) * 4 / cells, tol=1e-30, max_steps=steps, linear_solver=solver
+    )
+    flow = GradientFlow(model.facets, model.degree, model.energy, settings)
+    comm.Barrier()
+    t0 = time.perf_counter()
+    result = flow.run(steps)
+    wall = time.perf_counter() - t0
+    seconds = [h.seconds for h in result.history]
+    factor = _factor_matrix(flow.solver)
+    mine = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    record = {
+        "solver": type(flow.solver).__name__,
+        "dofs": flow.num_dofs,
+        "steps": result.steps,
+        "wall_s": wall,
+        "reason": result.reason,
+        "per_step_s": wall / max(result.steps, 1),
+        "per_step_after_first_s": float(np.mean(seconds[1:])) if len(seconds) > 1 else None,
+        "first_step_s": seconds[0] if seconds else None,
+        "iterations": [h.iterations for h in result.history],
+        "energy": result.energy,
+        "isometry_defect": result.defect,
+        "factor_entries": float(factor.getMumpsInfog(29)) if factor else None,
+        "factor_memory_mb_total": float(factor.getMumpsInfog(22)) if factor else None,
+        "peak_rss_mb_max_rank": comm.allreduce(mine, op=MPI.MAX),
+        "peak_rss_mb_total": comm.allreduce(mine, op=MPI.SUM),
+    }
+    flow.destroy()
+    if comm.rank == 0:
+        out.write_text(json.dumps(record, indent=2))
+
+
+def _factor_matrix(solver):
+    """The MUMPS factor matrix the solver holds (None if it holds none)."""
+    ksp = getattr(solver, "factor_ksp", None)
+    if ksp is None:
+        return None
+    return ksp.getPC().getFactorMatrix()
+
+
+def run_one(cells: int, solver: str, steps: int, ranks: int) -> dict:
+    """Launch :func:`child` in a fresh process (under mpirun for ranks > 1)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "record.json"
+        script = [sys.executable, "-m", "mpi4py", __file__, "--child", solver]
+        script += ["--cells", str(cells), "--steps", str(steps), "--json", str(out)]
+        if ranks > 1:
+            mpirun = shutil.which("mpirun", path=str(Path(sys.executable).parent)) or "mpirun"
+            script = [mpirun, "-n", str(ranks), *script]
+        subprocess.run(script, check=True, env=os.environ.copy())
+        record: dict = json.loads(out.read_text())
+        return record
+
+
+def compare(cells: int, steps: int, ranks: int) -> dict:
+    """Both solvers at one size; ratios schur / lagged."""
+    runs = {solver: run_one(cells, solver, steps, ranks) for solver in SOLVERS}
+    lagged, schur = runs["lagged"], runs["schur"]
+
+    def ratio(key: str) -> float | None:
+        a, b = schur.get(key), lagged.get(key)
+        return a / b if a is not None and b else None
+
+    return {
+        "cells": cells,
+        "ranks": ranks,
+        "steps": steps,
+        "dofs": lagged["dofs"],
+        "runs": runs,
+        "ratio_schur_over_lagged": {
+            key: ratio(key)
+            for key in (
+                "per_step_s",
+                "per_step_after_first_s",
+                "factor_entries",
+                "factor_memory_mb_total",
+                "peak_rss_mb_total",
+            )
+        },
+        "energy_rel_diff": abs(schur["energy"] / lagged["energy"] - 1),
+    }
+
+
+def main(argv: list[str]) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--cells", type=int, nargs="+", default=[32, 64])
+    parser.add_argument("--steps", type=int, default=5, help="steps per run (fixed)")
+    parser.add_argument("--ranks", type=int, default=1)
+    parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument("--child", choices=SOLVERS, default=None, help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.child:
+        child(args.cells[0], args.child, args.steps, args.json)
+        return
+    records = [compare(cells, args.steps, args.ranks) for cells in args.cells]
+    text = json.dumps(records, indent=2)
+    print(text)
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(text + "\n")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

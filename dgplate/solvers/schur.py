@@ -1,0 +1,351 @@
+"""The flow's step systems solved through the Schur complement on the multipliers.
+
+The step matrix is K = [[A ⊗ I₃, Bᵀ], [B, C]]: the constant block does not couple the three
+components of y, so it is one scalar matrix A (a third of the rows) repeated three times, and
+it does not change while τ is fixed; B is the linearised constraint, cell-local; C is zero or
+the diagonal that pins unused edge multipliers. Eliminating δy,
+
+    Σ λ = B (A⁻¹ ⊗ I₃) f − g,      Σ = B (A⁻¹ ⊗ I₃) Bᵀ − C,      δy = (A⁻¹ ⊗ I₃)(f − Bᵀ λ),
+
+so one factorisation of A serves the whole run. Σ is solved by CG (MINRES when C ≠ 0, which
+makes Σ indefinite) on a shell matrix, preconditioned by B (D⁻¹ ⊗ I₃) Bᵀ + C with D the
+cell-diagonal blocks of A: a cell-block-diagonal matrix, since B is cell-local, so its block
+Jacobi LU is exact and the same on any partition. Each application of A⁻¹ treats the three
+components as one three-column right-hand side (MatMatSolve), so the factors are read once.
+
+A is factorised in the cell-wise numbering (:mod:`dgplate.solvers.ordering`), the same on any
+number of ranks. :func:`unsupported` says why a step matrix does not have this structure (then
+the flow falls back to :class:`dgplate.solvers.linear.LaggedStepSolver`).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from typing import cast
+
+from mpi4py import MPI
+
+import numpy as np
+import numpy.typing as npt
+from petsc4py import PETSc
+
+from dgplate import compat
+from dgplate.errors import SolverError
+from dgplate.solvers import linear
+from dgplate.solvers.linear import Options, OptionValue, SolveStats
+
+#: The factorisation of A: MUMPS Cholesky (A is symmetric; LDLᵀ with pivoting if indefinite).
+FACTOR_MUMPS: dict[str, OptionValue] = {
+    "ksp_type": "preonly",
+    "pc_type": "cholesky",
+    "pc_factor_mat_solver_type": "mumps",
+    "mat_mumps_icntl_14": 80,
+}
+
+#: The Krylov solve on Σ. The tolerance makes the step agree with a direct solve to ~1e-11.
+KRYLOV: dict[str, OptionValue] = {
+    "ksp_rtol": 1e-12,
+    "ksp_atol": 0.0,
+    "ksp_max_it": 20000,
+    "pc_type": "bjacobi",
+    "sub_pc_type": "lu",
+}
+
+#: Relative size below which a block of the constant matrix counts as zero (or two as equal).
+_EXACT = 1e-13
+
+_log = logging.getLogger(__name__)
+
+Split = tuple[list[PETSc.IS], PETSc.IS]
+
+
+def split_unknowns(K: PETSc.Mat, component: npt.NDArray[np.int32], numbering: PETSc.IS) -> Split:
+    """Index sets of the three components of y and of the multipliers, in cell-wise order.
+
+    ``component`` gives, for each owned row of K (its local numbering), the component of y
+    (0, 1, 2) or −1 for a multiplier; ``numbering`` lists the rows owned here in the cell-wise
+    numbering. Within a cell the nodes of the three components come in the same order, so
+    the i-th entries of the three sets are the same node.
+    """
+    kind = K.createVecRight()
+    kind.getArray()[:] = component
+    perm = PETSc.Vec().createMPI((numbering.getLocalSize(), PETSc.DECIDE), comm=K.getComm())
+    scatter = _scatter(kind, numbering, perm)
+    scatter.scatter(kind, perm, compat.INSERT, compat.FORWARD)
+    kinds = perm.getArray().round().astype(int)
+    rows = numbering.getIndices()
+    comm = K.getComm()
+    parts = [PETSc.IS().createGeneral(rows[kinds == c], comm=comm) for c in (0, 1, 2, -1)]
+    for obj in (kind, perm, scatter):
+        obj.destroy()
+    return parts[:3], parts[3]
+
+
+def unsupported(A_const: PETSc.Mat, split: Split) -> str:
+    """Why the constant block is not A ⊗ I₃ with no multiplier coupling ('' when it is)."""
+    components, multipliers = split
+    A = A_const.createSubMatrix(components[0], components[0])
+    scale = max(_norm(A), 1e-300)
+    try:
+        for c, rows in enumerate(components):
+            for d, cols in enumerate(components):
+                if c == d == 0:
+                    continue
+                block = A_const.createSubMatrix(rows, cols)
+                if c == d and c > 0:
+                    block.axpy(-1.0, A)
+                size = _norm(block)
+                block.destroy()
+                if size > _EXACT * scale:
+                    what = "differs between components" if c == d else "couples components"
+                    return f"the implicit part {what} ({c}, {d}): relative size {size / scale:.1e}"
+        block = A_const.createSubMatrix(multipliers, components[0])
+        size = _norm(block)
+        block.destroy()
+        if size > _EXACT * scale:
+            return "the constant block couples multipliers to y"
+    finally:
+        A.destroy()
+    return ""
+
+
+def _scatter(source: PETSc.Vec, rows: PETSc.IS, target: PETSc.Vec) -> PETSc.Scatter:
+    """The scatter of the entries ``rows`` of ``source`` to all of ``target``, in order."""
+    return PETSc.Scatter().create(source, rows, target, None)  # type: ignore[arg-type]
+
+
+def _norm(matrix: PETSc.Mat) -> float:
+    return float(cast("float", matrix.norm(compat.NORM_INFINITY)))
+
+
+class SchurContext:
+    """Python shell context: Σ λ = B (A⁻¹ ⊗ I₃) Bᵀ λ − C λ."""
+
+    def __init__(self, solver: SchurStepSolver):
+        self.s = solver
+        self.applications = 0
+
+    def mult(self, mat: PETSc.Mat, x: PETSc.Vec, y: PETSc.Vec) -> None:
+        """Apply Σ: y = Σ x (called by petsc4py)."""
+        s = self.s
+        for c, Bc in enumerate(s.B):
+            column = s.rhs.getDenseColumnVec(c, "w")
+            Bc.multTranspose(x, column)
+            s.rhs.restoreDenseColumnVec(c, "w")
+        s.apply_inverse()
+        self.applications += 1
+        if s.C is not None:
+            s.C.mult(x, y)
+            y.scale(-1.0)
+        else:
+            y.zeroEntries()
+        for c, Bc in enumerate(s.B):
+            column = s.sol.getDenseColumnVec(c, "r")
+            Bc.multAdd(column, y, y)
+            s.sol.restoreDenseColumnVec(c, "r")
+
+
+class SchurStepSolver:
+    """Solves K x = b by the Schur complement on the multipliers (see the module docstring).
+
+    ``split`` comes from :func:`split_unknowns`, ``nodes_per_cell`` is the number of nodes of
+    one component of y in a cell (the size of D's blocks). Call :meth:`constant_changed` after
+    A_const changed (a new τ): A is refactorised then.
+    """
+
+    def __init__(
+        self,
+        comm: MPI.Comm,
+        K: PETSc.Mat,
+        A_const: PETSc.Mat,
+        split: Split,
+        nodes_per_cell: int,
+        options: Options | None = None,
+    ):
+        self.K, self.A_const, self.nodes_per_cell = K, A_const, nodes_per_cell
+        self.components, self.multipliers = split
+        rows = self.components[0]
+        krylov = {k: v for k, v in (options or {}).items() if str(k).startswith("ksp_")}
+        factor = {k: v for k, v in (options or {}).items() if not str(k).startswith("ksp_")}
+        self.A = A_const.createSubMatrix(rows, rows)
+        self.factor_ksp = linear.make_ksp(comm, self.A, factor, defaults=FACTOR_MUMPS)
+        C = A_const.createSubMatrix(self.multipliers, self.multipliers)
+        self.C: PETSc.Mat | None = C
+        if _norm(C) == 0:
+            C.destroy()
+            self.C = None
+        self.B = [K.createSubMatrix(self.multipliers, cols) for cols in self.components]
+        n_local, n_global = cast("tuple[tuple[int, int], object]", self.A.getSizes())[0]
+        dense = ((n_local, n_global), (PETSc.DECIDE, 3))
+        self.rhs = PETSc.Mat().createDense(dense, comm=comm)  # type: ignore[arg-type]
+        self.sol = PETSc.Mat().createDense(dense, comm=comm)  # type: ignore[arg-type]
+        for mat in (self.rhs, self.sol):
+            mat.setUp()
+            mat.assemble()
+        self.lam = self.B[0].createVecLeft()
+        self.g = self.B[0].createVecLeft()
+        template, whole = self.A.createVecRight(), K.createVecRight()
+        self.y_scatters = [_scatter(whole, is_, template) for is_ in self.components]
+        self.m_scatter = _scatter(whole, self.multipliers, self.lam)
+        template.destroy()
+        whole.destroy()
+        self.context = SchurContext(self)
+        m_sizes = self.lam.getSizes()
+        self.S = PETSc.Mat().createPython((m_sizes, m_sizes), self.context, comm=comm)  # type: ignore[arg-type]
+        self.S.setUp()
+        self.P: PETSc.Mat | None = None
+        method = "minres" if self.C is not None else "cg"
+        self.ksp = linear.make_ksp(comm, self.S, krylov, defaults={**KRYLOV, "ksp_type": method})
+        self.ksp.setInitialGuessNonzero(True)
+        self.Dinv: PETSc.Mat | None = None
+        self._factored = False
+        self.factorisations = 0
+        self._B_current = False
+
+    # -- the constant part ------------------------------------------------------------------
+    def constant_changed(self) -> None:
+        """A_const was reassembled (τ changed): refactorise A at the next solve."""
+        self._factored = False
+
+    def _factorise(self) -> None:
+        rows = self.components[0]
+        self.A_const.createSubMatrix(rows, rows, submat=self.A)
+        self.factor_ksp.setOperators(self.A)
+        linear.factorise(self.factor_ksp)
+        self.factor = self.factor_ksp.getPC().getFactorMatrix()
+        if self.Dinv is not None:
+            self.Dinv.destroy()
+        self.Dinv = self._inverse_cell_blocks()
+        self._factored = True
+        self.factorisations += 1
+
+    def _inverse_cell_blocks(self) -> PETSc.Mat:
+        """D⁻¹: the inverses of A's cell-diagonal blocks (consecutive rows in cell-wise order)."""
+        n = self.nodes_per_cell
+        indptr, indices, values = self.A.getValuesCSR()
+        start = self.A.getOwnershipRange()[0]
+        local_rows = len(indptr) - 1
+        rows = np.repeat(np.arange(local_rows), np.diff(indptr))
+        cols = indices.astype(np.int64) - start
+        inside = (cols >= 0) & (cols < local_rows) & (cols // n == rows // n)
+        blocks = np.zeros((local_rows // n, n, n))
+        blocks[rows[inside] // n, rows[inside] % n, cols[inside] % n] = values[inside]
+        inverse = np.linalg.inv(blocks)
+        new_indptr = np.arange(0, local_rows * n + 1, n, dtype=PETSc.IntType)
+        columns = (start + (np.arange(local_rows)[:, None] // n) * n + np.arange(n)).reshape(-1)
+        csr = (new_indptr, columns.astype(PETSc.IntType), inverse.reshape(-1))
+        sizes = self.A.getSizes()
+        return PETSc.Mat().createAIJ(size=sizes, csr=csr, comm=self.A.getComm())  # type: ignore[arg-type]
+
+    def _preconditioner(self) -> PETSc.Mat:
+        """B (D⁻¹ ⊗ I₃) Bᵀ + C for the current B."""
+        assert self.Dinv is not None
+        total: PETSc.Mat | None = None
+        for Bc in self.B:
+            Bt = Bc.transpose(PETSc.Mat())  # without an argument petsc4py transposes in place
+            part = self.Dinv.ptap(Bt)
+            Bt.destroy()
+            if total is None:
+                total = part
+            else:
+                total.axpy(1.0, part)
+                part.destroy()
+        assert total is not None
+        if self.C is not None:
+            total.axpy(1.0, self.C)
+        return total
+
+    def apply_inverse(self) -> None:
+        """Apply A⁻¹: sol = A⁻¹ rhs, the three columns in one multi-right-hand-side substitution."""
+        self.factor.matSolve(self.rhs, self.sol)
+
+    # -- one solve --------------------------------------------------------------------------
+    def _update_constraint(self) -> None:
+        for cols, Bc in zip(self.components, self.B, strict=True):
+            self.K.createSubMatrix(self.multipliers, cols, submat=Bc)
+        if self.P is not None:
+            self.P.destroy()
+        self.P = self._preconditioner()
+        self.ksp.setOperators(self.S, self.P)
+
+    def solve(self, b: PETSc.Vec, x: PETSc.Vec, refactor: bool = True) -> SolveStats:
+        """Solve K x = b from the guess x's multipliers.
+
+        ``refactor=False``: the same K as the last solve (a projection step): B is kept.
+        """
+        stats = SolveStats(False, 0, 0.0, 0.0)
+        t0 = time.perf_counter()
+        if not self._factored:
+            self._factorise()
+            stats.factorised = True
+        if refactor or self.P is None:
+            self._update_constraint()
+        t1 = time.perf_counter()
+        stats.factor_s = t1 - t0
+        # right-hand side of Σ: B A⁻¹ f − g
+        self._gather(b)
+        self.apply_inverse()
+        rhs = self.lam.duplicate()
+        rhs.zeroEntries()
+        for c, Bc in enumerate(self.B):
+            column = self.sol.getDenseColumnVec(c, "r")
+            Bc.multAdd(column, rhs, rhs)
+            self.sol.restoreDenseColumnVec(c, "r")
+        rhs.axpy(-1.0, self.g)
+        self.m_scatter.scatter(x, self.lam, compat.INSERT, compat.FORWARD)
+        self.ksp.solve(rhs, self.lam)
+        rhs.destroy()
+        reason = compat.converged_reason(self.ksp)
+        if reason < 0:
+            raise SolverError(f"Schur complement solve failed: KSP reason {reason}")
+        stats.iterations = self.ksp.getIterationNumber()
+        # δy = A⁻¹ (f − Bᵀ λ)
+        self._gather(b)
+        for c, Bc in enumerate(self.B):
+            column = self.rhs.getDenseColumnVec(c, "w")
+            work = column.duplicate()
+            Bc.multTranspose(self.lam, work)
+            column.axpy(-1.0, work)
+            work.destroy()
+            self.rhs.restoreDenseColumnVec(c, "w")
+        self.apply_inverse()
+        for c, scatter in enumerate(self.y_scatters):
+            column = self.sol.getDenseColumnVec(c, "r")
+            scatter.scatter(column, x, compat.INSERT, compat.REVERSE)
+            self.sol.restoreDenseColumnVec(c, "r")
+        self.m_scatter.scatter(self.lam, x, compat.INSERT, compat.REVERSE)
+        stats.solve_s = time.perf_counter() - t1
+        return stats
+
+    def _gather(self, b: PETSc.Vec) -> None:
+        """Gather b: rhs columns ← the three components of b's f; g ← its multiplier rows."""
+        for c, scatter in enumerate(self.y_scatters):
+            column = self.rhs.getDenseColumnVec(c, "w")
+            scatter.scatter(b, column, compat.INSERT, compat.FORWARD)
+            self.rhs.restoreDenseColumnVec(c, "w")
+        self.m_scatter.scatter(b, self.g, compat.INSERT, compat.FORWARD)
+
+    def destroy(self) -> None:
+        """Free the factors, the KSPs, the blocks and the work objects."""
+        self.factor_ksp.getPC().reset()
+        linear.destroy_ksp(self.factor_ksp)
+        linear.destroy_ksp(self.ksp)
+        others = [self.A, self.S, self.rhs, self.sol, self.lam, self.g, self.m_scatter]
+        others += [*self.B, *self.y_scatters, *self.components, self.multipliers]
+        others += [m for m in (self.C, self.P, self.Dinv) if m is not None]
+        for obj in others:
+            obj.destroy()
+
+
+#: Every step solver of the flow.
+StepSolver = linear.DirectStepSolver | linear.LaggedStepSolver | SchurStepSolver
+
+_reported: set[str] = set()
+
+
+def fall_back(comm: MPI.Comm, reason: str) -> None:
+    """Say once (rank 0) why the Schur solver is not used; the flow then uses 'lagged'."""
+    if reason not in _reported and comm.rank == 0:
+        _log.warning("dgplate: flow.linear_solver = 'schur' not used (%s); using 'lagged'", reason)
+    _reported.add(reason)

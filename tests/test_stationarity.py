@@ -1,0 +1,85 @@
+"""The τ-independent stopping test (flow.stop = 'stationarity'): ‖P DE_h[yⁿ]‖_*' < tol, and
+adaptive τ (flow.adaptive_tau).
+
+Runs with τ = h and τ = h/4, or with fixed and adaptive τ, must stop at the same discrete
+constrained critical point (up to the tolerance), which the published test
+(E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < tol does not ensure.
+"""
+
+import math
+
+from mpi4py import MPI
+
+import pytest
+
+from dgplate.errors import InputError
+from dgplate.mesh.tagged import rectangle
+from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
+from dgplate.solvers.flow import FlowSpec, GradientFlow
+
+TOL = 1e-5
+
+
+def bnn(comm, tau_factor, stop="stationarity", n=6, adaptive_tau=False):
+    tagged = rectangle(comm, [[0, 0], [4, 4]], [n, n])
+    spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
+    model = build_kirchhoff(spec, tagged)
+    settings = FlowSpec(
+        tau=tau_factor * math.sqrt(2) * 4 / n,
+        tol=TOL if stop == "stationarity" else 1e-6,
+        stop=stop,
+        projection_steps=1,
+        max_steps=400,
+        adaptive_tau=adaptive_tau,
+    )
+    return GradientFlow(model.facets, 2, model.energy, settings)
+
+
+@pytest.mark.mpi
+def test_stop_does_not_depend_on_tau():
+    energies = []
+    for factor in (1.0, 0.25):
+        flow = bnn(MPI.COMM_WORLD, factor)
+        result = flow.run()
+        assert result.converged and result.energy_increases == []
+        assert result.history[-1].stationarity < TOL
+        assert flow.stationarity() == pytest.approx(result.history[-1].stationarity)
+        energies.append(result.energy)
+        flow.destroy()
+    assert energies[1] == pytest.approx(energies[0], rel=1e-7)
+
+
+def test_published_test_stops_far_from_stationary():
+    """The rate test with τ = h stops where the projected gradient is still ~60× TOL."""
+    flow = bnn(MPI.COMM_SELF, 1.0, stop="rate")
+    result = flow.run()
+    assert result.converged
+    assert math.isnan(result.history[-1].stationarity)
+    assert flow.stationarity() > 10 * TOL
+    flow.destroy()
+
+
+def test_unknown_stop_is_refused():
+    with pytest.raises(InputError, match=r"flow\.stop"):
+        FlowSpec(stop="gradient")
+
+
+@pytest.mark.mpi
+def test_adaptive_tau_reaches_the_same_state_in_fewer_steps():
+    results = {}
+    for adaptive in (False, True):
+        flow = bnn(MPI.COMM_WORLD, 1.0, adaptive_tau=adaptive)
+        results[adaptive] = flow.run()
+        assert results[adaptive].converged and results[adaptive].energy_increases == []
+        flow.destroy()
+    fixed, adaptive = results[False], results[True]
+    assert adaptive.energy == pytest.approx(fixed.energy, rel=1e-6)
+    assert adaptive.defect < 1e-10
+    assert adaptive.steps < fixed.steps
+    taus = [h.tau for h in adaptive.history]
+    assert taus[-1] > taus[0]
+
+
+def test_bad_defect_bound_is_refused():
+    with pytest.raises(InputError, match=r"flow\.defect_bound"):
+        FlowSpec(adaptive_tau=True, defect_bound=0.0)
