@@ -29,7 +29,9 @@ from dgplate.models.fvk import FvKSpec, build_fvk
 DISTANCES = (0.0, 0.05, 0.1, 0.2, 0.6)
 
 
-def run(cells: int, thickness: float, pull: float, shortening: float, steps: int) -> dict:
+def run(
+    cells: int, thickness: float, pull: float, shortening: float, steps: int, push: float = 0.1
+) -> dict:
     """One sheet: its path, wavelengths and amplitudes at :data:`DISTANCES` (collective)."""
     tagged = rectangle(MPI.COMM_WORLD, [[0.0, 0.0], [1.0, 1.0]], [cells, cells])
     spec = FvKSpec(
@@ -39,7 +41,7 @@ def run(cells: int, thickness: float, pull: float, shortening: float, steps: int
         clamped=["right"],
         membrane={"left": [-pull, f"-{shortening}*(y - 0.5)"], "right": "fixed"},
         load_steps=steps,
-        perturb_unstable=0.1 * thickness,
+        perturb_unstable=push * thickness,
     )
     model = build_fvk(spec, tagged)
     driver = model.driver(None, [], None)
@@ -63,6 +65,7 @@ def run(cells: int, thickness: float, pull: float, shortening: float, steps: int
         "wavelengths": [p["wavelength"] for p in profiles],
         "amplitudes": [p["amplitude"] for p in profiles],
         "seconds": seconds,
+        "push": push,
         "ranks": MPI.COMM_WORLD.size,
     }
 
@@ -75,12 +78,13 @@ def main() -> None:
     parser.add_argument("--pull", type=float, default=0.005)
     parser.add_argument("--shortening", type=float, default=0.002)
     parser.add_argument("--steps", type=int, default=1)
+    parser.add_argument("--push", type=float, default=0.1, help="perturb_unstable / t")
     parser.add_argument("--json", default="")
     args = parser.parse_args()
     runs = []
     for thickness in args.thickness:
         for cells in args.cells:
-            entry = run(cells, thickness, args.pull, args.shortening, args.steps)
+            entry = run(cells, thickness, args.pull, args.shortening, args.steps, args.push)
             runs.append(entry)
             if MPI.COMM_WORLD.rank == 0:
                 shown = " ".join(f"{v:.4f}" for v in entry["wavelengths"])
