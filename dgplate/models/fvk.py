@@ -31,8 +31,12 @@ the bending penalty.
 
 In-plane boundary conditions (``membrane`` = {facet group: condition}): "fixed" (u = 0),
 "normal" (u·n = 0, u·t free: edges held against pull-in but free to slide; axis-parallel edges
-only), "free", or [u_x, u_y] prescribed (numbers, or "free" per component; scaled with the
-load). Clamped and simply supported groups default to "fixed", all other edges are free.
+only), "free", or [u_x, u_y] prescribed (numbers, formulas in x, y, or "free" per component;
+scaled with the load: a formula's data λ g₁ are written into a boundary function, ScaledData).
+
+Indenter (docs/fvk_experiments.md). ``indenter`` (a cell group) is pushed down rigidly by λδ
+(``indentation``) from the natural shape by the penalty ½ k E t ∫_indenter (w − w₀ + λδ)²
+(k = ``indenter_stiffness``): a flat punch glued to the tip of a cone w₀ = α(R − r). Clamped and simply supported groups default to "fixed", all other edges are free.
 
 Load schedule. Pressure p, prestrain ε₀ (thermal expansion: ε₀ > 0 compresses a held plate)
 and prescribed edge displacements are multiplied by a load factor. ``load_steps = n`` means
