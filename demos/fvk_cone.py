@@ -22,7 +22,7 @@
 # glued to the tip. The path starts from the stress-free cone (`initial` = the cone).
 #
 # Conti, Olbermann & Tobasco (*Symmetry breaking in indented elastic cones*, Math. Models
-# Methods Appl. Sci. 27 (2017) 291–321) show that for small thickness the indented cone does
+# Methods Appl. Sci. 27 (2017)) show that for small thickness the indented cone does
 # not stay axisymmetric: the energy of every axisymmetric configuration scales worse with t
 # than that of a non-symmetric one (the inverted cap's circumferential compression is relieved
 # by wrinkling/folding into a d-cone-like shape). Here the symmetric state is followed by Newton
