@@ -50,7 +50,7 @@ from dgplate.solvers.constraint import (
     multiplier_element,
     symmetric,
 )
-from dgplate.solvers.driver import Observer
+from dgplate.solvers.driver import Observer, StepCounters
 from dgplate.solvers.linear import OptionValue
 
 _OPTION = re.compile(r"^[A-Za-z0-9_]+$")
@@ -226,8 +226,21 @@ class FlowResult:
     energy_increases: list[int]  # steps at which the energy went up
     interrupted: int = 0  # the signal (SIGINT, SIGTERM) that stopped the run; 0: none
 
+    @classmethod
+    def of(
+        cls,
+        outcome: tuple[bool, str, int],
+        history: list[Any],
+        increases: list[int],
+        energy: float,
+        defect: float,
+    ) -> FlowResult:
+        """The result of a run: (converged, reason, signal), its records and final figures."""
+        converged, reason, signum = outcome
+        return cls(converged, reason, len(history), energy, defect, history, increases, signum)
 
-class GradientFlow:
+
+class GradientFlow(StepCounters):
     """The constrained H² gradient flow of an energy built by ``energy_fn(y)``."""
 
     def __init__(
@@ -557,13 +570,7 @@ class GradientFlow:
 
     def checkpoint_state(self) -> dict[str, Any]:
         """The counters a checkpoint must hold (with :meth:`checkpoint_fields`)."""
-        return {
-            "step": self.step_count,
-            "time": self.time,
-            "energy": self._last_energy,
-            "energy_increases": list(self.energy_increases),
-            "fallbacks": self.fallbacks,
-        }
+        return {**super().checkpoint_state(), "fallbacks": self.fallbacks}
 
     @property
     def checkpoint_every(self) -> int:
@@ -592,9 +599,7 @@ class GradientFlow:
 
     def restore_state(self, state: dict[str, Any]) -> None:
         """Continue from a checkpoint's counters (after its fields were restored)."""
-        self.step_count, self.time = int(state["step"]), float(state["time"])
-        self._last_energy = float(state["energy"])
-        self.energy_increases = [int(s) for s in state.get("energy_increases", [])]
+        super().restore_state(state)
         self.fallbacks = int(state.get("fallbacks", 0))
 
     def undo(self) -> None:
@@ -623,13 +628,8 @@ class GradientFlow:
                 self.undo()
                 reason = f"diverged at step {info.step}: the energy became {info.energy}; the last finite state is kept"
                 break
-            history.append(info)
             self.fallbacks += info.fallbacks
-            if info.rate < 0 and -info.rate * self.tau > 1e-12 * max(1.0, abs(info.energy)):
-                increases.append(info.step)
-                self.energy_increases.append(info.step)
-            for obs in self.observers:
-                obs.step(self, info)
+            self.record_step(info, history, increases)
             stop = self._stop_reason(info)
             if stop:
                 converged, reason = True, stop
@@ -639,16 +639,9 @@ class GradientFlow:
                 reason = interrupt.reason(signum)
                 break
         last = history[-1] if history else None
-        result = FlowResult(
-            converged=converged,
-            reason=reason,
-            steps=len(history),
-            energy=last.energy if last else self.evaluate_energy(),
-            defect=last.defect if last else self.defect(),
-            history=history,
-            energy_increases=increases,
-            interrupted=signum,
-        )
+        energy = last.energy if last else self.evaluate_energy()
+        defect = last.defect if last else self.defect()
+        result = FlowResult.of((converged, reason, signum), history, increases, energy, defect)
         for obs in self.observers:
             obs.finish(self, result)
         return result

@@ -44,7 +44,7 @@ from dgplate.dg.energy import Energy
 from dgplate.dg.forms import integral
 from dgplate.errors import SolverError
 from dgplate.solvers import linear as solvers
-from dgplate.solvers.driver import Observer
+from dgplate.solvers.driver import Observer, StepCounters
 from dgplate.solvers.flow import FlowResult, FlowSpec
 
 __all__ = ["RodFlow", "RodState", "RodStep", "ip_product", "nitsche_slope", "tangent"]
@@ -145,7 +145,7 @@ class Defects:
         return out
 
 
-class RodFlow:
+class RodFlow(StepCounters):
     """The constrained gradient flow of a rod energy E(u, b) (a Driver)."""
 
     def __init__(
@@ -275,21 +275,6 @@ class RodFlow:
         """The centreline and the frame."""
         return {"u": self.u, "b": self.b}
 
-    def checkpoint_state(self) -> dict[str, Any]:
-        """The counters a checkpoint holds."""
-        return {
-            "step": self.step_count,
-            "time": self.time,
-            "energy": self._last_energy,
-            "energy_increases": list(self.energy_increases),
-        }
-
-    def restore_state(self, state: dict[str, Any]) -> None:
-        """Continue from a checkpoint's counters (after its fields were restored)."""
-        self.step_count, self.time = int(state["step"]), float(state["time"])
-        self._last_energy = float(state["energy"])
-        self.energy_increases = [int(s) for s in state.get("energy_increases", [])]
-
     def summary(self) -> dict[str, Any]:
         """The flow's numbers for ``summary.json`` (collective)."""
         out: dict[str, Any] = {
@@ -360,27 +345,13 @@ class RodFlow:
                 self._undo()
                 outcome = (False, f"diverged at step {info.step}: E = {info.energy}", 0)
                 break
-            history.append(info)
-            if info.rate < 0 and -info.rate * self.tau > 1e-12 * max(1.0, abs(info.energy)):
-                increases.append(info.step)
-                self.energy_increases.append(info.step)
-            for obs in self.observers:
-                obs.step(self, info)
+            self.record_step(info, history, increases)
             outcome = self._stop(info)
             if outcome is not None:
                 break
-        converged, reason, signum = outcome or (False, f"step budget of {budget} steps spent", 0)
-        d = self.defects()
-        result = FlowResult(
-            converged=converged,
-            reason=reason,
-            steps=len(history),
-            energy=self.evaluate_energy(),
-            defect=max(d.values()),
-            history=history,
-            energy_increases=increases,
-            interrupted=signum,
-        )
+        outcome = outcome or (False, f"step budget of {budget} steps spent", 0)
+        defect = max(self.defects().values())
+        result = FlowResult.of(outcome, history, increases, self.evaluate_energy(), defect)
         for obs in self.observers:
             obs.finish(self, result)
         return result
