@@ -3,9 +3,10 @@
 The BNN vertical-load plate (Q2, τ = h) runs a fixed number of steps with each solver, each in
 its own process (so that the resident-set peak is that solver's), on the same number of ranks;
 the record holds the time per step, the Krylov iterations, the MUMPS factor size and memory
-and the peak resident set of each, and their ratios (schur / lagged).
+and the peak resident set of each, and their ratios (schur / lagged), for each preconditioner
+of the Schur complement (``--pc``, the step-solver option ``schur_pc``).
 
-    python benchmarks/schur.py --cells 32 64 --steps 5 --json out.json
+    python benchmarks/schur.py --cells 32 64 --steps 5 --pc cell bfbt --json out.json
     python benchmarks/schur.py --cells 128 --ranks 2 --steps 3 --json out.json
 
 Run it without mpirun: it launches ``mpirun -n RANKS`` itself for each solver.
@@ -32,8 +33,8 @@ import numpy as np
 SOLVERS = ("lagged", "schur")
 
 
-def child(cells: int, solver: str, steps: int, out: Path) -> None:
-    """Run ``steps`` steps with ``solver`` and write the measurements (rank 0)."""
+def child(cells: int, solver: str, steps: int, out: Path, pc: str) -> None:
+    """Run ``steps`` steps with ``solver`` (``pc``: Σ's preconditioner) and write the record."""
     from dgplate.mesh.tagged import rectangle
     from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
     from dgplate.solvers.flow import FlowSpec, GradientFlow
@@ -43,7 +44,11 @@ def child(cells: int, solver: str, steps: int, out: Path) -> None:
     spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
     model = build_kirchhoff(spec, tagged)
     settings = FlowSpec(
-        tau=math.sqrt(2) * 4 / cells, tol=1e-30, max_steps=steps, linear_solver=solver
+        tau=math.sqrt(2) * 4 / cells,
+        tol=1e-30,
+        max_steps=steps,
+        linear_solver=solver,
+        solver={"schur_pc": pc} if solver == "schur" else {},
     )
     flow = GradientFlow(model.facets, model.degree, model.energy, settings)
     comm.Barrier()
@@ -55,6 +60,7 @@ def child(cells: int, solver: str, steps: int, out: Path) -> None:
     mine = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     record = {
         "solver": type(flow.solver).__name__,
+        "preconditioner": pc if solver == "schur" else None,
         "dofs": flow.num_dofs,
         "steps": result.steps,
         "wall_s": wall,
@@ -83,12 +89,12 @@ def _factor_matrix(solver):
     return ksp.getPC().getFactorMatrix()
 
 
-def run_one(cells: int, solver: str, steps: int, ranks: int) -> dict:
+def run_one(cells: int, solver: str, steps: int, ranks: int, pc: str = "bfbt") -> dict:
     """Launch :func:`child` in a fresh process (under mpirun for ranks > 1)."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "record.json"
         script = [sys.executable, "-m", "mpi4py", __file__, "--child", solver]
-        script += ["--cells", str(cells), "--steps", str(steps), "--json", str(out)]
+        script += ["--cells", str(cells), "--steps", str(steps), "--json", str(out), "--pc", pc]
         if ranks > 1:
             mpirun = shutil.which("mpirun", path=str(Path(sys.executable).parent)) or "mpirun"
             script = [mpirun, "-n", str(ranks), *script]
@@ -97,32 +103,38 @@ def run_one(cells: int, solver: str, steps: int, ranks: int) -> dict:
         return record
 
 
-def compare(cells: int, steps: int, ranks: int) -> dict:
-    """Both solvers at one size; ratios schur / lagged."""
-    runs = {solver: run_one(cells, solver, steps, ranks) for solver in SOLVERS}
-    lagged, schur = runs["lagged"], runs["schur"]
+RATIOS = (
+    "per_step_s",
+    "per_step_after_first_s",
+    "factor_entries",
+    "factor_memory_mb_total",
+    "peak_rss_mb_total",
+)
 
-    def ratio(key: str) -> float | None:
+
+def compare(cells: int, steps: int, ranks: int, pcs: list[str]) -> dict:
+    """The lagged solver and the Schur solver with each preconditioner at one size."""
+    lagged = run_one(cells, "lagged", steps, ranks)
+    runs = {"lagged": lagged}
+    runs |= {f"schur_{pc}": run_one(cells, "schur", steps, ranks, pc) for pc in pcs}
+
+    def ratio(schur: dict, key: str) -> float | None:
         a, b = schur.get(key), lagged.get(key)
         return a / b if a is not None and b else None
 
+    schurs = {name: run for name, run in runs.items() if name != "lagged"}
     return {
         "cells": cells,
         "ranks": ranks,
         "steps": steps,
         "dofs": lagged["dofs"],
         "runs": runs,
-        "ratio_schur_over_lagged": {
-            key: ratio(key)
-            for key in (
-                "per_step_s",
-                "per_step_after_first_s",
-                "factor_entries",
-                "factor_memory_mb_total",
-                "peak_rss_mb_total",
-            )
+        "ratio_over_lagged": {
+            name: {key: ratio(run, key) for key in RATIOS} for name, run in schurs.items()
         },
-        "energy_rel_diff": abs(schur["energy"] / lagged["energy"] - 1),
+        "energy_rel_diff": {
+            name: abs(run["energy"] / lagged["energy"] - 1) for name, run in schurs.items()
+        },
     }
 
 
@@ -132,12 +144,13 @@ def main(argv: list[str]) -> None:
     parser.add_argument("--steps", type=int, default=5, help="steps per run (fixed)")
     parser.add_argument("--ranks", type=int, default=1)
     parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument("--pc", nargs="+", default=["bfbt"], help="Σ's preconditioners")
     parser.add_argument("--child", choices=SOLVERS, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
-        child(args.cells[0], args.child, args.steps, args.json)
+        child(args.cells[0], args.child, args.steps, args.json, args.pc[0])
         return
-    records = [compare(cells, args.steps, args.ranks) for cells in args.cells]
+    records = [compare(cells, args.steps, args.ranks, args.pc) for cells in args.cells]
     text = json.dumps(records, indent=2)
     print(text)
     if args.json:

@@ -12,6 +12,7 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 
+from dgplate.errors import InputError
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
@@ -21,8 +22,8 @@ from dgplate.solvers.flow import FlowSpec, GradientFlow
 AGREE = 1e-10
 
 
-def bnn(comm, solver, n=4, projection_steps=1):
-    """The BNN vertical-load plate on n×n cells."""
+def bnn(comm, solver, n=4, projection_steps=1, pc="bfbt"):
+    """The BNN vertical-load plate on n×n cells (``pc``: the Schur preconditioner)."""
     tagged = rectangle(comm, [[0, 0], [4, 4]], [n, n])
     model = build_kirchhoff(
         KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2]), tagged
@@ -32,6 +33,7 @@ def bnn(comm, solver, n=4, projection_steps=1):
         tol=1e-12,
         projection_steps=projection_steps,
         linear_solver=solver,
+        solver={"schur_pc": pc} if solver == "schur" else {},
     )
     return GradientFlow(model.facets, 2, model.energy, settings)
 
@@ -78,6 +80,22 @@ def assert_agree(out):
 @pytest.mark.mpi
 def test_vertical_load_with_projection():
     assert_agree(states(bnn, 3, comm=MPI.COMM_WORLD))
+
+
+def test_cell_preconditioner():
+    """The cell-block preconditioner alone (no BFBᵀ) gives the same steps."""
+
+    def build(comm, kind):
+        return bnn(comm, kind, pc="cell")
+
+    out = states(build, 2)
+    assert out["schur"][3].preconditioner == "cell" and out["schur"][3].inner is None
+    assert_agree(out)
+
+
+def test_unknown_preconditioner():
+    with pytest.raises(InputError, match=r"flow\.solver\.schur_pc"):
+        bnn(MPI.COMM_SELF, "schur", pc="amg")
 
 
 @pytest.mark.mpi

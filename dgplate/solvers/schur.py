@@ -31,7 +31,7 @@ import numpy.typing as npt
 from petsc4py import PETSc
 
 from dgplate import compat
-from dgplate.errors import SolverError
+from dgplate.errors import InputError, SolverError
 from dgplate.solvers import linear
 from dgplate.solvers.linear import Options, OptionValue, SolveStats
 
@@ -51,6 +51,11 @@ KRYLOV: dict[str, OptionValue] = {
     "pc_type": "bjacobi",
     "sub_pc_type": "lu",
 }
+
+#: Preconditioners of Σ, chosen by the step-solver option ``schur_pc`` (flow.solver):
+#: 'bfbt' the scaled BFBᵀ (least-squares commutator) approximation of Σ⁻¹ (the default),
+#: 'cell' the cell-block matrix B (D⁻¹ ⊗ I₃) Bᵀ + C.
+PRECONDITIONERS = ("bfbt", "cell")
 
 #: Relative size below which a block of the constant matrix counts as zero (or two as equal).
 _EXACT = 1e-13
@@ -146,6 +151,30 @@ class SchurContext:
             s.sol.restoreDenseColumnVec(c, "r")
 
 
+class ScaledBFBt:
+    """Python PC context: Σ⁻¹ ≈ P⁻¹ F P⁻¹ with P = B (D⁻¹ ⊗ I₃) Bᵀ + C, F = B (D⁻¹AD⁻¹ ⊗ I₃) Bᵀ + C.
+
+    The scaled BFBᵀ (least-squares commutator) approximation of the inverse Schur complement
+    with the weight D, the cell-diagonal blocks of A. Both P and F are sparse and assembled
+    once per constraint matrix; P is cell-block diagonal (its block-Jacobi LU is exact), so
+    one application costs two cell-local solves and one sparse product, and no solve with A.
+    """
+
+    def __init__(self, solver: SchurStepSolver):
+        self.s = solver
+        self.work: PETSc.Vec | None = None
+
+    def apply(self, pc: PETSc.PC, x: PETSc.Vec, y: PETSc.Vec) -> None:
+        """Apply the preconditioner: y = P⁻¹ F P⁻¹ x (called by petsc4py)."""
+        s = self.s
+        assert s.inner is not None and s.F is not None
+        if self.work is None:
+            self.work = x.duplicate()
+        s.inner.solve(x, y)
+        s.F.mult(y, self.work)
+        s.inner.solve(self.work, y)
+
+
 class SchurStepSolver:
     """Solves K x = b by the Schur complement on the multipliers (see the module docstring).
 
@@ -166,8 +195,15 @@ class SchurStepSolver:
         self.K, self.A_const, self.nodes_per_cell = K, A_const, nodes_per_cell
         self.components, self.multipliers = split
         rows = self.components[0]
-        krylov = {k: v for k, v in (options or {}).items() if str(k).startswith("ksp_")}
-        factor = {k: v for k, v in (options or {}).items() if not str(k).startswith("ksp_")}
+        options = dict(options or {})
+        self.preconditioner = str(options.pop("schur_pc", PRECONDITIONERS[0]))
+        if self.preconditioner not in PRECONDITIONERS:
+            raise InputError(
+                f"flow.solver.schur_pc must be one of {PRECONDITIONERS}, "
+                f"got {self.preconditioner!r}"
+            )
+        krylov = {k: v for k, v in options.items() if str(k).startswith("ksp_")}
+        factor = {k: v for k, v in options.items() if not str(k).startswith("ksp_")}
         self.A = A_const.createSubMatrix(rows, rows)
         self.factor_ksp = linear.make_ksp(comm, self.A, factor, defaults=FACTOR_MUMPS)
         C = A_const.createSubMatrix(self.multipliers, self.multipliers)
@@ -199,6 +235,10 @@ class SchurStepSolver:
         self.ksp = linear.make_ksp(comm, self.S, krylov, defaults={**KRYLOV, "ksp_type": method})
         self.ksp.setInitialGuessNonzero(True)
         self.Dinv: PETSc.Mat | None = None
+        self.G: PETSc.Mat | None = None  # D⁻¹ A D⁻¹ ('bfbt')
+        self.F: PETSc.Mat | None = None  # B (D⁻¹ A D⁻¹ ⊗ I₃) Bᵀ + C ('bfbt')
+        self.inner: PETSc.KSP | None = None  # the cell-block solve with P ('bfbt')
+        self.bfbt: ScaledBFBt | None = None
         self._factored = False
         self.factorisations = 0
         self._B_current = False
@@ -217,6 +257,11 @@ class SchurStepSolver:
         if self.Dinv is not None:
             self.Dinv.destroy()
         self.Dinv = self._inverse_cell_blocks()
+        if self.G is not None:
+            self.G.destroy()
+            self.G = None
+        if self.preconditioner == "bfbt":
+            self.G = self.Dinv.matMatMult(self.A, self.Dinv)
         self._factored = True
         self.factorisations += 1
 
@@ -238,13 +283,12 @@ class SchurStepSolver:
         sizes = self.A.getSizes()
         return PETSc.Mat().createAIJ(size=sizes, csr=csr, comm=self.A.getComm())  # type: ignore[arg-type]
 
-    def _preconditioner(self) -> PETSc.Mat:
-        """B (D⁻¹ ⊗ I₃) Bᵀ + C for the current B."""
-        assert self.Dinv is not None
+    def _sandwich(self, middle: PETSc.Mat) -> PETSc.Mat:
+        """B (middle ⊗ I₃) Bᵀ + C for the current B."""
         total: PETSc.Mat | None = None
         for Bc in self.B:
             Bt = Bc.transpose(PETSc.Mat())  # without an argument petsc4py transposes in place
-            part = self.Dinv.ptap(Bt)
+            part = middle.ptap(Bt)
             Bt.destroy()
             if total is None:
                 total = part
@@ -264,10 +308,27 @@ class SchurStepSolver:
     def _update_constraint(self) -> None:
         for cols, Bc in zip(self.components, self.B, strict=True):
             self.K.createSubMatrix(self.multipliers, cols, submat=Bc)
-        if self.P is not None:
-            self.P.destroy()
-        self.P = self._preconditioner()
+        for old in (self.P, self.F):
+            if old is not None:
+                old.destroy()
+        assert self.Dinv is not None
+        self.P = self._sandwich(self.Dinv)
         self.ksp.setOperators(self.S, self.P)
+        if self.G is not None:
+            self.F = self._sandwich(self.G)
+            self._use_bfbt(self.P)
+
+    def _use_bfbt(self, P: PETSc.Mat) -> None:
+        """Precondition Σ by P⁻¹ F P⁻¹ (see :class:`ScaledBFBt`); P⁻¹ by block-Jacobi LU."""
+        if self.inner is None:
+            comm = self.ksp.getComm()
+            cell = {"ksp_type": "preonly", "pc_type": "bjacobi", "sub_pc_type": "lu"}
+            self.inner = linear.make_ksp(comm, P, defaults=cell)  # type: ignore[arg-type]
+            pc = self.ksp.getPC()
+            pc.setType(PETSc.PC.Type.PYTHON)
+            self.bfbt = ScaledBFBt(self)
+            pc.setPythonContext(self.bfbt)
+        self.inner.setOperators(P)
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec, refactor: bool = True) -> SolveStats:
         """Solve K x = b from the guess x's multipliers.
@@ -331,9 +392,13 @@ class SchurStepSolver:
         self.factor_ksp.getPC().reset()
         linear.destroy_ksp(self.factor_ksp)
         linear.destroy_ksp(self.ksp)
+        if self.inner is not None:
+            linear.destroy_ksp(self.inner)
+        if self.bfbt is not None and self.bfbt.work is not None:
+            self.bfbt.work.destroy()
         others = [self.A, self.S, self.rhs, self.sol, self.lam, self.g, self.m_scatter]
         others += [*self.B, *self.y_scatters, *self.components, self.multipliers]
-        others += [m for m in (self.C, self.P, self.Dinv) if m is not None]
+        others += [m for m in (self.C, self.P, self.Dinv, self.G, self.F) if m is not None]
         for obj in others:
             obj.destroy()
 
