@@ -33,12 +33,19 @@ def bnn(comm, solver, n=4, projection_steps=1, pc="bfbt"):
         tol=1e-12,
         projection_steps=projection_steps,
         linear_solver=solver,
-        solver={"schur_pc": pc} if solver == "schur" else {},
+        solver={"schur_pc": pc} if solver == "schur" and pc != "aux" else {},
     )
-    return GradientFlow(model.facets, 2, model.energy, settings)
+    return auxiliary(GradientFlow(model.facets, 2, model.energy, settings), pc)
 
 
-def bilayer(comm, solver, edge_constraint=True):
+def auxiliary(flow, pc):
+    """Give a Schur flow the auxiliary-space preconditioner when ``pc == 'aux'``."""
+    if pc == "aux" and isinstance(flow.solver, schur.SchurStepSolver):
+        flow.solver.use_embedding(schur.continuous_embedding(flow.W, flow.V, flow._vdofs))
+    return flow
+
+
+def bilayer(comm, solver, edge_constraint=True, pc="bfbt"):
     """A 6×3 bilayer strip rolling up: explicit part, degree-1 multipliers, edge moments."""
     tagged = rectangle(comm, [[0, 0], [2, 1]], [6, 3])
     spec = BilayerSpec(clamped=["left"], Z=1.0)
@@ -51,7 +58,7 @@ def bilayer(comm, solver, edge_constraint=True):
         linear_solver=solver,
         edge_constraint=edge_constraint,
     )
-    return GradientFlow(model.facets, 2, model.energy, settings)
+    return auxiliary(GradientFlow(model.facets, 2, model.energy, settings), pc)
 
 
 def states(build, steps, comm=MPI.COMM_SELF, then=None):
@@ -96,6 +103,23 @@ def test_cell_preconditioner():
 def test_unknown_preconditioner():
     with pytest.raises(InputError, match=r"flow\.solver\.schur_pc"):
         bnn(MPI.COMM_SELF, "schur", pc="amg")
+
+
+@pytest.mark.mpi
+def test_auxiliary_space_preconditioner():
+    """The continuous-space (Woodbury) preconditioner: same steps, a few dozen iterations."""
+    out = states(lambda comm, kind: bnn(comm, kind, n=6, pc="aux"), 3, comm=MPI.COMM_WORLD)
+    solver = out["schur"][3]
+    assert solver.preconditioner == "aux" and solver.aux.rebuilds >= 1
+    assert solver.aux.baseline < 60  # the cell-block preconditioner needs hundreds
+    assert_agree(out)
+
+
+@pytest.mark.mpi
+def test_auxiliary_space_with_edge_constraint():
+    out = states(lambda comm, kind: bilayer(comm, kind, pc="aux"), 2, comm=MPI.COMM_WORLD)
+    assert out["schur"][3].C is not None
+    assert_agree(out)
 
 
 @pytest.mark.mpi
