@@ -8,10 +8,16 @@ the diagonal that pins unused edge multipliers. Eliminating δy,
     Σ λ = B (A⁻¹ ⊗ I₃) f − g,      Σ = B (A⁻¹ ⊗ I₃) Bᵀ − C,      δy = (A⁻¹ ⊗ I₃)(f − Bᵀ λ),
 
 so one factorisation of A serves the whole run. Σ is solved by CG (MINRES when C ≠ 0, which
-makes Σ indefinite) on a shell matrix, preconditioned by B (D⁻¹ ⊗ I₃) Bᵀ + C with D the
-cell-diagonal blocks of A: a cell-block-diagonal matrix, since B is cell-local, so its block
-Jacobi LU is exact and the same on any partition. Each application of A⁻¹ treats the three
-components as one three-column right-hand side (MatMatSolve), so the factors are read once.
+makes Σ indefinite) on a shell matrix. Its preconditioners start from P = B (D⁻¹ ⊗ I₃) Bᵀ + C
+with D the cell-diagonal blocks of A: a cell-block-diagonal matrix, since B is cell-local, so
+its block Jacobi LU is exact and the same on any partition. P alone ('cell') leaves a
+condition number ∝ h⁻² (Σ has an order −2 part that no cell-local matrix sees), and so does
+the scaled BFBᵀ approximation ('bfbt', :class:`ScaledBFBt`, the default) with a smaller
+constant; the auxiliary-space preconditioner (:class:`AuxiliarySpace`, after
+:meth:`SchurStepSolver.use_embedding`) adds the continuous Lagrange space and keeps the
+iteration count bounded under refinement (docs/performance.md). Each application of A⁻¹
+treats the three components as one three-column right-hand side (MatMatSolve), so the
+factors are read once.
 
 A is factorised in the cell-wise numbering (:mod:`dgplate.solvers.ordering`), the same on any
 number of ranks. :func:`unsupported` says why a step matrix does not have this structure (then
@@ -46,14 +52,19 @@ FACTOR_MUMPS: dict[str, OptionValue] = {
     "mat_mumps_icntl_14": 80,
 }
 
+#: The factorisation of H (auxiliary-space preconditioner): MUMPS Cholesky, optionally with
+#: block low-rank compression (the factors only precondition).
+H_FACTOR: dict[str, OptionValue] = {**FACTOR_MUMPS}
+
 #: The Krylov solve on Σ. The tolerance makes the step agree with a direct solve to ~1e-11.
 KRYLOV: dict[str, OptionValue] = {
     "ksp_rtol": 1e-12,
     "ksp_atol": 0.0,
     "ksp_max_it": 20000,
-    "pc_type": "bjacobi",
-    "sub_pc_type": "lu",
 }
+
+#: The cell-block preconditioner P: block Jacobi with LU blocks, exact since P is block diagonal.
+CELL_BLOCKS: dict[str, OptionValue] = {"pc_type": "bjacobi", "sub_pc_type": "lu"}
 
 #: Preconditioners of Σ, chosen by the step-solver option ``schur_pc`` (flow.solver):
 #: 'bfbt' the scaled BFBᵀ (least-squares commutator) approximation of Σ⁻¹ (the default),
@@ -277,7 +288,7 @@ class AuxiliarySpace:
             obj.destroy()
         if self.ksp is None:
             comm = self.H.getComm()
-            self.ksp = linear.make_ksp(comm, self.H, defaults=FACTOR_MUMPS)  # type: ignore[arg-type]
+            self.ksp = linear.make_ksp(comm, self.H, defaults=H_FACTOR)  # type: ignore[arg-type]
         self.ksp.setOperators(self.H)
         linear.factorise(self.ksp)
         if self.h_rhs is None:
@@ -411,7 +422,9 @@ class SchurStepSolver:
         self.S.setUp()
         self.P: PETSc.Mat | None = None
         method = "minres" if self.C is not None else "cg"
-        self.ksp = linear.make_ksp(comm, self.S, krylov, defaults={**KRYLOV, "ksp_type": method})
+        cell = CELL_BLOCKS if self.preconditioner == "cell" else {"pc_type": "none"}
+        defaults = {**KRYLOV, **cell, "ksp_type": method}
+        self.ksp = linear.make_ksp(comm, self.S, krylov, defaults=defaults)
         self.ksp.setInitialGuessNonzero(True)
         self.Dinv: PETSc.Mat | None = None
         self.G: PETSc.Mat | None = None  # D⁻¹ A D⁻¹ ('bfbt')
@@ -501,7 +514,7 @@ class SchurStepSolver:
         """Precondition Σ by P⁻¹ F P⁻¹ (see :class:`ScaledBFBt`); P⁻¹ by block-Jacobi LU."""
         if self.inner is None:
             comm = self.ksp.getComm()
-            cell = {"ksp_type": "preonly", "pc_type": "bjacobi", "sub_pc_type": "lu"}
+            cell = {"ksp_type": "preonly", **CELL_BLOCKS}
             self.inner = linear.make_ksp(comm, P, defaults=cell)  # type: ignore[arg-type]
             pc = self.ksp.getPC()
             pc.setType(PETSc.PC.Type.PYTHON)
