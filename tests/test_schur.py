@@ -130,11 +130,16 @@ def test_bilayer_with_edge_constraint():
     assert_agree(out)
 
 
-def test_new_tau_refactorises():
+@pytest.mark.parametrize("pc", ["bfbt", "aux"])
+def test_new_tau_refactorises(pc):
     def halve(flow):
         flow.tau = flow.tau / 2
 
-    assert_agree(states(bnn, 2, then=halve))
+    out = states(lambda comm, kind: bnn(comm, kind, pc=pc), 2, then=halve)
+    assert out["schur"][3].factorisations == 2
+    if pc == "aux":
+        assert out["schur"][3].aux.rebuilds == 2  # the new A_c makes H stale
+    assert_agree(out)
 
 
 def test_structure_check_sees_couplings():
