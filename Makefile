@@ -17,9 +17,12 @@ demo: setup
 
 test: setup test-serial test-mpi
 
-# The demos beyond a core set run on 2 ranks in check-debian (marker demo_np2), not here.
+# Two passes: the tests on NP parallel workers (pytest-xdist), then those that launch mpirun
+# themselves (marker spawns_mpirun: every demo on 2 ranks) one at a time, with the cores to
+# themselves and the forms already in the JIT cache.
 test-serial: setup
-	$(PY) -m pytest $(PYTEST_FLAGS) -m "not demo_np2" tests
+	$(PY) -m pytest $(PYTEST_FLAGS) -n $(NP) -m "not spawns_mpirun" tests
+	$(PY) -m pytest $(PYTEST_FLAGS) -m spawns_mpirun tests
 
 # Tests marked `mpi` again on NP ranks; `-m mpi4py` aborts all ranks when one fails.
 test-mpi: setup

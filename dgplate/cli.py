@@ -158,7 +158,8 @@ def _schema(model: str) -> int:
         )
         return 2
     if MPI.COMM_WORLD.rank == 0:
-        print("\n\n".join(describe(spec, section) for section, spec in sections(model)))
+        skip = MODELS[model].ignored_keys
+        print("\n\n".join(describe(spec, sec, skip(sec)) for sec, spec in sections(model)))
     return 0
 
 

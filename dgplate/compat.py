@@ -22,6 +22,7 @@ from mpi4py import MPI
 import dolfinx
 import dolfinx.fem
 import dolfinx.fem.petsc
+import dolfinx.jit
 import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
@@ -72,6 +73,24 @@ def require_supported_version(version: tuple[int, int] = DOLFINX_VERSION) -> Non
 
 require_supported_version()
 
+#: Seconds a process waits for a form that another process is compiling (a second MPI job,
+#: a parallel test worker, runs sharing a cluster's cache). DOLFINx's default, 10 s, is less
+#: than gcc takes for a large dG form, and the waiting process then fails with a timeout.
+JIT_WAIT_SECONDS = 900
+
+
+def wait_longer_for_jit() -> None:
+    """Raise DOLFINx's default JIT timeout to :data:`JIT_WAIT_SECONDS`.
+
+    Only the default changes: a ``dolfinx_jit_options.json`` of the user's still overrides it.
+    """
+    default, doc = dolfinx.jit.DOLFINX_DEFAULT_JIT_OPTIONS["timeout"]
+    if isinstance(default, int) and default < JIT_WAIT_SECONDS:
+        dolfinx.jit.DOLFINX_DEFAULT_JIT_OPTIONS["timeout"] = (JIT_WAIT_SECONDS, doc)
+
+
+wait_longer_for_jit()
+
 
 def shared_facet_partitioner() -> Callable[..., object]:
     """A cell partitioner that ghosts the cells across shared facets (needed by dS integrals).
@@ -105,6 +124,27 @@ def gmsh_model_to_mesh(
         model, comm, rank, gdim=gdim, partitioner=partitioner
     )
     return mesh, cell_tags, facet_tags
+
+
+def create_mesh(
+    comm: MPI.Comm,
+    cells: npt.NDArray[np.int64],
+    x: Array,
+    domain: ufl.Mesh,
+    partitioner: Callable[..., object] | None = None,
+) -> Mesh:
+    """A mesh from cells (node indices) and node coordinates ``x`` (num_nodes, gdim).
+
+    ``domain`` is the coordinate element as a ``ufl.Mesh``. DOLFINx 0.9's
+    ``create_mesh(comm, cells, x, e, partitioner)`` takes the coordinates before the element,
+    0.10 and 0.11 have ``create_mesh(comm, cells, e, x, partitioner, max_facet_to_cell_links)``
+    (the same names, another order).
+    """
+    if DOLFINX_VERSION >= (0, 10):
+        return dolfinx.mesh.create_mesh(comm, cells, domain, x, partitioner)
+    legacy: Any = dolfinx.mesh.create_mesh  # 0.9: (comm, cells, x, e, partitioner)
+    mesh: Mesh = legacy(comm, cells, x, domain, partitioner)
+    return mesh
 
 
 def interpolation_points(element: FiniteElement) -> Array:

@@ -13,6 +13,7 @@ import dataclasses
 import math
 import types
 import typing
+from collections.abc import Collection
 from typing import TYPE_CHECKING, Any, TypeGuard, TypeVar
 
 from dgplate.errors import InputError
@@ -123,10 +124,12 @@ def options(cls: type) -> list[tuple[str, str, str]]:
     return rows
 
 
-def describe(cls: type, section: str) -> str:
-    """The section's keys, defaults and documentation, as commented TOML."""
+def describe(cls: type, section: str, skip: Collection[str] = ()) -> str:
+    """The section's keys, defaults and documentation, as commented TOML (but ``skip``)."""
     lines = [f"[{section}]"]
     for key, default, doc in options(cls):
+        if key in skip:
+            continue
         lines.append(f"# {doc}")
         lines.append(f"{key} = {default}")
     return "\n".join(lines)

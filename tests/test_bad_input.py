@@ -256,6 +256,7 @@ def _mpirun() -> str | None:
     return str(beside) if beside.exists() else shutil.which("mpirun")
 
 
+@pytest.mark.spawns_mpirun
 @pytest.mark.skipif(_mpirun() is None, reason="no mpirun")
 @pytest.mark.parametrize("name", MPI_CASES)
 def test_bad_input_under_mpirun(name, inputs, tmp_path):

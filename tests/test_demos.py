@@ -41,20 +41,17 @@ def run_demo(
     return subprocess.run(command, capture_output=True, text=True, timeout=timeout, env=env)
 
 
-#: Demos that ``make test`` also runs on 2 ranks: the headline box (``make demo``), a gradient
-#: flow with creases, the Newton driver with its eigenvalues, and the continuation in α. The
-#: others run on 2 ranks under the marker ``demo_np2``, which ``make check-debian`` (Open MPI,
-#: DOLFINx 0.9) includes (but for its four slowest, see .ci/check-debian.sh) and ``make test``
-#: leaves out, to keep the suite within its 20 minutes.
-CORE_NP2 = {"box_folding", "straight_fold", "fvk_buckling", "buckling_strip"}
-
-
 def _cases() -> list:
-    """(demo, ranks) for every demo, serially and on 2 ranks; see :data:`CORE_NP2`."""
+    """(demo, ranks) for every demo, serially and on 2 ranks.
+
+    The 2-rank runs carry the marker ``spawns_mpirun``: ``make test`` runs them after the
+    serial tests, one at a time, so that the two ranks have the two cores to themselves (and
+    find the forms compiled by the serial runs in the JIT cache).
+    """
     cases = []
     for demo in DEMOS:
         cases.append(pytest.param(demo, 1, id=f"{demo.stem}-serial"))
-        marks = [] if demo.stem in CORE_NP2 else [pytest.mark.demo_np2]
+        marks = [pytest.mark.spawns_mpirun]
         cases.append(pytest.param(demo, 2, id=f"{demo.stem}-np2", marks=marks))
     return cases
 

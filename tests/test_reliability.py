@@ -51,6 +51,8 @@ def _mpirun() -> str | None:
 #: Open MPI's launcher (Debian's route) ends the job itself on SIGTERM instead of leaving the
 #: ranks to stop (MPICH's forwards the signal; Slurm's srun signals the ranks directly).
 OPEN_MPI = MPI.Get_library_version().startswith("Open MPI")
+#: The 2-rank case of a test that launches ``mpirun`` itself (see :mod:`conftest`).
+TWO_RANKS = pytest.param(2, marks=pytest.mark.spawns_mpirun, id="2")
 
 
 def dgplate(*args: str, ranks: int = 1, timeout: float = 300) -> subprocess.CompletedProcess:
@@ -130,6 +132,7 @@ def test_resume_needs_a_checkpoint_of_the_same_problem(tmp_path, capsys):
     assert "raise flow.max_steps" in capsys.readouterr().err
 
 
+@pytest.mark.spawns_mpirun
 @pytest.mark.skipif(_mpirun() is None, reason="no mpirun")
 @pytest.mark.parametrize("where", ["file", "users folder"])
 def test_output_refusals_do_not_hang_under_mpirun(where, tmp_path):
@@ -147,7 +150,7 @@ def test_output_refusals_do_not_hang_under_mpirun(where, tmp_path):
 
 
 # -- interrupts -----------------------------------------------------------------------------
-@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("ranks", [1, TWO_RANKS])
 def test_sigterm_keeps_outputs_and_exits_143(ranks, tmp_path):
     if ranks > 1 and (_mpirun() is None or OPEN_MPI):
         pytest.skip("no mpirun, or Open MPI's, which ends the job itself on SIGTERM")
@@ -239,7 +242,7 @@ def killed_then_resumed(
     return summary_of(out)
 
 
-@pytest.mark.parametrize("ranks_after", [1, 2])
+@pytest.mark.parametrize("ranks_after", [1, TWO_RANKS])
 def test_killed_run_resumes_to_the_same_state(ranks_after, tmp_path):
     if ranks_after > 1 and _mpirun() is None:
         pytest.skip("no mpirun")
@@ -259,7 +262,7 @@ def test_killed_run_resumes_to_the_same_state(ranks_after, tmp_path):
     assert len(history) == expected["steps"] + 1  # every step, before and after the kill
 
 
-@pytest.mark.parametrize("ranks_after", [1, 2])
+@pytest.mark.parametrize("ranks_after", [1, TWO_RANKS])
 def test_killed_fvk_schedule_resumes(ranks_after, tmp_path):
     """FvK load stepping: the checkpoint after each load step holds the load factor and the
     secant predictor's two states; 1 rank killed after 3 of 6 load steps, resumed on 1 or 2."""
@@ -341,6 +344,7 @@ ONE_RANK_FAILS = textwrap.dedent(
 )
 
 
+@pytest.mark.spawns_mpirun
 @pytest.mark.skipif(_mpirun() is None, reason="no mpirun")
 def test_error_on_one_rank_ends_every_rank(tmp_path):
     """Rank 0 waits in a collective of step 3 that rank 1 never joins: without the agreement

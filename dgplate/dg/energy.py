@@ -2,9 +2,35 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import ufl
+
+
+class Nonlocal(Protocol):
+    """A nonlocal explicit term (e.g. self-avoidance), which is not a UFL integral.
+
+    It has a value and a UFL functional whose derivative at the current state is the term's
+    derivative.
+
+    The flow calls :meth:`update` before it assembles the right-hand side and when it reports
+    energies, and :meth:`accept` after each step (its safety net: a refused step is redone
+    with τ/2). ``min_distance`` is what the term's safety net measured at the last update.
+    """
+
+    linearisation: ufl.Form
+    min_distance: float
+    max_redo: int  # how often the flow may halve τ for one step
+
+    def update(self) -> float:
+        """The term's value at the current state; refreshes :attr:`linearisation` (collective)."""
+        ...
+
+    def accept(self) -> bool:
+        """Whether the current state may follow the last accepted one (collective)."""
+        ...
 
 
 @dataclass
@@ -15,11 +41,13 @@ class Energy:
     is assembled once per run. ``explicit`` holds nonlinear terms (the bilayer's ν term, an
     obstacle's concave part); the flow evaluates their derivative at the previous iterate.
     ``constant`` is added to reported energies only (e.g. ½∫μ|Z|² of a bilayer).
+    ``nonlocal_terms`` are explicit terms that are not UFL integrals (:class:`Nonlocal`).
     """
 
     implicit: ufl.Form
     explicit: ufl.Form | None = None
     constant: float = 0.0
+    nonlocal_terms: Sequence[Nonlocal] = ()
 
     @property
     def total(self) -> ufl.Form:

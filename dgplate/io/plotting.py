@@ -302,6 +302,9 @@ def plot_deformation(
         raise ValueError(
             f"color_by must be None or one of {sorted(COLOR_LABELS)}, not {color_by!r}"
         )
+    if u.function_space.mesh.topology.dim == 1:  # a rod's centreline
+        plot_curve(u, path, title)
+        return
     scalars = COLOR_LABELS[color_by] if color_by else None
     if scalars and not u.ufl_shape:  # a scalar deflection w
         scalars = scalars.replace("y", "w")
@@ -312,6 +315,49 @@ def plot_deformation(
         values[scalars] = defect_density(u)
     grid = surface_grid(u, cell_values=values)
     render_png(grid, path, scalars, title, camera, clim, show_edges, lines, **options)
+
+
+def plot_curve(u: dolfinx.fem.Function[np.float64], path: str | Path, title: str = "") -> None:
+    """Picture of a curve u: (0, L) → ℝ³ on a 1D mesh (a rod), as a matplotlib 3D line.
+
+    The nodal values are gathered to rank 0 and joined in the order of the parameter s: the
+    coordinate of an interval, the angle on a closed rod's polygon (a mesh in the plane), whose
+    curve is closed (collective; rank 0 writes ``path``).
+    """
+    space = u.function_space
+    owned = space.dofmap.index_map.size_local
+    x = space.tabulate_dof_coordinates()[:owned]
+    closed = space.mesh.geometry.dim > 1
+    s = np.arctan2(x[:, 1], x[:, 0]) if closed else x[:, 0]
+    points = u.x.array.reshape(-1, 3)[:owned]
+    gathered = space.mesh.comm.gather((s, points), root=0)
+    if gathered is None:
+        return
+    s_all = np.concatenate([g[0] for g in gathered])
+    xyz = np.concatenate([g[1] for g in gathered])[np.argsort(s_all)]
+    if closed:
+        xyz = np.vstack([xyz, xyz[:1]])
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=(6, 5))
+    ax: Any = fig.add_subplot(projection="3d")
+    ax.plot(xyz[:, 0], xyz[:, 1], xyz[:, 2], color="#1f77b4", linewidth=2.5)
+    ax.scatter(*xyz[0], color="black", s=20)
+    centre, radius = xyz.mean(axis=0), max(float(np.ptp(xyz, axis=0).max()) / 2, 1e-12)
+    ax.set(xlim=centre[0] + [-radius, radius], ylim=centre[1] + [-radius, radius])
+    ax.set(zlim=centre[2] + [-radius, radius], xlabel="x", ylabel="y", zlabel="z")
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_title(title, fontsize=9)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
+    os.close(fd)
+    fig.savefig(tmp, dpi=120)
+    plt.close(fig)
+    _publish(tmp, path)
 
 
 def frames_to_gif(

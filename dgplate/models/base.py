@@ -97,16 +97,8 @@ class PlateModel:
         path = self.continuation
         if path is None:
             return GradientFlow(self.facets, self.degree, self.energy, flow, observers, initial)
-        return ContinuationFlow(
-            self.facets,
-            self.degree,
-            self.energy,
-            flow,
-            path.alpha,
-            path.schedule,
-            observers,
-            initial,
-        )
+        plain = GradientFlow(self.facets, self.degree, self.energy, flow, (), initial)
+        return ContinuationFlow(plain, path.alpha, path.schedule, observers)
 
     def figures(self, driver: GradientFlow | ContinuationFlow) -> dict[str, Any]:
         """Fold angles along creases and the numbers of :attr:`measures`."""

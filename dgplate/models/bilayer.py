@@ -42,6 +42,7 @@ from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import PlateModel, clamped_data, continuation_path, piecewise_constant
 from dgplate.models.kirchhoff import KirchhoffSpec
 from dgplate.models.obstacle import with_obstacle
+from dgplate.models.self_avoidance import with_self_avoidance
 from dgplate.schema import is_matrix, is_number, option
 
 __all__ = [
@@ -193,4 +194,6 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
     plate = PlateModel(
         facets, spec.degree, energy_fn, measures=[curvature_summary], continuation=path
     )
-    return with_obstacle(plate, spec.obstacle_params, g)
+    return with_self_avoidance(
+        with_obstacle(plate, spec.obstacle_params, g), spec.self_avoidance_params
+    )

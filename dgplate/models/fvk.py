@@ -31,8 +31,12 @@ the bending penalty.
 
 In-plane boundary conditions (``membrane`` = {facet group: condition}): "fixed" (u = 0),
 "normal" (u·n = 0, u·t free: edges held against pull-in but free to slide; axis-parallel edges
-only), "free", or [u_x, u_y] prescribed (numbers, or "free" per component; scaled with the
-load). Clamped and simply supported groups default to "fixed", all other edges are free.
+only), "free", or [u_x, u_y] prescribed (numbers, formulas in x, y, or "free" per component;
+scaled with the load: a formula's data λ g₁ are written into a boundary function, ScaledData).
+
+Indenter (docs/fvk_experiments.md). ``indenter`` (a cell group) is pushed down rigidly by λδ
+(``indentation``) from the natural shape by the penalty ½ k E t ∫_indenter (w − w₀ + λδ)²
+(k = ``indenter_stiffness``): a flat punch glued to the tip of a cone w₀ = α(R − r). Clamped and simply supported groups default to "fixed", all other edges are free.
 
 Load schedule. Pressure p, prestrain ε₀ (thermal expansion: ε₀ > 0 compresses a held plate)
 and prescribed edge displacements are multiplied by a load factor. ``load_steps = n`` means
@@ -66,6 +70,7 @@ from __future__ import annotations
 
 import math
 import re
+import sys
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any, TypeAlias
@@ -132,7 +137,9 @@ class FvKSpec:
     E: float = option(1.0, "Young's modulus E > 0")
     nu: float = option(0.3, "Poisson's ratio, −1 < ν < 0.5")
     thickness: float = option(0.01, "plate thickness t > 0")
-    pressure: float = option(0.0, "uniform pressure p at full load (along +z)")
+    pressure: float | str = option(
+        0.0, "pressure p at full load (along +z): a number or a formula in x, y"
+    )
     prestrain: float = option(0.0, "isotropic in-plane prestrain ε₀ at full load (expansion > 0)")
     natural_shape: float | str = option(
         0.0, "natural shape w₀(x, y), a number or formula: strain ½(∇w⊗∇w − ∇w₀⊗∇w₀) + sym∇u"
@@ -164,6 +171,13 @@ class FvKSpec:
         "amplitude (a deflection) of the push along the unstable mode when the lowest eigenvalue turns negative; 0: none",
     )
     eigensolver: str = option("auto", "'auto' (SLEPc when importable), 'slepc' or 'lanczos'")
+    indenter: str | None = option(
+        None, "cell group pushed down rigidly by the indentation (w − w₀ = −λδ there, penalty)"
+    )
+    indentation: float = option(0.0, "indentation depth δ ≥ 0 of the indenter at full load")
+    indenter_stiffness: float = option(
+        1e4, "penalty k of the indenter: ½ k E t ∫_indenter (w − w₀ + λδ)², k > 0"
+    )
 
     def __post_init__(self) -> None:
         """Check every key once: one-line InputErrors naming ``model.<key>``."""
@@ -180,6 +194,18 @@ class FvKSpec:
         _check_options(self.snes, "model.snes")
         self._check_stability()
         expressions.check(self.natural_shape, "model.natural_shape")
+        self._check_indenter()
+
+    def _check_indenter(self) -> None:
+        if self.indenter is not None and not isinstance(self.indenter, str):
+            raise InputError(f"model.indenter must be a cell group name, got {self.indenter!r}")
+        if not (_number(self.indentation) and 0 <= self.indentation < math.inf):
+            raise InputError(f"model.indentation must be a number >= 0, got {self.indentation!r}")
+        stiffness = self.indenter_stiffness
+        if not (_number(stiffness) and 0 < stiffness < math.inf):
+            raise InputError(f"model.indenter_stiffness must be > 0, got {stiffness!r}")
+        if self.indentation and self.indenter is None:
+            raise InputError("model.indentation needs model.indenter (the cell group pushed)")
 
     def _check_material(self) -> None:
         for key in ("E", "thickness"):
@@ -190,9 +216,9 @@ class FvKSpec:
             raise InputError(f"model.nu must be < 0.5, got {self.nu!r}")
         if not self.nu > -1:
             raise InputError(f"model.nu must be > -1, got {self.nu!r}")
-        for key in ("pressure", "prestrain"):
-            if not _number(getattr(self, key)):
-                raise InputError(f"model.{key} must be a number, got {getattr(self, key)!r}")
+        if not _number(self.prestrain):
+            raise InputError(f"model.prestrain must be a number, got {self.prestrain!r}")
+        expressions.check(self.pressure, "model.pressure")
         if not (_number(self.degree) and isinstance(self.degree, int) and self.degree >= 2):
             raise InputError(f"model.degree must be an integer >= 2, got {self.degree!r}")
 
@@ -240,8 +266,12 @@ class FvKSpec:
             if not _membrane_condition(condition):
                 raise InputError(
                     f"model.membrane.{group} must be 'fixed', 'normal', 'free' or [ux, uy] "
-                    f"(numbers or 'free'), got {condition!r}"
+                    f"(numbers, formulas in x, y or 'free'), got {condition!r}"
                 )
+            if not isinstance(condition, str):
+                for i, component in enumerate(condition):
+                    if component != "free":
+                        expressions.check(component, f"model.membrane.{group}[{i}]")
 
     @property
     def penalty_params(self) -> Penalty:
@@ -265,7 +295,7 @@ def _membrane_condition(condition: object) -> bool:
     return (
         isinstance(condition, list | tuple)
         and len(condition) == 2
-        and all(_number(c) or c == "free" for c in condition)
+        and all(_number(c) or isinstance(c, str) for c in condition)
     )
 
 
@@ -362,24 +392,37 @@ def fvk_energy(
     faces: FacetSets,
     spec: FvKSpec,
     load_factor: dolfinx.fem.Constant[np.float64],
+    tip: Any = None,
 ) -> ufl.Form:
     """Π(u, w) of the state (w, u) ∈ DG_k × [CG_k]² at the load factor of ``load_factor``.
 
-    E, ν, t, p and ε₀ enter as Constants (:mod:`dgplate.values`).
+    E, ν, t, p and ε₀ enter as Constants (:mod:`dgplate.values`). ``tip`` is the cell measure
+    of the indenter's cell group (``model.indenter``), where the penalty
+    ½ k E t ∫(w − w₀ + λδ)² pushes the plate down rigidly by λδ from its natural shape.
     """
     mesh = faces.mesh
-    E, nu, t, pressure, prestrain = (
-        values.constant(mesh, v)
-        for v in (spec.E, spec.nu, spec.thickness, spec.pressure, spec.prestrain)
+    E, nu, t, prestrain = (
+        values.constant(mesh, v) for v in (spec.E, spec.nu, spec.thickness, spec.prestrain)
     )
+    pressure = expressions.parse(spec.pressure, mesh, "model.pressure")
+    if isinstance(pressure, float):
+        pressure = values.constant(mesh, pressure)
     D = E * t**3 / (12 * (1 - nu**2))
     A = E * t / (1 - nu**2)
     w, u = ufl.split(state)
-    eps = membrane_strain(u, w, load_factor * prestrain, natural_shape(spec, mesh))
+    natural = natural_shape(spec, mesh)
+    eps = membrane_strain(u, w, load_factor * prestrain, natural)
     energy: ufl.Form = 0.5 * ufl.inner(plane_stress(eps, A, nu), eps) * faces.dx
     simply_supported = bool(spec.simply_supported)
     energy += fvk_bending_energy(w, faces, spec.penalty_params, D, nu, simply_supported)
     energy -= load_factor * pressure * w * faces.dx
+    if spec.indenter is not None and tip is not None:
+        depth, stiffness = (
+            values.constant(mesh, v) for v in (spec.indentation, spec.indenter_stiffness)
+        )
+        w0 = natural if natural is not None else 0.0
+        gap = w - w0 + load_factor * depth
+        energy += 0.5 * stiffness * E * t * tip * gap * gap * faces.dx
     return energy
 
 
@@ -452,7 +495,7 @@ def _component_values(tagged: TaggedMesh, group: str, condition: Any) -> list[An
 
 
 # a string: DOLFINx 0.9's Constant is not subscriptable at run time
-BCValues: TypeAlias = "list[tuple[dolfinx.fem.Constant[np.float64], float]]"
+BCValues: TypeAlias = "list[tuple[Any, Any]]"  # (Constant or ScaledData, value at full load)
 
 
 def membrane_bcs(
@@ -470,16 +513,57 @@ def membrane_bcs(
             if value == "free":
                 continue
             sub = space.sub(1).sub(component)
-            dofs = dolfinx.fem.locate_dofs_topological(sub, fdim, facets)
-            constant = values.constant(tagged.mesh, 0.0)
-            bcs.append(dolfinx.fem.dirichletbc(constant, dofs, sub))
-            bc_values.append((constant, float(value)))
+            key = f"model.membrane.{group}[{component}]"
+            data = expressions.parse(value, tagged.mesh, key)
+            if isinstance(data, float):
+                dofs = dolfinx.fem.locate_dofs_topological(sub, fdim, facets)
+                constant = values.constant(tagged.mesh, 0.0)
+                bcs.append(dolfinx.fem.dirichletbc(constant, dofs, sub))
+                bc_values.append((constant, data))
+            else:
+                bc, scaled = _formula_bc(sub, fdim, facets, data)
+                bcs.append(bc)
+                bc_values.append(scaled)
     if not bcs:
         raise InputError(
             "model.membrane: no edge holds the in-plane displacement (rigid in-plane "
             "motions); clamp, simply support or fix at least one edge"
         )
     return bcs, bc_values
+
+
+class ScaledData:
+    """Dirichlet data g = λ·g₁ given by a formula: a Function whose ``value`` is set like a Constant's.
+
+    The continuation driver scales every Dirichlet datum with the load factor by assigning
+    ``datum.value = λ·(value at full load)``; here the value at full load is the array of g₁ at the
+    degrees of freedom of the collapsed subspace, and the assignment writes λ·g₁ into g.
+    """
+
+    def __init__(self, function: dolfinx.fem.Function[np.float64]) -> None:
+        self.function = function
+
+    @property
+    def value(self) -> np.ndarray:
+        """The current nodal values of g."""
+        return self.function.x.array
+
+    @value.setter
+    def value(self, array: np.ndarray) -> None:
+        self.function.x.array[:] = array
+
+
+def _formula_bc(
+    sub: dolfinx.fem.FunctionSpace[np.float64], fdim: int, facets: np.ndarray, data: Any
+) -> tuple[dolfinx.fem.DirichletBC[np.float64], Any]:
+    """U_i = λ·f(x, y) on ``facets`` for a formula f: the condition and its (datum, full load)."""
+    collapsed, _ = sub.collapse()
+    full: dolfinx.fem.Function[np.float64] = dolfinx.fem.Function(collapsed)
+    full.interpolate(dolfinx.fem.Expression(data, compat.interpolation_points(collapsed.element)))
+    function: dolfinx.fem.Function[np.float64] = dolfinx.fem.Function(collapsed)
+    dofs = dolfinx.fem.locate_dofs_topological((sub, collapsed), fdim, facets)
+    bc: dolfinx.fem.DirichletBC[np.float64] = dolfinx.fem.dirichletbc(function, dofs, sub)
+    return bc, (ScaledData(function), full.x.array.copy())
 
 
 def _check_group_names(spec: FvKSpec, tagged: TaggedMesh) -> None:
@@ -567,6 +651,7 @@ class FvKModel:
     bcs: list[dolfinx.fem.DirichletBC[np.float64]]
     bc_values: BCValues
     probe: PointProbe
+    tip: dolfinx.fem.Function[np.float64] | None = None
 
     def driver(
         self, flow: object, observers: Sequence[Observer], initial: Initial | None
@@ -581,7 +666,7 @@ class FvKModel:
         load_factor = values.constant(self.facets.mesh, 0.0)
         return Continuation(
             state,
-            fvk_energy(state, self.facets, self.spec, load_factor),
+            fvk_energy(state, self.facets, self.spec, load_factor, self.tip),
             self.bcs,
             load_factor,
             self.spec.load_factors,
@@ -601,7 +686,9 @@ class FvKModel:
         last = asdict(driver.history[-1]) if driver.history else {}
         w_center = last.get("w_center")
         return {
-            "load": last["load_factor"] * spec.pressure if last else None,
+            "load": last["load_factor"] * spec.pressure
+            if last and not isinstance(spec.pressure, str)
+            else None,
             "pressure": spec.pressure,
             "w_max": last.get("w_max"),
             "w_center": w_center,
@@ -621,7 +708,35 @@ def build_fvk(spec: FvKSpec, tagged: TaggedMesh) -> FvKModel:
     facets = fvk_facet_sets(tagged, spec)
     space = fvk_space(tagged.mesh, spec.degree)
     bcs, bc_values = membrane_bcs(space, tagged, spec)
-    return FvKModel(spec, facets, space, bcs, bc_values, _probe(spec, tagged.mesh))
+    tip = None
+    if spec.indenter is not None:
+        tip = tagged.group_function({spec.indenter: 1.0}, 0.0, key="model.indenter")
+        _check_indentation(spec, tagged.mesh)
+    return FvKModel(spec, facets, space, bcs, bc_values, _probe(spec, tagged.mesh), tip)
+
+
+def _check_indentation(spec: FvKSpec, mesh: dolfinx.mesh.Mesh[np.float64]) -> None:
+    """Warn (rank 0, stderr) when the indentation exceeds the height of the natural shape.
+
+    The height is max w₀ − min w₀ over the mesh nodes: pushed further, the cone would invert.
+    """
+    shape = spec.natural_shape
+    points = mesh.geometry.x[:, :2]
+    local = (
+        expressions.evaluate(shape, points, "model.natural_shape")
+        if isinstance(shape, str)
+        else np.full(len(points), float(shape))
+    )
+    local = np.broadcast_to(np.asarray(local, dtype=float), (len(points),))
+    lo, hi = bounds(mesh.comm, local[:, None])
+    height = float(hi[0] - lo[0])
+    if spec.indentation > height and mesh.comm.rank == 0:
+        print(
+            f"dgplate: warning: model.indentation = {spec.indentation:g} exceeds the height "
+            f"{height:g} of model.natural_shape: the cone would invert",
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 __all__ = [

@@ -18,6 +18,7 @@ from dgplate.compat import Function
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import BendingData, FacetSets, Penalty, bending_energy, facet_sets
 from dgplate.dg.obstacle import Obstacle
+from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import (
@@ -28,6 +29,7 @@ from dgplate.models.base import (
     piecewise_constant,
 )
 from dgplate.models.obstacle import with_obstacle
+from dgplate.models.self_avoidance import with_self_avoidance
 from dgplate.schema import option
 from dgplate.solvers.continuation import AlphaSchedule
 
@@ -78,6 +80,11 @@ class KirchhoffSpec:
         "rigid obstacle (penalty (1/2ε)∫(s)₋², docs/obstacle.md): {} none, or {type = 'above'|'below' (y₃ ≥ ψ | y₃ ≤ ψ), psi = number or formula in x, y}, {type = 'plane', normal = [3], point = [3]} (n·(y − p) ≥ 0), {type = 'sphere', center = [3], radius = R, side = 'outside'|'inside'}; each with epsilon = ε > 0 (default 1e-4)",
     )
 
+    self_avoidance: dict[str, float] = option(
+        {},
+        "self-avoidance ρ·TP[y] by the tangent-point potential (docs/self_avoidance.md): {} none, or {rho = ρ >= 0, q = exponent > 4 (4.5), theta = cluster-tree admissibility (0.5; 0 = exact sums), quadrature_degree = 2, max_redo = halvings of τ per step (8), approach = redo a step when the least distance falls below this fraction (0.5)}",
+    )
+
     def __post_init__(self) -> None:
         if self.degree < 2:
             raise InputError(f"model.degree must be >= 2 for the H² dG method, got {self.degree}")
@@ -91,6 +98,7 @@ class KirchhoffSpec:
             )
         self._penalty = Penalty.from_table(self.penalty, "model.penalty")
         self._obstacle = Obstacle.from_table(self.obstacle, "model.obstacle")
+        self._self_avoidance = SelfAvoidance.from_table(self.self_avoidance)
         self._check_data()
 
     def _check_data(self) -> None:
@@ -124,6 +132,11 @@ class KirchhoffSpec:
         """The validated ``obstacle`` table (None: no obstacle)."""
         return self._obstacle
 
+    @property
+    def self_avoidance_params(self) -> SelfAvoidance | None:
+        """The validated ``self_avoidance`` table (None: none)."""
+        return self._self_avoidance
+
 
 def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     """Facet sets and the energy of a Kirchhoff problem (validates group names)."""
@@ -138,4 +151,6 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
         return kirchhoff_energy(y, facets, penalty, load=load, mu=mu, g=g, Phi=Phi)
 
     plate = PlateModel(facets, spec.degree, energy_fn, continuation=path)
-    return with_obstacle(plate, spec.obstacle_params, g)
+    return with_self_avoidance(
+        with_obstacle(plate, spec.obstacle_params, g), spec.self_avoidance_params
+    )

@@ -35,6 +35,7 @@ from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import PlateModel, clamped_data, piecewise_constant
 from dgplate.models.bilayer import bilayer_energy
 from dgplate.models.kirchhoff import KirchhoffSpec
+from dgplate.models.self_avoidance import with_self_avoidance
 from dgplate.schema import option
 
 __all__ = ["DIRECTORS", "LCESpec", "build_lce", "director_curvature"]
@@ -103,4 +104,5 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
         density = 0.5 * mu * (gamma * second) ** 2
         return {"lower_bound": integral(dolfinx.fem.form(density * facets.dx), mesh.comm)}
 
-    return PlateModel(facets, spec.degree, energy_fn, measures=[curvature_summary, lower_bound])
+    plate = PlateModel(facets, spec.degree, energy_fn, measures=[curvature_summary, lower_bound])
+    return with_self_avoidance(plate, spec.self_avoidance_params)

@@ -6,6 +6,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from mpi4py import MPI
+
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import Model
@@ -14,6 +16,7 @@ from dgplate.models.foundation import FoundationSpec, build_foundation
 from dgplate.models.fvk import FvKSpec, build_fvk
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
 from dgplate.models.lce import LCESpec, build_lce
+from dgplate.models.rod import ROD_IGNORES, RodSpec, build_rod, rod_mesh
 from dgplate.models.thermal import ThermalSpec, build_thermal
 from dgplate.schema import from_dict
 
@@ -24,12 +27,21 @@ class ModelEntry:
 
     ``build(spec, tagged)`` returns a :class:`dgplate.models.base.Model`. ``ignores`` names the
     keys that do nothing for this model ("section" for a whole table, or "section.key"), with
-    the reason: giving one is an input error rather than a silently ignored setting.
+    the reason: giving one is an input error rather than a silently ignored setting. ``mesh``,
+    when given, builds the model's own mesh from its spec (``mesh(spec, comm)``, e.g. a rod's
+    interval): the [mesh] section then does not exist for the model.
     """
 
     spec: type
     build: Callable[[Any, TaggedMesh], Model]
     ignores: Mapping[str, str] = field(default_factory=dict)
+    mesh: Callable[[Any, MPI.Comm], TaggedMesh] | None = None
+
+    def ignored_keys(self, section: str) -> set[str]:
+        """The keys of ``section`` that this model ignores (what its schema leaves out)."""
+        return {
+            key for path in self.ignores for sec, _, key in [path.partition(".")] if sec == section
+        }
 
     def reject_ignored(self, data: Mapping[str, Any], name: str) -> None:
         """InputError naming the first key of ``data`` (a problem) that this model ignores."""
@@ -52,6 +64,7 @@ MODELS: dict[str, ModelEntry] = {
     "foundation": ModelEntry(FoundationSpec, build_foundation),
     "thermal": ModelEntry(ThermalSpec, build_thermal),
     "lce": ModelEntry(LCESpec, build_lce),
+    "rod": ModelEntry(RodSpec, build_rod, ignores=ROD_IGNORES, mesh=rod_mesh),
     "fvk": ModelEntry(
         FvKSpec,
         build_fvk,

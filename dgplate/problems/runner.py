@@ -180,8 +180,10 @@ def run(
     OutputDir.check(comm, target, force, resume)
     start = _resume_point(problem, target, comm) if resume else None
     with interrupt.StopOnSignal():
-        tagged = build_mesh(problem.mesh, comm)
-        model = MODELS[problem.model.name].build(problem.model, tagged)
+        entry = MODELS[problem.model.name]
+        own = entry.mesh  # a model with its own mesh (a rod) has no [mesh]
+        tagged = own(problem.model, comm) if own else build_mesh(problem.mesh, comm)
+        model = entry.build(problem.model, tagged)
         return _solve(_Job(problem, tagged, target, initial, force, start, wall0), model)
 
 

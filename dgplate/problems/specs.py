@@ -173,9 +173,9 @@ def problem_from_dict(data: dict[str, Any], name: str, overrides: Overrides = ()
         if section not in SECTIONS:
             raise InputError(f"unknown section [{section}] (known: {', '.join(SECTIONS)})")
         require_finite(data[section], section)
-    mesh = from_dict(MeshSpec, data.get("mesh"), "mesh")
     model = model_spec(data.get("model"))
     MODELS[model.name].reject_ignored(data, model.name)
+    mesh = from_dict(MeshSpec, data.get("mesh"), "mesh")
     flow = from_dict(FlowSpec, data.get("flow"), "flow")
     output = from_dict(OutputSpec, data.get("output"), "output")
     if (
@@ -197,5 +197,6 @@ def sections(model: str) -> list[tuple[str, type]]:
     """
     from dgplate.problems.registry import MODELS
 
-    spec = MODELS[model].spec
-    return [("mesh", MeshSpec), ("model", spec), ("flow", FlowSpec), ("output", OutputSpec)]
+    entry = MODELS[model]
+    mesh = [] if entry.mesh else [("mesh", MeshSpec)]  # a rod builds its own mesh
+    return [*mesh, ("model", entry.spec), ("flow", FlowSpec), ("output", OutputSpec)]

@@ -21,7 +21,7 @@ with α and the stage), checkpoints that keep α, and α along the path in ``sum
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -30,12 +30,10 @@ from mpi4py import MPI
 import numpy as np
 
 from dgplate.compat import Constant, Function
-from dgplate.dg.energy import Energy
-from dgplate.dg.forms import FacetSets
 from dgplate.errors import InputError
 from dgplate.schema import is_integer, is_number
 from dgplate.solvers.driver import Driver, Observer, Record, RunOutcome, RunResult
-from dgplate.solvers.flow import FlowResult, FlowSpec, GradientFlow, Initial, StepInfo
+from dgplate.solvers.flow import FlowResult, GradientFlow, StepInfo
 
 __all__ = ["AlphaSchedule", "ContinuationFlow", "ContinuationStep", "StageRecord"]
 
@@ -159,24 +157,22 @@ class _Forward:
 class ContinuationFlow:
     """The constrained gradient flow with clamped data moved along α (a Driver).
 
-    ``energy_fn(y)`` builds the energy whose clamped data reference the Constant ``alpha``;
-    ``schedule`` advances it. Collective on the mesh communicator.
+    ``flow`` is the gradient flow of an energy whose clamped data reference the Constant
+    ``alpha``; ``schedule`` advances it. The flow reports to this driver, which reports to
+    ``observers``. Collective on the mesh communicator.
     """
 
     def __init__(
         self,
-        facets: FacetSets,
-        degree: int,
-        energy_fn: Callable[[Function], Energy],
-        settings: FlowSpec,
+        flow: GradientFlow,
         alpha: Constant,
         schedule: AlphaSchedule,
         observers: Sequence[Observer] = (),
-        initial: Initial | None = None,
     ):
         self.alpha_constant, self.schedule = alpha, schedule
         self.observers: list[Observer] = list(observers)
-        self.flow = GradientFlow(facets, degree, energy_fn, settings, [_Forward(self)], initial)
+        self.flow = flow
+        flow.observers = [_Forward(self)]
         self.comm: MPI.Comm = self.flow.comm
         self.stage = 0  # the current stage (0-based)
         self.stage_steps = 0  # flow steps done in the current stage

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 from mpi4py import MPI
 
@@ -134,3 +134,44 @@ class Driver(Protocol):
     def destroy(self) -> None:
         """Free PETSc objects."""
         ...
+
+
+class StepCounters:
+    """The counters of a stepping driver that a checkpoint holds and a resume restores.
+
+    The step count and pseudo-time over all runs, the last step's energy (the next decrease is
+    measured from it) and the steps at which the energy went up.
+    """
+
+    step_count: int
+    time: float
+    _last_energy: float
+    energy_increases: list[int]
+    observers: list[Observer]
+
+    def record_step(self, info: Any, history: list[Any], increases: list[int]) -> None:
+        """Keep a finished step: its record, whether the energy went up, and tell the observers.
+
+        ``info`` has ``step``, ``tau``, ``rate`` and ``energy`` (a flow's step record).
+        """
+        history.append(info)
+        if info.rate < 0 and -info.rate * info.tau > 1e-12 * max(1.0, abs(info.energy)):
+            increases.append(info.step)
+            self.energy_increases.append(info.step)
+        for obs in self.observers:
+            obs.step(cast("Driver", self), info)
+
+    def checkpoint_state(self) -> dict[str, Any]:
+        """The counters a checkpoint must hold."""
+        return {
+            "step": self.step_count,
+            "time": self.time,
+            "energy": self._last_energy,
+            "energy_increases": list(self.energy_increases),
+        }
+
+    def restore_state(self, state: dict[str, Any]) -> None:
+        """Continue from a checkpoint's counters (after its fields were restored)."""
+        self.step_count, self.time = int(state["step"]), float(state["time"])
+        self._last_energy = float(state["energy"])
+        self.energy_increases = [int(s) for s in state.get("energy_increases", [])]

@@ -21,7 +21,7 @@ import math
 import re
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from mpi4py import MPI
@@ -50,7 +50,7 @@ from dgplate.solvers.constraint import (
     multiplier_element,
     symmetric,
 )
-from dgplate.solvers.driver import Observer
+from dgplate.solvers.driver import Observer, StepCounters
 from dgplate.solvers.linear import OptionValue
 
 _OPTION = re.compile(r"^[A-Za-z0-9_]+$")
@@ -201,6 +201,7 @@ class StepInfo:
     solve_s: float  # triangular solves and Krylov iterations
     iterations: int  # Krylov iterations of the step solve (1 for a direct solve)
     fallbacks: int = 0  # failed lagged solves redone (fresh factors, then direct LU)
+    safety: dict[str, float] = field(default_factory=dict)  # nonlocal terms: min_distance, redone
     stationarity: float = math.nan  # ‖P DE_h[yⁿ]‖_*' (flow.stop = 'stationarity'; else nan)
 
     def line(self) -> str:
@@ -225,8 +226,21 @@ class FlowResult:
     energy_increases: list[int]  # steps at which the energy went up
     interrupted: int = 0  # the signal (SIGINT, SIGTERM) that stopped the run; 0: none
 
+    @classmethod
+    def of(
+        cls,
+        outcome: tuple[bool, str, int],
+        history: list[Any],
+        increases: list[int],
+        energy: float,
+        defect: float,
+    ) -> FlowResult:
+        """The result of a run: (converged, reason, signal), its records and final figures."""
+        converged, reason, signum = outcome
+        return cls(converged, reason, len(history), energy, defect, history, increases, signum)
 
-class GradientFlow:
+
+class GradientFlow(StepCounters):
     """The constrained H² gradient flow of an energy built by ``energy_fn(y)``."""
 
     def __init__(
@@ -307,7 +321,10 @@ class GradientFlow:
         self._stationarity: tuple[compat.Form, PETSc.Mat, solvers.DirectStepSolver] | None = None
         self._a_const = dolfinx.fem.form(a_const)
         self._b = dolfinx.fem.form(b)
-        self._rhs = dolfinx.fem.form(-ufl.derivative(self.energy.total, y, v))
+        explicit = self.energy.total
+        for term in self.energy.nonlocal_terms:
+            explicit = explicit + term.linearisation
+        self._rhs = dolfinx.fem.form(-ufl.derivative(explicit, y, v))
         self._constraint_residual = dolfinx.fem.form(residual)
         self.step_form = dolfinx.fem.form(a_const + b)  # the whole step matrix, one form
         self.A_const = self._compact_constant_block()
@@ -414,7 +431,8 @@ class GradientFlow:
     # -- evaluation -------------------------------------------------------------------------
     def evaluate_energy(self) -> float:
         """E_h[y] of the current state (collective)."""
-        return integral(self._E_form, self.comm) + self.energy.constant
+        terms = sum(term.update() for term in self.energy.nonlocal_terms)
+        return integral(self._E_form, self.comm) + self.energy.constant + terms
 
     # -- one step ---------------------------------------------------------------------------
     def assemble_system(self) -> None:
@@ -422,6 +440,8 @@ class GradientFlow:
         compat.assemble_matrix_into(self.B, self._b)
         self.A_const.copy(self.K, structure=compat.SAME_NONZERO_PATTERN)
         self.K.axpy(1.0, self.B, structure=compat.SAME_NONZERO_PATTERN)
+        for term in self.energy.nonlocal_terms:
+            term.update()
         compat.assemble_vector_into(self.rhs, self._rhs)
 
     def step(self) -> StepInfo:
@@ -462,6 +482,37 @@ class GradientFlow:
             fallbacks=stats.fallbacks,
         )
         return info
+
+    def _safe_step(self) -> StepInfo:
+        """A step; with nonlocal terms one they accept and that lowers E_h, else redone with τ/2.
+
+        Nonlocal terms are explicit (self-avoidance): a step too long for them may bring parts
+        of the plate through each other. A refused step is taken back and redone with half
+        the step, at most ``max_redo`` times; τ is restored for the next step.
+        """
+        terms = self.energy.nonlocal_terms
+        if not terms:
+            return self.step()
+        tau, saved = self.tau, (self.y.x.array.copy(), self._last_energy, self.time)
+        limit = max(term.max_redo for term in terms)
+        redone = 0
+        info = self.step()
+        while not self._acceptable(info) and redone < limit:
+            self.y.x.array[:], self._last_energy, self.time = saved[0], saved[1], saved[2]
+            self.step_count -= 1
+            self.tau, redone = self.tau / 2, redone + 1
+            info = self.step()
+        if redone:
+            self.tau = tau
+        distance = min(term.min_distance for term in terms)
+        info.safety = {"min_distance": distance, "redone": float(redone)}
+        return info
+
+    def _acceptable(self, info: StepInfo) -> bool:
+        """The nonlocal terms accept the new state and E_h did not go up (beyond round-off)."""
+        accepted = all([term.accept() for term in self.energy.nonlocal_terms])
+        rises = -info.rate * info.tau > 1e-12 * max(1.0, abs(info.energy))
+        return accepted and not rises
 
     def _project(self, stats: solvers.SolveStats) -> Array:
         """One correction towards ∫_T (∇yᵀ∇y − I) q = 0, reusing the step's factorisation.
@@ -519,13 +570,7 @@ class GradientFlow:
 
     def checkpoint_state(self) -> dict[str, Any]:
         """The counters a checkpoint must hold (with :meth:`checkpoint_fields`)."""
-        return {
-            "step": self.step_count,
-            "time": self.time,
-            "energy": self._last_energy,
-            "energy_increases": list(self.energy_increases),
-            "fallbacks": self.fallbacks,
-        }
+        return {**super().checkpoint_state(), "fallbacks": self.fallbacks}
 
     @property
     def checkpoint_every(self) -> int:
@@ -554,9 +599,7 @@ class GradientFlow:
 
     def restore_state(self, state: dict[str, Any]) -> None:
         """Continue from a checkpoint's counters (after its fields were restored)."""
-        self.step_count, self.time = int(state["step"]), float(state["time"])
-        self._last_energy = float(state["energy"])
-        self.energy_increases = [int(s) for s in state.get("energy_increases", [])]
+        super().restore_state(state)
         self.fallbacks = int(state.get("fallbacks", 0))
 
     def undo(self) -> None:
@@ -577,7 +620,7 @@ class GradientFlow:
         signum = 0
         for _ in range(budget):
             try:
-                info = self._adaptive_step() if self.settings.adaptive_tau else self.step()
+                info = self._adaptive_step() if self.settings.adaptive_tau else self._safe_step()
             except SolverError as exc:
                 reason = f"step {self.step_count + 1} failed: {exc}; the last good state is kept"
                 break
@@ -585,13 +628,8 @@ class GradientFlow:
                 self.undo()
                 reason = f"diverged at step {info.step}: the energy became {info.energy}; the last finite state is kept"
                 break
-            history.append(info)
             self.fallbacks += info.fallbacks
-            if info.rate < 0 and -info.rate * self.tau > 1e-12 * max(1.0, abs(info.energy)):
-                increases.append(info.step)
-                self.energy_increases.append(info.step)
-            for obs in self.observers:
-                obs.step(self, info)
+            self.record_step(info, history, increases)
             stop = self._stop_reason(info)
             if stop:
                 converged, reason = True, stop
@@ -601,16 +639,9 @@ class GradientFlow:
                 reason = interrupt.reason(signum)
                 break
         last = history[-1] if history else None
-        result = FlowResult(
-            converged=converged,
-            reason=reason,
-            steps=len(history),
-            energy=last.energy if last else self.evaluate_energy(),
-            defect=last.defect if last else self.defect(),
-            history=history,
-            energy_increases=increases,
-            interrupted=signum,
-        )
+        energy = last.energy if last else self.evaluate_energy()
+        defect = last.defect if last else self.defect()
+        result = FlowResult.of((converged, reason, signum), history, increases, energy, defect)
         for obs in self.observers:
             obs.finish(self, result)
         return result
@@ -619,7 +650,8 @@ class GradientFlow:
         """One accepted step with adaptive τ (``flow.adaptive_tau``).
 
         A step is accepted when E_h did not rise and the isometry defect after the linearised
-        step (before projection) is at most ``flow.defect_bound``; τ is then doubled for the
+        step (before projection) is at most ``flow.defect_bound`` and the nonlocal terms (self-avoidance)
+        accept the new state; τ is then doubled for the
         next step. Otherwise the step is taken back and redone with τ/2, down to 10⁻⁶ of the
         initial τ (below that the step is accepted as it is). Rejected steps are counted in
         :attr:`rejected_steps`.
@@ -631,7 +663,8 @@ class GradientFlow:
             info = self.step()
             rose = info.energy > energy0 + 1e-12 * max(1.0, abs(energy0))
             too_far = self._linear_defect > self.settings.defect_bound
-            if not (rose or too_far) or self.tau / 2 < tau_min:
+            refused = not all([term.accept() for term in self.energy.nonlocal_terms])
+            if not (rose or too_far or refused) or self.tau / 2 < tau_min:
                 self.tau = min(2 * self.tau, 1e3 * self._initial_tau)
                 return info
             self.rejected_steps += 1

@@ -1,0 +1,165 @@
+"""Where the time of self-avoidance goes: the cluster tree against exact sums, and TP against the step solve.
+
+Three measurements (docs/self_avoidance.md):
+
+* accuracy and speed-up: TP and its derivatives by the tree (θ = 0.25, 0.5, 1) against the
+  exact all-pairs sums, on the cell centres of a strip rolled into a spiral of 1.5 turns
+  (a bent configuration whose layers face each other), for M points up to ``--exact-max``;
+* cost against M: one tree evaluation (θ = 0.5) for M up to ``--max-m``, with the slope of
+  log t against log M;
+* per step of the demo ``self_avoiding_strip`` (flow): the time of one TP evaluation against
+  the step's assembly and solve.
+
+    python benchmarks/tangent_point.py --json benchmarks/results/tangent_point.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+import numpy as np
+
+import dgplate
+from dgplate.dg import tangent_point as tp
+from dgplate.io.output import print0
+from dgplate.problems.registry import MODELS
+from dgplate.problems.runner import build_mesh
+
+DEMO = Path(__file__).resolve().parent.parent / "demos" / "problems" / "self_avoiding_strip.toml"
+
+
+def spiral(n1: int, n2: int, turns: float = 1.5) -> tuple[tp.Cloud, float]:
+    """Cell centres of an n1×n2 grid on a strip rolled into a spiral (radius 1 → 0.9).
+
+    Returns the cloud (the vertex ids of the grid cells) and the cell length.
+    """
+    length = 2 * np.pi * turns
+    s = (np.arange(n1) + 0.5) / n1 * length
+    t = (np.arange(n2) + 0.5) / n2
+    S, T = np.meshgrid(s, t, indexing="ij")
+    R = 1.0 - 0.1 * S / length
+    x = np.stack([R * np.sin(S), T, 1 - R * np.cos(S)], -1).reshape(-1, 3)
+    tangent = np.stack([np.cos(S), 0 * S, np.sin(S)], -1).reshape(-1, 3)
+    nu = np.cross(tangent, [0.0, 1.0, 0.0])
+    w = np.full(len(x), length / n1 / n2)
+    I, J = np.meshgrid(np.arange(n1), np.arange(n2), indexing="ij")
+    corners = [
+        I * (n2 + 1) + J,
+        I * (n2 + 1) + J + 1,
+        (I + 1) * (n2 + 1) + J,
+        (I + 1) * (n2 + 1) + J + 1,
+    ]
+    return tp.Cloud(x, nu, w, np.stack(corners, -1).reshape(-1, 4)), length / n1
+
+
+def grid(m: int) -> tuple[int, int]:
+    """An n1×n2 grid of about m cells with square cells on the 3π×1 strip."""
+    n2 = max(2, round(np.sqrt(m / (3 * np.pi))))
+    return max(4, round(m / n2)), n2
+
+
+def timed(cloud: tp.Cloud, theta: float, reach: float) -> tuple[tp.TPResult, float]:
+    t0 = time.perf_counter()
+    result = tp.evaluate(cloud, 4.5, theta, reach)
+    return result, time.perf_counter() - t0
+
+
+def relative(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.linalg.norm(a - b) / np.linalg.norm(b))
+
+
+def accuracy(sizes: list[int], thetas: list[float]) -> list[dict[str, Any]]:
+    """Tree against exact sums: relative errors of TP and of its gradient, times."""
+    rows = []
+    for m in sizes:
+        cloud, h = spiral(*grid(m))
+        exact, t_exact = timed(cloud, 0.0, 3 * h)
+        grad = np.concatenate([exact.d_points.ravel(), exact.d_normals.ravel()])
+        for theta in thetas:
+            tree, t_tree = timed(cloud, theta, 3 * h)
+            approx = np.concatenate([tree.d_points.ravel(), tree.d_normals.ravel()])
+            row = {
+                "M": len(cloud.points),
+                "theta": theta,
+                "energy_error": abs(tree.energy - exact.energy) / exact.energy,
+                "gradient_error": relative(approx, grad),
+                "exact_s": t_exact,
+                "tree_s": t_tree,
+                "speedup": t_exact / t_tree,
+                "pairs_exact": exact.pairs_exact,
+                "tree_pairs_near": tree.pairs_exact,
+                "tree_point_box": tree.pairs_far,
+            }
+            print0(MPI.COMM_WORLD, json.dumps(row))
+            rows.append(row)
+    return rows
+
+
+def cost(sizes: list[int]) -> dict[str, Any]:
+    """One tree evaluation (θ = 0.5) against M, and the slope of log t over log M."""
+    rows = []
+    for m in sizes:
+        cloud, h = spiral(*grid(m))
+        _, seconds = timed(cloud, 0.5, 3 * h)
+        rows.append({"M": len(cloud.points), "tree_s": seconds})
+        print0(MPI.COMM_WORLD, json.dumps(rows[-1]))
+    m = np.log([r["M"] for r in rows])
+    t = np.log([r["tree_s"] for r in rows])
+    slope = float(np.polyfit(m, t, 1)[0]) if len(rows) > 1 else float("nan")
+    return {"rows": rows, "slope_log_t_log_M": slope}
+
+
+def flow(steps: int, cells: list[int]) -> dict[str, Any]:
+    """Per step of the demo's flow: one TP evaluation against the step's assembly and solve."""
+    problem = dgplate.load_problem(DEMO, {"mesh.cells": cells})
+    tagged = build_mesh(problem.mesh, MPI.COMM_WORLD)
+    model = MODELS[problem.model.name].build(problem.model, tagged)
+    driver = model.driver(
+        problem.flow, [], lambda x: np.vstack([np.sin(x[0]), x[1], 1.0 - np.cos(x[0])])
+    )
+    (term,) = driver.energy.nonlocal_terms
+    rows = []
+    for _ in range(steps):
+        info = driver.step()
+        t0 = time.perf_counter()
+        term._state = None  # force a fresh evaluation at the same state
+        term.update()
+        tp_s = time.perf_counter() - t0
+        rows.append(
+            {"tp_s": tp_s, "assembly_s": info.assembly_s, "solve_s": info.factor_s + info.solve_s}
+        )
+    mean = {key: float(np.mean([r[key] for r in rows[1:]])) for key in rows[0]}
+    return {"cells": cells, "dofs": driver.num_dofs, "points": len(term.cloud()[0].points),
+            "steps": steps, "mean": mean}  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--exact-max", type=int, default=10000)
+    parser.add_argument("--max-m", type=int, default=100000)
+    parser.add_argument("--steps", type=int, default=10)
+    parser.add_argument("--cells", type=int, nargs=2, default=[48, 4])
+    parser.add_argument("--json", default=None)
+    args = parser.parse_args(argv)
+    exact_sizes = [m for m in (1000, 4000, 10000) if m <= args.exact_max]
+    cost_sizes = [m for m in (1000, 3000, 10000, 30000, 100000, 300000, 1000000) if m <= args.max_m]
+    record = {
+        "accuracy": accuracy(exact_sizes, [0.25, 0.5, 1.0]),
+        "cost": cost(cost_sizes),
+        "flow": flow(args.steps, args.cells),
+        "ranks": MPI.COMM_WORLD.size,
+    }
+    print0(MPI.COMM_WORLD, json.dumps(record["flow"]))
+    if args.json and MPI.COMM_WORLD.rank == 0:
+        Path(args.json).write_text(json.dumps(record, indent=1))
+    return record
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,280 @@
+"""Self-avoidance of a plate: ρ·TP[y] as an explicit, nonlocal term of its energy.
+
+The tangent-point potential TP (:mod:`dgplate.dg.tangent_point`) is a double sum over the
+cell quadrature points of the deformed plate y, with the unit normal ν = ∂₁y × ∂₂y / |∂₁y × ∂₂y|.
+It is not a UFL integral, so it enters the flow as a :class:`~dgplate.dg.energy.Nonlocal`
+term: at yⁿ the pair sums give the partial derivatives G_i = ∂TP/∂y(x_i) and H_i = ∂TP/∂ν(x_i)
+(divided by the quadrature weights w_i, so that they are densities), stored in quadrature
+functions; the UFL functional
+
+    L(y) = ∫ G·y + H·ν(y) dx     (with the same quadrature)
+
+then has the derivative DL[y](v) = Σ_i ∂TP/∂y_i·v(x_i) + ∂TP/∂ν_i·Dν[y](v)(x_i) = DTP[y](v)
+by the chain rule: the normal's dependence on y is not lagged, only the whole derivative is
+taken at yⁿ (fully explicit, as in Bartels–Meyer–Palus). The step matrix does not change.
+
+MPI: each rank evaluates its own cells' points against the points of all ranks, gathered and
+sorted by their reference coordinates, so that the sums and the tree do not depend on the
+partition; the source-side derivatives are summed over the ranks.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+from mpi4py import MPI
+
+import basix
+import basix.ufl
+import dolfinx.fem
+import numpy as np
+import ufl
+from ufl.core.expr import Expr
+
+from dgplate import compat, mpi
+from dgplate.compat import Array, Function
+from dgplate.dg import tangent_point as tp
+from dgplate.errors import InputError
+from dgplate.schema import is_integer, is_number
+
+#: The keys of ``model.self_avoidance`` and their defaults.
+DEFAULTS: dict[str, float] = {
+    "rho": 1e-4,
+    "q": 4.5,
+    "theta": 0.5,
+    "quadrature_degree": 2,
+    "max_redo": 8,
+    "approach": 0.5,
+}
+
+
+@dataclass(frozen=True)
+class SelfAvoidance:
+    """A validated ``model.self_avoidance`` table: ρ·TP with exponent q.
+
+    ``theta``: the cluster tree's admissibility (0: exact all-pairs sums); ``max_redo``: how
+    often a step may be redone with τ/2; ``approach``: a step is redone when the least distance
+    of non-neighbouring points falls below this fraction of its value before the step.
+    """
+
+    rho: float
+    q: float
+    theta: float
+    quadrature_degree: int
+    max_redo: int
+    approach: float
+
+    @classmethod
+    def from_table(cls, table: object, key: str = "model.self_avoidance") -> SelfAvoidance | None:
+        """The parameters, or None for an empty table (no self-avoidance)."""
+        if not isinstance(table, dict):
+            raise InputError(f"{key} must be a table {{rho = ..., q = ...}}, got {table!r}")
+        if not table:
+            return None
+        unknown = set(table) - set(DEFAULTS)
+        if unknown:
+            raise InputError(f"{key}: unknown keys {sorted(unknown)} (known: {sorted(DEFAULTS)})")
+        values = {**DEFAULTS, **table}
+        for name, value in values.items():
+            if not (is_number(value) and math.isfinite(value)):
+                raise InputError(f"{key}.{name} must be a finite number, got {value!r}")
+        cls._check(values, key)
+        return cls(**{name: type(DEFAULTS[name])(v) for name, v in values.items()})  # type: ignore[arg-type]
+
+    @staticmethod
+    def _check(values: dict[str, Any], key: str) -> None:
+        """Ranges of the keys; q ≤ 4 is accepted with a warning (not self-avoiding)."""
+        if values["rho"] < 0:
+            raise InputError(f"{key}.rho must be >= 0, got {values['rho']}")
+        if values["q"] <= 2:
+            raise InputError(
+                f"{key}.q must be > 2 (and > 4 to avoid self-contact), got {values['q']}"
+            )
+        if values["q"] <= 4:
+            warnings.warn(
+                f"{key}.q = {values['q']} <= 4: the tangent-point energy is then finite on "
+                "self-intersecting surfaces and does not keep the plate from passing through itself",
+                stacklevel=2,
+            )
+        if not 0 <= values["theta"] < 2:
+            raise InputError(f"{key}.theta must be in [0, 2), got {values['theta']}")
+        for name, least in (("quadrature_degree", 0), ("max_redo", 0)):
+            if not is_integer(values[name]) or values[name] < least:
+                raise InputError(f"{key}.{name} must be an integer >= {least}, got {values[name]}")
+        if not 0 < values["approach"] < 1:
+            raise InputError(f"{key}.approach must be in (0, 1), got {values['approach']}")
+
+
+def unit_normal(y: Expr) -> Expr:
+    """ν = ∂₁y × ∂₂y / |∂₁y × ∂₂y| of a deformation y of a flat reference domain."""
+    n = ufl.cross(y.dx(0), y.dx(1))
+    normal: Expr = n / ufl.sqrt(ufl.inner(n, n))
+    return normal
+
+
+class PlateTangentPoint:
+    """ρ·TP[y] of a plate deformation y: the :class:`~dgplate.dg.energy.Nonlocal` protocol."""
+
+    def __init__(self, y: Function, params: SelfAvoidance, key: str = "model.self_avoidance"):
+        self.y, self.params = y, params
+        self.max_redo = params.max_redo
+        mesh = y.function_space.mesh
+        self.comm: MPI.Comm = mesh.comm
+        degree = params.quadrature_degree
+        cell = mesh.basix_cell()
+        element = basix.ufl.quadrature_element(cell, value_shape=(3,), degree=degree)
+        scalar = basix.ufl.quadrature_element(cell, value_shape=(), degree=degree)
+        self._Q = dolfinx.fem.functionspace(mesh, element)
+        self._G: Function = dolfinx.fem.Function(self._Q)
+        self._H: Function = dolfinx.fem.Function(self._Q)
+        self._scratch: Function = dolfinx.fem.Function(self._Q)
+        points = compat.interpolation_points(self._Q.element)
+        _, rule = basix.make_quadrature(basix.CellType[str(cell).split(".")[-1]], degree)
+        weights: Array = np.asarray(rule, dtype=np.float64)
+        self._cells = mesh.topology.index_map(mesh.topology.dim).size_local
+        self._dofs = self._Q.dofmap.list[: self._cells]
+        self._y_at = self._compile(y, points)
+        self._nu_at = self._compile(unit_normal(y), points)
+        area: Expr = abs(ufl.JacobianDeterminant(mesh))  # type: ignore[arg-type]
+        sq = dolfinx.fem.functionspace(mesh, scalar)
+        w = self._sample(area, sq, points, 1)[:, :, 0] * weights[None, :]
+        self._w = w.reshape(-1)
+        ref = self._sample(ufl.SpatialCoordinate(mesh), sq, points, mesh.geometry.dim, vector=True)
+        self._layout(ref.reshape(-1, ref.shape[-1])[:, :2], mesh)
+        dx = ufl.dx(metadata={"quadrature_degree": degree})
+        #: L(y) = ∫ G·y + H·ν(y): its derivative at the current y is ρ·DTP[y]
+        self.linearisation: ufl.Form = (
+            ufl.inner(self._G, y) + ufl.inner(self._H, unit_normal(y))
+        ) * dx
+        self._state: Array | None = None
+        self._value = 0.0
+        self.min_distance = math.inf
+        self._accepted = math.inf
+        self.last: tp.TPResult | None = None
+        self._check_start(key)
+
+    # -- sampling ---------------------------------------------------------------------------
+    def _compile(self, expr: Expr, points: Array) -> compat.Expression:
+        compiled: compat.Expression = dolfinx.fem.Expression(expr, points)
+        return compiled
+
+    def _sample(
+        self, expr: Expr, space: Any, points: Array, size: int, vector: bool = False
+    ) -> Array:
+        """Values (owned cells, points, size) of ``expr`` at the quadrature points."""
+        if vector:
+            element = basix.ufl.quadrature_element(
+                self.y.function_space.mesh.basix_cell(),
+                value_shape=(size,),
+                degree=self.params.quadrature_degree,
+            )
+            space = dolfinx.fem.functionspace(self.y.function_space.mesh, element)
+        f: Function = dolfinx.fem.Function(space)
+        f.interpolate(self._compile(expr, points))
+        dofs = space.dofmap.list[: self._cells]
+        values = f.x.array.reshape(-1, size)
+        return np.asarray(values[dofs])
+
+    def _at_points(self, compiled: compat.Expression) -> Array:
+        """A compiled vector expression at the owned quadrature points, shape (M_own, 3)."""
+        f = self._scratch
+        f.interpolate(compiled)
+        return np.asarray(f.x.array.reshape(-1, 3)[self._dofs].reshape(-1, 3).copy())
+
+    def _layout(self, ref: Array, mesh: Any) -> None:
+        """The global order of the points (by reference coordinates) and vertex ids."""
+        geometry = compat.geometry_dofmap(mesh)[: self._cells]
+        corners = mesh.geometry.x[geometry][:, :, :2]  # the reference cells' nodes
+        spread = np.ptp(corners, axis=1) if self._cells else np.zeros((1, 2))
+        self._h = mpi.global_max(self.comm, float(np.linalg.norm(spread, axis=1).max()))
+        per_point = len(ref) // max(self._cells, 1) if self._cells else 0
+        nodes = np.repeat(corners, per_point, axis=0) if self._cells else np.zeros((0, 3, 2))
+        gathered = self.comm.allgather((ref, nodes.reshape(len(ref), -1)))
+        all_ref = np.concatenate([g[0] for g in gathered])
+        all_nodes = np.concatenate([g[1] for g in gathered])
+        scale = max(float(np.ptp(all_ref)), 1e-300)
+        key = np.round(all_ref / scale, 9)
+        self._order = np.lexsort((key[:, 1], key[:, 0]))
+        offset = sum(len(g[0]) for g in gathered[: self.comm.rank])
+        rank_of = np.empty(len(all_ref), dtype=np.int64)
+        rank_of[self._order] = np.arange(len(all_ref))
+        self._mine = rank_of[offset : offset + len(ref)]  # own points in the sorted order
+        node_keys = np.round(all_nodes.reshape(-1, 2) / scale, 9)
+        _, ids = np.unique(node_keys, axis=0, return_inverse=True)
+        self._vertices = ids.reshape(len(all_ref), -1)[self._order].astype(np.int64)
+        self._targets = np.zeros(len(all_ref), dtype=bool)
+        self._targets[self._mine] = True
+
+    # -- evaluation -------------------------------------------------------------------------
+    def cloud(self) -> tuple[tp.Cloud, float]:
+        """The gathered points of the current y (sorted) and the neighbour reach."""
+        x = self._at_points(self._y_at)
+        nu = self._at_points(self._nu_at)
+        gathered = self.comm.allgather((x, nu, self._w))
+        pts = np.concatenate([g[0] for g in gathered])[self._order]
+        normals = np.concatenate([g[1] for g in gathered])[self._order]
+        w = np.concatenate([g[2] for g in gathered])[self._order]
+        cloud = tp.Cloud(pts, normals, w, self._vertices)
+        return cloud, self._reach(cloud)
+
+    def _reach(self, cloud: tp.Cloud) -> float:
+        """An upper bound of the distance of points of neighbouring cells.
+
+        Two cells that share a vertex hold points at most two cell diameters apart; the
+        deformation is nearly isometric, and the margin 1.5 covers its defect.
+        """
+        return 3.0 * self._h
+
+    def update(self) -> float:
+        """ρ·TP at the current y; refreshes G, H of :attr:`linearisation` (collective, cached)."""
+        state = self.y.x.array
+        same = self._state is not None and np.array_equal(state, self._state)
+        if mpi.global_all(self.comm, same):
+            return self._value
+        cloud, reach = self.cloud()
+        p = self.params
+        result = tp.evaluate(cloud, p.q, p.theta, reach, self._targets)
+        energy = mpi.global_sum(self.comm, result.energy)
+        d_points = mpi.sum_arrays(self.comm, result.d_points)
+        d_normals = mpi.sum_arrays(self.comm, result.d_normals)
+        mine = self._mine
+        w = cloud.weights[mine][:, None]
+        for target, values in ((self._G, d_points), (self._H, d_normals)):
+            target.x.array.reshape(-1, 3)[self._dofs.reshape(-1)] = p.rho * values[mine] / w
+            target.x.scatter_forward()
+        self.min_distance = mpi.global_min(
+            self.comm, tp.min_distance(cloud, reach / 3.0, self._targets)
+        )
+        self._state, self._value, self.last = state.copy(), p.rho * energy, result
+        return self._value
+
+    def accept(self) -> bool:
+        """Whether the state may follow the last accepted one (the safety net).
+
+        Refused when the least distance of non-neighbouring points fell below
+        ``approach`` times its value at the last accepted state.
+        """
+        self.update()
+        ok = self.min_distance > self.params.approach * min(self._accepted, 1e300)
+        if ok:
+            self._accepted = self.min_distance
+        return bool(ok)
+
+    def _check_start(self, key: str) -> None:
+        """An initial state in which two non-neighbouring cells meet is refused."""
+        self.update()
+        cloud, _ = self.cloud()
+        size = float(np.linalg.norm(np.ptp(cloud.points, axis=0)))
+        if not self.min_distance > 1e-6 * size:
+            raise InputError(
+                f"{key}: the initial state intersects itself (non-neighbouring cells "
+                f"{self.min_distance:.3g} apart)"
+            )
+        self._accepted = self.min_distance
+
+    def summary(self) -> dict[str, float]:
+        """Figures for ``summary.json``."""
+        return {"self_avoidance_energy": self.update(), "min_distance": self.min_distance}

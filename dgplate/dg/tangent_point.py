@@ -1,0 +1,368 @@
+"""The tangent-point potential of a point cloud, exact or by a cluster tree (docs/self_avoidance.md).
+
+For points x_i with unit normals ν_i (of a surface) and weights w_i (quadrature weights),
+
+    TP = (2^(−q)/q) Σ_i Σ_j w_i w_j r_ij^(−q),   r_ij = |x_j − x_i|² / (2|ν_i·(x_j − x_i)|),
+
+i.e. TP = (1/q) Σ w_i w_j |ν_i·d|^q / |d|^(2q) with d = x_j − x_i: the quadrature of the
+tangent-point energy of Gonzalez–Maddocks used for plates by Bartels, Meyer and Palus
+("Simulating self-avoiding isometric plate bending"). Pairs of points of the same or of
+neighbouring cells (cells that share a vertex) are left out of the double sum, where the
+integrand is singular. The code knows nothing of meshes: a point carries the ids of its cell's
+vertices (``vertices``), so that rods (two ids per segment) can use it as well.
+
+The far field is approximated Barnes–Hut style: points are sorted into a binary tree of
+bounding boxes; a target point and a source box of diameter D at box distance g > D/θ (and
+farther apart than ``reach``, the largest distance of neighbouring points, so no excluded pair
+is approximated) interact through the box's weight and weighted centroid (a monopole). Near
+pairs are summed exactly. All sums are vectorised over blocks of pairs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from dgplate.compat import Array
+
+#: Point pairs per vectorised block (memory ~ 20 arrays of this length).
+_BLOCK = 1 << 20
+_LEAF = 32
+
+IntArray = npt.NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class Cloud:
+    """Points (M, 3), unit normals (M, 3), weights (M,) and their cells' vertex ids (M, k)."""
+
+    points: Array
+    normals: Array
+    weights: Array
+    vertices: IntArray
+
+
+@dataclass
+class TPResult:
+    """TP and its partial derivatives with respect to every point and normal."""
+
+    energy: float
+    d_points: Array  # (M, 3)
+    d_normals: Array  # (M, 3)
+    pairs_exact: int = 0  # point pairs summed exactly
+    pairs_far: int = 0  # point–box interactions
+
+
+@dataclass(frozen=True)
+class Tree:
+    """A binary tree of boxes over the points; node n holds ``order[start[n]:end[n]]``."""
+
+    order: IntArray
+    start: IntArray
+    end: IntArray
+    children: IntArray  # (nodes, 2), −1 for leaves
+    lo: Array
+    hi: Array
+    weight: Array
+    centroid: Array
+
+    @property
+    def diameter(self) -> Array:
+        """The diameter of each node's box."""
+        return np.asarray(np.linalg.norm(self.hi - self.lo, axis=1))
+
+    def is_leaf(self, nodes: IntArray) -> npt.NDArray[np.bool_]:
+        """Whether ``nodes`` are leaves."""
+        return np.asarray(self.children[nodes, 0] < 0)
+
+
+def build_tree(points: Array, weights: Array, leaf: int = _LEAF) -> Tree:
+    """Split boxes at the median of their longest side until at most ``leaf`` points remain.
+
+    The loop runs over nodes (about 2M/leaf of them), never over points or pairs.
+    """
+    order = np.arange(len(points))
+    starts, ends, children = [0], [len(points)], [[-1, -1]]
+    stack = [0]
+    while stack:
+        node = stack.pop()
+        s, e = starts[node], ends[node]
+        if e - s <= leaf:
+            continue
+        idx = order[s:e]
+        axis = int(np.argmax(np.ptp(points[idx], axis=0)))
+        half = (e - s) // 2
+        part = np.argpartition(points[idx, axis], half)
+        order[s:e] = idx[part]
+        kids = []
+        for a, b in ((s, s + half), (s + half, e)):
+            kids.append(len(starts))
+            starts.append(a)
+            ends.append(b)
+            children.append([-1, -1])
+        children[node] = kids
+        stack.extend(kids)
+    start, end = np.array(starts), np.array(ends)
+    # per-node sums over contiguous ranges of the ordered points
+    p, w = points[order], weights[order]
+    cw = np.concatenate([[0.0], np.cumsum(w)])
+    cwp = np.vstack([np.zeros(3), np.cumsum(w[:, None] * p, axis=0)])
+    weight = cw[end] - cw[start]
+    safe = np.where(weight > 0, weight, 1.0)
+    centroid = (cwp[end] - cwp[start]) / safe[:, None]
+    lo = np.array([p[a:b].min(axis=0) for a, b in zip(start, end, strict=True)])
+    hi = np.array([p[a:b].max(axis=0) for a, b in zip(start, end, strict=True)])
+    return Tree(order, start, end, np.array(children), lo, hi, weight, centroid)
+
+
+def _box_gap(tree: Tree, a: IntArray, b: IntArray) -> Array:
+    """The distance between the boxes of nodes ``a`` and ``b`` (0 when they overlap)."""
+    gap = np.maximum(0.0, np.maximum(tree.lo[a] - tree.hi[b], tree.lo[b] - tree.hi[a]))
+    return np.asarray(np.linalg.norm(gap, axis=1))
+
+
+def interactions(
+    tree: Tree, leaves: IntArray, far: float, theta: float, reach: float
+) -> tuple[IntArray, IntArray, IntArray, IntArray]:
+    """Target leaves against source nodes: (near leaf, near leaf), (far leaf, far node).
+
+    A pair is far when the box gap g satisfies g·θ > D (source diameter) and g > ``reach``;
+    with θ = 0 nothing is far (exact sums). ``far`` > 0 instead prunes every pair with
+    g > far (the minimum-distance query). Vectorised level by level over the frontier.
+    """
+    diam = tree.diameter
+    t, s = leaves, np.zeros_like(leaves)
+    near_t, near_s, far_t, far_s = [], [], [], []
+    while t.size:
+        gap = _box_gap(tree, t, s)
+        if far > 0:
+            admissible = gap > far
+        else:
+            admissible = (gap * theta > diam[s]) & (gap > reach)
+        leaf = tree.is_leaf(s)
+        near = ~admissible & leaf
+        refine = ~admissible & ~leaf
+        near_t.append(t[near])
+        near_s.append(s[near])
+        far_t.append(t[admissible])
+        far_s.append(s[admissible])
+        t = np.repeat(t[refine], 2)
+        s = tree.children[s[refine]].ravel()
+    return (
+        np.concatenate(near_t),
+        np.concatenate(near_s),
+        np.concatenate(far_t),
+        np.concatenate(far_s),
+    )
+
+
+def _expand(
+    a_start: IntArray, a_len: IntArray, b_start: IntArray, b_len: IntArray
+) -> Iterator[tuple[IntArray, IntArray]]:
+    """All (a, b) index pairs of the ranges, in blocks of about ``_BLOCK`` pairs."""
+    counts = a_len * b_len
+    bounds = np.searchsorted(np.cumsum(counts), np.arange(_BLOCK, counts.sum() + _BLOCK, _BLOCK))
+    first = 0
+    for last in np.unique(np.minimum(bounds + 1, len(counts))):
+        sl = slice(first, int(last))
+        first = int(last)
+        c = counts[sl]
+        if not c.sum():
+            continue
+        owner = np.repeat(np.arange(len(c)), c)
+        local = np.arange(c.sum()) - np.repeat(np.cumsum(c) - c, c)
+        bl = b_len[sl][owner]
+        yield a_start[sl][owner] + local // bl, b_start[sl][owner] + local % bl
+
+
+def _excluded(cloud: Cloud, i: IntArray, j: IntArray, reach: float) -> npt.NDArray[np.bool_]:
+    """Whether the cells of points i and j share a vertex (same cell included).
+
+    Only pairs closer than ``reach`` (0: all) can be neighbours, so only those are compared.
+    """
+    out = np.zeros(len(i), dtype=bool)
+    close = np.arange(len(i))
+    if reach > 0:
+        d = cloud.points[j] - cloud.points[i]
+        close = np.flatnonzero(np.einsum("ij,ij->i", d, d) <= reach * reach)
+    a, b = cloud.vertices[i[close]], cloud.vertices[j[close]]
+    out[close] = (a[:, :, None] == b[:, None, :]).any(axis=(1, 2))
+    return out
+
+
+def _kernel(
+    cloud: Cloud, i: IntArray, xj: Array, wj: Array, q: float
+) -> tuple[Array, Array, Array]:
+    """Per pair: w_i w_j f/q, ∂/∂d and ∂/∂ν_i of it (f = |ν_i·d|^q |d|^(−2q), d = x_j − x_i)."""
+    d = xj - cloud.points[i]
+    nu = cloud.normals[i]
+    n2 = np.einsum("ij,ij->i", d, d)
+    s = np.einsum("ij,ij->i", nu, d)
+    ww = cloud.weights[i] * wj
+    with np.errstate(divide="ignore", invalid="ignore"):  # coincident points: TP = inf
+        f = (np.abs(s) / n2) ** q
+    sq = np.divide(f, s, out=np.zeros_like(f), where=s != 0)  # |s|^(q−2) s |d|^(−2q)
+    d_d = ww[:, None] * (sq[:, None] * nu - (2.0 * f / n2)[:, None] * d)
+    d_nu = (ww * sq)[:, None] * d
+    return ww * f / q, d_d, d_nu
+
+
+def _accumulate(target: Array, index: IntArray, values: Array) -> None:
+    """target[index] += values, with repeated indices (per component by bincount)."""
+    for k in range(values.shape[1]):
+        target[:, k] += np.bincount(index, values[:, k], minlength=len(target))
+
+
+def _range(tree: Tree, nodes: IntArray) -> tuple[IntArray, IntArray]:
+    """First position and length of each node's points in ``tree.order``."""
+    return tree.start[nodes], tree.end[nodes] - tree.start[nodes]
+
+
+def evaluate(
+    cloud: Cloud,
+    q: float,
+    theta: float = 0.5,
+    reach: float = 0.0,
+    targets: npt.NDArray[np.bool_] | None = None,
+    tree: Tree | None = None,
+) -> TPResult:
+    """TP and its derivatives, targets i restricted to ``targets`` (default: all).
+
+    θ = 0: exact all-pairs sums. θ > 0: the far field of the tree (see the module doc).
+    The derivative with respect to a source x_j is returned for every point, so that ranks that
+    each evaluate their own targets add their results (MPI parity).
+    """
+    m = len(cloud.points)
+    tree = tree or build_tree(cloud.points, cloud.weights)
+    mask = np.ones(m, dtype=bool) if targets is None else targets
+    leaves = np.flatnonzero(tree.children[:, 0] < 0)
+    count = np.concatenate([[0], np.cumsum(mask[tree.order])])
+    has_target = count[tree.end[leaves]] > count[tree.start[leaves]]
+    near_t, near_s, far_t, far_s = interactions(tree, leaves[has_target], 0.0, theta, reach)
+    out = TPResult(0.0, np.zeros((m, 3)), np.zeros((m, 3)))
+    order = tree.order
+    padded = _padded_leaves(tree)
+    step = max(1, _BLOCK // padded.shape[1] ** 2)
+    for first in range(0, len(near_t), step):
+        rows = slice(first, first + step)
+        _near_block(cloud, padded[near_t[rows]], padded[near_s[rows]], mask, q, reach, out)
+    node_force = np.zeros((len(tree.start), 3))
+    ones = np.ones_like(far_s)
+    for pi, k in _expand(*_range(tree, far_t), np.arange(len(far_s)), ones):
+        i, node = order[pi], far_s[k]
+        keep = mask[i]
+        i, node = i[keep], node[keep]
+        e, d_d, d_nu = _kernel(cloud, i, tree.centroid[node], tree.weight[node], q)
+        out.energy += float(e.sum())
+        out.pairs_far += len(i)
+        _accumulate(out.d_points, i, -d_d)
+        _accumulate(out.d_normals, i, d_nu)
+        _accumulate(node_force, node, d_d / tree.weight[node][:, None])
+    _push_down(tree, node_force, cloud.weights, out.d_points)
+    return out
+
+
+def _padded_leaves(tree: Tree) -> IntArray:
+    """The point indices of every node that is a leaf, padded with −1 to the largest leaf."""
+    sizes = tree.end - tree.start
+    leaf = tree.children[:, 0] < 0
+    width = int(sizes[leaf].max(initial=1))
+    padded = np.full((len(sizes), width), -1, dtype=np.int64)
+    nodes = np.flatnonzero(leaf)
+    owner = np.repeat(nodes, sizes[nodes])
+    column = np.arange(len(owner)) - np.repeat(np.cumsum(sizes[nodes]) - sizes[nodes], sizes[nodes])
+    padded[owner, column] = tree.order[
+        np.concatenate([np.arange(tree.start[n], tree.end[n]) for n in nodes])
+    ]
+    return padded
+
+
+def _near_block(
+    cloud: Cloud,
+    targets: IntArray,
+    sources: IntArray,
+    mask: npt.NDArray[np.bool_],
+    q: float,
+    reach: float,
+    out: TPResult,
+) -> None:
+    """Exact sums over pairs of leaves as dense (pairs, L, L) blocks (padding: index −1).
+
+    Gathering per leaf instead of per pair is what makes the near field cheap.
+    """
+    it, js = np.maximum(targets, 0), np.maximum(sources, 0)
+    wt = np.where((targets >= 0) & mask[it], cloud.weights[it], 0.0)
+    ws = np.where(sources >= 0, cloud.weights[js], 0.0)
+    xt, nu, xs = cloud.points[it], cloud.normals[it], cloud.points[js]
+    d = [xs[:, None, :, k] - xt[:, :, None, k] for k in range(3)]  # components (p, L, L)
+    n2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+    ww = wt[:, :, None] * ws[:, None, :]
+    close = np.flatnonzero((ww > 0) & (n2 <= reach * reach) if reach > 0 else ww > 0)
+    shape = ww.shape
+    t_of = np.broadcast_to(it[:, :, None], shape).reshape(-1)[close]
+    s_of = np.broadcast_to(js[:, None, :], shape).reshape(-1)[close]
+    excluded = _excluded(cloud, t_of, s_of, 0.0)
+    ww.reshape(-1)[close[excluded]] = 0.0
+    n2[ww == 0] = 1.0
+    n = [nu[:, :, None, k] for k in range(3)]
+    s = n[0] * d[0] + n[1] * d[1] + n[2] * d[2]
+    with np.errstate(divide="ignore", invalid="ignore"):  # coincident points: TP = inf
+        f = (np.abs(s) / n2) ** q
+    sq = np.divide(f, s, out=np.zeros_like(f), where=s != 0) * ww
+    wf = ww * f
+    out.energy += float(wf.sum()) / q
+    out.pairs_exact += int(np.count_nonzero(ww))
+    scaled = 2.0 * wf / n2
+    # ∂/∂d per pair = sq ν_t − (2 w f/|d|²) d, summed over sources (targets) and targets (sources)
+    pair = [sq * n[k] - scaled * d[k] for k in range(3)]
+    on_target = np.stack([c.sum(axis=2) for c in pair], axis=-1)
+    on_source = np.stack([c.sum(axis=1) for c in pair], axis=-1)
+    d_nu = np.stack([(sq * d[k]).sum(axis=2) for k in range(3)], axis=-1)
+    _accumulate(out.d_points, it.reshape(-1), -on_target.reshape(-1, 3))
+    _accumulate(out.d_points, js.reshape(-1), on_source.reshape(-1, 3))
+    _accumulate(out.d_normals, it.reshape(-1), d_nu.reshape(-1, 3))
+
+
+def _push_down(tree: Tree, node_force: Array, weights: Array, d_points: Array) -> None:
+    """A source j in node n receives w_j·(force per unit weight on n's centroid)."""
+    diff = np.zeros((len(tree.order) + 1, 3))
+    np.add.at(diff, tree.start, node_force)
+    np.add.at(diff, tree.end, -node_force)
+    per_position = np.cumsum(diff[:-1], axis=0)
+    d_points[tree.order] += weights[tree.order][:, None] * per_position
+
+
+def min_distance(cloud: Cloud, bound: float, targets: npt.NDArray[np.bool_] | None = None) -> float:
+    """The least distance of two points of non-neighbouring cells (inf: there is no such pair).
+
+    ``bound``: a first guess of the search radius (e.g. a few cell diameters); boxes farther
+    apart are pruned, and the radius grows until a pair is found.
+    """
+    tree = build_tree(cloud.points, cloud.weights)
+    mask = np.ones(len(cloud.points), dtype=bool) if targets is None else targets
+    leaves = np.flatnonzero(tree.children[:, 0] < 0)
+    size = float(tree.diameter[0])
+    radius = max(bound, 1e-300)
+    while True:
+        best = _closest(cloud, tree, leaves, radius, mask)
+        if best <= radius or radius > size:
+            return best
+        radius *= 4.0
+
+
+def _closest(
+    cloud: Cloud, tree: Tree, leaves: IntArray, radius: float, mask: npt.NDArray[np.bool_]
+) -> float:
+    """The least distance of non-neighbouring pairs in boxes less than ``radius`` apart."""
+    near_t, near_s, _, _ = interactions(tree, leaves, radius, 0.0, 0.0)
+    best = np.inf
+    for pi, pj in _expand(*_range(tree, near_t), *_range(tree, near_s)):
+        i, j = tree.order[pi], tree.order[pj]
+        keep = mask[i] & ~_excluded(cloud, i, j, radius)
+        if keep.any():
+            dist = np.linalg.norm(cloud.points[j[keep]] - cloud.points[i[keep]], axis=1)
+            best = min(best, float(dist.min()))
+    return float(best)

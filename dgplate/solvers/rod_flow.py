@@ -1,0 +1,409 @@
+"""Gradient flow of an inextensible bending–torsion rod (docs/rods.md, docs/design.md §1).
+
+The state is a pair (u, b): the centreline u ∈ [P_k]³ (C⁰ interior penalty, k ≥ 2) and the
+frame director b ∈ [P₁]³ on a 1D mesh of (0, L). One step from (uⁿ, bⁿ) finds increments
+(δu, δb) and multipliers (λ₁, λ₂, λ₃) with
+
+    (1/τ) m((δu, δb), (v, c)) + D²E_impl((δu, δb), (v, c)) + B_n((v, c), λ) = −DE[uⁿ, bⁿ](v, c),
+    B_n((δu, δb), q) = 0,
+
+where B_n holds the three constraints |u′|² = 1, u′·b = 0 and |b|² = 1 linearised at
+(uⁿ, bⁿ): the first two as two moments per cell (DG₁ multipliers), the third at the nodes
+(P₁ multiplier, vertex quadrature). The metric m is the H² product of u (C⁰-IP) plus the H¹
+product of b plus the L² products of both, so that free ends need no special case.
+
+Why not :class:`dgplate.solvers.flow.GradientFlow`: that flow is written for a single
+deformation y ∈ [DG_k]³ of a 2D plate with the isometry constraint ∇yᵀ∇y = I; the rod has two
+unknown fields, three other constraints and strong end conditions. Only the step system is
+different: the records, the stopping rule, the checkpoints and the runner's observers are the
+same (:class:`dgplate.solvers.driver.Driver`). The 1D system is small (a few thousand
+unknowns), so it is reassembled and factorised by MUMPS at every step
+(:class:`dgplate.solvers.linear.DirectStepSolver`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from mpi4py import MPI
+
+import basix.ufl
+import dolfinx.fem
+import dolfinx.fem.petsc
+import numpy as np
+import ufl
+from ufl.core.expr import Expr
+
+from dgplate import compat, interrupt, mpi, values
+from dgplate.compat import Array, Function, FunctionSpace, Mesh
+from dgplate.dg.energy import Energy
+from dgplate.dg.forms import integral
+from dgplate.errors import SolverError
+from dgplate.solvers import linear as solvers
+from dgplate.solvers.driver import Observer, StepCounters
+from dgplate.solvers.flow import FlowResult, FlowSpec
+
+__all__ = ["RodFlow", "RodState", "RodStep", "ip_product", "nitsche_slope", "tangent"]
+
+#: (u, b) ↦ the rod energy.
+RodEnergy = Callable[[Function, Function], Energy]
+
+
+def tangent(u: Expr) -> Expr:
+    """u′ = du/ds on the 1D mesh (a 3-vector).
+
+    On an interval of ℝ, d/dx. On a closed polygon in ℝ² (a closed rod), the derivative along
+    the unit tangent T = J/|J| of each cell; the cells are numbered around the polygon, so T
+    turns one way and u′ is continuous where u is smooth.
+    """
+    domain = ufl.domain.extract_unique_domain(u)
+    if ufl.SpatialCoordinate(domain).ufl_shape[0] == 1:
+        out: Expr = u.dx(0)
+        return out
+    J = ufl.Jacobian(domain)
+    column = ufl.as_vector([J[0, 0], J[1, 0]])
+    along: Expr = ufl.dot(ufl.grad(u), column / ufl.sqrt(ufl.dot(column, column)))
+    return along
+
+
+@dataclass
+class RodState:
+    """The start of a rod flow: u⁰ and b⁰ as callables of points (3, n) → (3, n)."""
+
+    centreline: Callable[[Array], Array]
+    frame: Callable[[Array], Array]
+    clamped: tuple[float, ...]  # s of the ends where b is kept (u′ is the energy's datum)
+    pinned: tuple[float, ...]  # s of the ends where u is kept
+
+
+@dataclass
+class RodStep:
+    """What one step did: the row of ``history.csv``."""
+
+    step: int
+    time: float
+    tau: float
+    energy: float
+    defect: float  # the largest of the three constraint defects
+    increment: float  # max |δu|, |δb| over the degrees of freedom
+    rate: float  # (E[xⁿ⁻¹] − E[xⁿ]) / τ
+    seconds: float
+
+    def line(self) -> str:
+        """One line of progress output."""
+        return (
+            f"step {self.step:5d}  t = {self.time:9.4f}  τ = {self.tau:.3e}  "
+            f"E_h = {self.energy:+.6e}  defect = {self.defect:.3e}  "
+            f"ΔE/τ = {self.rate:.2e}  {self.seconds:.2f} s/step"
+        )
+
+
+def _space(mesh: Mesh, degree: int) -> FunctionSpace:
+    """[P_k]³ × [P₁]³ × DG₁ × DG₁ × P₁: centreline, frame and the three multipliers."""
+    cell = mesh.basix_cell()
+    elements = [
+        basix.ufl.element("P", cell, degree, shape=(3,)),
+        basix.ufl.element("P", cell, 1, shape=(3,)),
+        basix.ufl.element("DG", cell, 1),
+        basix.ufl.element("DG", cell, 1),
+        basix.ufl.element("P", cell, 1),
+    ]
+    return dolfinx.fem.functionspace(mesh, basix.ufl.mixed_element(elements))
+
+
+def nodal(mesh: Mesh) -> ufl.Measure:
+    """The measure dx with the vertex rule: ∫ f q becomes Σ_nodes w_z f(z) q(z) for P₁ functions."""
+    return ufl.Measure(
+        "dx", domain=mesh, metadata={"quadrature_rule": "vertex", "quadrature_degree": 1}
+    )
+
+
+class Defects:
+    """∫ ||u′|² − 1|, ∫ |u′·b| and the largest nodal ||b|² − 1| of (u, b) (collective)."""
+
+    def __init__(self, u: Function, b: Function):
+        mesh = u.function_space.mesh
+        t = tangent(u)
+        self.u, self.b = u, b
+        self.forms = {
+            "defect_tangent": dolfinx.fem.form(abs(ufl.dot(t, t) - 1.0) * ufl.dx(domain=mesh)),
+            "defect_orthogonality": dolfinx.fem.form(abs(ufl.dot(t, b)) * ufl.dx(domain=mesh)),
+        }
+
+    def __call__(self) -> dict[str, float]:
+        """The three defects now."""
+        comm = self.u.function_space.mesh.comm
+        out = {key: integral(form, comm) for key, form in self.forms.items()}
+        owned = self.b.function_space.dofmap.index_map.size_local
+        nodes = self.b.x.array.reshape(-1, 3)[:owned]
+        local = float(np.max(np.abs(np.sum(nodes**2, axis=1) - 1.0), initial=0.0))
+        out["defect_frame"] = mpi.global_max(comm, local)
+        return out
+
+
+class RodFlow(StepCounters):
+    """The constrained gradient flow of a rod energy E(u, b) (a Driver)."""
+
+    def __init__(
+        self,
+        mesh: Mesh,
+        degree: int,
+        energy_fn: RodEnergy,
+        settings: FlowSpec,
+        state: RodState,
+        observers: Sequence[Observer] = (),
+    ):
+        self.comm: MPI.Comm = mesh.comm
+        self.settings, self.observers = settings, list(observers)
+        self.W = _space(mesh, degree)
+        (Vu, self._udofs), (Vb, self._bdofs) = (compat.collapse(self.W.sub(i)) for i in (0, 1))
+        self.u: Function = dolfinx.fem.Function(Vu, name="centreline")
+        self.b: Function = dolfinx.fem.Function(Vb, name="frame")
+        self.u.interpolate(state.centreline)
+        self.b.interpolate(state.frame)
+        self.energy = energy_fn(self.u, self.b)
+        self.defects = Defects(self.u, self.b)
+        # clamped: the H² seminorm of u and the H¹ seminorm of b are norms already, and an
+        # L² part would only slow down the large rotations of the rod
+        self._l2 = not state.pinned
+        self.time, self.step_count = 0.0, 0
+        self.energy_increases: list[int] = []
+        length = integral(dolfinx.fem.form(1.0 * ufl.dx(domain=mesh)), self.comm)
+        cells = mesh.topology.index_map(1).size_global
+        tau = length / cells if settings.tau == "h" else float(settings.tau)
+        self._tau = values.constant(mesh, tau)
+        self._bcs = self._end_conditions(state.clamped, state.pinned)
+        self._build_forms()
+        self._E_form = dolfinx.fem.form(self.energy.total)
+        self._last_energy = self.evaluate_energy()
+        self._last_increment: Array = np.zeros(0)
+
+    # -- set-up -----------------------------------------------------------------------------
+    def _end_conditions(self, clamped: tuple[float, ...], pinned: tuple[float, ...]) -> list[Any]:
+        """δu = 0 at pinned ends, δb = 0 and the frame multiplier at clamped ends.
+
+        The frame multiplier's row would be empty there. The start meets the end data; the slope u′ is imposed weakly by the energy (Nitsche).
+        """
+        mesh = self.W.mesh
+        bcs: list[Any] = []  # DirichletBC (its generic parameter differs between versions)
+        for index, ends in ((0, pinned), (1, clamped), (4, clamped)):
+            if not ends:
+                continue
+            nodes = dolfinx.mesh.locate_entities_boundary(
+                mesh, 0, lambda x, ends=ends: np.any([np.isclose(x[0], s) for s in ends], axis=0)
+            )
+            sub = self.W.sub(index)
+            space, _ = compat.collapse(sub)
+            zero: Function = dolfinx.fem.Function(space)
+            dofs = dolfinx.fem.locate_dofs_topological((sub, space), 0, nodes)
+            bcs.append(dolfinx.fem.dirichletbc(zero, dofs, sub))
+        return bcs
+
+    def _build_forms(self) -> None:
+        """The step matrix and right-hand side (reassembled at every step)."""
+        u, b, mesh = self.u, self.b, self.W.mesh
+        du, db, l1, l2, l3 = ufl.TrialFunctions(self.W)
+        v, c, q1, q2, q3 = ufl.TestFunctions(self.W)
+
+        def first(form: ufl.Form, test: Expr, test_b: Expr) -> ufl.Form:
+            out: ufl.Form = ufl.derivative(form, u, test) + ufl.derivative(form, b, test_b)
+            return out
+
+        hessian = first(first(self.energy.implicit, v, c), du, db)
+        metric = _metric(du, db, v, c, mesh, self._l2)
+        t = tangent(u)
+        dx, dv = ufl.dx(domain=mesh), nodal(mesh)
+
+        def constraint(x: Expr, y: Expr, p1: Expr, p2: Expr, p3: Expr) -> ufl.Form:
+            """B_n((x, y), p): the linearised |u′|², u′·b and |b|² (each halved)."""
+            form: ufl.Form = (
+                ufl.dot(t, tangent(x)) * p1 * dx
+                + (ufl.dot(tangent(x), b) + ufl.dot(t, y)) * p2 * dx
+                + ufl.dot(b, y) * p3 * dv
+            )
+            return form
+
+        a = (
+            (1.0 / self._tau) * metric
+            + hessian
+            + constraint(v, c, l1, l2, l3)
+            + constraint(du, db, q1, q2, q3)
+        )
+        self._a = dolfinx.fem.form(a)
+        self._L = dolfinx.fem.form(-first(self.energy.total, v, c))
+        self.K = dolfinx.fem.petsc.create_matrix(self._a)
+        self._rhs_fn: Function = dolfinx.fem.Function(self.W)  # a ghosted vector in every version
+        self.rhs = self._rhs_fn.x.petsc_vec
+        self.solution: Function = dolfinx.fem.Function(self.W)
+        self.solver = solvers.DirectStepSolver(self.comm, self.K, self.settings.solver, None)
+
+    # -- the Driver protocol ----------------------------------------------------------------
+    @property
+    def tau(self) -> float:
+        """The time step τ."""
+        return float(self._tau.value)
+
+    @property
+    def shape(self) -> Function:
+        """The centreline u (written to VTX and drawn)."""
+        return self.u
+
+    @property
+    def checkpoint_every(self) -> int:
+        """Steps between checkpoints: ``flow.checkpoint_every``."""
+        return self.settings.checkpoint_every
+
+    @property
+    def num_dofs(self) -> int:
+        """The global number of unknowns of the step system."""
+        imap = self.W.dofmap.index_map
+        return int(imap.size_global * self.W.dofmap.index_map_bs)
+
+    def evaluate_energy(self) -> float:
+        """E[u, b] of the current state (collective)."""
+        return integral(self._E_form, self.comm) + self.energy.constant
+
+    def remaining_steps(self) -> int:
+        """Steps left of ``flow.max_steps``."""
+        return max(self.settings.max_steps - self.step_count, 0)
+
+    def checkpoint_fields(self) -> dict[str, Function]:
+        """The centreline and the frame."""
+        return {"u": self.u, "b": self.b}
+
+    def summary(self) -> dict[str, Any]:
+        """The flow's numbers for ``summary.json`` (collective)."""
+        out: dict[str, Any] = {
+            "dofs": self.num_dofs,
+            "cells": self.W.mesh.topology.index_map(1).size_global,
+            "energy": self.evaluate_energy(),
+            "tau": self.tau,
+            "energy_increases": list(self.energy_increases),
+        }
+        out.update(self.defects())
+        return out
+
+    # -- one step ---------------------------------------------------------------------------
+    def step(self) -> RodStep:
+        """One step from (uⁿ, bⁿ) to (uⁿ⁺¹, bⁿ⁺¹) (collective)."""
+        t0 = time.perf_counter()
+        self.K.zeroEntries()
+        dolfinx.fem.petsc.assemble_matrix(self.K, self._a, self._bcs)  # type: ignore[arg-type]
+        self.K.assemble()
+        compat.assemble_vector_into(self.rhs, self._L)
+        dolfinx.fem.petsc.set_bc(self.rhs, self._bcs)  # homogeneous: no lifting needed
+        self.solver.solve(self.rhs, self.solution.x.petsc_vec)
+        self.solution.x.scatter_forward()
+        x = self.solution.x.array
+        du, db = x[self._udofs].copy(), x[self._bdofs].copy()
+        self.u.x.array[:] += du
+        self.b.x.array[:] += db
+        self._last_increment = np.concatenate([du, db])
+        increment = mpi.global_max(self.comm, float(np.max(np.abs(self._last_increment))))
+        energy = self.evaluate_energy()
+        rate = (self._last_energy - energy) / self.tau
+        self._last_energy = energy
+        self.step_count += 1
+        self.time += self.tau
+        defect = max(self.defects().values())
+        seconds = time.perf_counter() - t0
+        return RodStep(
+            self.step_count, self.time, self.tau, energy, defect, increment, rate, seconds
+        )
+
+    def _undo(self) -> None:
+        """Take back the last step (it produced a non-finite state)."""
+        n = self._udofs.size
+        self.u.x.array[:] -= self._last_increment[:n]
+        self.b.x.array[:] -= self._last_increment[n:]
+        self._last_energy = self.evaluate_energy()
+
+    def _stop(self, info: RodStep) -> tuple[bool, str, int] | None:
+        """(converged, reason, signal) when the run should end after ``info``; None to go on."""
+        if abs(info.rate) < self.settings.tol:
+            return True, f"(E[xⁿ⁻¹] − E[xⁿ])/τ = {info.rate:.3e} < {self.settings.tol:g}", 0
+        signum = interrupt.requested(self.comm)  # collective
+        return (False, interrupt.reason(signum), signum) if signum else None
+
+    def run(self, max_steps: int | None = None) -> FlowResult:
+        """Step until the stopping rule holds or the step budget is spent."""
+        budget = max_steps or self.remaining_steps()
+        history: list[Any] = []
+        increases: list[int] = []
+        outcome: tuple[bool, str, int] | None = None
+        for _ in range(budget):
+            try:
+                info = self.step()
+            except SolverError as exc:
+                outcome = (False, f"step {self.step_count + 1} failed: {exc}", 0)
+                break
+            if not (math.isfinite(info.energy) and math.isfinite(info.defect)):
+                self._undo()
+                outcome = (False, f"diverged at step {info.step}: E = {info.energy}", 0)
+                break
+            self.record_step(info, history, increases)
+            outcome = self._stop(info)
+            if outcome is not None:
+                break
+        outcome = outcome or (False, f"step budget of {budget} steps spent", 0)
+        defect = max(self.defects().values())
+        result = FlowResult.of(outcome, history, increases, self.evaluate_energy(), defect)
+        for obs in self.observers:
+            obs.finish(self, result)
+        return result
+
+    def destroy(self) -> None:
+        """Free the solver and the matrix."""
+        self.solver.destroy()
+        self.K.destroy()
+
+
+def ip_product(x: Expr, y: Expr, mesh: Mesh, penalty: Expr) -> ufl.Form:
+    """∫x″·y″ by C⁰ interior penalty: symmetric and penalised jumps of the slopes at the nodes.
+
+    In 1D a facet is a node, n = ±1 and [[x′]] = x′⁺n⁺ + x′⁻n⁻; ``penalty``/h is the
+    stability term (σ ≳ 1 for k = 2).
+    """
+    h = ufl.avg(ufl.CellDiameter(mesh))
+    n = ufl.FacetNormal(mesh)
+
+    def jump(w: Expr) -> Expr:
+        """[[∂_n w]] = ∇w⁺n⁺ + ∇w⁻n⁻ (n = ±T: the jump of w′ up to its sign)."""
+        out: Expr = ufl.dot(ufl.grad(w)("+"), n("+")) + ufl.dot(ufl.grad(w)("-"), n("-"))
+        return out
+
+    def avg2(w: Expr) -> Expr:
+        out: Expr = ufl.avg(tangent(tangent(w)))
+        return out
+
+    form: ufl.Form = ufl.dot(tangent(tangent(x)), tangent(tangent(y))) * ufl.dx(domain=mesh) + (
+        -ufl.dot(avg2(x), jump(y))
+        - ufl.dot(avg2(y), jump(x))
+        + penalty / h * ufl.dot(jump(x), jump(y))
+    ) * ufl.dS(domain=mesh)
+    return form
+
+
+def nitsche_slope(u: Expr, datum: Expr, mesh: Mesh, penalty: Expr, ds: ufl.Measure) -> ufl.Form:
+    """½·(the C⁰-IP boundary terms) imposing u′ = ``datum`` weakly at the nodes of ``ds``."""
+    h = ufl.CellDiameter(mesh)
+    n = ufl.FacetNormal(mesh)
+    gap = tangent(u) - datum
+    form: ufl.Form = (
+        -ufl.dot(tangent(tangent(u)), gap) * n[0] + 0.5 * penalty / h * ufl.dot(gap, gap)
+    ) * ds
+    return form
+
+
+def _metric(du: Expr, db: Expr, v: Expr, c: Expr, mesh: Mesh, l2: bool) -> ufl.Form:
+    """m((δu, δb), (v, c)): the C⁰-IP H² product of u + H¹ of b (+ L² of both if ``l2``)."""
+    dx = ufl.dx(domain=mesh)
+    penalty = values.constant(mesh, 10.0)
+    form: ufl.Form = ip_product(du, v, mesh, penalty) + ufl.dot(tangent(db), tangent(c)) * dx
+    if l2:
+        form += (ufl.dot(du, v) + ufl.dot(db, c)) * dx
+    return form
