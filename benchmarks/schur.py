@@ -40,7 +40,7 @@ def child(cells: int, solver: str, steps: int, out: Path, pc: str) -> None:
     from dgplate.mesh.tagged import rectangle
     from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
     from dgplate.solvers.flow import FlowSpec, GradientFlow
-    from dgplate.solvers.schur import PRECONDITIONERS, SchurStepSolver, continuous_embedding
+    from dgplate.solvers.schur import PRECONDITIONERS
 
     comm = MPI.COMM_WORLD
     tagged = rectangle(comm, [[0, 0], [4, 4]], [cells, cells])
@@ -54,9 +54,6 @@ def child(cells: int, solver: str, steps: int, out: Path, pc: str) -> None:
         solver={"schur_pc": pc} if solver == "schur" and pc in PRECONDITIONERS else {},
     )
     flow = GradientFlow(model.facets, model.degree, model.energy, settings)
-    if pc == "aux" and isinstance(flow.solver, SchurStepSolver):
-        # the flow does not hand its spaces to the solver: give it the continuous space here
-        flow.solver.use_embedding(continuous_embedding(flow.W, flow.V, flow._vdofs))
     comm.Barrier()
     t0 = time.perf_counter()
     result = flow.run(steps)
@@ -102,14 +99,12 @@ def spectrum(cells: int) -> dict:
     from dgplate.mesh.tagged import rectangle
     from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
     from dgplate.solvers.flow import FlowSpec, GradientFlow
-    from dgplate.solvers.schur import continuous_embedding
 
     tagged = rectangle(MPI.COMM_SELF, [[0, 0], [4, 4]], [cells, cells])
     spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
     model = build_kirchhoff(spec, tagged)
     settings = FlowSpec(tau=math.sqrt(2) * 4 / cells, tol=1e-30, linear_solver="schur")
-    flow = GradientFlow(model.facets, model.degree, model.energy, settings)
-    flow.solver.use_embedding(continuous_embedding(flow.W, flow.V, flow._vdofs))
+    flow = GradientFlow(model.facets, model.degree, model.energy, settings)  # 'aux' by default
     flow.run(1)
 
     def dense(m) -> np.ndarray:

@@ -67,9 +67,11 @@ KRYLOV: dict[str, OptionValue] = {
 CELL_BLOCKS: dict[str, OptionValue] = {"pc_type": "bjacobi", "sub_pc_type": "lu"}
 
 #: Preconditioners of Σ, chosen by the step-solver option ``schur_pc`` (flow.solver):
-#: 'bfbt' the scaled BFBᵀ (least-squares commutator) approximation of Σ⁻¹ (the default),
-#: 'cell' the cell-block matrix B (D⁻¹ ⊗ I₃) Bᵀ + C.
-PRECONDITIONERS = ("bfbt", "cell")
+#: 'aux' the auxiliary-space preconditioner in the continuous space of y's degree (the
+#: default; the flow hands it the space with :meth:`SchurStepSolver.use_embedding`, and until
+#: then, or without a flow, 'bfbt' serves), 'bfbt' the scaled BFBᵀ (least-squares commutator)
+#: approximation of Σ⁻¹, 'cell' the cell-block matrix B (D⁻¹ ⊗ I₃) Bᵀ + C.
+PRECONDITIONERS = ("aux", "bfbt", "cell")
 
 #: The auxiliary-space preconditioner (built for one B) is rebuilt for the current B after a
 #: solve that needed more than this factor times the iterations of its first solve.
@@ -386,12 +388,14 @@ class SchurStepSolver:
         self.components, self.multipliers = split
         rows = self.components[0]
         options = dict(options or {})
-        self.preconditioner = str(options.pop("schur_pc", PRECONDITIONERS[0]))
-        if self.preconditioner not in PRECONDITIONERS:
+        requested = str(options.pop("schur_pc", PRECONDITIONERS[0]))
+        if requested not in PRECONDITIONERS:
             raise InputError(
-                f"flow.solver.schur_pc must be one of {PRECONDITIONERS}, "
-                f"got {self.preconditioner!r}"
+                f"flow.solver.schur_pc must be one of {PRECONDITIONERS}, got {requested!r}"
             )
+        #: whether the caller should hand over the continuous space (:meth:`use_embedding`)
+        self.wants_embedding = requested == "aux"
+        self.preconditioner = "bfbt" if self.wants_embedding else requested
         krylov = {k: v for k, v in options.items() if str(k).startswith("ksp_")}
         factor = {k: v for k, v in options.items() if not str(k).startswith("ksp_")}
         self.A = A_const.createSubMatrix(rows, rows)
