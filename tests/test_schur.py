@@ -12,6 +12,7 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 
+from dgplate.errors import InputError
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
@@ -21,8 +22,8 @@ from dgplate.solvers.flow import FlowSpec, GradientFlow
 AGREE = 1e-10
 
 
-def bnn(comm, solver, n=4, projection_steps=1):
-    """The BNN vertical-load plate on n×n cells."""
+def bnn(comm, solver, n=4, projection_steps=1, pc="bfbt"):
+    """The BNN vertical-load plate on n×n cells (``pc``: the Schur preconditioner)."""
     tagged = rectangle(comm, [[0, 0], [4, 4]], [n, n])
     model = build_kirchhoff(
         KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2]), tagged
@@ -32,11 +33,12 @@ def bnn(comm, solver, n=4, projection_steps=1):
         tol=1e-12,
         projection_steps=projection_steps,
         linear_solver=solver,
+        solver={"schur_pc": pc} if solver == "schur" else {},
     )
     return GradientFlow(model.facets, 2, model.energy, settings)
 
 
-def bilayer(comm, solver, edge_constraint=True):
+def bilayer(comm, solver, edge_constraint=True, pc="bfbt"):
     """A 6×3 bilayer strip rolling up: explicit part, degree-1 multipliers, edge moments."""
     tagged = rectangle(comm, [[0, 0], [2, 1]], [6, 3])
     spec = BilayerSpec(clamped=["left"], Z=1.0)
@@ -48,6 +50,7 @@ def bilayer(comm, solver, edge_constraint=True):
         projection_steps=2,
         linear_solver=solver,
         edge_constraint=edge_constraint,
+        solver={"schur_pc": pc} if solver == "schur" else {},
     )
     return GradientFlow(model.facets, 2, model.energy, settings)
 
@@ -80,6 +83,48 @@ def test_vertical_load_with_projection():
     assert_agree(states(bnn, 3, comm=MPI.COMM_WORLD))
 
 
+def test_cell_preconditioner():
+    """The cell-block preconditioner alone (no BFBᵀ) gives the same steps."""
+
+    def build(comm, kind):
+        return bnn(comm, kind, pc="cell")
+
+    out = states(build, 2)
+    assert out["schur"][3].preconditioner == "cell" and out["schur"][3].inner is None
+    assert_agree(out)
+
+
+def test_unknown_preconditioner():
+    with pytest.raises(InputError, match=r"flow\.solver\.schur_pc"):
+        bnn(MPI.COMM_SELF, "schur", pc="amg")
+
+
+@pytest.mark.mpi
+def test_auxiliary_space_preconditioner():
+    """The continuous-space (Woodbury) preconditioner, the flow's default for 'schur': same
+    steps, a few dozen iterations."""
+
+    def build(comm, kind):
+        tagged = rectangle(comm, [[0, 0], [4, 4]], [6, 6])
+        spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
+        model = build_kirchhoff(spec, tagged)
+        settings = FlowSpec(tau=math.sqrt(2) * 4 / 6, tol=1e-12, linear_solver=kind)
+        return GradientFlow(model.facets, 2, model.energy, settings)
+
+    out = states(build, 3, comm=MPI.COMM_WORLD)
+    solver = out["schur"][3]
+    assert solver.preconditioner == "aux" and solver.aux.rebuilds >= 1
+    assert solver.aux.baseline < 60  # the cell-block preconditioner needs hundreds
+    assert_agree(out)
+
+
+@pytest.mark.mpi
+def test_auxiliary_space_with_edge_constraint():
+    out = states(lambda comm, kind: bilayer(comm, kind, pc="aux"), 2, comm=MPI.COMM_WORLD)
+    assert out["schur"][3].C is not None
+    assert_agree(out)
+
+
 @pytest.mark.mpi
 def test_bilayer_with_edge_constraint():
     """Pinned edge multipliers make C ≠ 0 and Σ indefinite: MINRES."""
@@ -88,11 +133,16 @@ def test_bilayer_with_edge_constraint():
     assert_agree(out)
 
 
-def test_new_tau_refactorises():
+@pytest.mark.parametrize("pc", ["bfbt", "aux"])
+def test_new_tau_refactorises(pc):
     def halve(flow):
         flow.tau = flow.tau / 2
 
-    assert_agree(states(bnn, 2, then=halve))
+    out = states(lambda comm, kind: bnn(comm, kind, pc=pc), 2, then=halve)
+    assert out["schur"][3].factorisations == 2
+    if pc == "aux":
+        assert out["schur"][3].aux.rebuilds == 2  # the new A_c makes H stale
+    assert_agree(out)
 
 
 def test_structure_check_sees_couplings():

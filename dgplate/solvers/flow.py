@@ -368,9 +368,12 @@ class GradientFlow(StepCounters):
             schur.fall_back(self.comm, reason)
             return None
         nodes = self.V.dofmap.dof_layout.num_dofs
-        return schur.SchurStepSolver(
+        solver = schur.SchurStepSolver(
             self.comm, self.K, self.A_const, split, nodes, self.settings.solver
         )
+        if solver.wants_embedding:
+            solver.use_embedding(schur.continuous_embedding(self.W, self.V, self._vdofs))
+        return solver
 
     def _balance_constraint_rows(self) -> None:
         """Scale the constraint rows by s = ‖A_const‖_∞ / ‖B(y⁰)‖_∞, to weigh like the others.
