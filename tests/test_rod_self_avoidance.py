@@ -6,6 +6,7 @@ r ≡ R, so TP = (2^(−q)/q)L²/R^q exactly, and the discrete sum, which leaves
 the same and of neighbouring segments (3h of the L around each point), is (2^(−q)/q)R^(−q)·L(L − 3h).
 """
 
+import itertools
 import math
 
 import numpy as np
@@ -56,7 +57,7 @@ def test_circle_value_is_exact_up_to_the_left_out_neighbours(q):
         exact = 2**-q / q * length**2 / radius**q
         assert value == pytest.approx(exact * (1 - 3 / n), rel=1e-12)
         errors.append(abs(value - exact) / exact)
-    assert all(math.isclose(a / b, 2.0) for a, b in zip(errors, errors[1:], strict=False))
+    assert all(math.isclose(a / b, 2.0) for a, b in itertools.pairwise(errors))
 
 
 def test_curve_pair_is_the_tangent_line_distance():

@@ -207,7 +207,7 @@ def _excluded(cloud: Cloud, i: IntArray, j: IntArray, reach: float) -> npt.NDArr
 
 
 def _projected(cloud: Cloud, s: Array, n2: Array, q: float) -> tuple[Array, Array, Array]:
-    """f = |P d|^q |d|^(−2q) and the factors of its derivatives, from s = a·d and n2 = |d|².
+    """The pair value f = |P d|^q |d|^(−2q) and the factors of its derivatives, from s = a·d and n2 = |d|².
 
     With p² = |P d|² = α n2 + β s² and g = f/p² (0 where p = 0):
     ∂(f/q)/∂d = β g s a + (α g − 2f/n2) d and ∂(f/q)/∂a = β g s d. Returns (f, β g s, α g).
