@@ -455,14 +455,17 @@ def writhe(points: Array) -> float:
     Wr = (1/4π) ΣΣ_{i≠j} (eᵢ × eⱼ)·(mᵢ − mⱼ)/|mᵢ − mⱼ|³ over the edges eᵢ with midpoints mᵢ,
     the midpoint rule of (1/4π)∬ (u′(s) × u′(σ))·(u(s) − u(σ))/|u(s) − u(σ)|³. A planar curve
     has Wr = 0 exactly (the triple product of three vectors in a plane vanishes).
+
+    The numerators are two matrix products, (eᵢ × eⱼ)·mᵢ = (mᵢ × eᵢ)·eⱼ and
+    (eᵢ × eⱼ)·mⱼ = eᵢ·(eⱼ × mⱼ), so that no (n, n, 3) array is formed (it is computed after
+    every step of a closed rod).
     """
     edges = np.roll(points, -1, axis=0) - points
     mids = points + 0.5 * edges
-    gap = mids[:, None, :] - mids[None, :, :]
-    dist = np.linalg.norm(gap, axis=2)
+    numerator = np.cross(mids, edges) @ edges.T - edges @ np.cross(edges, mids).T
+    dist = np.sqrt(sum((mids[:, None, k] - mids[None, :, k]) ** 2 for k in range(3)))
     np.fill_diagonal(dist, np.inf)
-    cross = np.cross(edges[:, None, :], edges[None, :, :])
-    return float(np.sum(np.einsum("ijk,ijk->ij", cross, gap) / dist**3) / (4.0 * math.pi))
+    return float(np.sum(numerator / dist**3) / (4.0 * math.pi))
 
 
 def shape_figures(u: Function, spec: RodSpec) -> dict[str, float]:
