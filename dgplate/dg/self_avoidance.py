@@ -16,12 +16,16 @@ taken at yⁿ (fully explicit, as in Bartels–Meyer–Palus). The step matrix d
 MPI: each rank evaluates its own cells' points against the points of all ranks, gathered and
 sorted by their reference coordinates, so that the sums and the tree do not depend on the
 partition; the source-side derivatives are summed over the ranks.
+
+A rod (:class:`CurveTangentPoint`) is the same with the unit tangent t = u′/|u′| in place of
+ν, |P_t^⊥ d| = |d − (t·d)t| in the pair sums and the arc-length weights of its 1D mesh.
 """
 
 from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -49,6 +53,9 @@ DEFAULTS: dict[str, float] = {
     "max_redo": 8,
     "approach": 0.5,
 }
+#: The defaults of a curve's table: the seed's ρ = 0.1 of the twisted-circle experiment, an
+#: exponent q = 3 > 2 (self-avoiding for curves) and exact sums (a rod has few points).
+CURVE_DEFAULTS: dict[str, float] = {**DEFAULTS, "rho": 0.1, "q": 3.0, "theta": 0.0}
 
 
 @dataclass(frozen=True)
@@ -68,32 +75,40 @@ class SelfAvoidance:
     approach: float
 
     @classmethod
-    def from_table(cls, table: object, key: str = "model.self_avoidance") -> SelfAvoidance | None:
-        """The parameters, or None for an empty table (no self-avoidance)."""
+    def from_table(
+        cls, table: object, key: str = "model.self_avoidance", curve: bool = False
+    ) -> SelfAvoidance | None:
+        """The parameters, or None for an empty table (no self-avoidance).
+
+        ``curve``: the table of a rod (:data:`CURVE_DEFAULTS`; q > 2 is self-avoiding).
+        """
         if not isinstance(table, dict):
             raise InputError(f"{key} must be a table {{rho = ..., q = ...}}, got {table!r}")
         if not table:
             return None
-        unknown = set(table) - set(DEFAULTS)
+        defaults = CURVE_DEFAULTS if curve else DEFAULTS
+        unknown = set(table) - set(defaults)
         if unknown:
-            raise InputError(f"{key}: unknown keys {sorted(unknown)} (known: {sorted(DEFAULTS)})")
-        values = {**DEFAULTS, **table}
+            raise InputError(f"{key}: unknown keys {sorted(unknown)} (known: {sorted(defaults)})")
+        values = {**defaults, **table}
         for name, value in values.items():
             if not (is_number(value) and math.isfinite(value)):
                 raise InputError(f"{key}.{name} must be a finite number, got {value!r}")
-        cls._check(values, key)
+        cls._check(values, key, curve)
         return cls(**{name: type(DEFAULTS[name])(v) for name, v in values.items()})  # type: ignore[arg-type]
 
     @staticmethod
-    def _check(values: dict[str, Any], key: str) -> None:
-        """Ranges of the keys; q ≤ 4 is accepted with a warning (not self-avoiding)."""
+    def _check(values: dict[str, Any], key: str, curve: bool = False) -> None:
+        """Ranges of the keys; q ≤ 4 is accepted with a warning (not self-avoiding) for surfaces."""
         if values["rho"] < 0:
             raise InputError(f"{key}.rho must be >= 0, got {values['rho']}")
+        if curve and values["q"] <= 2:
+            raise InputError(f"{key}.q must be > 2 (self-avoidance of curves), got {values['q']}")
         if values["q"] <= 2:
             raise InputError(
                 f"{key}.q must be > 2 (and > 4 to avoid self-contact), got {values['q']}"
             )
-        if values["q"] <= 4:
+        if values["q"] <= 4 and not curve:
             warnings.warn(
                 f"{key}.q = {values['q']} <= 4: the tangent-point energy is then finite on "
                 "self-intersecting surfaces and does not keep the plate from passing through itself",
@@ -118,6 +133,17 @@ def unit_normal(y: Expr) -> Expr:
 class PlateTangentPoint:
     """ρ·TP[y] of a plate deformation y: the :class:`~dgplate.dg.energy.Nonlocal` protocol."""
 
+    curve = False  # the directions are normals (plates) or tangents (rods)
+
+    def _direction(self, y: Expr) -> Expr:
+        """The unit direction whose projector measures the tangent-point radius: ν(y)."""
+        return unit_normal(y)
+
+    def _measure(self, mesh: Any) -> Expr:
+        """The factor of the reference quadrature weights: the cell's area element."""
+        area: Expr = abs(ufl.JacobianDeterminant(mesh))  # type: ignore[arg-type]
+        return area
+
     def __init__(self, y: Function, params: SelfAvoidance, key: str = "model.self_avoidance"):
         self.y, self.params = y, params
         self.max_redo = params.max_redo
@@ -137,17 +163,18 @@ class PlateTangentPoint:
         self._cells = mesh.topology.index_map(mesh.topology.dim).size_local
         self._dofs = self._Q.dofmap.list[: self._cells]
         self._y_at = self._compile(y, points)
-        self._nu_at = self._compile(unit_normal(y), points)
-        area: Expr = abs(ufl.JacobianDeterminant(mesh))  # type: ignore[arg-type]
+        self._nu_at = self._compile(self._direction(y), points)
+        area = self._measure(mesh)
         sq = dolfinx.fem.functionspace(mesh, scalar)
         w = self._sample(area, sq, points, 1)[:, :, 0] * weights[None, :]
         self._w = w.reshape(-1)
         ref = self._sample(ufl.SpatialCoordinate(mesh), sq, points, mesh.geometry.dim, vector=True)
-        self._layout(ref.reshape(-1, ref.shape[-1])[:, :2], mesh)
+        ref = ref.reshape(-1, ref.shape[-1])
+        self._layout(np.c_[ref, np.zeros((len(ref), 2))][:, :2], mesh)  # a 1D mesh: (s, 0)
         dx = ufl.dx(metadata={"quadrature_degree": degree})
         #: L(y) = ∫ G·y + H·ν(y): its derivative at the current y is ρ·DTP[y]
         self.linearisation: ufl.Form = (
-            ufl.inner(self._G, y) + ufl.inner(self._H, unit_normal(y))
+            ufl.inner(self._G, y) + ufl.inner(self._H, self._direction(y))
         ) * dx
         self._state: Array | None = None
         self._value = 0.0
@@ -217,7 +244,7 @@ class PlateTangentPoint:
         pts = np.concatenate([g[0] for g in gathered])[self._order]
         normals = np.concatenate([g[1] for g in gathered])[self._order]
         w = np.concatenate([g[2] for g in gathered])[self._order]
-        cloud = tp.Cloud(pts, normals, w, self._vertices)
+        cloud = tp.Cloud(pts, normals, w, self._vertices, self.curve)
         return cloud, self._reach(cloud)
 
     def _reach(self, cloud: tp.Cloud) -> float:
@@ -278,3 +305,36 @@ class PlateTangentPoint:
     def summary(self) -> dict[str, float]:
         """Figures for ``summary.json``."""
         return {"self_avoidance_energy": self.update(), "min_distance": self.min_distance}
+
+
+class CurveTangentPoint(PlateTangentPoint):
+    """ρ·TP[u] of a rod's centreline u on its 1D mesh (an interval, or a closed polygon).
+
+    The direction is the unit tangent t = u′/|u′| (``derivative`` is d/ds of the rod's mesh),
+    the weights are the reference weights times the cell's length element |J|; two points are
+    neighbours when their segments share a node, which closes up around a closed rod.
+    """
+
+    curve = True
+
+    def __init__(
+        self,
+        u: Function,
+        params: SelfAvoidance,
+        derivative: Callable[[Expr], Expr],
+        key: str = "model.self_avoidance",
+    ):
+        self._derivative = derivative
+        super().__init__(u, params, key)
+
+    def _direction(self, y: Expr) -> Expr:
+        """The unit tangent t = u′/|u′|."""
+        du = self._derivative(y)
+        unit: Expr = du / ufl.sqrt(ufl.inner(du, du))
+        return unit
+
+    def _measure(self, mesh: Any) -> Expr:
+        """|J| of the 1D cell in ℝ¹ or ℝ² (the length of its reference interval's image)."""
+        J = ufl.Jacobian(mesh)
+        length: Expr = ufl.sqrt(ufl.inner(J, J))
+        return length

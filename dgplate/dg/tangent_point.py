@@ -6,7 +6,11 @@ For points x_i with unit normals ν_i (of a surface) and weights w_i (quadrature
 
 i.e. TP = (1/q) Σ w_i w_j |ν_i·d|^q / |d|^(2q) with d = x_j − x_i: the quadrature of the
 tangent-point energy of Gonzalez–Maddocks used for plates by Bartels, Meyer and Palus
-("Simulating self-avoiding isometric plate bending"). Pairs of points of the same or of
+("Simulating self-avoiding isometric plate bending"). For a curve (``Cloud.curve``) the
+directions are unit tangents t_i and |ν_i·d| becomes |d − (t_i·d)t_i|, the distance of x_j from
+the tangent line at x_i (Strzelecki–von der Mosel; Bartels–Reiter): in both cases
+|P_i d|² = α|d|² + β(a_i·d)² with the direction a_i and (α, β) = (0, 1) for normals,
+(1, −1) for tangents, so one kernel serves both. Pairs of points of the same or of
 neighbouring cells (cells that share a vertex) are left out of the double sum, where the
 integrand is singular. The code knows nothing of meshes: a point carries the ids of its cell's
 vertices (``vertices``), so that rods (two ids per segment) can use it as well.
@@ -37,12 +41,21 @@ IntArray = npt.NDArray[np.int64]
 
 @dataclass(frozen=True)
 class Cloud:
-    """Points (M, 3), unit normals (M, 3), weights (M,) and their cells' vertex ids (M, k)."""
+    """Points (M, 3), unit normals (M, 3), weights (M,) and their cells' vertex ids (M, k).
+
+    ``curve``: the ``normals`` are unit tangents of a curve (r = |d|²/(2|d − (t·d)t|)).
+    """
 
     points: Array
     normals: Array
     weights: Array
     vertices: IntArray
+    curve: bool = False
+
+    @property
+    def projector(self) -> tuple[float, float]:
+        """(α, β) of |P d|² = α|d|² + β(a·d)²: (0, 1) for normals, (1, −1) for tangents."""
+        return (1.0, -1.0) if self.curve else (0.0, 1.0)
 
 
 @dataclass
@@ -193,19 +206,32 @@ def _excluded(cloud: Cloud, i: IntArray, j: IntArray, reach: float) -> npt.NDArr
     return out
 
 
+def _projected(cloud: Cloud, s: Array, n2: Array, q: float) -> tuple[Array, Array, Array]:
+    """The pair value f = |P d|^q |d|^(−2q) and the factors of its derivatives, from s = a·d and n2 = |d|².
+
+    With p² = |P d|² = α n2 + β s² and g = f/p² (0 where p = 0):
+    ∂(f/q)/∂d = β g s a + (α g − 2f/n2) d and ∂(f/q)/∂a = β g s d. Returns (f, β g s, α g).
+    For normals (α, β) = (0, 1) this is |s|^(q−2) s |d|^(−2q), as in the plates' formula.
+    """
+    alpha, beta = cloud.projector
+    p2 = np.maximum(alpha * n2 + beta * s * s, 0.0)  # ≥ 0 up to round-off for tangents
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # coincident: TP = inf
+        f = (np.sqrt(p2) / n2) ** q
+    g = np.divide(f, p2, out=np.zeros_like(f), where=p2 > 0)
+    return f, beta * g * s, alpha * g
+
+
 def _kernel(
     cloud: Cloud, i: IntArray, xj: Array, wj: Array, q: float
 ) -> tuple[Array, Array, Array]:
-    """Per pair: w_i w_j f/q, ∂/∂d and ∂/∂ν_i of it (f = |ν_i·d|^q |d|^(−2q), d = x_j − x_i)."""
+    """Per pair: w_i w_j f/q, ∂/∂d and ∂/∂a_i of it (f = |P_i d|^q |d|^(−2q), d = x_j − x_i)."""
     d = xj - cloud.points[i]
     nu = cloud.normals[i]
     n2 = np.einsum("ij,ij->i", d, d)
     s = np.einsum("ij,ij->i", nu, d)
     ww = cloud.weights[i] * wj
-    with np.errstate(divide="ignore", invalid="ignore"):  # coincident points: TP = inf
-        f = (np.abs(s) / n2) ** q
-    sq = np.divide(f, s, out=np.zeros_like(f), where=s != 0)  # |s|^(q−2) s |d|^(−2q)
-    d_d = ww[:, None] * (sq[:, None] * nu - (2.0 * f / n2)[:, None] * d)
+    f, sq, ag = _projected(cloud, s, n2, q)
+    d_d = ww[:, None] * (sq[:, None] * nu + (ag - 2.0 * f / n2)[:, None] * d)
     d_nu = (ww * sq)[:, None] * d
     return ww * f / q, d_d, d_nu
 
@@ -309,14 +335,13 @@ def _near_block(
     n2[ww == 0] = 1.0
     n = [nu[:, :, None, k] for k in range(3)]
     s = n[0] * d[0] + n[1] * d[1] + n[2] * d[2]
-    with np.errstate(divide="ignore", invalid="ignore"):  # coincident points: TP = inf
-        f = (np.abs(s) / n2) ** q
-    sq = np.divide(f, s, out=np.zeros_like(f), where=s != 0) * ww
+    f, sq, ag = _projected(cloud, s, n2, q)
+    sq = sq * ww
     wf = ww * f
     out.energy += float(wf.sum()) / q
     out.pairs_exact += int(np.count_nonzero(ww))
-    scaled = 2.0 * wf / n2
-    # ∂/∂d per pair = sq ν_t − (2 w f/|d|²) d, summed over sources (targets) and targets (sources)
+    scaled = 2.0 * wf / n2 - ww * ag
+    # ∂/∂d per pair = sq a_t − (2 w f/|d|² − w α g) d, summed over sources (targets) and targets
     pair = [sq * n[k] - scaled * d[k] for k in range(3)]
     on_target = np.stack([c.sum(axis=2) for c in pair], axis=-1)
     on_source = np.stack([c.sum(axis=1) for c in pair], axis=-1)

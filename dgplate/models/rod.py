@@ -25,14 +25,17 @@ make the straight rod taut, and the linearised length constraints then dependent
 'free-free' or 'closed'. The start is the
 straight rod u(s) = s·tangent with b turned by twist·(s/L)² (b = frame without twist); a
 closed rod starts as the circle of length L, or the saddle of ``model.saddle``
-(:func:`closed_start`), its frame turned twist/2π times.
+(:func:`closed_start`), its frame turned twist/2π times. ``model.self_avoidance`` adds
+ρ·TP[u], the tangent-point energy of the centreline (:class:`CurveTangentPoint`), as an explicit
+nonlocal term of the flow, with its safety net (a step that brings non-neighbouring points too
+close too fast is redone with τ/2).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import basix.ufl
@@ -46,6 +49,7 @@ from dgplate.compat import Array, Constant, Function, Mesh
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import integral
 from dgplate.dg.obstacle import Obstacle
+from dgplate.dg.self_avoidance import CurveTangentPoint, SelfAvoidance
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import is_integer, is_number, option
@@ -141,6 +145,10 @@ class RodSpec:
         {},
         "{} none, or {radius = R, center = [3], epsilon = ε}: the rod is kept in the ball |u − c| ≤ R by the penalty (1/2ε)∫(R − |u − c|)₋² with the quadratic–concave splitting (docs/obstacle.md); ε defaults to 1e-4",
     )
+    self_avoidance: dict[str, float] = option(
+        {},
+        "self-avoidance ρ·TP[u] by the tangent-point energy of the centreline (docs/rods.md): {} none, or {rho = ρ >= 0 (0.1), q = exponent > 2 (3), theta = cluster-tree admissibility (0: exact sums), quadrature_degree = 2, max_redo = halvings of τ per step (8), approach = redo a step when the least distance falls below this fraction (0.5)}",
+    )
 
     def __post_init__(self) -> None:
         for key in ("length", "c_b", "c_t", "penalty"):
@@ -158,6 +166,7 @@ class RodSpec:
             )
         self._check_shape()
         self._check_start()
+        self._self_avoidance = SelfAvoidance.from_table(self.self_avoidance, curve=True)
 
     def _check_start(self) -> None:
         """The saddle (closed rods only) and the confinement, which must hold the start."""
@@ -207,6 +216,11 @@ class RodSpec:
     def sphere(self) -> Obstacle | None:
         """The validated confinement (None: none)."""
         return self._sphere
+
+    @property
+    def self_avoidance_params(self) -> SelfAvoidance | None:
+        """The validated ``self_avoidance`` table (None: none)."""
+        return self._self_avoidance
 
     @property
     def clamped(self) -> bool:
@@ -441,14 +455,17 @@ def writhe(points: Array) -> float:
     Wr = (1/4π) ΣΣ_{i≠j} (eᵢ × eⱼ)·(mᵢ − mⱼ)/|mᵢ − mⱼ|³ over the edges eᵢ with midpoints mᵢ,
     the midpoint rule of (1/4π)∬ (u′(s) × u′(σ))·(u(s) − u(σ))/|u(s) − u(σ)|³. A planar curve
     has Wr = 0 exactly (the triple product of three vectors in a plane vanishes).
+
+    The numerators are two matrix products, (eᵢ × eⱼ)·mᵢ = (mᵢ × eᵢ)·eⱼ and
+    (eᵢ × eⱼ)·mⱼ = eᵢ·(eⱼ × mⱼ), so that no (n, n, 3) array is formed (it is computed after
+    every step of a closed rod).
     """
     edges = np.roll(points, -1, axis=0) - points
     mids = points + 0.5 * edges
-    gap = mids[:, None, :] - mids[None, :, :]
-    dist = np.linalg.norm(gap, axis=2)
+    numerator = np.cross(mids, edges) @ edges.T - edges @ np.cross(edges, mids).T
+    dist = np.sqrt(sum((mids[:, None, k] - mids[None, :, k]) ** 2 for k in range(3)))
     np.fill_diagonal(dist, np.inf)
-    cross = np.cross(edges[:, None, :], edges[None, :, :])
-    return float(np.sum(np.einsum("ijk,ijk->ij", cross, gap) / dist**3) / (4.0 * math.pi))
+    return float(np.sum(numerator / dist**3) / (4.0 * math.pi))
 
 
 def shape_figures(u: Function, spec: RodSpec) -> dict[str, float]:
@@ -486,6 +503,28 @@ def arc_error(u: Function, spec: RodSpec) -> dict[str, float]:
     return {"arc_error": mpi.global_max(space.mesh.comm, local) / spec.length}
 
 
+class StepFigures:
+    """A closed rod's twist angle ∫b′·d and writhe after every step (history.csv).
+
+    Their sum Tw + Wr (Tw = twist angle/2π) is the link, which is conserved while the rod does
+    not pass through itself (Călugăreanu); a crossing changes Wr by ±2.
+    """
+
+    def __init__(self) -> None:
+        self._twist: compat.Form | None = None
+
+    def __call__(self, flow: RodFlow) -> dict[str, float]:
+        """The figures of the flow's current state (collective)."""
+        u, b = flow.u, flow.b
+        if self._twist is None:
+            twist = ufl.dot(tangent(b), ufl.cross(tangent(u), b))
+            self._twist = dolfinx.fem.form(twist * ufl.dx(domain=u.function_space.mesh))
+        return {
+            "twist_angle": integral(self._twist, flow.comm),
+            "writhe": writhe(nodes_in_order(u)),
+        }
+
+
 @dataclass
 class RodModel:
     """A rod: its mesh, energy and start; run by :class:`RodFlow`."""
@@ -502,16 +541,26 @@ class RodModel:
         start, director = start_of(spec)
         state = RodState(initial or start, director, spec.clamped_nodes, spec.pinned_nodes)
 
-        def energy(u: Function, director: Function) -> Energy:
-            return rod_energy(u, director, self.data)
+        params = spec.self_avoidance_params
 
-        return RodFlow(self.mesh, self.spec.degree, energy, flow, state, observers)
+        def energy(u: Function, director: Function) -> Energy:
+            base = rod_energy(u, director, self.data)
+            if params is None:
+                return base
+            return replace(base, nonlocal_terms=[CurveTangentPoint(u, params, tangent)])
+
+        measures = StepFigures() if spec.ends == "closed" else None
+        return RodFlow(self.mesh, spec.degree, energy, flow, state, observers, measures)
 
     def figures(self, driver: RodFlow) -> dict[str, Any]:
         """Energy split, length, the end point and (clamped, κ ≠ 0) the error to the arc."""
         out: dict[str, Any] = energy_split(driver.u, driver.b, self.data)
         out.update(arc_error(driver.u, self.spec))
         out.update(shape_figures(driver.u, self.spec))
+        terms = driver.energy.nonlocal_terms
+        if terms:
+            out["energy_self_avoidance"] = sum(term.update() for term in terms)
+            out["min_distance"] = min(term.min_distance for term in terms)
         return out
 
     def lines(self, driver: RodFlow) -> list[Array]:

@@ -19,6 +19,11 @@ different: the records, the stopping rule, the checkpoints and the runner's obse
 same (:class:`dgplate.solvers.driver.Driver`). The 1D system is small (a few thousand
 unknowns), so it is reassembled and factorised by MUMPS at every step
 (:class:`dgplate.solvers.linear.DirectStepSolver`).
+
+Nonlocal terms of the energy (self-avoidance ρ·TP[u], :class:`dgplate.dg.energy.Nonlocal`)
+are explicit: their derivative at uⁿ is one more load. A step that they refuse (the least
+distance of non-neighbouring points fell too fast) or that raised the energy is taken back
+and redone with τ/2, at most ``max_redo`` times, as in the plate flow.
 """
 
 from __future__ import annotations
@@ -26,7 +31,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from mpi4py import MPI
@@ -92,6 +97,8 @@ class RodStep:
     increment: float  # max |δu|, |δb| over the degrees of freedom
     rate: float  # (E[xⁿ⁻¹] − E[xⁿ]) / τ
     seconds: float
+    safety: dict[str, float] = field(default_factory=dict)  # nonlocal terms: min_distance, redone
+    figures: dict[str, float] = field(default_factory=dict)  # the model's per-step measures
 
     def line(self) -> str:
         """One line of progress output."""
@@ -156,8 +163,11 @@ class RodFlow(StepCounters):
         settings: FlowSpec,
         state: RodState,
         observers: Sequence[Observer] = (),
+        measures: Callable[[RodFlow], dict[str, float]] | None = None,
     ):
+        """``measures``: figures of the state recorded with every step (e.g. the writhe)."""
         self.comm: MPI.Comm = mesh.comm
+        self._measures = measures
         self.settings, self.observers = settings, list(observers)
         self.W = _space(mesh, degree)
         (Vu, self._udofs), (Vb, self._bdofs) = (compat.collapse(self.W.sub(i)) for i in (0, 1))
@@ -234,7 +244,10 @@ class RodFlow(StepCounters):
             + constraint(du, db, q1, q2, q3)
         )
         self._a = dolfinx.fem.form(a)
-        self._L = dolfinx.fem.form(-first(self.energy.total, v, c))
+        rhs = first(self.energy.total, v, c)
+        for term in self.energy.nonlocal_terms:  # depend on u only
+            rhs += ufl.derivative(term.linearisation, u, v)
+        self._L = dolfinx.fem.form(-rhs)
         self.K = dolfinx.fem.petsc.create_matrix(self._a)
         self._rhs_fn: Function = dolfinx.fem.Function(self.W)  # a ghosted vector in every version
         self.rhs = self._rhs_fn.x.petsc_vec
@@ -264,8 +277,9 @@ class RodFlow(StepCounters):
         return int(imap.size_global * self.W.dofmap.index_map_bs)
 
     def evaluate_energy(self) -> float:
-        """E[u, b] of the current state (collective)."""
-        return integral(self._E_form, self.comm) + self.energy.constant
+        """E[u, b] of the current state, nonlocal terms included (collective)."""
+        terms = sum(term.update() for term in self.energy.nonlocal_terms)
+        return integral(self._E_form, self.comm) + self.energy.constant + terms
 
     def remaining_steps(self) -> int:
         """Steps left of ``flow.max_steps``."""
@@ -285,6 +299,9 @@ class RodFlow(StepCounters):
             "energy_increases": list(self.energy_increases),
         }
         out.update(self.defects())
+        if self.energy.nonlocal_terms:
+            self.evaluate_energy()  # the terms at the current state
+            out["min_distance"] = min(term.min_distance for term in self.energy.nonlocal_terms)
         return out
 
     # -- one step ---------------------------------------------------------------------------
@@ -294,6 +311,8 @@ class RodFlow(StepCounters):
         self.K.zeroEntries()
         dolfinx.fem.petsc.assemble_matrix(self.K, self._a, self._bcs)  # type: ignore[arg-type]
         self.K.assemble()
+        for term in self.energy.nonlocal_terms:
+            term.update()  # their loads at uⁿ
         compat.assemble_vector_into(self.rhs, self._L)
         dolfinx.fem.petsc.set_bc(self.rhs, self._bcs)  # homogeneous: no lifting needed
         self.solver.solve(self.rhs, self.solution.x.petsc_vec)
@@ -314,6 +333,42 @@ class RodFlow(StepCounters):
         return RodStep(
             self.step_count, self.time, self.tau, energy, defect, increment, rate, seconds
         )
+
+    def _safe_step(self) -> RodStep:
+        """A step the nonlocal terms accept and that lowers E, else redone with τ/2.
+
+        At most ``max_redo`` times; τ is restored for the next step. Without nonlocal terms a
+        plain step.
+        """
+        terms = self.energy.nonlocal_terms
+        if not terms:
+            return self._measured(self.step())
+        tau = self.tau
+        saved = (self.u.x.array.copy(), self.b.x.array.copy(), self._last_energy, self.time)
+        limit, redone = max(term.max_redo for term in terms), 0
+        info = self.step()
+        while not self._acceptable(info) and redone < limit:
+            self.u.x.array[:], self.b.x.array[:] = saved[0], saved[1]
+            self._last_energy, self.time = saved[2], saved[3]
+            self.step_count -= 1
+            self._tau.value, redone = np.asarray(self.tau / 2), redone + 1
+            info = self.step()
+        self._tau.value = np.asarray(tau)
+        distance = min(term.min_distance for term in terms)
+        info.safety = {"min_distance": distance, "redone": float(redone)}
+        return self._measured(info)
+
+    def _acceptable(self, info: RodStep) -> bool:
+        """The nonlocal terms accept the new state and E did not go up (beyond round-off)."""
+        accepted = all([term.accept() for term in self.energy.nonlocal_terms])
+        rises = -info.rate * info.tau > 1e-12 * max(1.0, abs(info.energy))
+        return accepted and not rises
+
+    def _measured(self, info: RodStep) -> RodStep:
+        """``info`` with the model's per-step figures (collective)."""
+        if self._measures is not None:
+            info.figures = self._measures(self)
+        return info
 
     def _undo(self) -> None:
         """Take back the last step (it produced a non-finite state)."""
@@ -337,7 +392,7 @@ class RodFlow(StepCounters):
         outcome: tuple[bool, str, int] | None = None
         for _ in range(budget):
             try:
-                info = self.step()
+                info = self._safe_step()
             except SolverError as exc:
                 outcome = (False, f"step {self.step_count + 1} failed: {exc}", 0)
                 break
