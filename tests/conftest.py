@@ -36,3 +36,60 @@ def pytest_configure(config):
         config.option.basetemp = (
             Path(tempfile.gettempdir()) / f"pytest-mpi-rank{MPI.COMM_WORLD.rank}"
         )
+
+
+def check_load_is_derivative(term, y, direction, comm, rel_tol: float = 1e-5) -> None:
+    """A self-avoidance term's assembled load against central differences of its energy.
+
+    ``term.update()`` returns ρ·TP at the current ``y``; ``term.linearisation`` is the form
+    whose derivative in ``y`` is the load. ``direction`` is a Function in ``y``'s space.
+    """
+    import math
+
+    import dolfinx.fem.petsc
+    import ufl
+
+    value = term.update()
+    V = y.function_space
+    load = dolfinx.fem.petsc.assemble_vector(
+        dolfinx.fem.form(ufl.derivative(term.linearisation, y, ufl.TestFunction(V)))
+    )
+    load.ghostUpdate(addv=True, mode=1)  # ADD, REVERSE
+    owned = V.dofmap.index_map.size_local * 3
+    exact = comm.allreduce(float(load.array[:owned] @ direction.x.array[:owned]))
+    eps, base = 1e-6, y.x.array.copy()
+    values = []
+    for sign in (1, -1):
+        y.x.array[:] = base + sign * eps * direction.x.array
+        values.append(term.update())
+    y.x.array[:] = base
+    assert value > 0 and abs(exact) > 0
+    assert math.isclose((values[0] - values[1]) / (2 * eps), exact, rel_tol=rel_tol)
+
+
+def check_pair_sum_derivatives(cloud, q: float, seed: int, rel_tol: float = 1e-6) -> None:
+    """∂TP/∂x and ∂TP/∂ν (or ∂TP/∂t of a curve) of the exact sums against central differences."""
+    import math
+
+    import numpy as np
+
+    from dgplate.dg import tangent_point as tp
+
+    rng = np.random.default_rng(seed)
+    dx, dn = rng.normal(size=cloud.points.shape), rng.normal(size=cloud.normals.shape)
+    base = tp.evaluate(cloud, q, theta=0.0)
+    eps = 1e-6
+
+    def energy(sign: float) -> float:
+        moved = tp.Cloud(
+            cloud.points + sign * eps * dx,
+            cloud.normals + sign * eps * dn,
+            cloud.weights,
+            cloud.vertices,
+            curve=cloud.curve,
+        )
+        return tp.evaluate(moved, q, theta=0.0).energy
+
+    fd = (energy(1) - energy(-1)) / (2 * eps)
+    exact = np.sum(base.d_points * dx) + np.sum(base.d_normals * dn)
+    assert math.isclose(fd, exact, rel_tol=rel_tol)

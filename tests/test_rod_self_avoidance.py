@@ -14,7 +14,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
-from conftest import PARITY_RTOL
+from conftest import PARITY_RTOL, check_load_is_derivative, check_pair_sum_derivatives
 
 import dgplate
 from dgplate.dg import tangent_point as tp
@@ -98,24 +98,7 @@ def test_curve_tree_approaches_exact_sums_as_theta_falls():
 
 def test_curve_derivatives_by_finite_differences():
     """∂TP/∂x and ∂TP/∂t of the exact sums against central differences."""
-    cloud, _ = trefoil_cloud(40)
-    rng = np.random.default_rng(3)
-    dx, dt = rng.normal(size=cloud.points.shape), rng.normal(size=cloud.normals.shape)
-    base = tp.evaluate(cloud, 3.0, theta=0.0)
-    eps = 1e-6
-
-    def energy(sign: float) -> float:
-        moved = tp.Cloud(
-            cloud.points + sign * eps * dx,
-            cloud.normals + sign * eps * dt,
-            cloud.weights,
-            cloud.vertices,
-            curve=True,
-        )
-        return tp.evaluate(moved, 3.0, theta=0.0).energy
-
-    fd = (energy(1) - energy(-1)) / (2 * eps)
-    assert math.isclose(fd, np.sum(base.d_points * dx) + np.sum(base.d_normals * dt), rel_tol=1e-6)
+    check_pair_sum_derivatives(trefoil_cloud(40)[0], 3.0, seed=3)
 
 
 PROBLEMS = Path(__file__).resolve().parent.parent / "demos" / "problems"
@@ -209,7 +192,6 @@ def test_rod_load_is_the_derivative_of_the_rod_energy(ends):
     """
     import dolfinx.fem
     import dolfinx.fem.petsc
-    import ufl
 
     from dgplate.dg.self_avoidance import CurveTangentPoint, SelfAvoidance
     from dgplate.models.rod import RodSpec, closed_start, rod_mesh
@@ -225,22 +207,9 @@ def test_rod_load_is_the_derivative_of_the_rod_energy(ends):
     else:
         u.interpolate(lambda x: np.vstack([np.cos(2 * x[0]), np.sin(2 * x[0]), 0.2 * x[0]]))
     term = CurveTangentPoint(u, SelfAvoidance.from_table({"rho": 2.0}, curve=True), tangent)
-    value = term.update()
-    load = dolfinx.fem.petsc.assemble_vector(
-        dolfinx.fem.form(ufl.derivative(term.linearisation, u, ufl.TestFunction(V)))
-    )
-    load.ghostUpdate(addv=True, mode=1)  # ADD, REVERSE
     direction = dolfinx.fem.Function(V)
     direction.interpolate(lambda x: np.vstack([np.sin(3 * x[0]), x[0] * x[1], np.cos(2 * x[0])]))
-    owned = V.dofmap.index_map.size_local * 3
-    exact = comm.allreduce(float(load.array[:owned] @ direction.x.array[:owned]))
-    eps, base = 1e-6, u.x.array.copy()
-    values = []
-    for sign in (1, -1):
-        u.x.array[:] = base + sign * eps * direction.x.array
-        values.append(term.update())
-    assert value > 0 and abs(exact) > 0
-    assert math.isclose((values[0] - values[1]) / (2 * eps), exact, rel_tol=1e-5)
+    check_load_is_derivative(term, u, direction, comm)
 
 
 def test_the_twisted_circle_problem_file_starts_the_seed_experiment(tmp_path):

@@ -12,12 +12,11 @@ import dolfinx.fem.petsc
 import dolfinx.mesh
 import numpy as np
 import pytest
-import ufl
 
 import dgplate
 from dgplate.dg import tangent_point as tp
 from dgplate.dg.self_avoidance import PlateTangentPoint, SelfAvoidance
-from tests.conftest import PARITY_RTOL
+from tests.conftest import PARITY_RTOL, check_load_is_derivative, check_pair_sum_derivatives
 
 
 def _benchmark():
@@ -63,24 +62,7 @@ def test_pair_sum_is_the_formula_and_skips_neighbours():
 
 def test_derivatives_by_finite_differences():
     """∂TP/∂x and ∂TP/∂ν of the exact sums against central differences."""
-    cloud, _ = spiral(12, 3)
-    rng = np.random.default_rng(1)
-    dx, dn = rng.normal(size=cloud.points.shape), rng.normal(size=cloud.normals.shape)
-    base = tp.evaluate(cloud, 4.5, theta=0.0)
-    eps = 1e-6
-
-    def energy(sign: float) -> float:
-        moved = tp.Cloud(
-            cloud.points + sign * eps * dx,
-            cloud.normals + sign * eps * dn,
-            cloud.weights,
-            cloud.vertices,
-        )
-        return tp.evaluate(moved, 4.5, theta=0.0).energy
-
-    fd = (energy(1) - energy(-1)) / (2 * eps)
-    exact = np.sum(base.d_points * dx) + np.sum(base.d_normals * dn)
-    assert math.isclose(fd, exact, rel_tol=1e-6)
+    check_pair_sum_derivatives(spiral(12, 3)[0], 4.5, seed=1)
 
 
 def test_min_distance_is_the_brute_force_minimum():
@@ -106,22 +88,9 @@ def test_plate_load_is_the_derivative_of_the_plate_energy(comm):
     y.interpolate(rolled)
     params = SelfAvoidance.from_table({"rho": 2.0, "theta": 0.0})
     term = PlateTangentPoint(y, params)
-    value = term.update()
-    load = dolfinx.fem.petsc.assemble_vector(
-        dolfinx.fem.form(ufl.derivative(term.linearisation, y, ufl.TestFunction(V)))
-    )
-    load.ghostUpdate(addv=True, mode=1)  # ADD, REVERSE
     direction = dolfinx.fem.Function(V)
     direction.interpolate(lambda x: np.vstack([np.sin(3 * x[1]), x[0] * x[1], np.cos(2 * x[0])]))
-    owned = V.dofmap.index_map.size_local * 3
-    exact = comm.allreduce(float(load.array[:owned] @ direction.x.array[:owned]))
-    eps, base = 1e-6, y.x.array.copy()
-    values = []
-    for sign in (1, -1):
-        y.x.array[:] = base + sign * eps * direction.x.array
-        values.append(term.update())
-    assert value > 0
-    assert math.isclose((values[0] - values[1]) / (2 * eps), exact, rel_tol=1e-5)
+    check_load_is_derivative(term, y, direction, comm)
 
 
 def strip_problem(**self_avoidance: float) -> dict:
