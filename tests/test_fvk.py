@@ -354,16 +354,21 @@ def test_checkpoint_continues_the_schedule(tmp_path):
         assert len(driver.summary()["residual_norms"]) == 4
 
 
-def test_run_writes_the_outputs_of_every_model(tmp_path):
-    out = tmp_path / "out"
-    settings = ["mesh.cells=[4,4]", "model.load_steps=2"]
-    proc = subprocess.run(
+def run_fvk_square(out, settings: list[str]) -> subprocess.CompletedProcess:
+    """``dgplate run`` of the FvK square problem file with ``--set`` overrides."""
+    return subprocess.run(
         [sys.executable, "-m", "dgplate", "run", str(FVK_SQUARE), "--out", str(out)]
         + [arg for s in settings for arg in ("--set", s)],
         capture_output=True,
         text=True,
         timeout=600,
     )
+
+
+def test_run_writes_the_outputs_of_every_model(tmp_path):
+    out = tmp_path / "out"
+    settings = ["mesh.cells=[4,4]", "model.load_steps=2"]
+    proc = run_fvk_square(out, settings)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((out / "summary.json").read_text())
     assert summary["model"] == "fvk" and summary["load_steps"] == 2 and summary["w_max"] > 0
@@ -376,13 +381,7 @@ def test_run_writes_the_outputs_of_every_model(tmp_path):
 def test_cli_failed_fvk_exits_1_with_outputs_and_no_traceback(tmp_path):
     out = tmp_path / "out"
     settings = ["mesh.cells=[4,4]", "model.load_steps=1", "model.snes={snes_max_it=1}"]
-    proc = subprocess.run(
-        [sys.executable, "-m", "dgplate", "run", str(FVK_SQUARE), "--out", str(out)]
-        + [arg for s in settings for arg in ("--set", s)],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    proc = run_fvk_square(out, settings)
     assert proc.returncode == 1, proc.stderr
     assert "Traceback" not in proc.stderr and "DIVERGED_MAX_IT" in proc.stderr, proc.stderr
     summary = json.loads((out / "summary.json").read_text())
