@@ -128,7 +128,8 @@ def plot_rod(
         if title:
             plotter.add_title(title, font_size=10, color="black")
         _set_camera(plotter, "iso", np.asarray(plotter.bounds))
-        plotter.camera.zoom(1.3)
+        if closed:  # an open rod fills the width of the view already
+            plotter.camera.zoom(1.3)
         with _plain_text():
             plotter.screenshot(tmp)
         _publish(tmp, path)

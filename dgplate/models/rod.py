@@ -540,7 +540,7 @@ def nodes_in_order(u: Function) -> Array:
     return points
 
 
-def writhe(points: Array) -> float:
+def writhe(points: Array, part: tuple[int, int] = (0, 1)) -> float:
     """The writhe of the closed polygon through ``points`` (n, 3): Gauss's double integral.
 
     Wr = (1/4π) ΣΣ_{i≠j} (eᵢ × eⱼ)·(mᵢ − mⱼ)/|mᵢ − mⱼ|³ over the edges eᵢ with midpoints mᵢ,
@@ -548,15 +548,21 @@ def writhe(points: Array) -> float:
     has Wr = 0 exactly (the triple product of three vectors in a plane vanishes).
 
     The numerators are two matrix products, (eᵢ × eⱼ)·mᵢ = (mᵢ × eᵢ)·eⱼ and
-    (eᵢ × eⱼ)·mⱼ = eᵢ·(eⱼ × mⱼ), so that no (n, n, 3) array is formed (it is computed after
-    every step of a closed rod).
+    (eᵢ × eⱼ)·mⱼ = eᵢ·(eⱼ × mⱼ), and the squared distances |mᵢ|² + |mⱼ|² − 2mᵢ·mⱼ a third (the
+    midpoints centred first), so that no (n, n, 3) array is formed (it is computed after every
+    step of a closed rod). ``part`` = (k, m): only the k-th of m blocks of the rows i, a rank's
+    share (the writhe is the sum of the m parts).
     """
     edges = np.roll(points, -1, axis=0) - points
     mids = points + 0.5 * edges
-    numerator = np.cross(mids, edges) @ edges.T - edges @ np.cross(edges, mids).T
-    dist = np.sqrt(sum((mids[:, None, k] - mids[None, :, k]) ** 2 for k in range(3)))
-    np.fill_diagonal(dist, np.inf)
-    return float(np.sum(numerator / dist**3) / (4.0 * math.pi))
+    mids = mids - mids.mean(axis=0)
+    rows = np.array_split(np.arange(len(points)), part[1])[part[0]]
+    e, m = edges[rows], mids[rows]
+    numerator = np.cross(m, e) @ edges.T - e @ np.cross(edges, mids).T
+    norms = np.sum(mids**2, axis=1)
+    square = norms[rows][:, None] + norms[None, :] - 2.0 * (m @ mids.T)
+    square[np.arange(rows.size), rows] = np.inf
+    return float(np.sum(numerator / (square * np.sqrt(square))) / (4.0 * math.pi))
 
 
 def shape_figures(u: Function, spec: RodSpec) -> dict[str, float]:
@@ -612,7 +618,9 @@ class StepFigures:
             self._twist = dolfinx.fem.form(twist * ufl.dx(domain=u.function_space.mesh))
         return {
             "twist_angle": integral(self._twist, flow.comm),
-            "writhe": writhe(nodes_in_order(u)),
+            "writhe": mpi.global_sum(
+                flow.comm, writhe(nodes_in_order(u), (flow.comm.rank, flow.comm.size))
+            ),
         }
 
 
