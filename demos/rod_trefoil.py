@@ -35,8 +35,9 @@
 # -\sin 3t)$, $t\in[0,2\pi]$, parametrised by arc length and scaled to $L = 1$; its frame is
 # $e_3$ made orthogonal to the tangent. $c_b = 1$, $c_t = 0.5$, $q = 3$.
 #
-# Run: `python demos/rod_trefoil.py` (32 cells, τ = 0.05, ρ = 0.1, 0.03, 0.01, 120 steps each,
-# about 20 s); `--paper`: 64 cells, ρ down to 0.001, 400 steps each. Output:
+# Run: `python demos/rod_trefoil.py` (32 cells, τ = 0.05, ρ = 0.1, 0.03, 0.01, each stage until
+# ΔE/τ < 10⁻³ or 400 steps, about 30 s); `--paper`: 96 cells, ρ down to 0.001 (1000 steps at
+# most per stage, about 2.5 minutes). Output:
 # `out/rod_trefoil/rho_<ρ>/` (VTX, final.png, history.csv, summary.json for every stage) and
 # `out/rod_trefoil/stages.gif`.
 
@@ -98,7 +99,7 @@ for rho in STAGES:
 # %% [markdown]
 # ## Measured
 #
-# By default (32 cells, τ = 0.05, 120 steps per stage) and with `--paper`: docs/rods.md has
+# By default (32 cells: 278, 122 and 106 steps) and with `--paper`: docs/rods.md has
 # the table. The demo prints, for every stage, ρ, the total energy $I_h + \rho TP_h$, the
 # bending energy, its ratio to the doubly covered circle's, the least distance of
 # non-neighbouring points over the whole stage and the wall time. It asserts: the energy fell
