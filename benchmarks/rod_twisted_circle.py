@@ -16,6 +16,10 @@ itself; a crossing changes Wr, hence Lk, by ±2), the least distance of non-neig
 quadrature points and the steps redone by the safety net.
 
     python benchmarks/rod_twisted_circle.py --cells 50 --json benchmarks/results/rod_twisted_circle_50.json
+
+``--gif PATH --frames K`` runs the same flow instead in K pieces of steps/K steps, each started
+from the last (``RodStart``: u and b, which continues the flow exactly), and makes their final
+pictures (a tube with a stripe along b) into an animation.
 """
 
 from __future__ import annotations
@@ -32,6 +36,8 @@ from mpi4py import MPI
 
 import dgplate
 from dgplate.io.output import print0
+from dgplate.io.plotting import frames_to_gif
+from dgplate.models.rod import RodStart
 
 CLOSED = Path(__file__).resolve().parent.parent / "demos" / "problems" / "rod_closed.toml"
 
@@ -90,6 +96,23 @@ def figures(run: dict[str, list[float]]) -> dict[str, float]:
     }
 
 
+def animation(args: argparse.Namespace, problem_settings: dict[str, object]) -> None:
+    """The flow in ``args.frames`` pieces, each picture a frame of the GIF ``args.gif``."""
+    comm, gif = MPI.COMM_WORLD, Path(args.gif)
+    per_piece = max(1, args.steps // args.frames)
+    overrides = {**problem_settings, "flow.max_steps": per_piece, "output.png": True}
+    initial, frames = None, []
+    for piece in range(args.frames):
+        problem = dgplate.load_problem(CLOSED, overrides)
+        problem.name = f"twisted circle, t = {(piece + 1) * per_piece / args.cells:.1f}"
+        out = gif.parent / f"{gif.stem}_frames" / f"{piece:03d}"
+        result = dgplate.run(problem, out=out, comm=comm, initial=initial, force=True)
+        frames.append(out / "final.png")
+        initial = RodStart(result.fields)
+        print0(comm, f"{problem.name}: Wr = {result['writhe']:.3f}")
+    frames_to_gif(frames, gif, fps=4.0, comm=comm)
+
+
 def main() -> None:
     """Run the experiment, print its figures and write JSON."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -101,8 +124,13 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=3000)
     parser.add_argument("--tol", type=float, default=1e-6)
     parser.add_argument("--json", default=None)
+    parser.add_argument("--gif", default=None, help="an animation of the run instead (PATH)")
+    parser.add_argument("--frames", type=int, default=30, help="frames of --gif")
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
+    if args.gif:
+        animation(args, settings(args))
+        return
     problem = dgplate.load_problem(CLOSED, settings(args))
     wall = time.perf_counter()
     with tempfile.TemporaryDirectory() as scratch:

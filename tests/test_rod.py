@@ -111,6 +111,17 @@ def test_defects_grow_like_tau(tmp_path):
         ("model.confinement={radius = -1.0}", "model.confinement.radius must be a number > 0"),
         ("model.confinement={radius = 2.0, side = 'outside'}", "model.confinement.side has no"),
         ("model.confinement={radius = 2.0, epsilon = 0}", "model.confinement.epsilon must be"),
+        (
+            "model.curve=['cos(t)', 'sin(t)', 't'] | model.ends=closed",
+            "model.curve must be closed: |u(2π) − u(0)| = 6.28",
+        ),
+        ("model.curve=['cos(t)', 'sin(t)', '0']", "model.curve needs model.ends = 'closed'"),
+        ("model.curve=['0', '0', '0'] | model.ends=closed", "model.curve must be regular"),
+        (
+            "model.curve=['sin(t)', '0', 'cos(t)'] | model.ends=closed",
+            "model.curve: the tangent is along e₃",
+        ),
+        ("model.curve=['cos(t)', 'sin(t)', 'z'] | model.ends=closed", "unknown name 'z'"),
         ("mesh.cells=[4, 4]", "mesh.cells has no effect with model.name = 'rod'"),
         ("mesh.type=gmsh", "mesh.type has no effect with model.name = 'rod'"),
         ("flow.projection_steps=2", "flow.projection_steps has no effect with model.name"),

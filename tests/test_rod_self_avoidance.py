@@ -18,6 +18,7 @@ from conftest import PARITY_RTOL, check_load_is_derivative, check_pair_sum_deriv
 
 import dgplate
 from dgplate.dg import tangent_point as tp
+from dgplate.models.rod import RodStart
 
 
 def trefoil_cloud(segments: int, per: int = 2) -> tuple[tp.Cloud, float]:
@@ -221,3 +222,34 @@ def test_the_twisted_circle_problem_file_starts_the_seed_experiment(tmp_path):
     assert result["tau"] == pytest.approx(1 / 50) and result["energy_increases"] == []
     assert result["twist_angle"] / (2 * math.pi) == pytest.approx(4.665, abs=1e-3)  # P₁ frame
     assert all(row["min_distance"] > 0.028 for row in result.history)
+
+
+PROBLEMS = Path(__file__).resolve().parent.parent / "demos" / "problems"
+TREFOIL, CLOSED = PROBLEMS / "rod_trefoil.toml", PROBLEMS / "rod_closed.toml"
+
+
+def test_a_warm_start_continues_the_flow_exactly(tmp_path):
+    """20 steps of the trefoil = 10 steps, then 10 from RodStart (u and b) of the first run."""
+    quiet = {"output.progress": 0, "output.vtx": False, "output.png": False, "flow.tol": 1e-12}
+
+    def steps(n, name, initial=None):
+        problem = dgplate.load_problem(TREFOIL, overrides={**quiet, "flow.max_steps": n})
+        return dgplate.run(problem, out=tmp_path / name, comm=MPI.COMM_SELF, initial=initial)
+
+    whole, first = steps(20, "whole"), steps(10, "first")
+    second = steps(10, "second", RodStart(first.fields))
+    assert second["energy"] == pytest.approx(whole["energy"], rel=1e-10)
+    assert second["min_distance"] == pytest.approx(whole["min_distance"], rel=1e-10)
+    assert whole["energy_increases"] == [] and whole["min_distance"] > 0
+
+
+def test_a_circle_formula_starts_as_the_circle(tmp_path):
+    """model.curve = the unit circle gives the closed rod's own start (the same energy)."""
+    quiet = {"output.progress": 0, "output.vtx": False, "output.png": False}
+    energies = []
+    for extra in ({}, {"model.curve": ["2*cos(t)", "2*sin(t)", "0"]}):
+        problem = dgplate.load_problem(
+            CLOSED, overrides={**quiet, "flow.max_steps": 1, "model.cells": 16, **extra}
+        )
+        energies.append(dgplate.run(problem, out=tmp_path / str(len(energies)))["energy"])
+    assert energies[1] == pytest.approx(energies[0], rel=1e-6)

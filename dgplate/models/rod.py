@@ -34,8 +34,9 @@ close too fast is redone with τ/2).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any
 
 import basix.ufl
@@ -44,13 +45,14 @@ import dolfinx.mesh
 import numpy as np
 import ufl
 
-from dgplate import compat, mpi, values
+from dgplate import compat, expressions, mpi, values
 from dgplate.compat import Array, Constant, Function, Mesh
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import integral
 from dgplate.dg.obstacle import Obstacle
 from dgplate.dg.self_avoidance import CurveTangentPoint, SelfAvoidance
 from dgplate.errors import InputError
+from dgplate.io.rod_pictures import plot_rod
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import is_integer, is_number, option
 from dgplate.solvers.driver import Observer
@@ -62,6 +64,7 @@ __all__ = [
     "ROD_IGNORES",
     "RodModel",
     "RodSpec",
+    "RodStart",
     "build_rod",
     "exact_arc",
     "rod_energy",
@@ -141,6 +144,10 @@ class RodSpec:
         0.0,
         "closed: the start is the saddle ρ(cos φ, sin φ, a sin 2φ) of length L (by arc length) with a = saddle; 0: the circle. A small a perturbs the ring (Michell's instability)",
     )
+    curve: list[Any] = option(
+        [],
+        "closed: the start is the closed curve t ↦ [x(t), y(t), z(t)], t ∈ [0, 2π], three formulas in t (e.g. a trefoil knot), parametrised by arc length and scaled to the length L; its frame is e₃ made orthogonal to the tangent. [] : the circle or the saddle",
+    )
     confinement: dict[str, Any] = option(
         {},
         "{} none, or {radius = R, center = [3], epsilon = ε}: the rod is kept in the ball |u − c| ≤ R by the penalty (1/2ε)∫(R − |u − c|)₋² with the quadratic–concave splitting (docs/obstacle.md); ε defaults to 1e-4",
@@ -176,6 +183,7 @@ class RodSpec:
             raise InputError(
                 f"model.saddle = {self.saddle} needs model.ends = 'closed', got {self.ends!r}"
             )
+        self._curve = curve_table(self)
         self._sphere = sphere = confinement(self.confinement)
         if sphere is None:
             return
@@ -211,6 +219,11 @@ class RodSpec:
                 f"model.frame must be orthogonal to model.tangent, got frame·tangent = "
                 f"{float(t @ b):.3g} (normalised)"
             )
+
+    @property
+    def curve_points(self) -> Array | None:
+        """The validated ``curve`` at 4097 values of t ∈ [0, 2π] (rows), or None."""
+        return self._curve
 
     @property
     def sphere(self) -> Obstacle | None:
@@ -256,6 +269,87 @@ def loop(comm: Any, spec: RodSpec) -> Mesh:
 Start = tuple[Callable[[Array], Array], Callable[[Array], Array]]
 
 
+CURVE_SAMPLES = 4096  # intervals of t ∈ [0, 2π] of a start's table
+
+
+def curve_table(spec: RodSpec) -> Array | None:
+    """``model.curve`` at 4097 values of t ∈ [0, 2π]: closed, regular, never along e₃.
+
+    Raises:
+        InputError: Not three formulas in t, not a closed rod, not closed, not regular, or a
+            tangent along e₃ (the start's frame is e₃ made orthogonal to the tangent).
+    """
+    key, curve = "model.curve", spec.curve
+    if isinstance(curve, list) and not curve:
+        return None
+    if not (isinstance(curve, list) and len(curve) == 3):
+        raise InputError(f"{key} must be three formulas in t [x(t), y(t), z(t)], got {curve!r}")
+    if spec.ends != "closed" or spec.saddle != 0.0:
+        raise InputError(f"{key} needs model.ends = 'closed' and model.saddle = 0")
+    t = np.linspace(0.0, 2.0 * math.pi, CURVE_SAMPLES + 1)
+    expressions.check(curve, key, {"t": 0.0})
+    columns = [expressions.evaluate(str(f), np.zeros((t.size, 2)), key, {"t": t}) for f in curve]
+    points = np.column_stack(
+        [np.broadcast_to(np.asarray(c, dtype=float), t.shape) for c in columns]
+    )
+    if not np.all(np.isfinite(points)):
+        raise InputError(f"{key} must be finite for t ∈ [0, 2π]")
+    size = float(np.ptp(points, axis=0).max())
+    gap = float(np.linalg.norm(points[-1] - points[0]))
+    if gap > 1e-9 * max(size, 1.0):
+        raise InputError(f"{key} must be closed: |u(2π) − u(0)| = {gap:.3g}, not 0")
+    chords = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    if not chords.min() > 1e-9 * chords.mean():
+        raise InputError(f"{key} must be regular (|u′(t)| > 0), got |u′| ≈ 0 at some t")
+    along = np.abs(np.diff(points[:, 2])) / chords
+    if along.max() > 1.0 - 1e-6:
+        raise InputError(f"{key}: the tangent is along e₃ at some t (the start frame is e₃ ⟂ u′)")
+    return points
+
+
+def _turned_frame(t: Array, share: Array, twist: float) -> Array:
+    """e₃ made orthogonal to the unit tangents t (3, n), turned by twist·share about t."""
+    b0 = np.outer([0.0, 0.0, 1.0], np.ones(t.shape[1])) - t * t[2]
+    b0 /= np.linalg.norm(b0, axis=0)
+    psi = twist * share
+    frame: Array = np.cos(psi) * b0 + np.sin(psi) * np.cross(t, b0, axis=0)
+    return frame
+
+
+def polygon_share(x: Array) -> Array:
+    """The share s/L of a closed rod's polygon points (3, n): their angle over 2π."""
+    share: Array = np.mod(np.arctan2(x[1], x[0]), 2.0 * math.pi) / (2.0 * math.pi)
+    return share
+
+
+def curve_start(points: Array, length: float, twist: float) -> Start:
+    """The start of ``model.curve``: the table ``points`` (closed, rows) by arc length, length L.
+
+    The arc length is that of the table's polygon (4096 chords); the tangent its central
+    difference quotient, interpolated. The frame is e₃ made orthogonal to the tangent, turned
+    by twist·s/L about it.
+    """
+    arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))]
+    scale = length / arc[-1]
+    ring = points[:-1]
+    tangents = np.roll(ring, -1, axis=0) - np.roll(ring, 1, axis=0)
+    tangents = np.vstack([tangents, tangents[:1]])
+
+    def at(table: Array, x: Array) -> Array:
+        s = polygon_share(x) * arc[-1]
+        return np.vstack([np.interp(s, arc, column) for column in table.T])
+
+    def centreline(x: Array) -> Array:
+        line: Array = scale * at(points, x)
+        return line
+
+    def frame(x: Array) -> Array:
+        t = at(tangents, x)
+        return _turned_frame(t / np.linalg.norm(t, axis=0), polygon_share(x), twist)
+
+    return centreline, frame
+
+
 def closed_start(length: float, twist: float, saddle: float) -> Start:
     """The closed rod's start: the saddle ρ(cos φ, sin φ, a sin 2φ) of length L, by arc length.
 
@@ -272,7 +366,7 @@ def closed_start(length: float, twist: float, saddle: float) -> Start:
 
     def angle(x: Array) -> tuple[Array, Array]:
         """(φ, s/L) of the polygon's points."""
-        share = np.mod(np.arctan2(x[1], x[0]), 2.0 * math.pi) / (2.0 * math.pi)
+        share = polygon_share(x)
         return np.interp(share * arc[-1], arc, grid), share
 
     def centreline(x: Array) -> Array:
@@ -283,12 +377,7 @@ def closed_start(length: float, twist: float, saddle: float) -> Start:
     def binormal(x: Array) -> Array:
         phi, share = angle(x)
         t = np.vstack([-np.sin(phi), np.cos(phi), 2.0 * saddle * np.cos(2.0 * phi)])
-        t /= np.linalg.norm(t, axis=0)
-        b0 = np.outer([0.0, 0.0, 1.0], np.ones_like(phi)) - t * t[2]
-        b0 /= np.linalg.norm(b0, axis=0)
-        psi = twist * share
-        frame: Array = np.cos(psi) * b0 + np.sin(psi) * np.cross(t, b0, axis=0)
-        return frame
+        return _turned_frame(t / np.linalg.norm(t, axis=0), share, twist)
 
     return centreline, binormal
 
@@ -311,6 +400,8 @@ def open_start(spec: RodSpec) -> Start:
 
 def start_of(spec: RodSpec) -> Start:
     """The start (u⁰, b⁰) of the flow as callables of the mesh's points (3, n) → (3, n)."""
+    if spec.curve_points is not None:
+        return curve_start(spec.curve_points, spec.length, spec.twist)
     if spec.ends == "closed":
         return closed_start(spec.length, spec.twist, spec.saddle)
     return open_start(spec)
@@ -449,7 +540,7 @@ def nodes_in_order(u: Function) -> Array:
     return points
 
 
-def writhe(points: Array) -> float:
+def writhe(points: Array, part: tuple[int, int] = (0, 1)) -> float:
     """The writhe of the closed polygon through ``points`` (n, 3): Gauss's double integral.
 
     Wr = (1/4π) ΣΣ_{i≠j} (eᵢ × eⱼ)·(mᵢ − mⱼ)/|mᵢ − mⱼ|³ over the edges eᵢ with midpoints mᵢ,
@@ -457,15 +548,21 @@ def writhe(points: Array) -> float:
     has Wr = 0 exactly (the triple product of three vectors in a plane vanishes).
 
     The numerators are two matrix products, (eᵢ × eⱼ)·mᵢ = (mᵢ × eᵢ)·eⱼ and
-    (eᵢ × eⱼ)·mⱼ = eᵢ·(eⱼ × mⱼ), so that no (n, n, 3) array is formed (it is computed after
-    every step of a closed rod).
+    (eᵢ × eⱼ)·mⱼ = eᵢ·(eⱼ × mⱼ), and the squared distances |mᵢ|² + |mⱼ|² − 2mᵢ·mⱼ a third (the
+    midpoints centred first), so that no (n, n, 3) array is formed (it is computed after every
+    step of a closed rod). ``part`` = (k, m): only the k-th of m blocks of the rows i, a rank's
+    share (the writhe is the sum of the m parts).
     """
     edges = np.roll(points, -1, axis=0) - points
     mids = points + 0.5 * edges
-    numerator = np.cross(mids, edges) @ edges.T - edges @ np.cross(edges, mids).T
-    dist = np.sqrt(sum((mids[:, None, k] - mids[None, :, k]) ** 2 for k in range(3)))
-    np.fill_diagonal(dist, np.inf)
-    return float(np.sum(numerator / dist**3) / (4.0 * math.pi))
+    mids = mids - mids.mean(axis=0)
+    rows = np.array_split(np.arange(len(points)), part[1])[part[0]]
+    e, m = edges[rows], mids[rows]
+    numerator = np.cross(m, e) @ edges.T - e @ np.cross(edges, mids).T
+    norms = np.sum(mids**2, axis=1)
+    square = norms[rows][:, None] + norms[None, :] - 2.0 * (m @ mids.T)
+    square[np.arange(rows.size), rows] = np.inf
+    return float(np.sum(numerator / (square * np.sqrt(square))) / (4.0 * math.pi))
 
 
 def shape_figures(u: Function, spec: RodSpec) -> dict[str, float]:
@@ -521,8 +618,49 @@ class StepFigures:
             self._twist = dolfinx.fem.form(twist * ufl.dx(domain=u.function_space.mesh))
         return {
             "twist_angle": integral(self._twist, flow.comm),
-            "writhe": writhe(nodes_in_order(u)),
+            "writhe": mpi.global_sum(
+                flow.comm, writhe(nodes_in_order(u), (flow.comm.rank, flow.comm.size))
+            ),
         }
+
+
+class RodStart:
+    """A start (u⁰, b⁰) from the final u and b of an earlier run on the same rod mesh.
+
+    ``initial`` of :func:`dgplate.run` for a warm start (e.g. the stages of a continuation in
+    a parameter): calling it gives u at the interpolation points, :meth:`frame` gives b (the
+    plates' ``initial`` has no frame). Every rank keeps all nodal values (collective), and a
+    point takes the value of the nearest node, which is the point itself on the same mesh.
+    """
+
+    def __init__(self, fields: Mapping[str, Function]) -> None:
+        self._tables = {key: _nodal_table(fields[key]) for key in ("u", "b")}
+
+    def __call__(self, x: Array) -> Array:
+        """The centreline u at the points x (3, n)."""
+        return _nearest(self._tables["u"], x)
+
+    def frame(self, x: Array) -> Array:
+        """The director b at the points x (3, n)."""
+        return _nearest(self._tables["b"], x)
+
+
+def _nodal_table(f: Function) -> tuple[Array, Array]:
+    """The coordinates and values (n, 3) of all owned degrees of freedom of f (collective)."""
+    space = f.function_space
+    owned = space.dofmap.index_map.size_local
+    parts = space.mesh.comm.allgather(
+        (space.tabulate_dof_coordinates()[:owned], f.x.array.reshape(-1, 3)[:owned])
+    )
+    return np.vstack([p[0] for p in parts]), np.vstack([p[1] for p in parts])
+
+
+def _nearest(table: tuple[Array, Array], x: Array) -> Array:
+    """The values of the table's nearest nodes at the points x (3, n)."""
+    coords, nodal = table
+    distance = sum((x[k][:, None] - coords[None, :, k]) ** 2 for k in range(3))
+    found: Array = nodal[np.argmin(distance, axis=1)].T
+    return found
 
 
 @dataclass
@@ -539,6 +677,8 @@ class RodModel:
         """The constrained gradient flow of the rod energy from the straight rod (or ``initial``)."""
         spec = self.spec
         start, director = start_of(spec)
+        if isinstance(initial, RodStart):
+            director = initial.frame
         state = RodState(initial or start, director, spec.clamped_nodes, spec.pinned_nodes)
 
         params = spec.self_avoidance_params
@@ -562,6 +702,10 @@ class RodModel:
             out["energy_self_avoidance"] = sum(term.update() for term in terms)
             out["min_distance"] = min(term.min_distance for term in terms)
         return out
+
+    def picture(self, driver: RodFlow, path: Path, title: str) -> None:
+        """final.png: a tube around u with a stripe along b, so that the twist shows."""
+        plot_rod(driver.u, driver.b, path, title)
 
     def lines(self, driver: RodFlow) -> list[Array]:
         """No extra lines: the picture is the centreline itself."""

@@ -288,6 +288,10 @@ def _picture(
         title += f": E_h = {energy:.4e}"
     if isinstance(defect, float):
         title += f", D_h = {defect:.2e}"
+    own = getattr(model, "picture", None)  # a model's own picture (a rod: a striped tube)
+    if own is not None:
+        own(driver, path, title)
+        return
     plot_deformation(
         driver.shape,
         path,
