@@ -304,11 +304,10 @@ class PlateTangentPoint:
         triangles = at[:, split].reshape(-1, 3, 3)
         pairs = tp.crossings(triangles, np.repeat(ids, len(split), axis=0))
         if len(pairs):
-            where = ref[pairs[0] // len(split)].mean(axis=1)
+            a, b = (tuple(c.round(3).tolist()) for c in ref[pairs[0] // len(split)].mean(axis=1))
             raise InputError(
                 f"{key}: the initial state intersects itself ({len(pairs)} pairs of triangles "
-                f"of non-neighbouring cells cross, e.g. the cells at x = {where[0].round(3).tolist()}"
-                f" and {where[1].round(3).tolist()} of the reference plate)"
+                f"of non-neighbouring cells cross, e.g. of the cells at (x, y) = {a} and {b})"
             )
 
     def summary(self) -> dict[str, float]:
