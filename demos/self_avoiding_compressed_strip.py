@@ -26,7 +26,7 @@
 #
 # The flow starts from the exact clamped elastica at $\Delta/L = 0.7$ (an isometry that
 # matches the clamped data there), and the clamped ends are moved on by continuation,
-# $g = (x_1 \mp c(\alpha), x_2, 0)$, $c = 1.4 + 0.5\alpha$, to $\Delta/L = 0.95$ (α grows by
+# $g = (x_1 \mp c(\alpha), x_2, 0)$, $c = 1.4 + 0.36\alpha$, to $\Delta/L = 0.88$ (α grows by
 # 0.01 per flow step). TP is explicit; after every step the least distance of points of
 # non-neighbouring cells is measured and a step that halves it, or raises $I$, is redone
 # with $\tau/2$.
@@ -113,7 +113,6 @@ demo.copy_figure(args.out, args.figure)
 history = result.history
 distances = [row["min_distance"] for row in history]
 redone = int(sum(row["redone"] for row in history))
-neck = clamped_elastica(LENGTH, 0.85 * LENGTH)["k"]
 demo.report(result, "the ends come together; the neck of the loop stays open")
 demo.say(
     f"α = {result['alpha']:g}: min distance start {distances[0]:.4f}, least "
