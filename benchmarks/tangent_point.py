@@ -11,6 +11,12 @@ Three measurements (docs/self_avoidance.md):
   the step's assembly and solve.
 
     python benchmarks/tangent_point.py --json benchmarks/results/tangent_point.json
+
+With ``--plot``, it measures nothing and draws the least distance of non-neighbouring points
+and the energy over the flow time from the history.csv of self-avoiding runs (one curve each):
+
+    python benchmarks/tangent_point.py --plot docs/img/self_avoiding_min_distance.png \
+        --history "O strip=out/self_avoiding_strip/history.csv" ...
 """
 
 from __future__ import annotations
@@ -139,14 +145,50 @@ def flow(steps: int, cells: list[int]) -> dict[str, Any]:
             "steps": steps, "mean": mean}  # fmt: skip
 
 
+def plot_histories(histories: list[str], path: str) -> None:
+    """min_distance and energy against the flow time of runs given as ``label=history.csv``.
+
+    Redone steps (the ``redone`` column) are marked; the time axis is the flow time t.
+    """
+    import csv
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 6), sharex=False)
+    for entry in histories:
+        label, _, csv_path = entry.rpartition("=")
+        with open(csv_path, newline="") as stream:
+            rows = list(csv.DictReader(stream))
+        t = np.array([float(r["time"]) for r in rows])
+        distance = np.array([float(r["min_distance"]) for r in rows])
+        redone = np.array([float(r["redone"]) > 0 for r in rows])
+        (line,) = top.plot(t, distance, label=label)
+        top.plot(t[redone], distance[redone], "x", color=line.get_color())
+        bottom.plot(t, [float(r["energy"]) for r in rows], label=label)
+    top.set(yscale="log", ylabel="least distance (non-neighbouring points)")
+    bottom.set(xlabel="flow time t", ylabel="$I_{bend} + \\rho\\,TP$ (with the data's work)")
+    top.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
 def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--plot", default=None, help="draw --history files into this PNG")
+    parser.add_argument("--history", action="append", default=[], help="label=history.csv")
     parser.add_argument("--exact-max", type=int, default=10000)
     parser.add_argument("--max-m", type=int, default=100000)
     parser.add_argument("--steps", type=int, default=10)
     parser.add_argument("--cells", type=int, nargs=2, default=[48, 4])
     parser.add_argument("--json", default=None)
     args = parser.parse_args(argv)
+    if args.plot:
+        if MPI.COMM_WORLD.rank == 0:
+            plot_histories(args.history, args.plot)
+        return {}
     exact_sizes = [m for m in (1000, 4000, 10000) if m <= args.exact_max]
     cost_sizes = [m for m in (1000, 3000, 10000, 30000, 100000, 300000, 1000000) if m <= args.max_m]
     record = {

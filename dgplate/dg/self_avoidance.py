@@ -291,7 +291,7 @@ class PlateTangentPoint:
         return bool(ok)
 
     def _check_start(self, key: str) -> None:
-        """An initial state in which two non-neighbouring cells meet is refused."""
+        """An initial state in which two non-neighbouring cells meet or cross is refused."""
         self.update()
         cloud, _ = self.cloud()
         size = float(np.linalg.norm(np.ptp(cloud.points, axis=0)))
@@ -300,7 +300,42 @@ class PlateTangentPoint:
                 f"{key}: the initial state intersects itself (non-neighbouring cells "
                 f"{self.min_distance:.3g} apart)"
             )
+        self._check_crossings(key)
         self._accepted = self.min_distance
+
+    def _check_crossings(self, key: str) -> None:
+        """A start whose sheets cross between the quadrature points is refused.
+
+        The deformed cells are replaced by the triangles of their corners (y at the vertices:
+        two triangles per quadrilateral), gathered in the reference order, and every pair of
+        triangles of non-neighbouring cells is tested for a transversal crossing.
+        """
+        mesh = self.y.function_space.mesh
+        element = basix.ufl.element(
+            "Lagrange", mesh.basix_cell(), 1, shape=(3,), discontinuous=True
+        )
+        space = dolfinx.fem.functionspace(mesh, element)
+        corners: Function = dolfinx.fem.Function(space)
+        corners.interpolate(self.y)
+        at = corners.x.array.reshape(-1, 3)[space.dofmap.list[: self._cells]]
+        ref = mesh.geometry.x[compat.geometry_dofmap(mesh)[: self._cells]][:, :, :2]
+        split = [[0, 1, 3], [0, 3, 2]] if at.shape[1] == 4 else [[0, 1, 2]]
+        gathered = self.comm.allgather((at, ref))
+        at = np.concatenate([g[0] for g in gathered])
+        ref = np.concatenate([g[1] for g in gathered])
+        order = np.lexsort((ref.mean(axis=1)[:, 1], ref.mean(axis=1)[:, 0]))
+        at, ref = at[order], ref[order]
+        scale = max(float(np.ptp(ref)), 1e-300)
+        _, ids = np.unique(np.round(ref.reshape(-1, 2) / scale, 9), axis=0, return_inverse=True)
+        ids = ids.reshape(len(ref), -1).astype(np.int64)
+        triangles = at[:, split].reshape(-1, 3, 3)
+        pairs = tp.crossings(triangles, np.repeat(ids, len(split), axis=0))
+        if len(pairs):
+            a, b = (tuple(c.round(3).tolist()) for c in ref[pairs[0] // len(split)].mean(axis=1))
+            raise InputError(
+                f"{key}: the initial state intersects itself ({len(pairs)} pairs of triangles "
+                f"of non-neighbouring cells cross, e.g. of the cells at (x, y) = {a} and {b})"
+            )
 
     def summary(self) -> dict[str, float]:
         """Figures for ``summary.json``."""

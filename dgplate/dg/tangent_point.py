@@ -391,3 +391,59 @@ def _closest(
             dist = np.linalg.norm(cloud.points[j[keep]] - cloud.points[i[keep]], axis=1)
             best = min(best, float(dist.min()))
     return float(best)
+
+
+def crossings(triangles: Array, vertices: IntArray) -> IntArray:
+    """Pairs (i, j), i < j, of triangles that cross each other transversally.
+
+    ``triangles`` (T, 3, 3): corner coordinates; ``vertices`` (T, k): the ids of the vertices of
+    each triangle's cell, so that triangles of the same or of neighbouring cells (a common id)
+    are not tested. Two non-coplanar triangles cross iff an edge of one passes through the
+    other (the ends of their common segment lie on such edges). Candidate pairs are those
+    whose bounding boxes overlap (a sweep along x); the tests are vectorised over pairs.
+    """
+    lo, hi = triangles.min(axis=1), triangles.max(axis=1)
+    order = np.argsort(lo[:, 0], kind="stable")
+    ends = np.searchsorted(lo[order, 0], hi[order, 0], side="right")
+    found: list[IntArray] = []
+    for a, b in _sweep_pairs(ends):
+        i, j = order[a], order[b]
+        keep = np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i]), axis=1)
+        keep &= ~np.any(vertices[i][:, :, None] == vertices[j][:, None, :], axis=(1, 2))
+        i, j = i[keep], j[keep]
+        hit = _edges_through(triangles[i], triangles[j]) | _edges_through(
+            triangles[j], triangles[i]
+        )
+        found.append(np.sort(np.stack([i[hit], j[hit]], axis=1), axis=1))
+    return np.concatenate(found) if found else np.zeros((0, 2), dtype=np.int64)
+
+
+def _sweep_pairs(ends: IntArray) -> Iterator[tuple[IntArray, IntArray]]:
+    """Blocks of sorted index pairs (a, b), a < b < ends[a]: the sweep's candidates."""
+    counts = np.maximum(ends - np.arange(len(ends)) - 1, 0)
+    start = 0
+    while start < len(ends):
+        stop = start + max(1, int(np.searchsorted(np.cumsum(counts[start:]), _BLOCK)))
+        a = np.repeat(np.arange(start, stop), counts[start:stop])
+        first = np.repeat(np.cumsum(counts[start:stop]) - counts[start:stop], counts[start:stop])
+        yield a, a + 1 + np.arange(len(a)) - first
+        start = stop
+
+
+def _edges_through(a: Array, b: Array) -> npt.NDArray[np.bool_]:
+    """Whether an edge of triangle a[p] passes through triangle b[p] (Möller–Trumbore)."""
+    e1, e2 = b[:, 1] - b[:, 0], b[:, 2] - b[:, 0]
+    hit = np.zeros(len(a), dtype=bool)
+    for k in range(3):
+        p0, d = a[:, k], a[:, (k + 1) % 3] - a[:, k]
+        h = np.cross(d, e2)
+        det = np.einsum("pi,pi->p", e1, h)
+        ok = np.abs(det) > 1e-14 * np.linalg.norm(d, axis=1) * np.linalg.norm(e1, axis=1) ** 2
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        s = p0 - b[:, 0]
+        u = inv * np.einsum("pi,pi->p", s, h)
+        q = np.cross(s, e1)
+        v = inv * np.einsum("pi,pi->p", d, q)
+        t = inv * np.einsum("pi,pi->p", e2, q)
+        hit |= ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t >= 0) & (t <= 1)
+    return hit
