@@ -110,18 +110,9 @@ demo.copy_figure(args.out, args.figure)
 # plate) but no flow step raised it at fixed data (`energy_increases`).
 
 # %%
-history = result.history
-distances = [row["min_distance"] for row in history]
-redone = int(sum(row["redone"] for row in history))
-demo.report(result, "the ends come together; the neck of the loop stays open")
-demo.say(
-    f"α = {result['alpha']:g}: min distance start {distances[0]:.4f}, least "
-    f"{min(distances):.4f}, final {distances[-1]:.4f}; ρTP = "
-    f"{result['self_avoidance_energy']:.3e}; steps redone: {redone}"
+distances = demo.check_self_avoiding(
+    result, "the ends come together; the neck of the loop stays open"
 )
 demo.check("the path reached α = 1", result["alpha"] == 1.0)
-demo.check("no flow step raised I_bend + ρTP", not result["energy_increases"])
-demo.check_between("least distance of non-neighbouring points", min(distances), low=1e-3,
-                   source="no self-penetration")  # fmt: skip
 demo.check_between("least distance against its start", min(distances) / distances[0], high=0.5,
                    source="the neck of the loop closed in")  # fmt: skip

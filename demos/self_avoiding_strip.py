@@ -72,16 +72,8 @@ demo.copy_figure(args.out, args.figure)
 # Measured by default (24×2 cells, 1968 dofs): see docs/self_avoidance.md.
 
 # %%
-history = result.history
-distances = [row["min_distance"] for row in history]
-redone = int(sum(row["redone"] for row in history))
-demo.report(result, "I_bend + ρTP decreases; the strip closes without touching itself")
-demo.say(
-    f"min distance: start {distances[0]:.4f}, least {min(distances):.4f}, final "
-    f"{distances[-1]:.4f}; ρTP = {result['self_avoidance_energy']:.3e}; steps redone: {redone}"
+distances = demo.check_self_avoiding(
+    result, "I_bend + ρTP decreases; the strip closes without touching itself"
 )
-demo.check("the energy decreased at every step", not result["energy_increases"])
-demo.check_between("least distance of non-neighbouring points", min(distances), low=1e-3,
-                   source="no self-penetration")  # fmt: skip
 demo.check_between("least distance against its start", min(distances) / distances[0], high=0.8,
                    source="the free end came round to the clamped part")  # fmt: skip

@@ -146,14 +146,4 @@ demo.copy_figure(args.out, args.figure)
 # every step (or the step was redone with τ/2, the `redone` column).
 
 # %%
-history = result.history
-distances = [row["min_distance"] for row in history]
-redone = int(sum(row["redone"] for row in history))
-demo.report(result, "the knotted ribbon relaxes without passing through itself")
-demo.say(
-    f"min distance: start {distances[0]:.4f}, least {min(distances):.4f}, final "
-    f"{distances[-1]:.4f}; ρTP = {result['self_avoidance_energy']:.3e}; steps redone: {redone}"
-)
-demo.check("the energy decreased at every step", not result["energy_increases"])
-demo.check_between("least distance of non-neighbouring points", min(distances), low=1e-3,
-                   source="no self-penetration")  # fmt: skip
+demo.check_self_avoiding(result, "the knotted ribbon relaxes without passing through itself")

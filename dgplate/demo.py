@@ -278,6 +278,35 @@ def check(what: str, ok: bool, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
     _passed(what, bool(ok), what, comm)
 
 
+def check_self_avoiding(result: Any, headline: str, comm: MPI.Comm = MPI.COMM_WORLD) -> list[float]:
+    """Report a self-avoiding run and check that no step penetrated or raised the energy.
+
+    Prints E_h beside ``headline``, the least distance of non-neighbouring points at the
+    start, its least and final values (history.csv's ``min_distance``), ρTP and the steps
+    redone by the safety net; checks that no accepted step raised I + ρTP and that the least
+    distance stayed ≥ 10⁻³. Returns the distances, one per step.
+    """
+    history = result.history
+    distances = [float(row["min_distance"]) for row in history]
+    redone = int(sum(row["redone"] for row in history))
+    report(result, headline, comm)
+    say(
+        f"min distance: start {distances[0]:.4f}, least {min(distances):.4f}, final "
+        f"{distances[-1]:.4f}; ρTP = {result['self_avoidance_energy']:.3e}; "
+        f"steps redone: {redone}",
+        comm=comm,
+    )
+    check("no accepted step raised I + ρTP", not result["energy_increases"], comm)
+    check_between(
+        "least distance of non-neighbouring points",
+        min(distances),
+        low=1e-3,
+        source="no self-penetration",
+        comm=comm,
+    )
+    return distances
+
+
 def copy_figure(
     out: str | Path,
     figure: str | Path | None,

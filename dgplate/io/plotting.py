@@ -211,6 +211,17 @@ def render_png(
     """
     if grid is None:
         return
+    with offscreen_png(path, window_size) as plotter:
+        _draw(plotter, grid, scalars, title, camera, clim, show_edges, lines, reference, cmap)
+
+
+@contextmanager
+def offscreen_png(path: str | Path, window_size: tuple[int, int]) -> Iterator[Any]:
+    """An off-screen pyvista plotter whose picture goes to ``path`` when the block ends.
+
+    The PNG is written under a temporary name and moved into place, so a reader never sees
+    half a file; nothing is written if the block raises.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     start_offscreen()
@@ -218,7 +229,7 @@ def render_png(
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
     os.close(fd)
     try:
-        _draw(plotter, grid, scalars, title, camera, clim, show_edges, lines, reference, cmap)
+        yield plotter
         with _plain_text():
             plotter.screenshot(tmp)
         _publish(tmp, path)
@@ -485,6 +496,7 @@ __all__ = [
     "REFERENCE",
     "frames_to_gif",
     "montage",
+    "offscreen_png",
     "plot_deformation",
     "render_png",
     "start_offscreen",

@@ -8,16 +8,13 @@ renders off-screen with pyvista and writes the PNG.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
-from typing import Any
 
 import dolfinx.fem
 import numpy as np
 import pyvista
 
-from dgplate.io.plotting import _plain_text, _publish, _set_camera, start_offscreen
+from dgplate.io.plotting import _set_camera, offscreen_png
 
 __all__ = ["plot_rod", "rod_polyline"]
 
@@ -112,13 +109,7 @@ def plot_rod(
     points, director, closed = line
     if radius is None:
         radius = _default_radius(points, closed)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    start_offscreen()
-    plotter: Any = pyvista.Plotter(off_screen=True, window_size=list(window_size))
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
-    os.close(fd)
-    try:
+    with offscreen_png(path, window_size) as plotter:
         plotter.set_background("white")
         plotter.add_mesh(_tube(points, closed, radius), color="#c8ccd4", smooth_shading=True)
         stripe = _tube(points + 0.9 * radius * director, closed, 0.35 * radius)
@@ -130,10 +121,3 @@ def plot_rod(
         _set_camera(plotter, "iso", np.asarray(plotter.bounds))
         if closed:  # an open rod fills the width of the view already
             plotter.camera.zoom(1.3)
-        with _plain_text():
-            plotter.screenshot(tmp)
-        _publish(tmp, path)
-    finally:
-        plotter.close()
-        if os.path.exists(tmp):
-            os.unlink(tmp)
