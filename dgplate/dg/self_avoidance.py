@@ -300,7 +300,8 @@ class PlateTangentPoint:
                 f"{key}: the initial state intersects itself (non-neighbouring cells "
                 f"{self.min_distance:.3g} apart)"
             )
-        self._check_crossings(key)
+        if not self.curve:  # segments that meet are caught by the least distance above
+            self._check_crossings(key)
         self._accepted = self.min_distance
 
     def _check_crossings(self, key: str) -> None:
