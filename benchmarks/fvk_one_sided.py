@@ -9,10 +9,12 @@ wavelength is measured by FFT of w along the lines x = d at the last converged l
     python benchmarks/fvk_one_sided.py --cells 16 24 32 --thickness 0.005 0.0035 \
         --json benchmarks/results/fvk_one_sided.json
 
-With ``--nested`` (serial) only the first mesh of each thickness is pushed off the flat state;
-every finer mesh starts, at full load, from the previous mesh's state interpolated onto it, so
-that all meshes follow the branch selected once (Newton then converges to the nearby state of
-the finer discretisation instead of picking one of the many coexisting wrinkled states anew):
+With ``--nested`` (serial) only the first mesh of the first thickness is pushed off the flat
+state; every finer mesh starts, at full load, from the previous mesh's state interpolated onto
+it, and the first mesh of the next thickness from the first mesh's state of the previous one,
+so that all runs follow the branch selected once (Newton then converges to the nearby state of
+the other discretisation or thickness instead of picking one of the many coexisting states,
+or the flat one, anew):
 
     python benchmarks/fvk_one_sided.py --nested --cells 24 32 40 --thickness 0.005 0.0035 \
         --json benchmarks/results/fvk_one_sided_nested.json
@@ -130,13 +132,15 @@ def main() -> None:
     if args.nested and MPI.COMM_WORLD.size > 1:
         raise SystemExit("--nested runs serially")
     runs = []
+    seed = None  # --nested: the first mesh's state of the previous thickness
     for thickness in args.thickness:
-        start = None
-        for cells in args.cells:
+        start = seed
+        for i, cells in enumerate(args.cells):
             entry, final = run(
                 cells, thickness, args.pull, args.shortening, args.steps, args.push, start
             )
             start = final if args.nested else None
+            seed = final if args.nested and i == 0 else seed
             runs.append(entry)
             if MPI.COMM_WORLD.rank == 0:
                 shown = " ".join(f"{v:.4f}" for v in entry["wavelengths"])
