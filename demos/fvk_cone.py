@@ -130,7 +130,8 @@ def spread(driver) -> float:
 #
 # Load steps δ = 0.015, 0.03, … until the lowest eigenvalue is negative; then
 # regula falsi (Illinois) on the lowest eigenvalue between the last stable and the first
-# unstable indentation, and δ_c by linear interpolation in the final bracket.
+# unstable indentation, and δ_c by linear interpolation between the nearest stable and unstable
+# states.
 
 # %%
 path: list[dict] = []
@@ -195,7 +196,10 @@ def locate(driver) -> tuple[float | None, list[float], float | None]:
         demo.say(f"no zero crossing of the lowest eigenvalue up to δ = {DEPTH} (h = {h})")
         return None, [], None
     final = regula_falsi(driver, *found)
-    below, above = (next(p for p in path if p["indentation"] == DEPTH * f) for f in final)
+    # the nearest states on either side of the crossing (the path holds every solve)
+    below = max((p for p in path if p["lowest_eigenvalue"] >= 0), key=lambda p: p["indentation"])
+    above = min((p for p in path if p["lowest_eigenvalue"] < 0), key=lambda p: p["indentation"])
+    final = [below["indentation"] / DEPTH, above["indentation"] / DEPTH]
     l_below, l_above = below["lowest_eigenvalue"], above["lowest_eigenvalue"]
     step = above["indentation"] - below["indentation"]
     onset = below["indentation"] + step * l_below / (l_below - l_above)
