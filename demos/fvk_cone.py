@@ -63,13 +63,14 @@ from dgplate.models.fvk import FvKSpec, build_fvk
 parser = demo.parser("fvk_cone", "FvK: an indented elastic cone", "h = 0.1")
 parser.add_argument("--h", type=float, default=None, help="mesh size (refinement studies)")
 parser.add_argument("--push", type=float, default=0.0, help="push past the onset by this × t")
+parser.add_argument("--steps", type=int, default=4, help="load steps of the first pass to δ = 0.06")
 args = demo.parse(parser)
 comm = MPI.COMM_WORLD
 out = Path(args.out)
 h = args.h or (0.1 if args.paper else 0.2)
 ALPHA, T, R_TIP, SECTORS = 0.1, 0.02, 0.15, 16  # cone slope, thickness, punch radius, N
 DEPTH = 0.06  # δ at load factor 1
-COARSE = [0.25, 0.5, 0.75, 1.0]  # load factors of the first pass (δ = 0.015 … 0.06)
+COARSE = [(i + 1) / args.steps for i in range(args.steps)]  # the first pass (default δ = 0.015 …)
 SECANTS = 4  # regula-falsi steps on the lowest eigenvalue, at most
 
 # %% [markdown]
@@ -128,7 +129,7 @@ def spread(driver) -> float:
 # %% [markdown]
 # ## The symmetric path and the onset
 #
-# Load steps δ = 0.015, 0.03, … until the lowest eigenvalue is negative; then
+# Load steps δ = 0.015, 0.03, … (`--steps`, default 4, to δ = 0.06) until the lowest eigenvalue is negative; then
 # regula falsi (Illinois) on the lowest eigenvalue between the last stable and the first
 # unstable indentation, and δ_c by linear interpolation between the nearest stable and unstable
 # states.
@@ -157,23 +158,24 @@ def solve(driver, factor: float) -> float:
 
 
 def bracket(driver) -> tuple[float, float, float, float] | None:
-    """The first pass: (f_lo, λ_lo, f_hi, λ_hi) around the first sign change (None: none)."""
-    lo = (0.0, np.nan)
+    """The first pass: (f_lo, λ_lo, f_hi, λ_hi) around the first change from + to − (or None)."""
+    lo = None  # the last stable state: a crossing needs one before the unstable state
     for factor in COARSE:
         lowest = solve(driver, factor)
-        if lowest < 0:
+        if lowest < 0 and lo is not None:
             return (*lo, factor, lowest)
-        lo = (factor, lowest)
+        lo = (factor, lowest) if lowest >= 0 else None
     return None
 
 
 def regula_falsi(driver, f_lo: float, l_lo: float, f_hi: float, l_hi: float) -> list[float]:
     """Shrink the bracket by the Illinois variant of regula falsi: the final bracket.
 
-    Stops once an end's eigenvalue is below 2 % of the first one: closer to the crossing the
-    Hessian is nearly singular and Newton on the symmetric branch slows down.
+    Stops once an end's eigenvalue is below 2 % of the first state's (or the stable end's, if
+    larger): closer, the Hessian is nearly singular and Newton on the symmetric branch slows
+    down.
     """
-    small = 0.02 * path[0]["lowest_eigenvalue"]
+    small = 0.02 * max(l_lo, path[0]["lowest_eigenvalue"])
     side = 0
     for _ in range(SECANTS):
         if min(abs(l_lo), abs(l_hi)) < small:
@@ -195,10 +197,11 @@ def locate(driver) -> tuple[float | None, list[float], float | None]:
     if found is None:
         demo.say(f"no zero crossing of the lowest eigenvalue up to δ = {DEPTH} (h = {h})")
         return None, [], None
-    final = regula_falsi(driver, *found)
+    regula_falsi(driver, *found)
     # the nearest states on either side of the crossing (the path holds every solve)
-    below = max((p for p in path if p["lowest_eigenvalue"] >= 0), key=lambda p: p["indentation"])
-    above = min((p for p in path if p["lowest_eigenvalue"] < 0), key=lambda p: p["indentation"])
+    inside = [p for p in path if DEPTH * found[0] <= p["indentation"] <= DEPTH * found[2]]
+    below = max((p for p in inside if p["lowest_eigenvalue"] >= 0), key=lambda p: p["indentation"])
+    above = min((p for p in inside if p["lowest_eigenvalue"] < 0), key=lambda p: p["indentation"])
     final = [below["indentation"] / DEPTH, above["indentation"] / DEPTH]
     l_below, l_above = below["lowest_eigenvalue"], above["lowest_eigenvalue"]
     step = above["indentation"] - below["indentation"]
