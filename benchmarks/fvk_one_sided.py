@@ -8,6 +8,16 @@ wavelength is measured by FFT of w along the lines x = d at the last converged l
 
     python benchmarks/fvk_one_sided.py --cells 16 24 32 --thickness 0.005 0.0035 \
         --json benchmarks/results/fvk_one_sided.json
+
+With ``--nested`` (serial) only the first mesh of the first thickness is pushed off the flat
+state; every finer mesh starts, at full load, from the previous mesh's state interpolated onto
+it, and the first mesh of the next thickness from the first mesh's state of the previous one,
+so that all runs follow the branch selected once (Newton then converges to the nearby state of
+the other discretisation or thickness instead of picking one of the many coexisting states,
+or the flat one, anew):
+
+    python benchmarks/fvk_one_sided.py --nested --cells 24 32 40 --thickness 0.005 0.0035 \
+        --json benchmarks/results/fvk_one_sided_nested.json
 """
 
 from __future__ import annotations
@@ -22,17 +32,49 @@ from mpi4py import MPI
 import dolfinx.fem
 import numpy as np
 
-from dgplate.measure.wrinkles import wrinkle_profile
+from dgplate.measure.wrinkles import line_values, wrinkle_profile
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk import FvKSpec, build_fvk
 
 DISTANCES = (0.0, 0.05, 0.1, 0.2, 0.6)
 
 
+class Interpolated:
+    """The deformation (x + u, w) of a converged state, as an ``initial`` for another mesh.
+
+    Serial: the state is evaluated at the other mesh's points by :func:`line_values`.
+    """
+
+    def __init__(self, state: dolfinx.fem.Function) -> None:
+        self.parts = []
+        for sub in (state.function_space.sub(1).sub(0), state.function_space.sub(1).sub(1),
+                    state.function_space.sub(0)):  # fmt: skip
+            space, dofs = sub.collapse()
+            part = dolfinx.fem.Function(space)
+            part.x.array[:] = state.x.array[dofs]
+            self.parts.append(part)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        """(x₁ + u₁, x₂ + u₂, w) at the points x (3 × n)."""
+        points = np.clip(x[:2].T, 0.0, 1.0)
+        ux, uy, w = (line_values(part, points) for part in self.parts)
+        return np.vstack([x[0] + ux, x[1] + uy, w])
+
+
 def run(
-    cells: int, thickness: float, pull: float, shortening: float, steps: int, push: float = 0.1
-) -> dict:
-    """One sheet: its path, wavelengths and amplitudes at :data:`DISTANCES` (collective)."""
+    cells: int,
+    thickness: float,
+    pull: float,
+    shortening: float,
+    steps: int,
+    push: float = 0.1,
+    initial: Interpolated | None = None,
+) -> tuple[dict, Interpolated]:
+    """One sheet: its path, wavelengths and amplitudes at :data:`DISTANCES` (collective).
+
+    From ``initial`` (at full load, one step, no push) when given; also returns the final
+    state as the start of a finer mesh.
+    """
     tagged = rectangle(MPI.COMM_WORLD, [[0.0, 0.0], [1.0, 1.0]], [cells, cells])
     spec = FvKSpec(
         E=1.0,
@@ -40,11 +82,11 @@ def run(
         thickness=thickness,
         clamped=["right"],
         membrane={"left": [-pull, f"-{shortening}*(y - 0.5)"], "right": "fixed"},
-        load_steps=steps,
-        perturb_unstable=push * thickness,
+        load_steps=1 if initial else steps,
+        perturb_unstable=0.0 if initial else push * thickness,
     )
     model = build_fvk(spec, tagged)
-    driver = model.driver(None, [], None)
+    driver = model.driver(None, [], initial)
     start = time.perf_counter()
     result = driver.run()
     seconds = time.perf_counter() - start
@@ -53,6 +95,8 @@ def run(
     w = dolfinx.fem.Function(space)
     w.x.array[:] = driver.state.x.array[dofs]
     profiles = [wrinkle_profile(w, [d, 0.0], [d, 1.0]) for d in DISTANCES]
+    final = Interpolated(driver.state)
+    lowest = [step.lowest_eigenvalue for step in driver.history]
     driver.destroy()
     return {
         "cells": cells,
@@ -65,9 +109,12 @@ def run(
         "wavelengths": [p["wavelength"] for p in profiles],
         "amplitudes": [p["amplitude"] for p in profiles],
         "seconds": seconds,
-        "push": push,
+        "push": 0.0 if initial else push,
+        "started_from_coarser_mesh": initial is not None,
+        "lowest_eigenvalues": lowest,
+        "energy": summary["energy"],
         "ranks": MPI.COMM_WORLD.size,
-    }
+    }, final
 
 
 def main() -> None:
@@ -79,12 +126,21 @@ def main() -> None:
     parser.add_argument("--shortening", type=float, default=0.002)
     parser.add_argument("--steps", type=int, default=1)
     parser.add_argument("--push", type=float, default=0.1, help="perturb_unstable / t")
+    parser.add_argument("--nested", action="store_true", help="finer meshes start from coarser")
     parser.add_argument("--json", default="")
     args = parser.parse_args()
+    if args.nested and MPI.COMM_WORLD.size > 1:
+        raise SystemExit("--nested runs serially")
     runs = []
+    seed = None  # --nested: the first mesh's state of the previous thickness
     for thickness in args.thickness:
-        for cells in args.cells:
-            entry = run(cells, thickness, args.pull, args.shortening, args.steps, args.push)
+        start = seed
+        for i, cells in enumerate(args.cells):
+            entry, final = run(
+                cells, thickness, args.pull, args.shortening, args.steps, args.push, start
+            )
+            start = final if args.nested else None
+            seed = final if args.nested and i == 0 else seed
             runs.append(entry)
             if MPI.COMM_WORLD.rank == 0:
                 shown = " ".join(f"{v:.4f}" for v in entry["wavelengths"])

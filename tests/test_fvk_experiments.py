@@ -102,9 +102,11 @@ def _one_sided(comm, cells=24):
 
 
 def test_one_sided_compression_wrinkles_at_the_compressed_edge():
-    """Wrinkles localised at x = 0: amplitude there > 3 × that at x = 0.6; wavelength at the
-    edge in [0.2, 0.35] (0.259 measured on 24 × 24), growing from x = 0 to x = 0.1."""
+    """Wrinkles localised at x = 0: amplitude there > t/100 (not the flat state: 0.074 t
+    measured) and > 3 × that at x = 0.6; wavelength at the edge in [0.2, 0.35] (0.259 measured
+    on 24 × 24), growing from x = 0 to x = 0.1."""
     edge, inside, far = _one_sided(MPI.COMM_WORLD)
+    assert edge["amplitude"] > 0.01 * 0.005
     assert edge["amplitude"] > 3 * far["amplitude"]
     assert 0.2 < edge["wavelength"] < 0.35
     assert edge["wavelength"] < inside["wavelength"]
@@ -164,3 +166,28 @@ def test_indentation_beyond_the_cone_height_warns(capfd):
     _, driver = _cone(MPI.COMM_SELF, 0.4, 1, 0.2, stability=False)
     driver.destroy()
     assert "model.indentation = 0.2 exceeds the height" in capfd.readouterr().err
+
+
+@pytest.mark.mpi
+def test_polar_disc_has_exact_rotational_symmetry():
+    """meshes/polar_disc.geo (N = 16, h = 0.15): every cell's vertices rotated by 2π/N are the
+    vertices of a cell again (to 10⁻¹⁰), the area is that of the polygon of the rim, and the
+    punch group is the cells inside r = 0.15 (on any number of ranks)."""
+    from dgplate.mesh.tagged import load_geo
+
+    tagged = load_geo(MPI.COMM_WORLD, "polar_disc.geo", {"h": 0.15, "N": 16, "Rc": 0.15})
+    mesh, comm = tagged.mesh, MPI.COMM_WORLD
+    owned = mesh.topology.index_map(2).size_local
+    x = mesh.geometry.x[:, 0] + 1j * mesh.geometry.x[:, 1]
+    cells = np.concatenate(comm.allgather(x[mesh.geometry.dofmap[:owned]]))
+
+    def key(z):
+        return {tuple(sorted(zip(c.real.round(10) + 0.0, c.imag.round(10) + 0.0))) for c in z}
+
+    assert key(cells * np.exp(2j * np.pi / 16)) == key(cells)
+    area = np.abs(((cells[:, 1] - cells[:, 0]).conj() * (cells[:, 2] - cells[:, 0])).imag).sum()
+    facets = tagged.facets("outer")
+    rim = comm.allreduce(int(np.count_nonzero(facets < mesh.topology.index_map(1).size_local)))
+    assert area / 2 == pytest.approx(rim / 2 * np.sin(2 * np.pi / rim), rel=1e-12)
+    centres = x[mesh.geometry.dofmap[tagged.cells("inner_ring")]].mean(axis=1)
+    assert np.abs(centres).max() < 0.15
