@@ -66,6 +66,10 @@ def test_resumed_adaptive_run_keeps_its_tau(tmp_path):
     rows = [line.split(",")[:4] for line in (out / "history.csv").read_text().splitlines()]
     lines = (reference / "history.csv").read_text().splitlines()
     assert rows == [line.split(",")[:4] for line in lines]
+    # the stopping measure is in every row, below the tolerance in the last
+    header, *table = [line.split(",") for line in lines]
+    column = [float(row[header.index("stationarity")]) for row in table]
+    assert all(math.isfinite(value) for value in column) and column[-1] < 1e-5
 
 
 def bnn(comm, n=6, **flow):

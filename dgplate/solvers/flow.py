@@ -693,8 +693,8 @@ class GradientFlow(StepCounters):
                 reason = f"diverged at step {info.step}: the energy became {info.energy}; the last finite state is kept"
                 break
             self.fallbacks += info.fallbacks
+            stop = self._stop_reason(info)  # first: it fills the record's stationarity
             self.record_step(info, history, increases)
-            stop = self._stop_reason(info)
             if stop:
                 converged, reason = True, stop
                 break
