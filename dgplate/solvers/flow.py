@@ -111,6 +111,16 @@ class FlowSpec:
         1e-2,
         "adaptive τ: the largest isometry defect D_h of a step before its projection (the linearisation error)",
     )
+    tau_growth: float = option(
+        2.0, "adaptive τ: the factor by which τ grows after an accepted step"
+    )
+    tau_max_ratio: float = option(
+        1e3, "adaptive τ: the largest τ, as a multiple of the initial τ (flow.tau)"
+    )
+    refactor_factor: float = option(
+        1.0,
+        "adaptive τ: put a grown τ into the step matrix (reassemble and refactorise) only once it differs from the τ held there by more than this factor; until then the steps keep that τ (1: at every change)",
+    )
     checkpoint_every: int = option(
         25,
         "write a checkpoint (for --resume) every n steps, and always at the end; 0: only at the end",
@@ -130,6 +140,7 @@ class FlowSpec:
             if not is_integer(value) or value < least:
                 raise InputError(f"flow.{key} must be an integer >= {least}, got {value!r}")
         self._check_choices()
+        self._check_adaptive()
         self._check_solver_options()
 
     def _check_choices(self) -> None:
@@ -148,14 +159,27 @@ class FlowSpec:
             )
         if not isinstance(self.adaptive_tau, bool):
             raise InputError(f"flow.adaptive_tau must be true or false, got {self.adaptive_tau!r}")
-        if not (is_number(self.defect_bound) and self.defect_bound > 0):
-            raise InputError(f"flow.defect_bound must be > 0, got {self.defect_bound!r}")
         if self.stop not in STOPS:
             raise InputError(f"flow.stop must be one of {STOPS}, got {self.stop!r}")
         if not isinstance(self.edge_constraint, bool):
             raise InputError(
                 f"flow.edge_constraint must be true or false, got {self.edge_constraint!r}"
             )
+
+    def _check_adaptive(self) -> None:
+        """The numbers of the τ controller (flow.adaptive_tau)."""
+        if not (is_number(self.defect_bound) and self.defect_bound > 0):
+            raise InputError(f"flow.defect_bound must be > 0, got {self.defect_bound!r}")
+        for key, strict in (
+            ("tau_growth", True),
+            ("tau_max_ratio", False),
+            ("refactor_factor", False),
+        ):
+            value = getattr(self, key)
+            finite = is_number(value) and math.isfinite(value)
+            if not (finite and (value > 1 if strict else value >= 1)):
+                relation = ">" if strict else ">="
+                raise InputError(f"flow.{key} must be a number {relation} 1, got {value!r}")
 
     def _check_tau(self) -> None:
         """τ: a finite number > 0, or 'h'."""
@@ -275,8 +299,12 @@ class GradientFlow(StepCounters):
         tau = max_cell_diameter(mesh) if settings.tau == "h" else float(settings.tau)
         self._tau = values.constant(mesh, tau)
         self._initial_tau = tau
+        # the τ controller's proposal (flow.adaptive_tau); the step matrix holds self.tau, which
+        # follows it only when they differ by more than flow.refactor_factor
+        self._target_tau = tau
         self._linear_defect = 0.0  # D_h after the last linearised step, before projection
         self.rejected_steps = 0  # steps redone with a smaller τ (flow.adaptive_tau)
+        self.refactorisations = 0  # changes of τ in the step matrix (each reassembles A_const)
         self._build_forms()
         self._E_form = dolfinx.fem.form(self.energy.total)
         self._last_energy = self.evaluate_energy()
@@ -413,13 +441,23 @@ class GradientFlow(StepCounters):
 
     @property
     def tau(self) -> float:
-        """The time step τ; setting it reassembles the constant block."""
+        """The time step τ of the step matrix; setting it reassembles the constant block.
+
+        Setting it also resets the adaptive controller's proposal to it, and counts one
+        refactorisation (:attr:`refactorisations`).
+        """
         return float(self._tau.value)
 
     @tau.setter
     def tau(self, value: float) -> None:
         if not value > 0:
             raise InputError(f"flow.tau must be > 0, got {value}")
+        self._target_tau = value
+        self._put_tau(value)
+        self.refactorisations += 1
+
+    def _put_tau(self, value: float) -> None:
+        """τ into the step matrix: reassemble A_const and tell the solver."""
         self._tau.value = np.asarray(value)
         compat.assemble_matrix_into(self.A_const, self._a_const)
         if isinstance(self.solver, schur.SchurStepSolver):
@@ -572,8 +610,19 @@ class GradientFlow(StepCounters):
         return {"y": self.y, "step_solution": self.solution}
 
     def checkpoint_state(self) -> dict[str, Any]:
-        """The counters a checkpoint must hold (with :meth:`checkpoint_fields`)."""
-        return {**super().checkpoint_state(), "fallbacks": self.fallbacks}
+        """The counters a checkpoint must hold (with :meth:`checkpoint_fields`).
+
+        With them τ (that of the step matrix and the adaptive controller's proposal), so that a
+        resumed adaptive run goes on with the τ it had, not the initial one.
+        """
+        return {
+            **super().checkpoint_state(),
+            "fallbacks": self.fallbacks,
+            "tau": self.tau,
+            "target_tau": self._target_tau,
+            "rejected_steps": self.rejected_steps,
+            "refactorisations": self.refactorisations,
+        }
 
     @property
     def checkpoint_every(self) -> int:
@@ -598,12 +647,21 @@ class GradientFlow(StepCounters):
             "tau": self.tau,
             "energy_increases": list(self.energy_increases),
             "solver_fallbacks": self.fallbacks,
+            "rejected_steps": self.rejected_steps,
+            "refactorisations": self.refactorisations,
+            "factorisations": getattr(self.solver, "factorisations", None),
         }
 
     def restore_state(self, state: dict[str, Any]) -> None:
         """Continue from a checkpoint's counters (after its fields were restored)."""
         super().restore_state(state)
         self.fallbacks = int(state.get("fallbacks", 0))
+        tau = float(state.get("tau", self.tau))
+        if tau != self.tau:
+            self._put_tau(tau)
+        self._target_tau = float(state.get("target_tau", tau))
+        self.rejected_steps = int(state.get("rejected_steps", 0))
+        self.refactorisations = int(state.get("refactorisations", 0))
 
     def undo(self) -> None:
         """Take back the last step (used when it produced a non-finite state)."""
@@ -616,9 +674,12 @@ class GradientFlow(StepCounters):
         budget = max_steps or self.remaining_steps()
         history: list[StepInfo] = []
         increases: list[int] = []
+        test = (
+            "‖P DE_h[yⁿ]‖_*'" if self.settings.stop == "stationarity" else "(E_h[yⁿ⁻¹] − E_h[yⁿ])/τ"
+        )
         converged, reason = (
             False,
-            f"step budget of {budget} steps spent before (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < {self.settings.tol:g}",
+            f"step budget of {budget} steps spent before {test} < {self.settings.tol:g}",
         )
         signum = 0
         for _ in range(budget):
@@ -632,8 +693,8 @@ class GradientFlow(StepCounters):
                 reason = f"diverged at step {info.step}: the energy became {info.energy}; the last finite state is kept"
                 break
             self.fallbacks += info.fallbacks
+            stop = self._stop_reason(info)  # first: it fills the record's stationarity
             self.record_step(info, history, increases)
-            stop = self._stop_reason(info)
             if stop:
                 converged, reason = True, stop
                 break
@@ -653,11 +714,11 @@ class GradientFlow(StepCounters):
         """One accepted step with adaptive τ (``flow.adaptive_tau``).
 
         A step is accepted when E_h did not rise and the isometry defect after the linearised
-        step (before projection) is at most ``flow.defect_bound`` and the nonlocal terms (self-avoidance)
-        accept the new state; τ is then doubled for the
-        next step. Otherwise the step is taken back and redone with τ/2, down to 10⁻⁶ of the
-        initial τ (below that the step is accepted as it is). Rejected steps are counted in
-        :attr:`rejected_steps`.
+        step (before projection) is at most ``flow.defect_bound`` and the nonlocal terms
+        (self-avoidance) accept the new state; the controller's τ then grows
+        (:meth:`_grow_tau`). Otherwise the step is taken back and redone with half the τ it
+        was taken with (refactorised at once), down to 10⁻⁶ of the initial τ (below that the
+        step is accepted as it is). Rejected steps are counted in :attr:`rejected_steps`.
         """
         y0 = self.y.x.array.copy()
         energy0, time0, count0 = self._last_energy, self.time, self.step_count
@@ -668,12 +729,26 @@ class GradientFlow(StepCounters):
             too_far = self._linear_defect > self.settings.defect_bound
             refused = not all([term.accept() for term in self.energy.nonlocal_terms])
             if not (rose or too_far or refused) or self.tau / 2 < tau_min:
-                self.tau = min(2 * self.tau, 1e3 * self._initial_tau)
+                self._grow_tau()
                 return info
             self.rejected_steps += 1
             self.y.x.array[:] = y0
             self._last_energy, self.time, self.step_count = energy0, time0, count0
             self.tau = self.tau / 2
+
+    def _grow_tau(self) -> None:
+        """After an accepted step: the proposal grows by ``flow.tau_growth``, up to its cap.
+
+        The step matrix takes it only when it differs from the τ held there by more than
+        ``flow.refactor_factor``; until then the steps are gradient-flow steps with the held τ.
+        """
+        settings = self.settings
+        cap = settings.tau_max_ratio * self._initial_tau
+        self._target_tau = min(settings.tau_growth * self._target_tau, cap)
+        ratio = max(self._target_tau / self.tau, self.tau / self._target_tau)
+        if ratio > settings.refactor_factor * (1 + 1e-12):
+            self._put_tau(self._target_tau)
+            self.refactorisations += 1
 
     def _stop_reason(self, info: StepInfo) -> str:
         """Why the flow stops converged after this step ('' to go on): ``flow.stop``."""

@@ -157,6 +157,7 @@ class DirectStepSolver:
         self.K = K
         self.ksp = make_ksp(comm, K, options, prefix)
         self.ksp.setInitialGuessNonzero(True)  # see LaggedStepSolver
+        self.factorisations = 0
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec, refactor: bool = True) -> SolveStats:
         """Solve K x = b, refactorising K first unless ``refactor`` is False (same K)."""
@@ -165,6 +166,7 @@ class DirectStepSolver:
         if refactor:
             self.ksp.setOperators(self.K)  # marks the factors stale
             factorise(self.ksp)
+            self.factorisations += 1
         t1 = time.perf_counter()
         its = solve(self.ksp, b, x)
         return SolveStats(factorised, its, (t1 - t0) * factorised, time.perf_counter() - t1)

@@ -1,0 +1,130 @@
+"""Adaptive τ (flow.adaptive_tau): checkpoints keep τ, and the step matrix follows the
+controller's τ only when they differ by more than flow.refactor_factor.
+
+A run interrupted and resumed must take the same steps with the same τ as an uninterrupted
+one (the resumed run would otherwise restart from the initial τ). With a refactor factor the
+steps between refactorisations keep the factorised τ: they are still steps of the flow, and
+the run must end at the fixed-τ run's state, with the energy going down at every step.
+"""
+
+import json
+import math
+from itertools import pairwise
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+from dgplate.cli import main
+from dgplate.errors import InputError
+from dgplate.mesh.tagged import rectangle
+from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
+from dgplate.solvers.flow import FlowSpec, GradientFlow
+
+VERTICAL = Path(__file__).resolve().parent.parent / "demos" / "problems" / "vertical_load.toml"
+# 6×6 BNN plate, adaptive τ from τ = h with a tight defect bound: some steps are rejected
+ADAPTIVE = [
+    f"--set={key}"
+    for key in (
+        "mesh.cells=[6,6]",
+        "flow.linear_solver='direct'",
+        "flow.adaptive_tau=true",
+        "flow.defect_bound=2e-3",
+        "flow.refactor_factor=3",
+        "flow.projection_steps=1",
+        "flow.stop='stationarity'",
+        "flow.tol=1e-5",
+        "output.vtx=false",
+        "output.png=false",
+        "output.progress=0",
+    )
+]
+
+
+def summary_of(out: Path) -> dict:
+    return json.loads((out / "summary.json").read_text())
+
+
+def test_resumed_adaptive_run_keeps_its_tau(tmp_path):
+    reference = tmp_path / "reference"
+    assert main(["run", str(VERTICAL), "--out", str(reference), *ADAPTIVE]) == 0
+    expected = summary_of(reference)
+    assert expected["converged"] and expected["rejected_steps"] > 0
+    out = tmp_path / "resumed"
+    budget = ["--set=flow.max_steps=4", "--set=flow.checkpoint_every=1"]
+    assert main(["run", str(VERTICAL), "--out", str(out), *ADAPTIVE, *budget]) == 1
+    assert summary_of(out)["tau"] != pytest.approx(expected["tau"])
+    assert main(["run", str(VERTICAL), "--out", str(out), *ADAPTIVE, "--resume"]) == 0
+    summary = summary_of(out)
+    for key in ("steps", "rejected_steps", "refactorisations"):
+        assert summary[key] == expected[key], key
+    assert summary["tau"] == expected["tau"]
+    assert np.isclose(summary["energy"], expected["energy"], rtol=1e-10, atol=0)
+    # step, time, τ and E_h of every step, before and after the interruption (not the timings)
+    rows = [line.split(",")[:4] for line in (out / "history.csv").read_text().splitlines()]
+    lines = (reference / "history.csv").read_text().splitlines()
+    assert rows == [line.split(",")[:4] for line in lines]
+    # the stopping measure is in every row, below the tolerance in the last
+    header, *table = [line.split(",") for line in lines]
+    column = [float(row[header.index("stationarity")]) for row in table]
+    assert all(math.isfinite(value) for value in column) and column[-1] < 1e-5
+
+
+def bnn(comm, n=6, **flow):
+    tagged = rectangle(comm, [[0, 0], [4, 4]], [n, n])
+    spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
+    model = build_kirchhoff(spec, tagged)
+    settings = FlowSpec(
+        tau=math.sqrt(2) * 4 / n,
+        tol=1e-5,
+        stop="stationarity",
+        projection_steps=1,
+        max_steps=400,
+        **flow,
+    )
+    return GradientFlow(model.facets, 2, model.energy, settings)
+
+
+@pytest.mark.mpi
+def test_refactor_factor_keeps_tau_between_refactorisations():
+    runs = {}
+    for name, flow in (
+        ("fixed", {}),
+        ("every change", {"adaptive_tau": True}),
+        ("factor 3", {"adaptive_tau": True, "refactor_factor": 3.0}),
+    ):
+        solver = bnn(MPI.COMM_WORLD, **flow)
+        result = solver.run()
+        assert result.converged and result.energy_increases == [], name
+        runs[name] = (result, solver.refactorisations, solver.rejected_steps)
+        solver.destroy()
+    fixed = runs["fixed"][0]
+    for name in ("every change", "factor 3"):
+        result, count, rejected = runs[name]
+        assert rejected == 0
+        assert result.energy == pytest.approx(fixed.energy, rel=1e-6), name
+        taus = [row.tau for row in result.history]
+        changes = sum(b != a for a, b in pairwise(taus))
+        # every change is one refactorisation; the last may come after the last step
+        assert changes <= count <= changes + 1, name
+    assert runs["fixed"][1] == 0
+    # every change: τ doubles after each step; factor 3: it is put into the matrix every
+    # second step, ×4
+    every, factor3 = runs["every change"][0], runs["factor 3"][0]
+    assert [b.tau / a.tau for a, b in pairwise(every.history)] == (
+        pytest.approx([2.0] * (every.steps - 1))
+    )
+    taus = [row.tau for row in factor3.history]
+    assert taus[:5] == pytest.approx([taus[0], taus[0], 4 * taus[0], 4 * taus[0], 16 * taus[0]])
+    assert runs["factor 3"][1] < runs["every change"][1]
+
+
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [("refactor_factor", 0.5), ("tau_growth", 1.0), ("tau_max_ratio", math.inf)],
+)
+def test_bad_controller_numbers_are_refused(key, value):
+    with pytest.raises(InputError, match=rf"^flow\.{key} must be a number"):
+        FlowSpec(adaptive_tau=True, **{key: value})
