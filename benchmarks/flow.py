@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import platform
 import resource
 import sys
@@ -32,9 +31,8 @@ import numpy as np
 from petsc4py import PETSc
 
 from dgplate.io.output import ProgressPrinter, print0
-from dgplate.mesh.tagged import rectangle
-from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
-from dgplate.reference.bnn import BNN_TABLE1
+from dgplate.models.kirchhoff import bnn_plate
+from dgplate.reference.bnn import BNN_TABLE1, bnn_h
 from dgplate.solvers import linear as solvers
 from dgplate.solvers.flow import FlowResult, FlowSpec, GradientFlow
 
@@ -84,10 +82,8 @@ class NaiveFlow(GradientFlow):
 
 def bnn_flow(comm: MPI.Comm, cells: int, naive: bool = False, progress: int = 0) -> GradientFlow:
     """The plate (0, 4)² clamped on x = 0 and y = 0, f = (0, 0, 2.5e-2), Q2, τ = h."""
-    tagged = rectangle(comm, [[0, 0], [4, 4]], [cells, cells])
-    spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
-    model = build_kirchhoff(spec, tagged)
-    settings = FlowSpec(tau=math.sqrt(2) * 4 / cells, tol=1e-6, max_steps=2000)
+    model = bnn_plate(comm, cells)
+    settings = FlowSpec(tau=bnn_h(cells), tol=1e-6, max_steps=2000)
     cls = NaiveFlow if naive else GradientFlow
     observers = [ProgressPrinter(comm, progress)] if progress else []
     return cls(model.facets, model.degree, model.energy, settings, observers)
@@ -190,7 +186,7 @@ def main(argv: list[str] | None = None) -> dict:
         "cells": args.cells,
         "ranks": comm.size,
         "dofs": optimised["dofs"],
-        "tau": math.sqrt(2) * 4 / args.cells,
+        "tau": bnn_h(args.cells),
         "optimized": optimised,
         "steps": optimised["steps"],
         "energy": optimised["energy"],

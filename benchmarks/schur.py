@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import resource
 import shutil
@@ -37,17 +36,15 @@ SOLVERS = ("lagged", "schur")
 
 def child(cells: int, solver: str, steps: int, out: Path, pc: str) -> None:
     """Run ``steps`` steps with ``solver`` (``pc``: Σ's preconditioner) and write the record."""
-    from dgplate.mesh.tagged import rectangle
-    from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
+    from dgplate.models.kirchhoff import bnn_plate
+    from dgplate.reference.bnn import bnn_h
     from dgplate.solvers.flow import FlowSpec, GradientFlow
     from dgplate.solvers.schur import PRECONDITIONERS
 
     comm = MPI.COMM_WORLD
-    tagged = rectangle(comm, [[0, 0], [4, 4]], [cells, cells])
-    spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
-    model = build_kirchhoff(spec, tagged)
+    model = bnn_plate(comm, cells)
     settings = FlowSpec(
-        tau=math.sqrt(2) * 4 / cells,
+        tau=bnn_h(cells),
         tol=1e-30,
         max_steps=steps,
         linear_solver=solver,
@@ -96,14 +93,12 @@ def spectrum(cells: int) -> dict:
     and each preconditioner are formed densely: the cell blocks P, the scaled BFBᵀ P⁻¹FP⁻¹
     and the auxiliary space (P + Q)⁻¹. Returns the extreme eigenvalues of M Σ and their ratio.
     """
-    from dgplate.mesh.tagged import rectangle
-    from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
+    from dgplate.models.kirchhoff import bnn_plate
+    from dgplate.reference.bnn import bnn_h
     from dgplate.solvers.flow import FlowSpec, GradientFlow
 
-    tagged = rectangle(MPI.COMM_SELF, [[0, 0], [4, 4]], [cells, cells])
-    spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
-    model = build_kirchhoff(spec, tagged)
-    settings = FlowSpec(tau=math.sqrt(2) * 4 / cells, tol=1e-30, linear_solver="schur")
+    model = bnn_plate(MPI.COMM_SELF, cells)
+    settings = FlowSpec(tau=bnn_h(cells), tol=1e-30, linear_solver="schur")
     flow = GradientFlow(model.facets, model.degree, model.energy, settings)  # 'aux' by default
     flow.run(1)
 

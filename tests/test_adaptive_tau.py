@@ -19,8 +19,8 @@ import pytest
 
 from dgplate.cli import main
 from dgplate.errors import InputError
-from dgplate.mesh.tagged import rectangle
-from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
+from dgplate.models.kirchhoff import bnn_plate
+from dgplate.reference.bnn import bnn_h
 from dgplate.solvers.flow import FlowSpec, GradientFlow
 
 VERTICAL = Path(__file__).resolve().parent.parent / "demos" / "problems" / "vertical_load.toml"
@@ -73,11 +73,9 @@ def test_resumed_adaptive_run_keeps_its_tau(tmp_path):
 
 
 def bnn(comm, n=6, **flow):
-    tagged = rectangle(comm, [[0, 0], [4, 4]], [n, n])
-    spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
-    model = build_kirchhoff(spec, tagged)
+    model = bnn_plate(comm, n)
     settings = FlowSpec(
-        tau=math.sqrt(2) * 4 / n,
+        tau=bnn_h(n),
         tol=1e-5,
         stop="stationarity",
         projection_steps=1,

@@ -14,7 +14,7 @@ from conftest import PARITY_RTOL
 
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
-from dgplate.reference.bnn import BNN_TABLE1
+from dgplate.reference.bnn import BNN_TABLE1, bnn_h
 from dgplate.solvers.flow import FlowSpec, GradientFlow
 
 TABLE1 = BNN_TABLE1
@@ -26,7 +26,7 @@ def vertical_load_flow(
     tagged = rectangle(comm, [[0, 0], [4, 4]], [n, n], cell_type)
     spec = KirchhoffSpec(degree=degree, clamped=["left", "bottom"], load=[0, 0, 2.5e-2], **spec)
     model = build_kirchhoff(spec, tagged)
-    settings = FlowSpec(tau=tau or math.sqrt(2) * 4 / n, linear_solver=linear_solver)
+    settings = FlowSpec(tau=tau or bnn_h(n), linear_solver=linear_solver)
     return GradientFlow(model.facets, model.degree, model.energy, settings)
 
 

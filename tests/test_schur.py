@@ -5,7 +5,6 @@ Both solve the same saddle-point systems, so the flows must agree to the Krylov 
 """
 
 import logging
-import math
 
 from mpi4py import MPI
 
@@ -15,7 +14,8 @@ import pytest
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
-from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
+from dgplate.models.kirchhoff import bnn_plate
+from dgplate.reference.bnn import bnn_h
 from dgplate.solvers import linear, schur
 from dgplate.solvers.flow import FlowSpec, GradientFlow
 
@@ -24,12 +24,9 @@ AGREE = 1e-10
 
 def bnn(comm, solver, n=4, projection_steps=1, pc="bfbt"):
     """The BNN vertical-load plate on n×n cells (``pc``: the Schur preconditioner)."""
-    tagged = rectangle(comm, [[0, 0], [4, 4]], [n, n])
-    model = build_kirchhoff(
-        KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2]), tagged
-    )
+    model = bnn_plate(comm, n)
     settings = FlowSpec(
-        tau=math.sqrt(2) * 4 / n,
+        tau=bnn_h(n),
         tol=1e-12,
         projection_steps=projection_steps,
         linear_solver=solver,
@@ -105,10 +102,8 @@ def test_auxiliary_space_preconditioner():
     steps, a few dozen iterations."""
 
     def build(comm, kind):
-        tagged = rectangle(comm, [[0, 0], [4, 4]], [6, 6])
-        spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
-        model = build_kirchhoff(spec, tagged)
-        settings = FlowSpec(tau=math.sqrt(2) * 4 / 6, tol=1e-12, linear_solver=kind)
+        model = bnn_plate(comm, 6)
+        settings = FlowSpec(tau=bnn_h(6), tol=1e-12, linear_solver=kind)
         return GradientFlow(model.facets, 2, model.energy, settings)
 
     out = states(build, 3, comm=MPI.COMM_WORLD)

@@ -13,19 +13,17 @@ from mpi4py import MPI
 import pytest
 
 from dgplate.errors import InputError
-from dgplate.mesh.tagged import rectangle
-from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
+from dgplate.models.kirchhoff import bnn_plate
+from dgplate.reference.bnn import bnn_h
 from dgplate.solvers.flow import FlowSpec, GradientFlow
 
 TOL = 1e-5
 
 
 def bnn(comm, tau_factor, stop="stationarity", n=6, adaptive_tau=False):
-    tagged = rectangle(comm, [[0, 0], [4, 4]], [n, n])
-    spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
-    model = build_kirchhoff(spec, tagged)
+    model = bnn_plate(comm, n)
     settings = FlowSpec(
-        tau=tau_factor * math.sqrt(2) * 4 / n,
+        tau=tau_factor * bnn_h(n),
         tol=TOL if stop == "stationarity" else 1e-6,
         stop=stop,
         projection_steps=1,

@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Unpack
 
+from mpi4py import MPI
+
 import ufl
 from ufl.core.expr import Expr
 
@@ -20,7 +22,7 @@ from dgplate.dg.forms import BendingData, FacetSets, Penalty, bending_energy, fa
 from dgplate.dg.obstacle import Obstacle
 from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.errors import InputError
-from dgplate.mesh.tagged import TaggedMesh
+from dgplate.mesh.tagged import TaggedMesh, rectangle
 from dgplate.models.base import (
     PlateModel,
     clamped_data,
@@ -154,3 +156,14 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     return with_self_avoidance(
         with_obstacle(plate, spec.obstacle_params, g), spec.self_avoidance_params
     )
+
+
+def bnn_plate(comm: MPI.Comm, cells: int) -> PlateModel:
+    """The plate of Bonito–Nochetto–Ntogkas (M3AS 2021), Table 1, on cells × cells Q2 cells.
+
+    ω = (0, 4)² clamped flat on x₁ = 0 and x₂ = 0 under f = (0, 0, 2.5·10⁻²); their τ = h is
+    :func:`dgplate.reference.bnn.bnn_h`. Tests and benchmarks of the flow's solvers use it.
+    """
+    tagged = rectangle(comm, [[0, 0], [4, 4]], [cells, cells])
+    spec = KirchhoffSpec(degree=2, clamped=["left", "bottom"], load=[0, 0, 2.5e-2])
+    return build_kirchhoff(spec, tagged)
