@@ -177,3 +177,12 @@ def test_the_safety_net_redoes_steps_that_approach_too_fast(tmp_path):
     assert result["energy_increases"] == []
     distances = [row["min_distance"] for row in result.history]
     assert all(b > 0.97 * a for a, b in itertools.pairwise(distances))
+
+
+@pytest.mark.parametrize("half", [False, True])
+def test_exact_sums_report_the_least_distance(half):
+    """With θ = 0 the sums meet every pair: their least distance is min_distance's."""
+    cloud, h = spiral(60, 6)
+    targets = np.arange(len(cloud.points)) % 2 == 0 if half else None
+    result = tp.evaluate(cloud, 4.5, theta=0.0, reach=3 * h, targets=targets)
+    assert math.isclose(result.min_distance, tp.min_distance(cloud, h, targets))

@@ -272,9 +272,9 @@ class PlateTangentPoint:
         for target, values in ((self._G, d_points), (self._H, d_normals)):
             target.x.array.reshape(-1, 3)[self._dofs.reshape(-1)] = p.rho * values[mine] / w
             target.x.scatter_forward()
-        self.min_distance = mpi.global_min(
-            self.comm, tp.min_distance(cloud, reach / 3.0, self._targets)
-        )
+        exact = p.theta == 0  # then the sums met every pair: their least distance is the one
+        local = result.min_distance if exact else tp.min_distance(cloud, reach / 3.0, self._targets)
+        self.min_distance = mpi.global_min(self.comm, local)
         self._state, self._value, self.last = state.copy(), p.rho * energy, result
         return self._value
 

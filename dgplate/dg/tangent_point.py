@@ -67,6 +67,8 @@ class TPResult:
     d_normals: Array  # (M, 3)
     pairs_exact: int = 0  # point pairs summed exactly
     pairs_far: int = 0  # point–box interactions
+    #: The least distance of the pairs summed exactly: of all non-neighbouring pairs when θ = 0.
+    min_distance: float = np.inf
 
 
 @dataclass(frozen=True)
@@ -332,7 +334,10 @@ def _near_block(
     s_of = np.broadcast_to(js[:, None, :], shape).reshape(-1)[close]
     excluded = _excluded(cloud, t_of, s_of, 0.0)
     ww.reshape(-1)[close[excluded]] = 0.0
-    n2[ww == 0] = 1.0
+    summed = ww > 0
+    if summed.any():
+        out.min_distance = min(out.min_distance, float(np.sqrt(n2[summed].min())))
+    n2[~summed] = 1.0
     n = [nu[:, :, None, k] for k in range(3)]
     s = n[0] * d[0] + n[1] * d[1] + n[2] * d[2]
     f, sq, ag = _projected(cloud, s, n2, q)
