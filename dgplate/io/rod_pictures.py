@@ -115,7 +115,7 @@ def plot_rod(
         stripe = _tube(points + 0.9 * radius * director, closed, 0.35 * radius)
         plotter.add_mesh(stripe, color="#d62728", smooth_shading=True)
         if not closed:  # the start s = 0
-            plotter.add_mesh(pyvista.Sphere(1.6 * radius, points[0]), color="black")
+            plotter.add_mesh(pyvista.Sphere(radius=1.6 * radius, center=points[0]), color="black")
         if title:
             plotter.add_title(title, font_size=10, color="black")
         _set_camera(plotter, "iso", np.asarray(plotter.bounds))
