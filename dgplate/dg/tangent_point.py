@@ -203,9 +203,13 @@ def _excluded(cloud: Cloud, i: IntArray, j: IntArray, reach: float) -> npt.NDArr
     if reach > 0:
         d = cloud.points[j] - cloud.points[i]
         close = np.flatnonzero(np.einsum("ij,ij->i", d, d) <= reach * reach)
-    a, b = cloud.vertices[i[close]], cloud.vertices[j[close]]
-    out[close] = (a[:, :, None] == b[:, None, :]).any(axis=(1, 2))
+    out[close] = _share_vertex(cloud.vertices[i[close]], cloud.vertices[j[close]])
     return out
+
+
+def _share_vertex(a: IntArray, b: IntArray) -> npt.NDArray[np.bool_]:
+    """Whether the cells with vertex ids a[p] and b[p] have a vertex in common."""
+    return np.asarray((a[:, :, None] == b[:, None, :]).any(axis=(1, 2)))
 
 
 def _projected(cloud: Cloud, s: Array, n2: Array, q: float) -> tuple[Array, Array, Array]:
@@ -411,28 +415,19 @@ def crossings(triangles: Array, vertices: IntArray) -> IntArray:
     order = np.argsort(lo[:, 0], kind="stable")
     ends = np.searchsorted(lo[order, 0], hi[order, 0], side="right")
     found: list[IntArray] = []
-    for a, b in _sweep_pairs(ends):
+    n = len(order)
+    positions = np.arange(n)
+    later = np.maximum(ends - positions - 1, 0)  # sorted candidates b in (a, ends[a])
+    for a, b in _expand(positions, np.ones(n, dtype=np.int64), positions + 1, later):
         i, j = order[a], order[b]
         keep = np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i]), axis=1)
-        keep &= ~np.any(vertices[i][:, :, None] == vertices[j][:, None, :], axis=(1, 2))
+        keep &= ~_share_vertex(vertices[i], vertices[j])
         i, j = i[keep], j[keep]
         hit = _edges_through(triangles[i], triangles[j]) | _edges_through(
             triangles[j], triangles[i]
         )
         found.append(np.sort(np.stack([i[hit], j[hit]], axis=1), axis=1))
     return np.concatenate(found) if found else np.zeros((0, 2), dtype=np.int64)
-
-
-def _sweep_pairs(ends: IntArray) -> Iterator[tuple[IntArray, IntArray]]:
-    """Blocks of sorted index pairs (a, b), a < b < ends[a]: the sweep's candidates."""
-    counts = np.maximum(ends - np.arange(len(ends)) - 1, 0)
-    start = 0
-    while start < len(ends):
-        stop = start + max(1, int(np.searchsorted(np.cumsum(counts[start:]), _BLOCK)))
-        a = np.repeat(np.arange(start, stop), counts[start:stop])
-        first = np.repeat(np.cumsum(counts[start:stop]) - counts[start:stop], counts[start:stop])
-        yield a, a + 1 + np.arange(len(a)) - first
-        start = stop
 
 
 def _edges_through(a: Array, b: Array) -> npt.NDArray[np.bool_]:

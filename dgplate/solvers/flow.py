@@ -454,10 +454,10 @@ class GradientFlow(StepCounters):
             raise InputError(f"flow.tau must be > 0, got {value}")
         self._target_tau = value
         self._put_tau(value)
-        self.refactorisations += 1
 
     def _put_tau(self, value: float) -> None:
-        """τ into the step matrix: reassemble A_const and tell the solver."""
+        """τ into the step matrix: reassemble A_const, tell the solver, count it."""
+        self.refactorisations += 1
         self._tau.value = np.asarray(value)
         compat.assemble_matrix_into(self.A_const, self._a_const)
         if isinstance(self.solver, schur.SchurStepSolver):
@@ -748,7 +748,6 @@ class GradientFlow(StepCounters):
         ratio = max(self._target_tau / self.tau, self.tau / self._target_tau)
         if ratio > settings.refactor_factor * (1 + 1e-12):
             self._put_tau(self._target_tau)
-            self.refactorisations += 1
 
     def _stop_reason(self, info: StepInfo) -> str:
         """Why the flow stops converged after this step ('' to go on): ``flow.stop``."""
