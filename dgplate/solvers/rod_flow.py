@@ -20,6 +20,11 @@ same (:class:`dgplate.solvers.driver.Driver`). The 1D system is small (a few tho
 unknowns), so it is reassembled and factorised by MUMPS at every step
 (:class:`dgplate.solvers.linear.DirectStepSolver`).
 
+``flow.projection_steps = m`` adds after each step m Newton corrections towards the nonlinear
+constraints (the same moments and nodes): the step system assembled at the current state, with
+the constraints' residual as its right-hand side, i.e. the least correction in the step's
+metric that solves the constraints linearised at the current state.
+
 Nonlocal terms of the energy (self-avoidance ρ·TP[u], :class:`dgplate.dg.energy.Nonlocal`)
 are explicit: their derivative at uⁿ is one more load. A step that they refuse (the least
 distance of non-neighbouring points fell too fast) or that raised the energy is taken back
@@ -99,6 +104,7 @@ class RodStep:
     seconds: float
     safety: dict[str, float] = field(default_factory=dict)  # nonlocal terms: min_distance, redone
     figures: dict[str, float] = field(default_factory=dict)  # the model's per-step measures
+    projection: dict[str, float] = field(default_factory=dict)  # E after − E before projection
 
     def line(self) -> str:
         """One line of progress output."""
@@ -130,7 +136,14 @@ def nodal(mesh: Mesh) -> ufl.Measure:
 
 
 class Defects:
-    """∫ ||u′|² − 1|, ∫ |u′·b| and the largest nodal ||b|² − 1| of (u, b) (collective)."""
+    """The constraint defects of (u, b) (collective).
+
+    ∫ ||u′|² − 1| and ∫ |u′·b| over the rod, the largest nodal ||b|² − 1|, and the largest
+    ||u′|² − 1| and |u′·b| at the two Gauss points of each cell. For k = 2 the latter are the
+    constraints the flow imposes: (|u′|² − 1)q and (u′·b)q are cubics for q ∈ DG₁, which the
+    two-point Gauss rule integrates exactly, so the two moments vanish exactly when the values
+    at the two points do.
+    """
 
     def __init__(self, u: Function, b: Function):
         mesh = u.function_space.mesh
@@ -140,15 +153,27 @@ class Defects:
             "defect_tangent": dolfinx.fem.form(abs(ufl.dot(t, t) - 1.0) * ufl.dx(domain=mesh)),
             "defect_orthogonality": dolfinx.fem.form(abs(ufl.dot(t, b)) * ufl.dx(domain=mesh)),
         }
+        gauss = basix.ufl.quadrature_element(mesh.basix_cell(), value_shape=(2,), degree=3)
+        self._at_points: Function = dolfinx.fem.Function(dolfinx.fem.functionspace(mesh, gauss))
+        space = self._at_points.function_space
+        self._points: compat.Expression = dolfinx.fem.Expression(
+            ufl.as_vector([ufl.dot(t, t) - 1.0, ufl.dot(t, b)]),
+            compat.interpolation_points(space.element),
+        )
+        self._dofs = space.dofmap.list[: mesh.topology.index_map(1).size_local].ravel()
 
     def __call__(self) -> dict[str, float]:
-        """The three defects now."""
+        """The five defects now."""
         comm = self.u.function_space.mesh.comm
         out = {key: integral(form, comm) for key, form in self.forms.items()}
         owned = self.b.function_space.dofmap.index_map.size_local
         nodes = self.b.x.array.reshape(-1, 3)[:owned]
         local = float(np.max(np.abs(np.sum(nodes**2, axis=1) - 1.0), initial=0.0))
         out["defect_frame"] = mpi.global_max(comm, local)
+        self._at_points.interpolate(self._points)
+        values = np.abs(self._at_points.x.array.reshape(-1, 2)[self._dofs])
+        for column, key in enumerate(("max_defect_tangent", "max_defect_orthogonality")):
+            out[key] = mpi.global_max(comm, float(np.max(values[:, column], initial=0.0)))
         return out
 
 
@@ -188,6 +213,7 @@ class RodFlow(StepCounters):
         self._tau = values.constant(mesh, tau)
         self._bcs = self._end_conditions(state.clamped, state.pinned)
         self._build_forms()
+        self._project()  # the start meets the constraints at the nodes, not at the Gauss points
         self._E_form = dolfinx.fem.form(self.energy.total)
         self._last_energy = self.evaluate_energy()
         self._last_increment: Array = np.zeros(0)
@@ -228,14 +254,18 @@ class RodFlow(StepCounters):
         t = tangent(u)
         dx, dv = ufl.dx(domain=mesh), nodal(mesh)
 
-        def constraint(x: Expr, y: Expr, p1: Expr, p2: Expr, p3: Expr) -> ufl.Form:
-            """B_n((x, y), p): the linearised |u′|², u′·b and |b|² (each halved)."""
+        def residual(p1: Expr, p2: Expr, p3: Expr) -> ufl.Form:
+            """The constraints (|u′|² − 1)/2, u′·b and (|b|² − 1)/2 in their moments and nodes."""
             form: ufl.Form = (
-                ufl.dot(t, tangent(x)) * p1 * dx
-                + (ufl.dot(tangent(x), b) + ufl.dot(t, y)) * p2 * dx
-                + ufl.dot(b, y) * p3 * dv
+                0.5 * (ufl.dot(t, t) - 1.0) * p1 * dx
+                + ufl.dot(t, b) * p2 * dx
+                + 0.5 * (ufl.dot(b, b) - 1.0) * p3 * dv
             )
             return form
+
+        def constraint(x: Expr, y: Expr, p1: Expr, p2: Expr, p3: Expr) -> ufl.Form:
+            """B_n((x, y), p): the derivative of the residual at (uⁿ, bⁿ) in the direction (x, y)."""
+            return first(residual(p1, p2, p3), x, y)
 
         a = (
             (1.0 / self._tau) * metric
@@ -248,6 +278,7 @@ class RodFlow(StepCounters):
         for term in self.energy.nonlocal_terms:  # depend on u only
             rhs += ufl.derivative(term.linearisation, u, v)
         self._L = dolfinx.fem.form(-rhs)
+        self._residual = dolfinx.fem.form(-residual(q1, q2, q3))  # the projection's right side
         self.K = dolfinx.fem.petsc.create_matrix(self._a)
         self._rhs_fn: Function = dolfinx.fem.Function(self.W)  # a ghosted vector in every version
         self.rhs = self._rhs_fn.x.petsc_vec
@@ -308,21 +339,15 @@ class RodFlow(StepCounters):
     def step(self) -> RodStep:
         """One step from (uⁿ, bⁿ) to (uⁿ⁺¹, bⁿ⁺¹) (collective)."""
         t0 = time.perf_counter()
-        self.K.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(self.K, self._a, self._bcs)  # type: ignore[arg-type]
-        self.K.assemble()
         for term in self.energy.nonlocal_terms:
             term.update()  # their loads at uⁿ
-        compat.assemble_vector_into(self.rhs, self._L)
-        dolfinx.fem.petsc.set_bc(self.rhs, self._bcs)  # homogeneous: no lifting needed
-        self.solver.solve(self.rhs, self.solution.x.petsc_vec)
-        self.solution.x.scatter_forward()
-        x = self.solution.x.array
-        du, db = x[self._udofs].copy(), x[self._bdofs].copy()
-        self.u.x.array[:] += du
-        self.b.x.array[:] += db
-        self._last_increment = np.concatenate([du, db])
+        self._last_increment = self._solve(self._L)
         increment = mpi.global_max(self.comm, float(np.max(np.abs(self._last_increment))))
+        projection: dict[str, float] = {}
+        if self.settings.projection_steps:
+            linear = self.evaluate_energy()
+            self._last_increment += self._project()
+            projection["energy_change_by_projection"] = self.evaluate_energy() - linear
         energy = self.evaluate_energy()
         rate = (self._last_energy - energy) / self.tau
         self._last_energy = energy
@@ -330,9 +355,38 @@ class RodFlow(StepCounters):
         self.time += self.tau
         defect = max(self.defects().values())
         seconds = time.perf_counter() - t0
-        return RodStep(
+        info = RodStep(
             self.step_count, self.time, self.tau, energy, defect, increment, rate, seconds
         )
+        info.projection = projection
+        return info
+
+    def _project(self) -> Array:
+        """``flow.projection_steps`` Newton corrections towards the constraints; their sum."""
+        change: Array = np.zeros(self._udofs.size + self._bdofs.size)
+        for _ in range(self.settings.projection_steps):
+            change += self._solve(self._residual)
+        return change
+
+    def _solve(self, rhs: compat.Form) -> Array:
+        """Assemble the step matrix at the current state, solve with ``rhs`` and add the solution.
+
+        ``self._L`` gives the step, ``self._residual`` one projection: the least correction
+        in the step's norm that solves the constraints linearised at the current state (a
+        Newton step for them). Returns the change (δu, δb) of the degrees of freedom.
+        """
+        self.K.zeroEntries()
+        dolfinx.fem.petsc.assemble_matrix(self.K, self._a, self._bcs)  # type: ignore[arg-type]
+        self.K.assemble()
+        compat.assemble_vector_into(self.rhs, rhs)
+        dolfinx.fem.petsc.set_bc(self.rhs, self._bcs)  # homogeneous: no lifting needed
+        self.solver.solve(self.rhs, self.solution.x.petsc_vec)
+        self.solution.x.scatter_forward()
+        x = self.solution.x.array
+        du, db = x[self._udofs].copy(), x[self._bdofs].copy()
+        self.u.x.array[:] += du
+        self.b.x.array[:] += db
+        return np.concatenate([du, db])
 
     def _safe_step(self) -> RodStep:
         """A step the nonlocal terms accept and that lowers E, else redone with τ/2.
