@@ -81,7 +81,6 @@ ROD_IGNORES = {
         for key in (
             "l2_metric",
             "multiplier_degree",
-            "projection_steps",
             "linear_solver",
             "refactor_its",
             "edge_constraint",
@@ -616,12 +615,14 @@ class StepFigures:
         if self._twist is None:
             twist = ufl.dot(tangent(b), ufl.cross(tangent(u), b))
             self._twist = dolfinx.fem.form(twist * ufl.dx(domain=u.function_space.mesh))
-        return {
-            "twist_angle": integral(self._twist, flow.comm),
-            "writhe": mpi.global_sum(
-                flow.comm, writhe(nodes_in_order(u), (flow.comm.rank, flow.comm.size))
-            ),
-        }
+        twist = integral(self._twist, flow.comm)
+        wr = mpi.global_sum(flow.comm, writhe(nodes_in_order(u), (flow.comm.rank, flow.comm.size)))
+        return {"twist_angle": twist, "writhe": wr, "link": link(twist, wr)}
+
+
+def link(twist_angle: float, wr: float) -> float:
+    """Lk = Tw + Wr in turns (Călugăreanu): Tw = ∫b′·d / 2π, the writhe ``wr`` in turns."""
+    return twist_angle / (2.0 * math.pi) + wr
 
 
 class RodStart:
@@ -693,10 +694,12 @@ class RodModel:
         return RodFlow(self.mesh, spec.degree, energy, flow, state, observers, measures)
 
     def figures(self, driver: RodFlow) -> dict[str, Any]:
-        """Energy split, length, the end point and (clamped, κ ≠ 0) the error to the arc."""
+        """Energy split, length, the end point, (clamped, κ ≠ 0) the error to the arc, (closed) Lk."""
         out: dict[str, Any] = energy_split(driver.u, driver.b, self.data)
         out.update(arc_error(driver.u, self.spec))
         out.update(shape_figures(driver.u, self.spec))
+        if "writhe" in out:
+            out["link"] = link(out["twist_angle"], out["writhe"])
         terms = driver.energy.nonlocal_terms
         if terms:
             out["energy_self_avoidance"] = sum(term.update() for term in terms)
