@@ -343,12 +343,10 @@ class RodFlow(StepCounters):
             term.update()  # their loads at uⁿ
         self._last_increment = self._solve(self._L)
         increment = mpi.global_max(self.comm, float(np.max(np.abs(self._last_increment))))
-        projection: dict[str, float] = {}
-        if self.settings.projection_steps:
-            linear = self.evaluate_energy()
-            self._last_increment += self._project()
-            projection["energy_change_by_projection"] = self.evaluate_energy() - linear
-        energy = self.evaluate_energy()
+        linear = self.evaluate_energy() if self.settings.projection_steps else math.nan
+        self._last_increment += self._project()
+        energy = self.evaluate_energy()  # after the projection
+        projection = {} if math.isnan(linear) else {"energy_change_by_projection": energy - linear}
         rate = (self._last_energy - energy) / self.tau
         self._last_energy = energy
         self.step_count += 1
