@@ -10,7 +10,7 @@ until ΔE/τ < ``--tol`` or ``--steps`` steps, from one or two starts that lie i
 
 - ``clew``: the spherical curve (cos θ cos t, cos θ sin t, sin θ), θ = a sin 2t, a 1-2 clew
   whose amplitude a makes it ``--slack`` times longer than the great circle of the ball it
-  is scaled into (so it lies inside; possible while L/(2πR)·slack < 1.98, a < π/2);
+  is scaled into (so it lies inside; possible while L/(2πR)·slack < 2.04, a < 1.55);
 - ``wound``: the (μ₀, 1) torus curve ((1 + r cos t) cos μ₀t, (1 + r cos t) sin μ₀t, r sin t),
   r = 0.15, an unknot that winds μ₀ = ⌊L/(2πR)⌋ + 1 times about e₃, near the μ₀-circle
   (which fits: L/(2πμ₀) < R).
@@ -24,7 +24,10 @@ steps and wall time go into ``--json``.
     python benchmarks/rod_sphere_study.py --json benchmarks/results/rod_sphere_study.json \\
         --pictures docs/img/rod_sphere_study
 
-``--fine`` runs 96 cells and 6000 steps instead (not part of the default budget).
+``--fine`` runs 96 cells and 6000 steps instead (not part of the default budget). With
+``--rho 0 --starts wound`` the rod may pass through itself: an embedded curve on the sphere
+winds at most once about an axis, so clews and circles with μ ≥ 2 on the sphere cross
+themselves, and only a rod that may cross can reach them (docs/rods.md).
 """
 
 from __future__ import annotations
@@ -61,6 +64,9 @@ FIGURES = (
     "max_distance_to_center",
     "writhe",
     "length",
+    "defect_tangent",
+    "defect_orthogonality",
+    "defect_frame",
     "steps",
     "converged",
 )
@@ -122,8 +128,8 @@ def picture(result: Any, radius: float, path: Path, title: str) -> None:
     if line is None:
         return
     points, director, closed = line
-    tube = _default_radius(points, closed)
-    with offscreen_png(path, (900, 800)) as plotter:
+    tube = max(_default_radius(points, closed), 0.004)  # visible where strands cross (ρ = 0)
+    with offscreen_png(path, (600, 540)) as plotter:
         plotter.set_background("white")
         plotter.add_mesh(_tube(points, closed, tube), color="#c8ccd4", smooth_shading=True)
         stripe = _tube(points + 0.9 * tube * director, closed, 0.35 * tube)
