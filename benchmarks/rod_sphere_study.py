@@ -1,0 +1,227 @@
+"""Closed rods of length L = 1 in spheres of decreasing radius R: μ-circles and μ-ν-clews.
+
+The seed's experiment (Bartels and Weyer): the energy minimising closed rods of length L in a
+ball of radius R are μ-circles (a circle covered μ times) or μ-ν-clews (μ turns about a
+discrete rotation axis, a 2ν-periodic curvature), and lie on the sphere. Here, for each
+L/(2πR) of ``--ratios``, a closed rod (c_b = 1, c_t = 0.5, ``--cells`` cells, degree 2) flows
+with the confinement (ε = ``--epsilon``) and the tangent-point self-avoidance (ρ = ``--rho``,
+q = 3: it must not pass through itself, or a rod that winds more than once could cross)
+until ΔE/τ < ``--tol`` or ``--steps`` steps, from one or two starts that lie in the ball:
+
+- ``clew``: the spherical curve (cos θ cos t, cos θ sin t, sin θ), θ = a sin 2t, a 1-2 clew
+  whose amplitude a makes it ``--slack`` times longer than the great circle of the ball it
+  is scaled into (so it lies inside; possible while L/(2πR)·slack < 2.04, a < 1.55);
+- ``wound``: the (μ₀, 1) torus curve ((1 + r cos t) cos μ₀t, (1 + r cos t) sin μ₀t, r sin t),
+  r = 0.15, an unknot that winds μ₀ = ⌊L/(2πR)⌋ + 1 times about e₃, near the μ₀-circle
+  (which fits: L/(2πμ₀) < R).
+
+The final shape is classified by :func:`dgplate.measure.rod_shapes.classify` (μ the winding
+number about the axis of ∮ u × u′, 2ν the number of curvature maxima, a circle when the
+curvature varies by less than 10 %), and drawn (tube, stripe along b, the sphere) into
+``--pictures``. Every run's energies (bending, torsion, confinement, ρ·TP), least distance,
+steps and wall time go into ``--json``.
+
+    python benchmarks/rod_sphere_study.py --json benchmarks/results/rod_sphere_study.json \\
+        --pictures docs/img/rod_sphere_study
+
+``--fine`` runs 96 cells and 6000 steps instead (not part of the default budget). With
+``--rho 0 --starts wound`` the rod may pass through itself: an embedded curve on the sphere
+winds at most once about an axis, so clews and circles with μ ≥ 2 on the sphere cross
+themselves, and only a rod that may cross can reach them (docs/rods.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+import numpy as np
+import pyvista
+
+import dgplate
+from dgplate.io.output import print0
+from dgplate.io.plotting import _set_camera, offscreen_png
+from dgplate.io.rod_pictures import _default_radius, _tube, rod_polyline
+from dgplate.measure.rod_shapes import classify
+from dgplate.models.rod import nodes_in_order
+
+SPHERE = Path(__file__).resolve().parent.parent / "demos" / "problems" / "rod_sphere.toml"
+TORUS_R = 0.15  # the tube radius of the wound start, relative to its core radius 1
+FIGURES = (
+    "energy",
+    "energy_bending",
+    "energy_torsion",
+    "energy_confinement",
+    "energy_self_avoidance",
+    "min_distance",
+    "max_distance_to_center",
+    "writhe",
+    "length",
+    "defect_tangent",
+    "defect_orthogonality",
+    "defect_frame",
+    "steps",
+    "converged",
+)
+
+
+def clew_length(amplitude: float, samples: int = 20000) -> float:
+    """The length of the unit-sphere 1-2 clew with θ = a sin 2t over 2π."""
+    t = np.linspace(0.0, 2.0 * math.pi, samples + 1)
+    theta = amplitude * np.sin(2.0 * t)
+    p = np.c_[np.cos(theta) * np.cos(t), np.cos(theta) * np.sin(t), np.sin(theta)]
+    return float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1))) / (2.0 * math.pi)
+
+
+def clew_amplitude(target: float) -> float | None:
+    """The amplitude a ∈ (0, 1.55) whose clew is ``target`` times the great circle (bisection)."""
+    low, high = 0.0, 1.55
+    if clew_length(high) < target:
+        return None
+    for _ in range(50):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if clew_length(middle) < target else (low, middle)
+    return 0.5 * (low + high)
+
+
+def start_curve(kind: str, ratio: float, slack: float) -> list[str] | None:
+    """The formulas of the start ``kind`` for L/(2πR) = ratio, or None if it does not fit."""
+    if kind == "clew":
+        a = clew_amplitude(ratio * slack)
+        if a is None:
+            return None
+        theta = f"({a:.6f}*sin(2*t))"
+        return [f"cos({theta})*cos(t)", f"cos({theta})*sin(t)", f"sin({theta})"]
+    turns = math.floor(ratio) + 1
+    ring = f"(1 + {TORUS_R}*cos(t))"
+    return [f"{ring}*cos({turns}*t)", f"{ring}*sin({turns}*t)", f"{TORUS_R}*sin(t)"]
+
+
+def settings(args: argparse.Namespace, ratio: float, curve: list[str]) -> dict[str, object]:
+    """The overrides of the sphere's problem file for one run."""
+    radius = 1.0 / (2.0 * math.pi * ratio)
+    return {
+        "model.cells": args.cells,
+        "model.saddle": 0.0,
+        "model.curve": curve,
+        "model.confinement": {"radius": radius, "center": [0.0, 0.0, 0.0], "epsilon": args.epsilon},
+        "model.self_avoidance": {"rho": args.rho, "q": 3.0},
+        "flow.tau": args.tau,
+        "flow.tol": args.tol,
+        "flow.max_steps": args.steps,
+        "output.progress": 0,
+        "output.vtx": False,
+        "output.png": False,
+    }
+
+
+def picture(result: Any, radius: float, path: Path, title: str) -> None:
+    """The rod as a tube with a stripe along b inside the translucent sphere (collective)."""
+    line = rod_polyline(result.fields["u"], result.fields["b"])
+    if line is None:
+        return
+    points, director, closed = line
+    tube = max(_default_radius(points, closed), 0.004)  # visible where strands cross (ρ = 0)
+    with offscreen_png(path, (600, 540)) as plotter:
+        plotter.set_background("white")
+        plotter.add_mesh(_tube(points, closed, tube), color="#c8ccd4", smooth_shading=True)
+        stripe = _tube(points + 0.9 * tube * director, closed, 0.35 * tube)
+        plotter.add_mesh(stripe, color="#d62728", smooth_shading=True)
+        ball = pyvista.Sphere(radius=radius, center=(0.0, 0.0, 0.0), theta_resolution=48)
+        plotter.add_mesh(ball, color="#6baed6", opacity=0.15, smooth_shading=True)
+        plotter.add_title(title, font_size=10, color="black")
+        _set_camera(plotter, "iso", np.asarray(ball.bounds))
+        plotter.enable_parallel_projection()  # type: ignore[call-arg]  # the ball's true size
+
+
+def one_run(args: argparse.Namespace, ratio: float, kind: str, scratch: Path) -> dict[str, Any]:
+    """Flow one start in the ball of L/(2πR) = ratio; its figures and shape (collective)."""
+    comm = MPI.COMM_WORLD
+    curve = start_curve(kind, ratio, args.slack)
+    if curve is None:
+        print0(comm, f"L/2πR = {ratio:g} ({kind}): skipped, the 1-2 clew start does not fit")
+        return {"ratio": ratio, "start": kind, "skipped": "the 1-2 clew start does not fit"}
+    radius = 1.0 / (2.0 * math.pi * ratio)
+    problem = dgplate.load_problem(SPHERE, settings(args, ratio, curve))
+    wall = time.perf_counter()
+    result = dgplate.run(problem, out=scratch / f"{kind}_{ratio}", comm=comm)
+    wall = time.perf_counter() - wall
+    shape = classify(nodes_in_order(result.fields["u"]), radius)
+    name = f"ratio{ratio:g}_{kind}".replace(".", "_")
+    if args.pictures:
+        title = f"L/(2 pi R) = {ratio:g}, {kind} start: {shape.label}, E = {result['energy']:.1f}"
+        picture(result, radius, Path(args.pictures) / f"{name}.png", title)
+    row = {
+        "ratio": ratio,
+        "start": kind,
+        "radius": radius,
+        "curve": curve,
+        **{key: result[key] for key in FIGURES},
+        "energy_increases": len(result["energy_increases"]),
+        "reason": result["reason"],
+        "shape": shape.as_dict(),
+        "picture": f"{name}.png" if args.pictures else None,
+        "wall_time_s": wall,
+    }
+    print0(
+        comm,
+        f"L/2πR = {ratio:g} ({kind}): {shape.label} (winding {shape.winding:.2f}, "
+        f"κ variation {shape.curvature_variation:.2f}, off the sphere "
+        f"{shape.sphere_distance:.3f} R), E = {row['energy']:.3f}, bending "
+        f"{row['energy_bending']:.3f}, {row['steps']} steps, converged {row['converged']}, "
+        f"{wall:.0f} s",
+    )
+    return row
+
+
+def main() -> None:
+    """Run the study, print a line per run and write the JSON."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--ratios", type=float, nargs="+", default=[1.1, 1.3, 1.6, 2.0, 2.5, 3.0])
+    parser.add_argument("--starts", nargs="+", default=["clew", "wound"])
+    parser.add_argument("--cells", type=int, default=48)
+    parser.add_argument("--steps", type=int, default=1500)
+    parser.add_argument("--tau", type=float, default=0.02)
+    parser.add_argument("--tol", type=float, default=1e-3)
+    parser.add_argument("--epsilon", type=float, default=1e-6)
+    parser.add_argument("--rho", type=float, default=0.01)
+    parser.add_argument("--slack", type=float, default=1.02)
+    parser.add_argument("--fine", action="store_true", help="96 cells, 6000 steps (slow)")
+    parser.add_argument("--json", default=None)
+    parser.add_argument("--pictures", default=None, help="a folder for one PNG per run")
+    args = parser.parse_args()
+    if args.fine:
+        args.cells, args.steps = 96, 6000
+    comm = MPI.COMM_WORLD
+    wall = time.perf_counter()
+    with tempfile.TemporaryDirectory() as folder:
+        scratch = Path(comm.bcast(folder if comm.rank == 0 else None))
+        rows = [
+            one_run(args, ratio, kind, scratch) for ratio in args.ratios for kind in args.starts
+        ]
+    wall = time.perf_counter() - wall
+    summary = {
+        **{k: v for k, v in vars(args).items() if k not in ("json", "pictures")},
+        "length": 1.0,
+        "c_b": 1.0,
+        "c_t": 0.5,
+        "q": 3.0,
+        "ranks": comm.size,
+        "wall_time_s": wall,
+        "runs": rows,
+    }
+    print0(comm, f"total {wall:.0f} s")
+    if args.json and comm.rank == 0:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
+
+
+if __name__ == "__main__":
+    main()
