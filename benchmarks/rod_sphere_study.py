@@ -43,12 +43,10 @@ from typing import Any
 from mpi4py import MPI
 
 import numpy as np
-import pyvista
 
 import dgplate
 from dgplate.io.output import print0
-from dgplate.io.plotting import _set_camera, offscreen_png
-from dgplate.io.rod_pictures import _default_radius, _tube, rod_polyline
+from dgplate.io.rod_pictures import plot_rod
 from dgplate.measure.rod_shapes import classify
 from dgplate.models.rod import nodes_in_order
 
@@ -123,22 +121,20 @@ def settings(args: argparse.Namespace, ratio: float, curve: list[str]) -> dict[s
 
 
 def picture(result: Any, radius: float, path: Path, title: str) -> None:
-    """The rod as a tube with a stripe along b inside the translucent sphere (collective)."""
-    line = rod_polyline(result.fields["u"], result.fields["b"])
-    if line is None:
-        return
-    points, director, closed = line
-    tube = max(_default_radius(points, closed), 0.004)  # visible where strands cross (ρ = 0)
-    with offscreen_png(path, (600, 540)) as plotter:
-        plotter.set_background("white")
-        plotter.add_mesh(_tube(points, closed, tube), color="#c8ccd4", smooth_shading=True)
-        stripe = _tube(points + 0.9 * tube * director, closed, 0.35 * tube)
-        plotter.add_mesh(stripe, color="#d62728", smooth_shading=True)
-        ball = pyvista.Sphere(radius=radius, center=(0.0, 0.0, 0.0), theta_resolution=48)
-        plotter.add_mesh(ball, color="#6baed6", opacity=0.15, smooth_shading=True)
-        plotter.add_title(title, font_size=10, color="black")
-        _set_camera(plotter, "iso", np.asarray(ball.bounds))
-        plotter.enable_parallel_projection()  # type: ignore[call-arg]  # the ball's true size
+    """The rod as a tube with a stripe along b inside the translucent sphere (collective).
+
+    The tube is at least 0.004 thick, so that it stays visible where strands cross (ρ = 0).
+    """
+    u, b = result.fields["u"], result.fields["b"]
+    plot_rod(
+        u,
+        b,
+        path,
+        title,
+        min_radius=0.004,
+        sphere=(radius, (0.0, 0.0, 0.0)),
+        window_size=(600, 540),
+    )
 
 
 def one_run(args: argparse.Namespace, ratio: float, kind: str, scratch: Path) -> dict[str, Any]:

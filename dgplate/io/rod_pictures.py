@@ -8,6 +8,7 @@ renders off-screen with pyvista and writes the PNG.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import dolfinx.fem
@@ -96,19 +97,23 @@ def plot_rod(
     title: str = "",
     *,
     radius: float | None = None,
+    min_radius: float = 0.0,
+    sphere: tuple[float, Sequence[float]] | None = None,
     window_size: tuple[int, int] = (1000, 800),
 ) -> None:
     """final.png of a rod: a grey tube around u with a red stripe along b (collective).
 
     The stripe is a thinner tube through u + r·b on the surface of the tube of radius r
-    (default 1 % of the polyline's length, less where strands come close), so it winds around the tube as the frame turns.
+    (default 1 % of the polyline's length, less where strands come close, at least
+    ``min_radius``), so it winds around the tube as the frame turns. ``sphere = (R, centre)``
+    draws a confining ball, translucent, and frames the view on it at its true size.
     """
     line = rod_polyline(u, b)
     if line is None:
         return
     points, director, closed = line
     if radius is None:
-        radius = _default_radius(points, closed)
+        radius = max(_default_radius(points, closed), min_radius)
     with offscreen_png(path, window_size) as plotter:
         plotter.set_background("white")
         plotter.add_mesh(_tube(points, closed, radius), color="#c8ccd4", smooth_shading=True)
@@ -118,6 +123,12 @@ def plot_rod(
             plotter.add_mesh(pyvista.Sphere(radius=1.6 * radius, center=points[0]), color="black")
         if title:
             plotter.add_title(title, font_size=10, color="black")
-        _set_camera(plotter, "iso", np.asarray(plotter.bounds))
-        if closed:  # an open rod fills the width of the view already
-            plotter.camera.zoom(1.3)
+        if sphere is not None:
+            ball = pyvista.Sphere(radius=sphere[0], center=tuple(sphere[1]), theta_resolution=48)
+            plotter.add_mesh(ball, color="#6baed6", opacity=0.15, smooth_shading=True)
+            _set_camera(plotter, "iso", np.asarray(ball.bounds))
+            plotter.enable_parallel_projection()  # type: ignore[call-arg]  # the ball's true size
+        else:
+            _set_camera(plotter, "iso", np.asarray(plotter.bounds))
+            if closed:  # an open rod fills the width of the view already
+                plotter.camera.zoom(1.3)

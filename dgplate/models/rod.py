@@ -694,7 +694,7 @@ class RodModel:
         return RodFlow(self.mesh, spec.degree, energy, flow, state, observers, measures)
 
     def figures(self, driver: RodFlow) -> dict[str, Any]:
-        """Energy split, length, the end point, (clamped, κ ≠ 0) the error to the arc, (closed) Lk."""
+        """Energy split (summing to E_h), length, the end point, the arc error (clamped, κ ≠ 0), Lk."""
         out: dict[str, Any] = energy_split(driver.u, driver.b, self.data)
         out.update(arc_error(driver.u, self.spec))
         out.update(shape_figures(driver.u, self.spec))
@@ -704,11 +704,20 @@ class RodModel:
         if terms:
             out["energy_self_avoidance"] = sum(term.update() for term in terms)
             out["min_distance"] = min(term.min_distance for term in terms)
+        # What the named parts leave of E_h: the interior penalty of the jumps of u′ and the
+        # modified torsion's difference from the original; large where the discrete rod kinks.
+        parts = sum(value for key, value in out.items() if key.startswith("energy_"))
+        out["energy_rest"] = driver.evaluate_energy() - parts
         return out
 
     def picture(self, driver: RodFlow, path: Path, title: str) -> None:
-        """final.png: a tube around u with a stripe along b, so that the twist shows."""
-        plot_rod(driver.u, driver.b, path, title)
+        """final.png: a tube around u with a stripe along b, so that the twist shows.
+
+        A confined rod is drawn inside its translucent sphere.
+        """
+        ball = self.spec.sphere
+        sphere = None if ball is None else (ball.radius, ball.center)
+        plot_rod(driver.u, driver.b, path, title, sphere=sphere)
 
     def lines(self, driver: RodFlow) -> list[Array]:
         """No extra lines: the picture is the centreline itself."""
