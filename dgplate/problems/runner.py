@@ -125,12 +125,14 @@ class FrameWriter:
         self._frame(driver.step_count, {"time": driver.time})
 
     def _frame(self, step: int, row: dict[str, Any]) -> None:
-        parts = [f"{self.name}: step {step}"]
-        for key, label, fmt in _FRAME_FIGURES:
+        lines = [self.name, f"step {step}"]
+        for key, label, fmt, line in _FRAME_FIGURES:
             value = row.get(key)
             if isinstance(value, float | int) and not isinstance(value, bool):
-                parts.append(f"{label} = {value:{fmt}}")
-        self.draw(self.folder / f"frame_{step:06d}.png", ", ".join(parts))
+                if line == len(lines):
+                    lines.append("")
+                lines[line] += f"{', ' if lines[line] else ''}{label} = {value:{fmt}}"
+        self.draw(self.folder / f"frame_{step:06d}.png", "\n".join(lines))
         self.last = step
 
     def step(self, driver: Driver, record: Any) -> None:
@@ -149,14 +151,16 @@ class FrameWriter:
         from dgplate.io.plotting import frames_to_gif
 
         if self.comm.rank == 0:
-            frames_to_gif(sorted(self.folder.glob("frame_*.png")), path, comm=self.comm)
+            frames = sorted(self.folder.glob("frame_*.png"))
+            frames_to_gif(frames, path, fps=FRAMES_PER_SECOND, comm=self.comm)
 
 
-#: (history column, label, format) of the figures in a frame's title.
+#: (history column, label, format, line) of the figures in a frame's title (three short
+#: lines: the name; the step, time and energy; the least distance, with self-avoidance).
 _FRAME_FIGURES = (
-    ("time", "t", ".4g"),
-    ("energy", "E", ".4e"),
-    ("min_distance", "min distance", ".3g"),
+    ("time", "t", ".4g", 1),
+    ("energy", "E", ".5g", 1),
+    ("min_distance", "least distance", ".3g", 2),
 )
 
 
@@ -352,7 +356,7 @@ def _frames(job: _Job, model: Model, driver: Driver, out: OutputDir) -> FrameWri
         return None
 
     def draw(path: Path, title: str) -> None:
-        _draw(problem, model, driver, path, title, window_size=FRAME_SIZE)
+        _draw(problem, model, driver, path, title, window_size=FRAME_SIZE, reference=False)
 
     earlier = job.target / FRAMES if job.start is not None else None
     frames = FrameWriter(draw, out.path / FRAMES, every, problem.name, driver, earlier)
@@ -360,9 +364,11 @@ def _frames(job: _Job, model: Model, driver: Driver, out: OutputDir) -> FrameWri
     return frames
 
 
-#: The folder of the frames in the output folder, and their size in pixels.
+#: The folder of the frames in the output folder, and their size in pixels (the frames leave
+#: out final.png's outline of the reference domain, which would dwarf e.g. a knotted ribbon).
 FRAMES = "frames"
 FRAME_SIZE = (640, 480)
+FRAMES_PER_SECOND = 5.0
 
 
 def _picture(
@@ -383,7 +389,7 @@ def _draw(
 ) -> None:
     """A picture of the current shape: the model's own, else the coloured surface.
 
-    Collective: the lines are gathered. ``options`` (``window_size``) go to the surface's
+    Collective: the lines are gathered. ``options`` (``window_size``, ``reference``) go to the surface's
     picture; a model's own picture keeps its size.
     """
     from dgplate.io.plotting import plot_deformation
