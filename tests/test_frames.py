@@ -2,7 +2,8 @@
 
 A tiny Kirchhoff run (the vertical load on 4×4 cells, 5 steps) with ``frames_every = 2`` draws
 the start, steps 2 and 4 and the last step 5: four frames, and a GIF of four frames that
-Pillow opens. Serially and under ``mpirun -n 2`` (collective drawing, rank 0 writes).
+Pillow opens. Serially and under ``mpirun -n 2`` (collective drawing, rank 0 writes). A resumed
+run copies the frames of the run it continues.
 """
 
 from pathlib import Path
@@ -59,3 +60,21 @@ def test_no_frames_by_default(tmp_path):
 def test_bad_frames_every(value):
     with pytest.raises(InputError, match=r"output\.frames_every"):
         dgplate.load_problem(VERTICAL, overrides={"output.frames_every": value})
+
+
+def test_resumed_run_keeps_the_earlier_frames(tmp_path):
+    """A run stopped by its step budget and resumed: the GIF shows both parts."""
+    from PIL import Image
+
+    out = tmp_path / "run"
+    first = dgplate.load_problem(
+        VERTICAL, overrides={**SMALL, "flow.max_steps": 3, "output.frames_every": 2}
+    )
+    dgplate.run(first, out=out)
+    again = dgplate.load_problem(VERTICAL, overrides={**SMALL, "output.frames_every": 2})
+    result = dgplate.run(again, out=out, resume=True)
+    assert result["steps"] == 5
+    frames = sorted(p.name for p in (out / "frames").glob("frame_*.png"))
+    assert frames == [f"frame_{n:06d}.png" for n in (0, 2, 3, 4, 5)]
+    with Image.open(out / f"{again.name}.gif") as gif:
+        assert gif.n_frames == 5
