@@ -29,6 +29,7 @@ model :class:`ThermalModel` that builds the driver (:func:`build_thermal`).
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -374,7 +375,7 @@ class ThermalSpec:
         _check_alpha(self)
         _check_hinges(self.hinges)
         _check_penalty(self.penalty, self.penalty_aspect)
-        self._self_avoidance = SelfAvoidance.from_table(self.self_avoidance)
+        SelfAvoidance.from_table(self.self_avoidance)  # validated (and warned about) once
         _check_closure(self.closure)
         for key in ("clamped", "source_regions"):
             _names(getattr(self, key), f"model.{key}")
@@ -420,8 +421,14 @@ class ThermalSpec:
 
     @property
     def self_avoidance_params(self) -> SelfAvoidance | None:
-        """The validated ``self_avoidance`` table (None: none)."""
-        return self._self_avoidance
+        """The validated ``self_avoidance`` table (None: none).
+
+        Parsed again on each call rather than kept in an attribute: the spec's ``__dict__`` is
+        its problem-file keys. The warning of q <= 4 was given by the constructor.
+        """
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return SelfAvoidance.from_table(self.self_avoidance)
 
     @property
     def penalty_params(self) -> Penalty:
