@@ -76,6 +76,7 @@ SMALL = {
     "mesh.parameters.m": 2,
     "model.heat_step": 7.05,
     "model.flow_steps": 30,
+    "output.frames_every": 1,  # a picture after every heat step and hold: box_folding.gif
 }
 PAPER = {
     "mesh.parameters.n": 8,
@@ -83,6 +84,7 @@ PAPER = {
     "model.heat_step": 0.1,
     "model.flow_steps": 20,
     "model.hold_steps": 2000,
+    "output.frames_every": 20,
 }
 args = demo.arguments("box_folding", "Self-folding box driven by heat (seed 001).")
 say = demo.say

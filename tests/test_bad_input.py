@@ -50,6 +50,7 @@ BAD_INPUT = {
     "unknown key": Case(("flow.tua=0.1",), "unknown key flow.tua"),
     "wrong type": Case(("mesh.cells='many'",), "mesh.cells must be list"),
     "tau zero": Case(("flow.tau=0",), "flow.tau must be > 0"),
+    "frames negative": Case(("output.frames_every=-1",), "output.frames_every must be >= 0"),
     "tau negative": Case(("flow.tau=-0.5",), "flow.tau must be > 0"),
     "tau word": Case(("flow.tau=big",), "flow.tau must be a number > 0 or 'h'"),
     "degree 1": Case(("model.degree=1",), "model.degree must be >= 2"),

@@ -263,7 +263,7 @@ class ThermalBilayer:
 
     def _record(self, result: FlowResult, seconds: float, hold: bool = False) -> HeatStepRecord:
         lo, hi = self.heat.min_max()
-        figures: dict[str, float] = {}
+        figures = _safety(result)
         for measure in self.measures:
             figures.update(measure(self.y))
         self.step_count += 1
@@ -396,12 +396,28 @@ class ThermalBilayer:
             "tau": self.flow.tau,
             "energy": self.flow.evaluate_energy(),
             "isometry_defect": self.flow.defect(),
+            "energy_increases": list(self.flow.energy_increases),
         }
 
     def destroy(self) -> None:
         """Free the flow's and the heat solver's PETSc objects."""
         self.flow.destroy()
         self.heat.destroy()
+
+
+def _safety(result: FlowResult) -> dict[str, float]:
+    """A relaxation's safety net (self-avoidance): steps redone, least distance on the way.
+
+    {} without nonlocal terms. ``least_distance`` is the least of the steps' least distances
+    of non-neighbouring points; the distance of the final shape is a measure's ``min_distance``.
+    """
+    safety = [info.safety for info in result.history if info.safety]
+    if not safety:
+        return {}
+    return {
+        "redone": float(sum(s["redone"] for s in safety)),
+        "least_distance": min(s["min_distance"] for s in safety),
+    }
 
 
 __all__ = ["HeatStepRecord", "Measure", "Schedule", "ThermalBilayer", "ThermalEnergy"]

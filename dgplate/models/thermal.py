@@ -29,6 +29,7 @@ model :class:`ThermalModel` that builds the driver (:func:`build_thermal`).
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -44,6 +45,7 @@ from dgplate.coupling.heat import HeatSolver, HeatSource
 from dgplate.coupling.thermal import Measure, Schedule, ThermalBilayer
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets, Penalty, facet_sets
+from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.errors import InputError
 from dgplate.measure.analysis import curvature_summary
 from dgplate.measure.hinges import (
@@ -59,6 +61,7 @@ from dgplate.measure.hinges import (
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import flat_identity, piecewise_constant
 from dgplate.models.bilayer import bilayer_energy
+from dgplate.models.self_avoidance import add_tangent_point
 from dgplate.schema import option
 from dgplate.solvers.driver import Observer
 from dgplate.solvers.flow import FlowSpec
@@ -360,6 +363,10 @@ class ThermalSpec:
         {},
         "{facet group = panel}: <group>_height and <group>_distance, the mean height above the panel and the mean in-plane distance from its centre of the group's nodes, in the panel's frame",
     )
+    self_avoidance: dict[str, float] = option(
+        {},
+        "self-avoidance ρ·TP[y] by the tangent-point potential, explicit in every relaxation step (docs/self_avoidance.md): {} none, or {rho = ρ >= 0, q = exponent > 4 (4.5), theta = cluster-tree admissibility (0.5; 0 = exact sums), quadrature_degree = 2, max_redo = halvings of τ per step (8), approach = redo a step when the least distance falls below this fraction (0.5)}",
+    )
 
     def __post_init__(self) -> None:
         if self.degree < 2:
@@ -368,6 +375,7 @@ class ThermalSpec:
         _check_alpha(self)
         _check_hinges(self.hinges)
         _check_penalty(self.penalty, self.penalty_aspect)
+        SelfAvoidance.from_table(self.self_avoidance)  # validated (and warned about) once
         _check_closure(self.closure)
         for key in ("clamped", "source_regions"):
             _names(getattr(self, key), f"model.{key}")
@@ -410,6 +418,17 @@ class ThermalSpec:
         return Schedule(
             self.end_time, self.flow_steps, tuple(self.holds), self.hold_steps, hold_tau
         )
+
+    @property
+    def self_avoidance_params(self) -> SelfAvoidance | None:
+        """The validated ``self_avoidance`` table (None: none).
+
+        Parsed again on each call rather than kept in an attribute: the spec's ``__dict__`` is
+        its problem-file keys. The warning of q <= 4 was given by the constructor.
+        """
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return SelfAvoidance.from_table(self.self_avoidance)
 
     @property
     def penalty_params(self) -> Penalty:
@@ -470,6 +489,8 @@ class ThermalModel:
     mu: Any
     alpha: float | dict[str, Any] = 0.0
     calibration: dict[str, Any] = field(default_factory=dict)
+    #: ``model.self_avoidance``'s figures of the shape (None: no self-avoidance)
+    tangent_point: Measure | None = None
 
     @property
     def hinges(self) -> list[Hinge]:
@@ -487,10 +508,13 @@ class ThermalModel:
                 "motions leave the flow's metric singular"
             )
         self.alpha = self._calibrate(flow) if isinstance(spec.alpha, str) else spec.alpha
+        energy = self._energy()
+        if spec.self_avoidance_params is not None:
+            energy, self.tangent_point = add_tangent_point(energy, spec.self_avoidance_params)
         return ThermalBilayer(
             self.facets,
             spec.degree,
-            self._energy(),
+            energy,
             self._heat_solver(),
             flow,
             spec.schedule(),
@@ -593,6 +617,8 @@ class ThermalModel:
         measures += [_OnShape(self._placement(e, p)) for e, p in spec.edges.items()]
         if spec.anchor:
             measures.append(_OnShape(self._anchor_energy))
+        if self.tangent_point is not None:
+            measures.append(self.tangent_point)
         return measures
 
     def _placement(
@@ -646,6 +672,8 @@ class ThermalModel:
                 out[f"isometry_defect_at_{label}"] = record.defect
                 out[f"converged_at_{label}"] = record.flow_converged
         out["principal_curvatures"] = curvature_summary(driver.y)["principal_curvatures"]
+        if self.tangent_point is not None:  # the names of the other models' summary.json
+            out.update(self.tangent_point(driver.y))
         return out
 
     def lines(self, driver: ThermalBilayer) -> list[np.ndarray]:

@@ -10,6 +10,7 @@ VTX series and the checkpoints; at the end one writer commits ``history.csv``, t
 
 from __future__ import annotations
 
+import shutil
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -93,6 +94,74 @@ class SeriesWriter:
         if result.steps % self.every:
             self.writer.write(driver.time)
         self.writer.close()
+
+
+class FrameWriter:
+    """Pictures of ``driver.shape`` at the start, every ``every`` steps and at the end; a GIF.
+
+    The pictures are drawn by ``draw(path, title)`` (the run's final.png function) into
+    ``folder`` as ``frame_<step>.png``; the title carries the step, the time, the energy and,
+    with self-avoidance, the least distance of non-neighbouring points. On ``--resume`` the
+    earlier run's frames (``earlier``) are copied first, so the GIF shows the whole run.
+    Collective (the pictures gather the shape); rank 0 writes.
+    """
+
+    def __init__(
+        self,
+        draw: Callable[[Path, str], None],
+        folder: Path,
+        every: int,
+        name: str,
+        driver: Driver,
+        earlier: Path | None = None,
+    ):
+        self.draw, self.folder, self.every, self.name = draw, folder, every, name
+        self.comm: MPI.Comm = driver.comm
+        if self.comm.rank == 0:
+            folder.mkdir(parents=True, exist_ok=True)
+            for old in sorted(earlier.glob("frame_*.png")) if earlier else ():
+                shutil.copyfile(old, folder / old.name)
+        self.last = -1
+        self._frame(driver.step_count, {"time": driver.time})
+
+    def _frame(self, step: int, row: dict[str, Any]) -> None:
+        lines = [self.name, f"step {step}"]
+        for key, label, fmt, line in _FRAME_FIGURES:
+            value = row.get(key)
+            if isinstance(value, float | int) and not isinstance(value, bool):
+                if line == len(lines):
+                    lines.append("")
+                lines[line] += f"{', ' if lines[line] else ''}{label} = {value:{fmt}}"
+        self.draw(self.folder / f"frame_{step:06d}.png", "\n".join(lines))
+        self.last = step
+
+    def step(self, driver: Driver, record: Any) -> None:
+        """A frame every ``every`` steps."""
+        if record.step % self.every == 0:
+            self._frame(record.step, history_row(record))
+
+    def finish(self, driver: Driver, result: Any) -> None:
+        """A frame of the last state (unless just drawn), whatever ended the run."""
+        if self.last != driver.step_count:
+            row = history_row(result.history[-1]) if result.history else {"time": driver.time}
+            self._frame(driver.step_count, row)
+
+    def gif(self, path: Path) -> None:
+        """Assemble the frames into ``path`` (rank 0; written atomically)."""
+        from dgplate.io.plotting import frames_to_gif
+
+        if self.comm.rank == 0:
+            frames = sorted(self.folder.glob("frame_*.png"))
+            frames_to_gif(frames, path, fps=FRAMES_PER_SECOND, comm=self.comm)
+
+
+#: (history column, label, format, line) of the figures in a frame's title (three short
+#: lines: the name; the step, time and energy; the least distance, with self-avoidance).
+_FRAME_FIGURES = (
+    ("time", "t", ".4g", 1),
+    ("energy", "E", ".5g", 1),
+    ("min_distance", "least distance", ".3g", 2),
+)
 
 
 def history_row(record: Any) -> dict[str, Any]:
@@ -249,11 +318,14 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
         driver.observers.append(
             SeriesWriter(driver, out.path / "deformation.bp", problem.output.every)
         )
+    frames = _frames(job, model, driver, out)
     try:
         result = driver.run()
     except BaseException:
         out.discard()  # the checkpoints stay
         raise
+    if frames is not None:
+        frames.gif(out.path / f"{problem.name}.gif")
     checkpoints.save(driver, finished=result.converged)
     summary = _summary(problem, tagged, model, driver, result, len(checkpoints.history))
     advice.warn(comm, advice.after_run(problem, driver, summary, _area(tagged)))
@@ -276,18 +348,52 @@ def _area(tagged: TaggedMesh) -> float:
     return float(tagged.comm.allreduce(dolfinx.fem.assemble_scalar(one), op=MPI.SUM))
 
 
+def _frames(job: _Job, model: Model, driver: Driver, out: OutputDir) -> FrameWriter | None:
+    """The observer drawing ``output.frames_every``'s frames (None: not asked for)."""
+    problem = job.problem
+    every = problem.output.frames_every
+    if not every:
+        return None
+
+    def draw(path: Path, title: str) -> None:
+        _draw(problem, model, driver, path, title, window_size=FRAME_SIZE, reference=False)
+
+    earlier = job.target / FRAMES if job.start is not None else None
+    frames = FrameWriter(draw, out.path / FRAMES, every, problem.name, driver, earlier)
+    driver.observers.append(frames)
+    return frames
+
+
+#: The folder of the frames in the output folder, and their size in pixels (the frames leave
+#: out final.png's outline of the reference domain, which would dwarf e.g. a knotted ribbon).
+FRAMES = "frames"
+FRAME_SIZE = (640, 480)
+FRAMES_PER_SECOND = 5.0
+
+
 def _picture(
     problem: Problem, model: Model, driver: Driver, summary: dict[str, Any], path: Path
 ) -> None:
     """final.png of the final shape (collective: the lines are gathered)."""
-    from dgplate.io.plotting import plot_deformation
-
     energy, defect = summary.get("energy"), summary.get("isometry_defect")
     title = problem.name
     if isinstance(energy, float):
         title += f": E_h = {energy:.4e}"
     if isinstance(defect, float):
         title += f", D_h = {defect:.2e}"
+    _draw(problem, model, driver, path, title)
+
+
+def _draw(
+    problem: Problem, model: Model, driver: Driver, path: Path, title: str, **options: Any
+) -> None:
+    """A picture of the current shape: the model's own, else the coloured surface.
+
+    Collective: the lines are gathered. ``options`` (``window_size``, ``reference``) go to the surface's
+    picture; a model's own picture keeps its size.
+    """
+    from dgplate.io.plotting import plot_deformation
+
     own = getattr(model, "picture", None)  # a model's own picture (a rod: a striped tube)
     if own is not None:
         own(driver, path, title)
@@ -298,6 +404,7 @@ def _picture(
         title=title,
         color_by=problem.output.color_by,
         lines=model.lines(driver),
+        **options,
     )
 
 

@@ -71,6 +71,10 @@ class OutputSpec:
     png: bool = option(True, "render final.png off-screen")
     color_by: str = option("curvature", "colour of final.png: 'curvature' (|D²y|) or 'defect'")
     progress: int = option(1, "print progress every n steps on rank 0 (0: quiet)")
+    frames_every: int = option(
+        0,
+        "render a picture of the shape (as final.png) at the start, every n steps and at the end into frames/, and assemble them into <name>.gif (0: none)",
+    )
 
     def __post_init__(self) -> None:
         if self.every < 1:
@@ -81,6 +85,8 @@ class OutputSpec:
             )
         if self.progress < 0:
             raise InputError(f"output.progress must be >= 0, got {self.progress}")
+        if self.frames_every < 0:
+            raise InputError(f"output.frames_every must be >= 0, got {self.frames_every}")
 
 
 @dataclass
