@@ -127,7 +127,7 @@ def plot_rod(
             ball = pyvista.Sphere(radius=sphere[0], center=tuple(sphere[1]), theta_resolution=48)
             plotter.add_mesh(ball, color="#6baed6", opacity=0.15, smooth_shading=True)
             _set_camera(plotter, "iso", np.asarray(ball.bounds))
-            plotter.enable_parallel_projection()  # type: ignore[call-arg]  # the ball's true size
+            plotter.enable_parallel_projection()  # the ball's true size
         else:
             _set_camera(plotter, "iso", np.asarray(plotter.bounds))
             if closed:  # an open rod fills the width of the view already
