@@ -60,7 +60,10 @@ unknowns; ``lowest_eigenvalue`` in history.csv, the path and the interpolated lo
 it crosses zero in summary.json). ``perturb_unstable = a`` moves a state whose lowest eigenvalue
 has just turned negative by a·φ (φ the unstable mode, max |φ| = 1, so a is a deflection) and
 solves again: a perfect plate then leaves the flat, unstable branch at the first step past
-buckling. See :mod:`dgplate.solvers.newton` and :mod:`dgplate.solvers.eigen`.
+buckling. ``relaxation = true`` solves each load step (and each solve after a push) first by an
+energy-decreasing proximal gradient flow (first pseudo-time step ``relaxation_tau``), then by
+Newton: Newton alone finds critical points, and from a small push it often returns to the flat
+state. See :mod:`dgplate.solvers.newton` and :mod:`dgplate.solvers.eigen`.
 
 The driver's shape is the deformation y = (x₁ + u₁, x₂ + u₂, w) in [DG_k]³, written and drawn
 like every other model's; its records carry ``w_center`` (w at ``model.probe``) and ``w_max``.
