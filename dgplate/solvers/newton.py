@@ -261,10 +261,10 @@ class Continuation:
         self.relaxations: list[dict[str, Any]] = []
         self._anchor: dolfinx.fem.Function[np.float64] = dolfinx.fem.Function(space)
         self._inv_tau = dolfinx.fem.Constant(space.mesh, 0.0)
-        if relaxation:  # the proximal term (1/τ) M(v − vⁿ), zero outside the flow
-            test, mesh = ufl.TestFunction(space), space.mesh
-            gap = state - self._anchor
-            residual += self._inv_tau * ufl.inner(gap, test) * ufl.dx(domain=mesh)
+        # the proximal term (1/τ) M(v − vⁿ), zero outside the flow; always in the forms, so
+        # that ``relaxation`` may be set later (e.g. only for the solve after a push)
+        gap, mesh = state - self._anchor, space.mesh
+        residual += self._inv_tau * ufl.inner(gap, ufl.TestFunction(space)) * ufl.dx(domain=mesh)
         jacobian = ufl.derivative(residual, state, ufl.TrialFunction(space))
         self._energy = dolfinx.fem.form(energy)
         self._residual = dolfinx.fem.form(residual)
