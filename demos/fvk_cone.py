@@ -59,10 +59,14 @@ from dgplate.errors import SolverError
 from dgplate.measure.wrinkles import line_values
 from dgplate.mesh.tagged import load_geo
 from dgplate.models.fvk import FvKSpec, build_fvk
+from dgplate.solvers.newton import Relaxation
 
 parser = demo.parser("fvk_cone", "FvK: an indented elastic cone", "h = 0.1")
 parser.add_argument("--h", type=float, default=None, help="mesh size (refinement studies)")
 parser.add_argument("--push", type=float, default=0.0, help="push past the onset by this × t")
+parser.add_argument(
+    "--relax", type=float, default=0.0, help="solve after the push by the relaxation (first τ)"
+)
 parser.add_argument("--steps", type=int, default=4, help="load steps of the first pass to δ = 0.06")
 args = demo.parse(parser)
 comm = MPI.COMM_WORLD
@@ -238,6 +242,8 @@ def push(driver) -> tuple[dict | None, np.ndarray | None]:
     driver.stability = type(driver.stability)(
         **{**vars(driver.stability), "perturb": args.push * T}
     )
+    if args.relax:  # the energy-decreasing flow (model.relaxation) for the solve after the push
+        driver.relaxation = Relaxation(tau=args.relax)
     try:
         solve(driver, beyond)
     except SolverError as err:

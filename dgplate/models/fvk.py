@@ -60,7 +60,10 @@ unknowns; ``lowest_eigenvalue`` in history.csv, the path and the interpolated lo
 it crosses zero in summary.json). ``perturb_unstable = a`` moves a state whose lowest eigenvalue
 has just turned negative by a·φ (φ the unstable mode, max |φ| = 1, so a is a deflection) and
 solves again: a perfect plate then leaves the flat, unstable branch at the first step past
-buckling. See :mod:`dgplate.solvers.newton` and :mod:`dgplate.solvers.eigen`.
+buckling. ``relaxation = true`` solves each load step (and each solve after a push) first by an
+energy-decreasing proximal gradient flow (first pseudo-time step ``relaxation_tau``), then by
+Newton: Newton alone finds critical points, and from a small push it often returns to the flat
+state. See :mod:`dgplate.solvers.newton` and :mod:`dgplate.solvers.eigen`.
 
 The driver's shape is the deformation y = (x₁ + u₁, x₂ + u₂, w) in [DG_k]³, written and drawn
 like every other model's; its records carry ``w_center`` (w at ``model.probe``) and ``w_max``.
@@ -102,7 +105,7 @@ from dgplate.mpi import allreduce_array, bounds
 from dgplate.schema import option
 from dgplate.solvers import eigen
 from dgplate.solvers.driver import Observer
-from dgplate.solvers.newton import Continuation, Stability
+from dgplate.solvers.newton import Continuation, Relaxation, Stability
 
 #: Facet-set id of simply supported boundary facets (beside dg.SMOOTH … dg.FREE = 1 … 4).
 SIMPLY_SUPPORTED = 5
@@ -171,6 +174,13 @@ class FvKSpec:
         "amplitude (a deflection) of the push along the unstable mode when the lowest eigenvalue turns negative; 0: none",
     )
     eigensolver: str = option("auto", "'auto' (SLEPc when importable), 'slepc' or 'lanczos'")
+    relaxation: bool = option(
+        False,
+        "solve each load step (and each solve after a push) by an energy-decreasing proximal gradient flow, then Newton",
+    )
+    relaxation_tau: float = option(
+        1.0, "first pseudo-time step τ > 0 of the relaxation (adapted: doubled or quartered)"
+    )
     indenter: str | None = option(
         None, "cell group pushed down rigidly by the indentation (w − w₀ = −λδ there, penalty)"
     )
@@ -193,6 +203,7 @@ class FvKSpec:
             raise InputError(f"model.probe must be a point [x, y], got {self.probe!r}")
         _check_options(self.snes, "model.snes")
         self._check_stability()
+        self._check_relaxation()
         expressions.check(self.natural_shape, "model.natural_shape")
         self._check_indenter()
 
@@ -241,6 +252,13 @@ class FvKSpec:
             raise InputError("model.eigensolver = 'slepc' but slepc4py cannot be imported")
         if self.perturb_unstable and not self.stability:
             raise InputError("model.perturb_unstable needs model.stability = true")
+
+    def _check_relaxation(self) -> None:
+        if not isinstance(self.relaxation, bool):
+            raise InputError(f"model.relaxation must be true or false, got {self.relaxation!r}")
+        tau = self.relaxation_tau
+        if not (_number(tau) and 0 < tau < math.inf):
+            raise InputError(f"model.relaxation_tau must be a number > 0, got {tau!r}")
 
     @property
     def stability_options(self) -> Stability | None:
@@ -678,6 +696,7 @@ class FvKModel:
             probes=DeflectionProbes(state, self.probe),
             hint=_HINT,
             stability=self.spec.stability_options,
+            relaxation=Relaxation(tau=self.spec.relaxation_tau) if self.spec.relaxation else None,
         )
 
     def figures(self, driver: Continuation) -> dict[str, Any]:

@@ -35,11 +35,29 @@ crossing is interpolated linearly (``critical_load_factors`` in the summary). Wi
 by a·φ (φ the unstable mode, max |φ_i| = 1, signed by :mod:`dgplate.solvers.eigen`) and Newton
 is run again at the same load factor: the path leaves an unstable (e.g. symmetric) branch for
 a stable one. The next step then starts from the new state alone (no secant through the jump).
+
+Relaxation (``relaxation``, a :class:`Relaxation`). Newton finds critical points, not minima:
+from a small push off an unstable state it often returns to it. With a :class:`Relaxation` each
+load step (and each solve after a push) is a proximal gradient flow in pseudo-time instead,
+the implicit Euler steps
+
+    vⁿ⁺¹ = argmin Π(v) + 1/(2τ) ‖v − vⁿ‖²,   ‖·‖ the L² norm of all components,
+
+each solved by the same SNES on the residual DΠ(v) + (1/τ) M(v − vⁿ) and its Jacobian (the
+proximal term is added to the UFL residual with a Constant 1/τ, zero outside the flow, so the
+stability check sees the plain Hessian). A step is accepted only if Π does not increase
+(a step that lands on a saddle of the proximal functional, e.g. back on the flat state, raises
+Π and is rejected); τ doubles after a step that converged in a few iterations and is quartered
+after a rejected or failed one. The flow stops when the residual of the unmodified problem is
+below ``rtol`` × its value at the start of the load step (or ``atol``), and plain Newton then
+polishes the state to the SNES tolerance. The energies of the accepted steps are recorded
+(``relaxations`` in the summary, with the increases, which must be none).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import logging
 import math
 import time
@@ -112,6 +130,25 @@ class Stability:
     tol: float = 1e-10
 
 
+@dataclass(frozen=True)
+class Relaxation:
+    """The proximal gradient flow that replaces Newton per solve (module docstring).
+
+    Attributes:
+        tau: the first pseudo-time step τ (in the units of Π per squared L² norm of the state).
+        rtol: the flow stops when the plain residual is below rtol × its start value ...
+        atol: ... or below atol.
+        max_steps: accepted plus rejected steps per solve before the solve fails.
+        fast: a step converged in at most this many Newton iterations doubles τ.
+    """
+
+    tau: float = 1.0
+    rtol: float = 1e-6
+    atol: float = 1e-14
+    max_steps: int = 200
+    fast: int = 4
+
+
 @dataclass
 class LoadStep:
     """One converged load step: a row of ``history.csv``.
@@ -180,6 +217,8 @@ class Continuation:
         checkpoint_every: load steps between checkpoints (a load step is expensive: each).
         stability: compute the lowest Hessian eigenvalue after each step (:class:`Stability`);
             None: not.
+        relaxation: solve each step by a proximal gradient flow (:class:`Relaxation`) that
+            decreases Π, then Newton; None: Newton alone.
 
     All methods are collective on the state's communicator.
     """
@@ -202,6 +241,7 @@ class Continuation:
         hint: str = "",
         checkpoint_every: int = 1,
         stability: Stability | None = None,
+        relaxation: Relaxation | None = None,
     ) -> None:
         self.schedule = _checked_schedule(schedule, float(load_factor.value))
         if prefix in _LIVE_PREFIXES:
@@ -217,6 +257,14 @@ class Continuation:
         self._norms: list[float] = []
         space = state.function_space
         residual = ufl.derivative(energy, state, ufl.TestFunction(space))
+        self.relaxation = relaxation
+        self.relaxations: list[dict[str, Any]] = []
+        self._anchor: dolfinx.fem.Function[np.float64] = dolfinx.fem.Function(space)
+        self._inv_tau = dolfinx.fem.Constant(space.mesh, 0.0)
+        # the proximal term (1/τ) M(v − vⁿ), zero outside the flow; always in the forms, so
+        # that ``relaxation`` may be set later (e.g. only for the solve after a push)
+        gap, mesh = state - self._anchor, space.mesh
+        residual += self._inv_tau * ufl.inner(gap, ufl.TestFunction(space)) * ufl.dx(domain=mesh)
         jacobian = ufl.derivative(residual, state, ufl.TrialFunction(space))
         self._energy = dolfinx.fem.form(energy)
         self._residual = dolfinx.fem.form(residual)
@@ -365,6 +413,7 @@ class Continuation:
             "residual_norms": self.residual_norms,
             "crossings": self.crossings,
             "perturbations": self.perturbations,
+            "relaxations": self.relaxations,
         }
 
     def restore_state(self, state: Mapping[str, Any]) -> None:
@@ -374,6 +423,7 @@ class Continuation:
         self.residual_norms = [list(norms) for norms in state["residual_norms"]]
         self.crossings = [float(f) for f in state.get("crossings", [])]
         self.perturbations = [dict(p) for p in state.get("perturbations", [])]
+        self.relaxations = [dict(r) for r in state.get("relaxations", [])]
         factors = [float(factor) for factor in state["load_factors"]]
         for function in (self.state, self._previous):
             function.x.scatter_forward()
@@ -405,6 +455,16 @@ class Continuation:
                 critical_load_factor=self.crossings[0] if self.crossings else None,
                 perturbations=self.perturbations,
                 eigensolver=self.eigensolver,
+            )
+        if self.relaxation:
+            summary.update(
+                relaxations=self.relaxations,
+                energy_increases=[
+                    (r["load_factor"], i)
+                    for r in self.relaxations
+                    for i, (a, b) in enumerate(itertools.pairwise(r["energies"]))
+                    if b > a
+                ],
             )
         return summary
 
@@ -445,7 +505,7 @@ class Continuation:
         self._predict(factor)
         self._set_load(factor)
         self._norms = []
-        its = self._newton(factor)
+        its = self._solve_at(factor)
         self._states = [*self._states[-1:], (factor, self.state.x.array.copy())]
         probes: dict[str, float] = {}
         if self.stability:
@@ -467,14 +527,70 @@ class Continuation:
         self.history.append(record)
         return record
 
-    def _newton(self, factor: float) -> int:
-        """SNES from the current state at ``factor``: its iterations, or a SolverError."""
+    def _solve_at(self, factor: float) -> int:
+        """Newton, or the relaxation and then Newton, at ``factor``: the iterations spent."""
+        its = self._relax(factor, self.relaxation) if self.relaxation else 0
+        return its + self._newton(factor)
+
+    def _snes(self) -> tuple[int, int]:
+        """SNES from the current state: (reason, iterations); the state is the last iterate."""
         self.state.x.petsc_vec.copy(self._x)
         self.snes.solve(None, self._x)
-        # an int at run time (petsc4py's stubs say ConvergedReason)
-        reason = cast(int, self.snes.getConvergedReason())
-        its = self.snes.getIterationNumber()
         self._update(self._x)
+        # an int at run time (petsc4py's stubs say ConvergedReason)
+        return cast(int, self.snes.getConvergedReason()), int(self.snes.getIterationNumber())
+
+    def plain_residual_norm(self) -> float:
+        """‖DΠ(u)‖ of the current state with the Dirichlet rows as SNES sees them (collective)."""
+        scale = float(self._inv_tau.value)
+        self._inv_tau.value = np.asarray(0.0)
+        self.state.x.petsc_vec.copy(self._x)
+        self._assemble_residual(self.snes, self._x, self._b)
+        self._inv_tau.value = np.asarray(scale)
+        return float(self._b.norm())
+
+    def _relax(self, factor: float, relax: Relaxation) -> int:
+        """The proximal gradient flow at ``factor`` until the plain residual is small.
+
+        Records the accepted energies; raises a SolverError (state taken back) when
+        ``max_steps`` are spent. Returns the Newton iterations of all proximal steps.
+        """
+        tau, its = relax.tau, 0
+        # the Dirichlet data at ``factor`` first: Π is compared between admissible states
+        dolfinx.fem.petsc.set_bc(self.state.x.petsc_vec, self.bcs)
+        self.state.x.scatter_forward()
+        energies = [self.energy_value()]
+        goal = max(relax.rtol * self.plain_residual_norm(), relax.atol)
+        for _ in range(relax.max_steps):
+            residual = self.plain_residual_norm()
+            if residual <= goal:
+                break
+            self._anchor.x.array[:] = self.state.x.array
+            self._inv_tau.value = np.asarray(1.0 / tau)
+            reason, more = self._snes()
+            self._inv_tau.value = np.asarray(0.0)
+            its += more
+            energy = self.energy_value() if reason > 0 else math.inf
+            if energy <= energies[-1]:
+                energies.append(energy)
+                tau *= 2.0 if more <= relax.fast else 1.0
+            else:  # a failed step or a rise of Π: back to vⁿ with a smaller τ
+                self.state.x.array[:] = self._anchor.x.array
+                tau /= 4.0
+        else:
+            self._take_back()
+            raise SolverError(
+                f"the relaxation did not reach the residual {goal:.3g} in {relax.max_steps} "
+                f"steps at load factor {factor:g} (residual {residual:.3g})"
+            )
+        self.relaxations.append(
+            {"load_factor": factor, "energies": energies, "tau": tau, "residual": residual}
+        )
+        return its
+
+    def _newton(self, factor: float) -> int:
+        """SNES from the current state at ``factor``: its iterations, or a SolverError."""
+        reason, its = self._snes()
         if reason < 0:
             self._take_back()
             hint = f"; {self.hint}" if self.hint else ""
@@ -544,7 +660,7 @@ class Continuation:
             self.state.x.array[:] = unstable
             self.state.x.array[self._free[1]] += amplitude * direction
             self.state.x.scatter_forward()
-            its += self._newton(factor)
+            its += self._solve_at(factor)
             pairs = self.lowest_eigenpairs(stability)
             stable = len(pairs.values) > 0 and pairs.values[0] >= 0
             pairs.destroy()
