@@ -283,10 +283,18 @@ def _projected(cloud: Cloud, s: Array, n2: Array, q: float) -> tuple[Array, Arra
 
 
 def _accumulate(target: Array, index: IntArray, values: Array) -> None:
-    """target[index] += values, with repeated indices (per component by bincount)."""
+    """target[index] += values, with repeated indices.
+
+    By one ``bincount`` over the flattened components while the target is small; otherwise by
+    ``np.add.at``, whose cost does not grow with the target (a bincount per block of pairs
+    would cost O(M) each, O(M²) in all: 1.6 s per 10⁴ blocks at M = 10⁵).
+    """
     width = values.shape[1]
     flat = (index[:, None] * width + np.arange(width)).reshape(-1)
-    target += np.bincount(flat, values.reshape(-1), minlength=target.size).reshape(target.shape)
+    if target.size <= 8 * flat.size:
+        target += np.bincount(flat, values.reshape(-1), minlength=target.size).reshape(target.shape)
+    else:
+        np.add.at(target.reshape(-1), flat, values.reshape(-1))
 
 
 def _range(tree: Tree, nodes: IntArray) -> tuple[IntArray, IntArray]:
