@@ -5,8 +5,9 @@ Three measurements (docs/self_avoidance.md):
 * accuracy and speed-up: TP and its derivatives by the tree (θ = 0.25, 0.5, 1) against the
   exact all-pairs sums, on the cell centres of a strip rolled into a spiral of 1.5 turns
   (a bent configuration whose layers face each other), for M points up to ``--exact-max``;
-* cost against M: one tree evaluation (θ = 0.5) for M up to ``--max-m``, with the slope of
-  log t against log M;
+* cost against M: one tree evaluation (θ = 0.5; build and sums timed apart) for M = 10³ …
+  ``--max-m`` (3·10⁵; 10⁶ with ``--max-m 1000000``), with the slope of log t against log M and
+  t/(M log M); ``--leaf 0 32`` repeats it with the old leaf size 32;
 * per step of the demo ``self_avoiding_strip`` (flow): the time of one TP evaluation against
   the step's assembly and solve.
 
@@ -71,9 +72,10 @@ def grid(m: int) -> tuple[int, int]:
 
 
 def timed(cloud: tp.Cloud, theta: float, reach: float) -> tuple[tp.TPResult, float]:
-    t0 = time.perf_counter()
+    """One evaluation and its CPU seconds."""
+    t0 = time.process_time()
     result = tp.evaluate(cloud, 4.5, theta, reach)
-    return result, time.perf_counter() - t0
+    return result, time.process_time() - t0
 
 
 def relative(a: np.ndarray, b: np.ndarray) -> float:
@@ -107,18 +109,44 @@ def accuracy(sizes: list[int], thetas: list[float]) -> list[dict[str, Any]]:
     return rows
 
 
-def cost(sizes: list[int]) -> dict[str, Any]:
-    """One tree evaluation (θ = 0.5) against M, and the slope of log t over log M."""
+def cost(sizes: list[int], theta: float, leaf: int | None) -> dict[str, Any]:
+    """One tree evaluation against M: tree build and sums separately, the slope of log t over log M.
+
+    ``leaf`` None: the default of :func:`tangent_point.evaluate`. Times are wall and CPU seconds
+    (the machine is shared: CPU time is the steadier). ``per_MlogM`` is the total time over
+    M log₂ M relative to the first row: it stays near 1 when the cost grows like M log M.
+    """
     rows = []
     for m in sizes:
         cloud, h = spiral(*grid(m))
-        _, seconds = timed(cloud, 0.5, 3 * h)
-        rows.append({"M": len(cloud.points), "tree_s": seconds})
+        size = leaf or tp._default_leaf(cloud, theta)
+        w0, c0 = time.perf_counter(), time.process_time()
+        tree = tp.build_tree(cloud.points, cloud.weights, size)
+        w1 = time.perf_counter()
+        result = tp.evaluate(cloud, 4.5, theta, 3 * h, tree=tree)
+        w2, c2 = time.perf_counter(), time.process_time()
+        n = len(cloud.points)
+        rows.append({"M": n, "build_s": w1 - w0, "sums_s": w2 - w1, "total_s": w2 - w0,
+                     "cpu_s": c2 - c0, "near_per_point": result.pairs_exact / n,
+                     "far_per_point": result.pairs_far / n})  # fmt: skip
+        first, row = rows[0], rows[-1]
+        mlogm = row["M"] * np.log2(row["M"]) / (first["M"] * np.log2(first["M"]))
+        row["per_MlogM"] = row["cpu_s"] / first["cpu_s"] / mlogm
         print0(MPI.COMM_WORLD, json.dumps(rows[-1]))
+    return {"theta": theta, "leaf": leaf or "default", "rows": rows, **slopes(rows)}
+
+
+def slopes(rows: list[dict[str, Any]]) -> dict[str, float]:
+    """Slopes of log t over log M (wall and CPU, all rows and the last two)."""
+    if len(rows) < 2:
+        return {}
     m = np.log([r["M"] for r in rows])
-    t = np.log([r["tree_s"] for r in rows])
-    slope = float(np.polyfit(m, t, 1)[0]) if len(rows) > 1 else float("nan")
-    return {"rows": rows, "slope_log_t_log_M": slope}
+    out = {}
+    for key in ("total_s", "cpu_s"):
+        t = np.log([r[key] for r in rows])
+        out[f"slope_{key}"] = float(np.polyfit(m, t, 1)[0])
+        out[f"slope_{key}_last_two"] = float((t[-1] - t[-2]) / (m[-1] - m[-2]))
+    return out
 
 
 def flow(steps: int, cells: list[int]) -> dict[str, Any]:
@@ -180,7 +208,17 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--plot", default=None, help="draw --history files into this PNG")
     parser.add_argument("--history", action="append", default=[], help="label=history.csv")
     parser.add_argument("--exact-max", type=int, default=10000)
-    parser.add_argument("--max-m", type=int, default=100000)
+    parser.add_argument("--thetas", type=float, nargs="*", default=[0.25, 0.5, 1.0])
+    parser.add_argument("--max-m", type=int, default=300000, help="10⁶ only when asked")
+    parser.add_argument("--theta", type=float, default=0.5, help="θ of the cost sweep")
+    parser.add_argument(
+        "--leaf",
+        type=int,
+        nargs="*",
+        default=[0],
+        help="leaf sizes of the cost sweep (0: the default; 32 was the old one)",
+    )
+    parser.add_argument("--no-flow", action="store_true", help="skip the demo's flow")
     parser.add_argument("--steps", type=int, default=10)
     parser.add_argument("--cells", type=int, nargs=2, default=[48, 4])
     parser.add_argument("--json", default=None)
@@ -192,12 +230,13 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     exact_sizes = [m for m in (1000, 4000, 10000) if m <= args.exact_max]
     cost_sizes = [m for m in (1000, 3000, 10000, 30000, 100000, 300000, 1000000) if m <= args.max_m]
     record = {
-        "accuracy": accuracy(exact_sizes, [0.25, 0.5, 1.0]),
-        "cost": cost(cost_sizes),
-        "flow": flow(args.steps, args.cells),
+        "accuracy": accuracy(exact_sizes, args.thetas),
+        "cost": [cost(cost_sizes, args.theta, leaf or None) for leaf in args.leaf],
+        "flow": None if args.no_flow else flow(args.steps, args.cells),
         "ranks": MPI.COMM_WORLD.size,
     }
-    print0(MPI.COMM_WORLD, json.dumps(record["flow"]))
+    if record["flow"]:
+        print0(MPI.COMM_WORLD, json.dumps(record["flow"]))
     if args.json and MPI.COMM_WORLD.rank == 0:
         Path(args.json).write_text(json.dumps(record, indent=1))
     return record

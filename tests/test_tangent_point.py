@@ -186,3 +186,31 @@ def test_exact_sums_report_the_least_distance(half):
     targets = np.arange(len(cloud.points)) % 2 == 0 if half else None
     result = tp.evaluate(cloud, 4.5, theta=0.0, reach=3 * h, targets=targets)
     assert math.isclose(result.min_distance, tp.min_distance(cloud, h, targets))
+
+
+@pytest.mark.parametrize("curve", [False, True])
+def test_exact_sums_do_not_depend_on_leaf_or_block_size(curve, monkeypatch):
+    """The dense blocks (centred coordinates, batched products) give the same sums for any tiling.
+
+    Leaves of 4 and 64 points and blocks of 2^8 or 2^17 pairs cut the same pairs differently;
+    the least distance and the pair count are the same, TP and its derivatives to round-off.
+    """
+    cloud, h = spiral(40, 8)
+    if curve:  # the same points with the normals read as tangents
+        cloud = tp.Cloud(cloud.points, cloud.normals, cloud.weights, cloud.vertices, True)
+    results = []
+    for leaf, block in ((64, 1 << 17), (4, 1 << 8)):
+        monkeypatch.setattr(tp, "_BLOCK", block)
+        results.append(tp.evaluate(cloud, 4.5, theta=0.0, reach=3 * h, leaf=leaf))
+    a, b = results
+    assert a.pairs_exact == b.pairs_exact and a.min_distance == pytest.approx(b.min_distance)
+    assert b.energy == pytest.approx(a.energy, rel=1e-12)
+    assert relative(b.d_points, a.d_points) < 1e-12
+    assert relative(b.d_normals, a.d_normals) < 1e-12
+
+
+@pytest.mark.parametrize("q", [2.5, 3.0, 4.5, 5.0, 4.3])
+def test_power_by_products_is_pow(q):
+    """x**q by products and one square root (half-integer q), ``pow`` otherwise."""
+    x = np.linspace(0.0, 3.0, 31)
+    assert np.allclose(tp._power(x, q), x**q, rtol=1e-14, atol=0)

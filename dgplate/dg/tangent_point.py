@@ -19,7 +19,10 @@ The far field is approximated Barnes–Hut style: points are sorted into a binar
 bounding boxes; a target point and a source box of diameter D at box distance g > D/θ (and
 farther apart than ``reach``, the largest distance of neighbouring points, so no excluded pair
 is approximated) interact through the box's weight and weighted centroid (a monopole). Near
-pairs are summed exactly. All sums are vectorised over blocks of pairs.
+pairs are summed exactly. All sums are vectorised over dense blocks, a target leaf against a
+source leaf (near; |d|², a·d and the sums over sources and over targets are batched matrix
+products of the leaves' coordinates) or against far nodes' monopoles (far), never over single
+pairs in Python.
 """
 
 from __future__ import annotations
@@ -32,9 +35,14 @@ import numpy.typing as npt
 
 from dgplate.compat import Array
 
-#: Point pairs per vectorised block (memory ~ 20 arrays of this length).
-_BLOCK = 1 << 20
-_LEAF = 32
+#: Point pairs per vectorised block (memory ~ 20 arrays of this length): small enough that the
+#: temporaries stay in cache and are reused by the allocator (2^20 was 1.5–2 times slower).
+_BLOCK = 1 << 17
+#: Leaf size of the tree: near pairs per point grow like the leaf, point–box terms shrink with
+#: it; 16 was the fastest at θ = 0.5 (3·10⁴ points: 8, 16, 32 in 1.3, 1, 1.2 times the time).
+_LEAF = 16
+#: Leaf size for the exact sums (θ = 0, the rods' default): only fewer, larger blocks matter.
+_LEAF_EXACT = 64
 
 IntArray = npt.NDArray[np.int64]
 
@@ -97,10 +105,11 @@ class Tree:
 def build_tree(points: Array, weights: Array, leaf: int = _LEAF) -> Tree:
     """Split boxes at the median of their longest side until at most ``leaf`` points remain.
 
-    The loop runs over nodes (about 2M/leaf of them), never over points or pairs.
+    The loop runs over nodes (about 2M/leaf of them), never over points or pairs; the boxes
+    are reduced over the leaves' contiguous ranges and then level by level up the tree.
     """
     order = np.arange(len(points))
-    starts, ends, children = [0], [len(points)], [[-1, -1]]
+    starts, ends, children, depth = [0], [len(points)], [[-1, -1]], [0]
     stack = [0]
     while stack:
         node = stack.pop()
@@ -112,15 +121,14 @@ def build_tree(points: Array, weights: Array, leaf: int = _LEAF) -> Tree:
         half = (e - s) // 2
         part = np.argpartition(points[idx, axis], half)
         order[s:e] = idx[part]
-        kids = []
-        for a, b in ((s, s + half), (s + half, e)):
-            kids.append(len(starts))
-            starts.append(a)
-            ends.append(b)
-            children.append([-1, -1])
+        kids = [len(starts), len(starts) + 1]
+        starts += [s, s + half]
+        ends += [s + half, e]
+        children += [[-1, -1], [-1, -1]]
+        depth += [depth[node] + 1] * 2
         children[node] = kids
         stack.extend(kids)
-    start, end = np.array(starts), np.array(ends)
+    start, end, child = np.array(starts), np.array(ends), np.array(children)
     # per-node sums over contiguous ranges of the ordered points
     p, w = points[order], weights[order]
     cw = np.concatenate([[0.0], np.cumsum(w)])
@@ -128,9 +136,23 @@ def build_tree(points: Array, weights: Array, leaf: int = _LEAF) -> Tree:
     weight = cw[end] - cw[start]
     safe = np.where(weight > 0, weight, 1.0)
     centroid = (cwp[end] - cwp[start]) / safe[:, None]
-    lo = np.array([p[a:b].min(axis=0) for a, b in zip(start, end, strict=True)])
-    hi = np.array([p[a:b].max(axis=0) for a, b in zip(start, end, strict=True)])
-    return Tree(order, start, end, np.array(children), lo, hi, weight, centroid)
+    lo, hi = _boxes(p, start, child, np.array(depth))
+    return Tree(order, start, end, child, lo, hi, weight, centroid)
+
+
+def _boxes(p: Array, start: IntArray, child: IntArray, depth: IntArray) -> tuple[Array, Array]:
+    """Lower and upper corners of every node's box: leaves by ``reduceat``, then parents."""
+    lo, hi = np.empty((len(start), 3)), np.empty((len(start), 3))
+    leaves = np.flatnonzero(child[:, 0] < 0)
+    leaves = leaves[np.argsort(start[leaves])]  # the leaves partition the ordered points
+    lo[leaves] = np.minimum.reduceat(p, start[leaves], axis=0)
+    hi[leaves] = np.maximum.reduceat(p, start[leaves], axis=0)
+    for level in range(int(depth.max()) - 1, -1, -1):
+        nodes = np.flatnonzero((depth == level) & (child[:, 0] >= 0))
+        a, b = child[nodes, 0], child[nodes, 1]
+        lo[nodes] = np.minimum(lo[a], lo[b])
+        hi[nodes] = np.maximum(hi[a], hi[b])
+    return lo, hi
 
 
 def _box_gap(tree: Tree, a: IntArray, b: IntArray) -> Array:
@@ -212,40 +234,67 @@ def _share_vertex(a: IntArray, b: IntArray) -> npt.NDArray[np.bool_]:
     return np.asarray((a[:, :, None] == b[:, None, :]).any(axis=(1, 2)))
 
 
-def _projected(cloud: Cloud, s: Array, n2: Array, q: float) -> tuple[Array, Array, Array]:
+def _power(x: Array, q: float) -> Array:
+    """x**q without overwriting x; by products and one square root when 2q is an integer.
+
+    For q = 3 or 4.5 that is several times faster than ``pow``; other q go to ``pow``.
+    """
+    if q != round(2 * q) / 2 or not 0 < q <= 32:
+        return np.asarray(x**q)
+    k = int(q)
+    out = np.sqrt(x) if q > k else None
+    base = x
+    while k:
+        if k & 1:
+            out = base.copy() if out is None else np.multiply(out, base, out=out)
+        k >>= 1
+        if k:
+            base = base * base
+    return out if out is not None else np.ones_like(x)
+
+
+def _projected(cloud: Cloud, s: Array, n2: Array, q: float) -> tuple[Array, Array, Array | None]:
     """The pair value f = |P d|^q |d|^(−2q) and the factors of its derivatives, from s = a·d and n2 = |d|².
 
     With p² = |P d|² = α n2 + β s² and g = f/p² (0 where p = 0):
-    ∂(f/q)/∂d = β g s a + (α g − 2f/n2) d and ∂(f/q)/∂a = β g s d. Returns (f, β g s, α g).
-    For normals (α, β) = (0, 1) this is |s|^(q−2) s |d|^(−2q), as in the plates' formula.
+    ∂(f/q)/∂d = β g s a + (α g − 2f/n2) d and ∂(f/q)/∂a = β g s d. Returns (f, β g s, α g),
+    α g as None when α = 0. For normals (α, β) = (0, 1) this is |s|^(q−2) s |d|^(−2q), as in
+    the plates' formula.
     """
     alpha, beta = cloud.projector
-    p2 = np.maximum(alpha * n2 + beta * s * s, 0.0)  # ≥ 0 up to round-off for tangents
+    if alpha:
+        p2 = s * s
+        p2 *= beta
+        p2 += alpha * n2
+        np.maximum(p2, 0.0, out=p2)  # ≥ 0 up to round-off for tangents
+        u = np.sqrt(p2)
+    else:
+        p2 = s * s
+        u = np.abs(s)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # coincident: TP = inf
-        f = (np.sqrt(p2) / n2) ** q
+        u /= n2
+        f = _power(u, q)
     g = np.divide(f, p2, out=np.zeros_like(f), where=p2 > 0)
-    return f, beta * g * s, alpha * g
-
-
-def _kernel(
-    cloud: Cloud, i: IntArray, xj: Array, wj: Array, q: float
-) -> tuple[Array, Array, Array]:
-    """Per pair: w_i w_j f/q, ∂/∂d and ∂/∂a_i of it (f = |P_i d|^q |d|^(−2q), d = x_j − x_i)."""
-    d = xj - cloud.points[i]
-    nu = cloud.normals[i]
-    n2 = np.einsum("ij,ij->i", d, d)
-    s = np.einsum("ij,ij->i", nu, d)
-    ww = cloud.weights[i] * wj
-    f, sq, ag = _projected(cloud, s, n2, q)
-    d_d = ww[:, None] * (sq[:, None] * nu + (ag - 2.0 * f / n2)[:, None] * d)
-    d_nu = (ww * sq)[:, None] * d
-    return ww * f / q, d_d, d_nu
+    ag = g * alpha if alpha else None
+    g *= s
+    if beta != 1.0:
+        g *= beta
+    return f, g, ag
 
 
 def _accumulate(target: Array, index: IntArray, values: Array) -> None:
-    """target[index] += values, with repeated indices (per component by bincount)."""
-    for k in range(values.shape[1]):
-        target[:, k] += np.bincount(index, values[:, k], minlength=len(target))
+    """target[index] += values, with repeated indices.
+
+    By one ``bincount`` over the flattened components while the target is small; otherwise by
+    ``np.add.at``, whose cost does not grow with the target (a bincount per block of pairs
+    would cost O(M) each, O(M²) in all: 1.6 s per 10⁴ blocks at M = 10⁵).
+    """
+    width = values.shape[1]
+    flat = (index[:, None] * width + np.arange(width)).reshape(-1)
+    if target.size <= 8 * flat.size:
+        target += np.bincount(flat, values.reshape(-1), minlength=target.size).reshape(target.shape)
+    else:
+        np.add.at(target.reshape(-1), flat, values.reshape(-1))
 
 
 def _range(tree: Tree, nodes: IntArray) -> tuple[IntArray, IntArray]:
@@ -260,41 +309,49 @@ def evaluate(
     reach: float = 0.0,
     targets: npt.NDArray[np.bool_] | None = None,
     tree: Tree | None = None,
+    leaf: int | None = None,
 ) -> TPResult:
     """TP and its derivatives, targets i restricted to ``targets`` (default: all).
 
     θ = 0: exact all-pairs sums. θ > 0: the far field of the tree (see the module doc).
+    ``leaf``: the most points of a leaf of the tree built here (when ``tree`` is not given;
+    by default :func:`_default_leaf`).
     The derivative with respect to a source x_j is returned for every point, so that ranks that
     each evaluate their own targets add their results (MPI parity).
     """
     m = len(cloud.points)
-    tree = tree or build_tree(cloud.points, cloud.weights)
+    if tree is None:
+        tree = build_tree(cloud.points, cloud.weights, leaf or _default_leaf(cloud, theta))
     mask = np.ones(m, dtype=bool) if targets is None else targets
     leaves = np.flatnonzero(tree.children[:, 0] < 0)
     count = np.concatenate([[0], np.cumsum(mask[tree.order])])
     has_target = count[tree.end[leaves]] > count[tree.start[leaves]]
     near_t, near_s, far_t, far_s = interactions(tree, leaves[has_target], 0.0, theta, reach)
     out = TPResult(0.0, np.zeros((m, 3)), np.zeros((m, 3)))
-    order = tree.order
     padded = _padded_leaves(tree)
-    step = max(1, _BLOCK // padded.shape[1] ** 2)
+    width = padded.shape[1]
+    step = max(1, _BLOCK // width**2)
     for first in range(0, len(near_t), step):
         rows = slice(first, first + step)
         _near_block(cloud, padded[near_t[rows]], padded[near_s[rows]], mask, q, reach, out)
     node_force = np.zeros((len(tree.start), 3))
-    ones = np.ones_like(far_s)
-    for pi, k in _expand(*_range(tree, far_t), np.arange(len(far_s)), ones):
-        i, node = order[pi], far_s[k]
-        keep = mask[i]
-        i, node = i[keep], node[keep]
-        e, d_d, d_nu = _kernel(cloud, i, tree.centroid[node], tree.weight[node], q)
-        out.energy += float(e.sum())
-        out.pairs_far += len(i)
-        _accumulate(out.d_points, i, -d_d)
-        _accumulate(out.d_normals, i, d_nu)
-        _accumulate(node_force, node, d_d / tree.weight[node][:, None])
+    step = max(1, _BLOCK // width)
+    for first in range(0, len(far_t), step):
+        rows = slice(first, first + step)
+        _far_block(cloud, tree, padded[far_t[rows]], far_s[rows], mask, q, out, node_force)
     _push_down(tree, node_force, cloud.weights, out.d_points)
     return out
+
+
+def _default_leaf(cloud: Cloud, theta: float) -> int:
+    """The leaf size: ``_LEAF_EXACT`` for the exact sums, ``_LEAF`` for surfaces, 32 for curves.
+
+    On a curve the monopoles are the larger error (tests/test_rod_self_avoidance.py), and boxes
+    of 16 points admitted as far raised it at θ = 0.25 from 4.5e-4 to 1.2e-3 (TP, trefoil).
+    """
+    if theta == 0:
+        return _LEAF_EXACT
+    return 2 * _LEAF if cloud.curve else _LEAF
 
 
 def _padded_leaves(tree: Tree) -> IntArray:
@@ -305,11 +362,65 @@ def _padded_leaves(tree: Tree) -> IntArray:
     padded = np.full((len(sizes), width), -1, dtype=np.int64)
     nodes = np.flatnonzero(leaf)
     owner = np.repeat(nodes, sizes[nodes])
+    first = np.repeat(tree.start[nodes], sizes[nodes])
     column = np.arange(len(owner)) - np.repeat(np.cumsum(sizes[nodes]) - sizes[nodes], sizes[nodes])
-    padded[owner, column] = tree.order[
-        np.concatenate([np.arange(tree.start[n], tree.end[n]) for n in nodes])
-    ]
+    padded[owner, column] = tree.order[first + column]
     return padded
+
+
+@dataclass
+class _Block:
+    """Pairs of a dense block (p, L, Ls): targets (p, L) against sources (p, Ls), centred.
+
+    Coordinates are taken relative to the first target of each row, so that |d|² computed
+    as |x_t|² + |x_s|² − 2 x_t·x_s (a batched matrix product instead of three (p, L, Ls)
+    differences) loses only digits of the block's size over the pair's distance.
+    """
+
+    xt: Array  # (p, L, 3)
+    nu: Array  # (p, L, 3) target directions
+    xs: Array  # (p, Ls, 3)
+    n2: Array  # (p, L, Ls) |d|²
+    s: Array  # (p, L, Ls) a_t·d
+
+    @classmethod
+    def of(cls, xt: Array, nu: Array, xs: Array) -> _Block:
+        """The block of targets xt (directions nu) and sources xs (both overwritten: centred)."""
+        centre = xt[:, :1, :].copy()
+        xt -= centre
+        xs -= centre
+        n2 = np.matmul(xt, xs.transpose(0, 2, 1))
+        n2 *= -2.0
+        n2 += np.einsum("pik,pik->pi", xt, xt)[:, :, None]
+        n2 += np.einsum("pjk,pjk->pj", xs, xs)[:, None, :]
+        np.maximum(n2, 0.0, out=n2)
+        s = np.matmul(nu, xs.transpose(0, 2, 1))
+        s -= np.einsum("pik,pik->pi", nu, xt)[:, :, None]
+        return cls(xt, nu, xs, n2, s)
+
+    def sums(self, cloud: Cloud, ww: Array, q: float) -> tuple[float, Array, Array, Array]:
+        """Σ w f/q and ∂/∂x_t, ∂/∂x_s, ∂/∂a_t of it summed over the block's pairs (weights ww).
+
+        ∂/∂d per pair = S a_t − C d with S = w β g s and C = 2 w f/|d|² − w α g; with
+        d = x_s − x_t its sums over sources and over targets are matrix products.
+        """
+        f, sq, ag = _projected(cloud, self.s, self.n2, q)
+        sq *= ww
+        f *= ww
+        energy = float(f.sum()) / q
+        f /= self.n2
+        f *= 2.0
+        if ag is not None:
+            ag *= ww
+            f -= ag
+        xt, nu, xs = self.xt, self.nu, self.xs
+        s_t, c_t = sq.sum(axis=2)[:, :, None], f.sum(axis=2)[:, :, None]
+        c_s = f.sum(axis=1)[:, :, None]
+        on_target = nu * s_t - np.matmul(f, xs) + xt * c_t
+        on_source = np.matmul(sq.transpose(0, 2, 1), nu) - xs * c_s
+        on_source += np.matmul(f.transpose(0, 2, 1), xt)
+        d_nu = np.matmul(sq, xs) - xt * s_t
+        return energy, on_target, on_source, d_nu
 
 
 def _near_block(
@@ -328,9 +439,8 @@ def _near_block(
     it, js = np.maximum(targets, 0), np.maximum(sources, 0)
     wt = np.where((targets >= 0) & mask[it], cloud.weights[it], 0.0)
     ws = np.where(sources >= 0, cloud.weights[js], 0.0)
-    xt, nu, xs = cloud.points[it], cloud.normals[it], cloud.points[js]
-    d = [xs[:, None, :, k] - xt[:, :, None, k] for k in range(3)]  # components (p, L, L)
-    n2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+    block = _Block.of(cloud.points[it], cloud.normals[it], cloud.points[js])
+    n2 = block.n2
     ww = wt[:, :, None] * ws[:, None, :]
     close = np.flatnonzero((ww > 0) & (n2 <= reach * reach) if reach > 0 else ww > 0)
     shape = ww.shape
@@ -342,22 +452,51 @@ def _near_block(
     if summed.any():
         out.min_distance = min(out.min_distance, float(np.sqrt(n2[summed].min())))
     n2[~summed] = 1.0
-    n = [nu[:, :, None, k] for k in range(3)]
-    s = n[0] * d[0] + n[1] * d[1] + n[2] * d[2]
-    f, sq, ag = _projected(cloud, s, n2, q)
-    sq = sq * ww
-    wf = ww * f
-    out.energy += float(wf.sum()) / q
-    out.pairs_exact += int(np.count_nonzero(ww))
-    scaled = 2.0 * wf / n2 - ww * ag
-    # ∂/∂d per pair = sq a_t − (2 w f/|d|² − w α g) d, summed over sources (targets) and targets
-    pair = [sq * n[k] - scaled * d[k] for k in range(3)]
-    on_target = np.stack([c.sum(axis=2) for c in pair], axis=-1)
-    on_source = np.stack([c.sum(axis=1) for c in pair], axis=-1)
-    d_nu = np.stack([(sq * d[k]).sum(axis=2) for k in range(3)], axis=-1)
+    out.pairs_exact += int(np.count_nonzero(summed))
+    energy, on_target, on_source, d_nu = block.sums(cloud, ww, q)
+    out.energy += energy
     _accumulate(out.d_points, it.reshape(-1), -on_target.reshape(-1, 3))
     _accumulate(out.d_points, js.reshape(-1), on_source.reshape(-1, 3))
     _accumulate(out.d_normals, it.reshape(-1), d_nu.reshape(-1, 3))
+
+
+def _far_block(
+    cloud: Cloud,
+    tree: Tree,
+    targets: IntArray,
+    nodes: IntArray,
+    mask: npt.NDArray[np.bool_],
+    q: float,
+    out: TPResult,
+    node_force: Array,
+) -> None:
+    """Target leaves (p, L) against the monopoles of far nodes (p,), as dense (p, L) arrays.
+
+    The force on a node's centroid is kept per unit weight in ``node_force`` (pushed down to
+    the node's points once, by :func:`_push_down`).
+    """
+    it = np.maximum(targets, 0)
+    ww = np.where((targets >= 0) & mask[it], cloud.weights[it], 0.0)
+    ww *= tree.weight[nodes][:, None]
+    d = tree.centroid[nodes][:, None, :] - cloud.points[it]
+    nu = cloud.normals[it]
+    n2 = np.einsum("pik,pik->pi", d, d)
+    n2[ww == 0] = 1.0
+    f, sq, ag = _projected(cloud, np.einsum("pik,pik->pi", nu, d), n2, q)
+    out.pairs_far += int(np.count_nonzero(ww))
+    sq *= ww
+    f *= ww
+    out.energy += float(f.sum()) / q
+    f /= n2
+    f *= 2.0
+    if ag is not None:
+        f -= ag * ww
+    # ∂/∂d per pair = S a_t − C d: on the target with −, on the node's centroid with +
+    pair = nu * sq[:, :, None]
+    pair -= d * f[:, :, None]
+    _accumulate(out.d_points, it.reshape(-1), -pair.reshape(-1, 3))
+    _accumulate(out.d_normals, it.reshape(-1), (d * sq[:, :, None]).reshape(-1, 3))
+    _accumulate(node_force, nodes, pair.sum(axis=1) / tree.weight[nodes][:, None])
 
 
 def _push_down(tree: Tree, node_force: Array, weights: Array, d_points: Array) -> None:
