@@ -25,6 +25,7 @@ here are collective only where they say so.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import shutil
 from collections.abc import Mapping, Sequence
@@ -65,7 +66,8 @@ def parser(
         paper: What ``--paper`` runs instead of the small default (its help text).
 
     Returns:
-        A parser with ``--paper``, ``--out``, ``--force``, ``--resume`` and ``--figure``.
+        A parser with ``--paper``, ``--out``, ``--force``, ``--resume``, ``--figure`` and
+        ``--no-frames``.
     """
     out = f"out/{name}"
     parser = argparse.ArgumentParser(prog=f"{name}.py", description=description)
@@ -82,6 +84,11 @@ def parser(
         help="continue the runs from the checkpoints in the output folder",
     )
     parser.add_argument("--figure", default=None, help="also copy the final picture to this path")
+    parser.add_argument(
+        "--no-frames",
+        action="store_true",
+        help="skip the animation frames and GIF of output.frames_every (a quicker run)",
+    )
     return parser
 
 
@@ -108,7 +115,9 @@ def run(
     comm: MPI.Comm = MPI.COMM_WORLD,
     **options: Any,
 ) -> Any:
-    """:func:`dgplate.run` with the demo's ``--out``, ``--force`` and ``--resume``. Collective.
+    """:func:`dgplate.run` with the demo's ``--out``, ``--force``, ``--resume``, ``--no-frames``.
+
+    Collective.
 
     With ``--resume``, a run that has a checkpoint in its folder continues from it, one that
     finished there returns its summary.json (a dict) without running again, and one that has
@@ -129,6 +138,10 @@ def run(
             ``--resume`` holds the checkpoint of another problem.
     """
     out = Path(args.out).joinpath(*subfolder)
+    if getattr(args, "no_frames", False):
+        problem = dataclasses.replace(
+            problem, output=dataclasses.replace(problem.output, frames_every=0)
+        )
     resume = False
     if args.resume:
         state = _checkpoint_state(problem, out, comm)

@@ -30,12 +30,14 @@ def run_demo(
 ) -> subprocess.CompletedProcess:
     """``python demo --out out`` (under ``mpirun -n ranks python -m mpi4py`` when ranks > 1).
 
-    PYTHONPATH puts this checkout's dgplate first: the script's own folder is demos/, and an
+    The 2-rank runs skip the animation frames (``--no-frames``): the serial run draws them,
+    and each frame costs about a second of rendering on rank 0 only. PYTHONPATH puts this checkout's dgplate first: the script's own folder is demos/, and an
     installed dgplate may be another checkout's.
     """
     command = [sys.executable, str(demo), "--out", str(out)]
     if ranks > 1:
         command = [_mpirun(), "-n", str(ranks), sys.executable, "-m", "mpi4py", *command[1:]]
+        command.append("--no-frames")
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
     return subprocess.run(command, capture_output=True, text=True, timeout=timeout, env=env)

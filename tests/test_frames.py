@@ -3,7 +3,7 @@
 A tiny Kirchhoff run (the vertical load on 4×4 cells, 5 steps) with ``frames_every = 2`` draws
 the start, steps 2 and 4 and the last step 5: four frames, and a GIF of four frames that
 Pillow opens. Serially and under ``mpirun -n 2`` (collective drawing, rank 0 writes). A resumed
-run copies the frames of the run it continues.
+run copies the frames of the run it continues. The demos' ``--no-frames`` turns them off.
 """
 
 from pathlib import Path
@@ -52,6 +52,19 @@ def test_no_frames_by_default(tmp_path):
     out = tmp_path / "run"
     problem = dgplate.load_problem(VERTICAL, overrides={**SMALL, "flow.max_steps": 1})
     dgplate.run(problem, out=out)
+    assert not (out / "frames").exists()
+    assert not list(out.glob("*.gif"))
+
+
+def test_demo_option_no_frames_turns_them_off(tmp_path):
+    from dgplate import demo
+
+    out = tmp_path / "run"
+    problem = dgplate.load_problem(
+        VERTICAL, overrides={**SMALL, "flow.max_steps": 1, "output.frames_every": 1}
+    )
+    demo.run(problem, demo.arguments("tiny", argv=["--out", str(out), "--no-frames"]))
+    assert (out / "summary.json").is_file()
     assert not (out / "frames").exists()
     assert not list(out.glob("*.gif"))
 
