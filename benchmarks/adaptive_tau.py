@@ -12,7 +12,9 @@ solver's factorisations, E_h, D_h and the wall time of each run.
 
 ``bnn``: the BNN vertical-load plate (demos/problems/vertical_load.toml) with one projection
 step; ``cylinder``: the bilayer cylinder (demos/problems/bilayer_cylinder.toml, two projection
-steps, edge constraint, degree-1 multipliers). ``--set`` keys apply to the adaptive run only.
+steps, edge constraint, degree-1 multipliers). ``--set`` keys apply to the adaptive runs only: adaptive τ without and with the SQP finish
+(``flow.newton_finish``); ``--skip-fixed FILE`` reuses the fixed run of an earlier record
+(and ``--reuse-adaptive`` its adaptive run).
 """
 
 from __future__ import annotations
@@ -37,8 +39,13 @@ FILES = {"bnn": "vertical_load.toml", "cylinder": "bilayer_cylinder.toml"}
 COMMON = {"bnn": {"flow.projection_steps": 1}, "cylinder": {}}
 
 
-def run(comm: MPI.Comm, args: argparse.Namespace, adaptive: bool) -> dict[str, Any]:
-    """One run of the problem to the stationarity stop; its counts and result."""
+def run(
+    comm: MPI.Comm, args: argparse.Namespace, adaptive: bool, newton: bool = False
+) -> dict[str, Any]:
+    """One run of the problem to the stationarity stop; its counts and result.
+
+    ``newton``: adaptive τ with the SQP finish (``flow.newton_finish``).
+    """
     overrides: dict[str, Any] = {
         "mesh.cells": list(args.cells),
         "flow.tau": "h",
@@ -46,6 +53,7 @@ def run(comm: MPI.Comm, args: argparse.Namespace, adaptive: bool) -> dict[str, A
         "flow.stop": "stationarity",
         "flow.max_steps": args.max_steps,
         "flow.adaptive_tau": adaptive,
+        "flow.newton_finish": newton,
         "flow.checkpoint_every": 0,
         "output.vtx": False,
         "output.png": False,
@@ -62,13 +70,15 @@ def run(comm: MPI.Comm, args: argparse.Namespace, adaptive: bool) -> dict[str, A
     result = run_problem(problem, Path(folder) / "run", comm)
     wall = time.perf_counter() - t0
     summary = result.summary
-    attempts = summary["steps"] + summary["rejected_steps"]
+    attempts = summary["steps"] + summary["rejected_steps"] + summary["newton_rejections"]
     return {
         "adaptive_tau": adaptive,
         "settings": texts,
         "converged": summary["converged"],
         "steps": summary["steps"],
         "rejected_steps": summary["rejected_steps"],
+        "newton_steps": summary["newton_steps"],
+        "newton_rejections": summary["newton_rejections"],
         "step_solves": attempts * (1 + problem.flow.projection_steps),
         "stationarity_solves": summary["steps"],
         "refactorisations": summary["refactorisations"],
@@ -90,16 +100,20 @@ def main(argv: list[str]) -> None:
     parser.add_argument("--max-steps", type=int, default=5000)
     parser.add_argument("--set", action="append", default=[], help="key=value, adaptive run")
     parser.add_argument("--skip-fixed", type=Path, default=None, help="reuse this JSON's run")
+    parser.add_argument(
+        "--reuse-adaptive",
+        action="store_true",
+        help="with --skip-fixed: reuse its adaptive run too",
+    )
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args(argv)
     if len(args.cells) == 1:
         args.cells = args.cells * 2
     comm = MPI.COMM_WORLD
-    if args.skip_fixed:
-        fixed = json.loads(args.skip_fixed.read_text())["fixed"]
-    else:
-        fixed = run(comm, args, False)
-    adaptive = run(comm, args, True)
+    old = json.loads(args.skip_fixed.read_text()) if args.skip_fixed else {}
+    fixed = old["fixed"] if old else run(comm, args, False)
+    adaptive = old["adaptive"] if old and args.reuse_adaptive else run(comm, args, True)
+    newton = run(comm, args, True, newton=True)
     record = {
         "problem": f"{FILES[args.problem]}, Q2, stop = stationarity, initial τ = h",
         "cells": args.cells,
@@ -107,11 +121,15 @@ def main(argv: list[str]) -> None:
         "tol": args.tol,
         "fixed": fixed,
         "adaptive": adaptive,
+        "newton": newton,
         "step_solves_ratio_fixed_over_adaptive": fixed["step_solves"] / adaptive["step_solves"],
         "energy_rel_diff": abs(adaptive["energy"] / fixed["energy"] - 1),
+        "step_solves_ratio_fixed_over_newton": fixed["step_solves"] / newton["step_solves"],
+        "energy_rel_diff_newton": abs(newton["energy"] / fixed["energy"] - 1),
     }
-    brief = {k: v for k, v in record.items() if k not in ("fixed", "adaptive")}
-    for key in ("fixed", "adaptive"):
+    runs = ("fixed", "adaptive", "newton")
+    brief = {k: v for k, v in record.items() if k not in runs}
+    for key in runs:
         brief[key] = {k: v for k, v in record[key].items() if k not in ("taus", "stationarity")}
     print0(comm, json.dumps(brief, indent=1))
     if args.json and comm.rank == 0:
