@@ -80,7 +80,9 @@ def run(
         "rejected_steps": summary["rejected_steps"],
         "newton_steps": summary["newton_steps"],
         "newton_rejections": summary["newton_rejections"],
-        "step_solves": attempts * (1 + problem.flow.projection_steps),
+        # an SQP step makes two more corrections (back-solves with its factors)
+        "step_solves": attempts * (1 + problem.flow.projection_steps)
+        + 2 * (summary["newton_steps"] + summary["newton_rejections"]),
         "stationarity_solves": summary["steps"],
         "refactorisations": summary["refactorisations"],
         "factorisations": summary["factorisations"],

@@ -122,7 +122,7 @@ class FlowSpec:
         "adaptive τ: put a grown τ into the step matrix (reassemble and refactorise) only once it differs from the τ held there by more than this factor; until then the steps keep that τ (1: at every change)",
     )
     newton_finish: bool = option(
-        False,
+        True,
         "adaptive τ: once τ reaches newton_tau_ratio times the initial τ (or its cap), add the Lagrangian's curvature (the multipliers' term and D²E_expl) to the step matrix, a damped SQP (Newton) step; a step that does not lower E_h is redone as a plain step",
     )
     newton_tau_ratio: float = option(
@@ -526,7 +526,10 @@ class GradientFlow(StepCounters):
         self.y.x.array[:] += dy
         if self.settings.adaptive_tau:
             self._linear_defect = self.defect()
-        for _ in range(self.settings.projection_steps):
+        # an SQP step lowers E_h partly along the constraint's curvature: two more corrections
+        # (back-solves) bring it to a discrete isometry to round-off, or the next steps, which
+        # restore the constraint, would raise E_h
+        for _ in range(self.settings.projection_steps + 2 * newton):
             dy += self._project(stats, solver)
         self._last_increment = dy
         owned = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
