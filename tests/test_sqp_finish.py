@@ -4,7 +4,8 @@ Lagrangian's curvature.
 The finish changes the path, not the end: the run must stop at the fixed-τ run's state (E_h to
 1e-7 relative, 1 and 2 ranks), lower E_h at every accepted step, and, since the next SQP
 matrix is built from the multipliers of the last step solve, a run stopped and resumed from
-its checkpoint must take the uninterrupted run's steps.
+its checkpoint must take the uninterrupted run's steps. On the bilayer cylinder the SQP matrix
+also has the explicit terms' second derivative and the edge moments' curvature.
 """
 
 import json
@@ -90,6 +91,39 @@ def test_resumed_newton_run_takes_the_same_steps(tmp_path):
     rows = [line.split(",")[:4] for line in (out / "history.csv").read_text().splitlines()]
     lines = (reference / "history.csv").read_text().splitlines()
     assert rows == [line.split(",")[:4] for line in lines]
+
+
+CYLINDER = VERTICAL.parent / "bilayer_cylinder.toml"
+
+
+def test_newton_finish_on_the_bilayer_cylinder(tmp_path):
+    """The explicit terms' D²E_expl and the edge moments' curvature (8×4 cylinder)."""
+    common = [
+        f"--set={key}"
+        for key in (
+            "mesh.cells=[8,4]",
+            "flow.tau='h'",
+            "flow.stop='stationarity'",
+            "flow.tol=1e-5",
+            "output.vtx=false",
+            "output.png=false",
+            "output.progress=0",
+        )
+    ]
+    newton = [
+        "--set=flow.adaptive_tau=true",
+        "--set=flow.newton_tau_ratio=1",
+        "--set=flow.defect_bound=0.1",
+    ]
+    summaries = {}
+    for name, extra in (("fixed", []), ("newton", newton)):
+        out = tmp_path / name
+        assert main(["run", str(CYLINDER), "--out", str(out), *common, *extra]) == 0
+        summaries[name] = summary_of(out)
+        assert summaries[name]["converged"] and summaries[name]["energy_increases"] == []
+    fixed, sqp = summaries["fixed"], summaries["newton"]
+    assert sqp["energy"] == pytest.approx(fixed["energy"], rel=1e-7)
+    assert sqp["newton_steps"] > 0 and sqp["steps"] < fixed["steps"] / 5
 
 
 @pytest.mark.parametrize(("key", "value"), [("newton_finish", 1), ("newton_tau_ratio", 0.5)])
