@@ -12,7 +12,9 @@ solver's factorisations, E_h, D_h and the wall time of each run.
 
 ``bnn``: the BNN vertical-load plate (demos/problems/vertical_load.toml) with one projection
 step; ``cylinder``: the bilayer cylinder (demos/problems/bilayer_cylinder.toml, two projection
-steps, edge constraint, degree-1 multipliers). ``--set`` keys apply to the adaptive run only.
+steps, edge constraint, degree-1 multipliers). ``--set`` keys apply to the adaptive runs only: adaptive τ without and with the SQP finish
+(``flow.newton_finish``); ``--skip-fixed FILE`` reuses the fixed run of an earlier record
+(and ``--reuse-adaptive`` its adaptive run).
 """
 
 from __future__ import annotations
@@ -32,13 +34,19 @@ from dgplate.problems.runner import run as run_problem
 from dgplate.problems.specs import load_problem
 
 PROBLEMS = Path(__file__).resolve().parent.parent / "demos" / "problems"
+RUNS = ("fixed", "adaptive", "newton")
 FILES = {"bnn": "vertical_load.toml", "cylinder": "bilayer_cylinder.toml"}
 #: The settings both runs share besides the problem file's.
 COMMON = {"bnn": {"flow.projection_steps": 1}, "cylinder": {}}
 
 
-def run(comm: MPI.Comm, args: argparse.Namespace, adaptive: bool) -> dict[str, Any]:
-    """One run of the problem to the stationarity stop; its counts and result."""
+def run(
+    comm: MPI.Comm, args: argparse.Namespace, adaptive: bool, newton: bool = False
+) -> dict[str, Any]:
+    """One run of the problem to the stationarity stop; its counts and result.
+
+    ``newton``: adaptive τ with the SQP finish (``flow.newton_finish``).
+    """
     overrides: dict[str, Any] = {
         "mesh.cells": list(args.cells),
         "flow.tau": "h",
@@ -46,6 +54,7 @@ def run(comm: MPI.Comm, args: argparse.Namespace, adaptive: bool) -> dict[str, A
         "flow.stop": "stationarity",
         "flow.max_steps": args.max_steps,
         "flow.adaptive_tau": adaptive,
+        "flow.newton_finish": newton,
         "flow.checkpoint_every": 0,
         "output.vtx": False,
         "output.png": False,
@@ -62,14 +71,18 @@ def run(comm: MPI.Comm, args: argparse.Namespace, adaptive: bool) -> dict[str, A
     result = run_problem(problem, Path(folder) / "run", comm)
     wall = time.perf_counter() - t0
     summary = result.summary
-    attempts = summary["steps"] + summary["rejected_steps"]
+    attempts = summary["steps"] + summary["rejected_steps"] + summary["newton_rejections"]
     return {
         "adaptive_tau": adaptive,
         "settings": texts,
         "converged": summary["converged"],
         "steps": summary["steps"],
         "rejected_steps": summary["rejected_steps"],
-        "step_solves": attempts * (1 + problem.flow.projection_steps),
+        "newton_steps": summary["newton_steps"],
+        "newton_rejections": summary["newton_rejections"],
+        # an SQP step makes two more corrections (back-solves with its factors)
+        "step_solves": attempts * (1 + problem.flow.projection_steps)
+        + 2 * (summary["newton_steps"] + summary["newton_rejections"]),
         "stationarity_solves": summary["steps"],
         "refactorisations": summary["refactorisations"],
         "factorisations": summary["factorisations"],
@@ -88,18 +101,44 @@ def main(argv: list[str]) -> None:
     parser.add_argument("--cells", type=int, nargs="+", default=[16])
     parser.add_argument("--tol", type=float, default=1e-5)
     parser.add_argument("--max-steps", type=int, default=5000)
-    parser.add_argument("--set", action="append", default=[], help="key=value, adaptive run")
+    parser.add_argument("--set", action="append", default=[], help="key=value, adaptive runs")
     parser.add_argument("--skip-fixed", type=Path, default=None, help="reuse this JSON's run")
+    parser.add_argument(
+        "--reuse-adaptive",
+        action="store_true",
+        help="with --skip-fixed: reuse its adaptive run too",
+    )
+    parser.add_argument("--no-fixed", action="store_true", help="skip the fixed-τ run")
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args(argv)
     if len(args.cells) == 1:
         args.cells = args.cells * 2
     comm = MPI.COMM_WORLD
-    if args.skip_fixed:
-        fixed = json.loads(args.skip_fixed.read_text())["fixed"]
+    old = json.loads(args.skip_fixed.read_text()) if args.skip_fixed else {}
+    if args.no_fixed:
+        fixed = None
     else:
-        fixed = run(comm, args, False)
-    adaptive = run(comm, args, True)
+        fixed = old["fixed"] if old else run(comm, args, False)
+    adaptive = old["adaptive"] if old and args.reuse_adaptive else run(comm, args, True)
+    newton = run(comm, args, True, newton=True)
+    record = make_record(comm, args, fixed, adaptive, newton)
+    brief = {k: v for k, v in record.items() if k not in RUNS}
+    for key in RUNS:
+        if record[key] is not None:
+            brief[key] = {k: v for k, v in record[key].items() if k not in ("taus", "stationarity")}
+    print0(comm, json.dumps(brief, indent=1))
+    if args.json and comm.rank == 0:
+        args.json.write_text(json.dumps(record, indent=2) + "\n")
+
+
+def make_record(
+    comm: MPI.Comm,
+    args: argparse.Namespace,
+    fixed: dict[str, Any] | None,
+    adaptive: dict[str, Any],
+    newton: dict[str, Any],
+) -> dict[str, Any]:
+    """The benchmark's record: the three runs and the ratios of their step solves to fixed τ."""
     record = {
         "problem": f"{FILES[args.problem]}, Q2, stop = stationarity, initial τ = h",
         "cells": args.cells,
@@ -107,15 +146,17 @@ def main(argv: list[str]) -> None:
         "tol": args.tol,
         "fixed": fixed,
         "adaptive": adaptive,
-        "step_solves_ratio_fixed_over_adaptive": fixed["step_solves"] / adaptive["step_solves"],
-        "energy_rel_diff": abs(adaptive["energy"] / fixed["energy"] - 1),
+        "newton": newton,
     }
-    brief = {k: v for k, v in record.items() if k not in ("fixed", "adaptive")}
-    for key in ("fixed", "adaptive"):
-        brief[key] = {k: v for k, v in record[key].items() if k not in ("taus", "stationarity")}
-    print0(comm, json.dumps(brief, indent=1))
-    if args.json and comm.rank == 0:
-        args.json.write_text(json.dumps(record, indent=2) + "\n")
+    if fixed is not None:
+        record["step_solves_ratio_fixed_over_adaptive"] = (
+            fixed["step_solves"] / adaptive["step_solves"]
+        )
+        record["energy_rel_diff"] = abs(adaptive["energy"] / fixed["energy"] - 1)
+        record["step_solves_ratio_fixed_over_newton"] = fixed["step_solves"] / newton["step_solves"]
+        record["energy_rel_diff_newton"] = abs(newton["energy"] / fixed["energy"] - 1)
+    record["energy_rel_diff_newton_adaptive"] = abs(newton["energy"] / adaptive["energy"] - 1)
+    return record
 
 
 if __name__ == "__main__":

@@ -208,6 +208,10 @@ ADD = cast("PETSc.InsertMode", PETSc.InsertMode.ADD)
 FORWARD = cast("PETSc.ScatterMode", PETSc.ScatterMode.FORWARD)
 REVERSE = cast("PETSc.ScatterMode", PETSc.ScatterMode.REVERSE)
 SAME_NONZERO_PATTERN = cast("PETSc.Mat.Structure", PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+SUBSET_NONZERO_PATTERN = cast("PETSc.Mat.Structure", PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+DIFFERENT_NONZERO_PATTERN = cast(
+    "PETSc.Mat.Structure", PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN
+)
 NORM_INFINITY = cast("PETSc.NormType", PETSc.NormType.INFINITY)
 IGNORE_ZERO_ENTRIES = cast("PETSc.Mat.Option", PETSc.Mat.Option.IGNORE_ZERO_ENTRIES)
 NEW_NONZERO_LOCATION_ERR = cast("PETSc.Mat.Option", PETSc.Mat.Option.NEW_NONZERO_LOCATION_ERR)

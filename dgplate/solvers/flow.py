@@ -41,7 +41,7 @@ from dgplate.dg.geometry import max_cell_diameter
 from dgplate.errors import InputError, SolverError
 from dgplate.schema import is_integer, is_number, option
 from dgplate.solvers import linear as solvers
-from dgplate.solvers import ordering, schur, sparsity
+from dgplate.solvers import ordering, schur, sparsity, sqp
 from dgplate.solvers.constraint import (
     EdgeConstraint,
     IsometryDefect,
@@ -121,6 +121,14 @@ class FlowSpec:
         1.0,
         "adaptive τ: put a grown τ into the step matrix (reassemble and refactorise) only once it differs from the τ held there by more than this factor; until then the steps keep that τ (1: at every change)",
     )
+    newton_finish: bool = option(
+        True,
+        "adaptive τ: once τ reaches newton_tau_ratio times the initial τ (or its cap), add the Lagrangian's curvature (the multipliers' term and D²E_expl) to the step matrix, a damped SQP (Newton) step; a step that does not lower E_h is redone as a plain step",
+    )
+    newton_tau_ratio: float = option(
+        100.0,
+        "adaptive τ with newton_finish: the τ, as a multiple of the initial τ, from which the steps are SQP steps (capped by tau_max_ratio)",
+    )
     checkpoint_every: int = option(
         25,
         "write a checkpoint (for --resume) every n steps, and always at the end; 0: only at the end",
@@ -157,8 +165,9 @@ class FlowSpec:
             raise InputError(
                 f"flow.linear_solver must be one of {solvers.STEP_SOLVERS}, got {self.linear_solver!r}"
             )
-        if not isinstance(self.adaptive_tau, bool):
-            raise InputError(f"flow.adaptive_tau must be true or false, got {self.adaptive_tau!r}")
+        for key in ("adaptive_tau", "newton_finish"):
+            if not isinstance(getattr(self, key), bool):
+                raise InputError(f"flow.{key} must be true or false, got {getattr(self, key)!r}")
         if self.stop not in STOPS:
             raise InputError(f"flow.stop must be one of {STOPS}, got {self.stop!r}")
         if not isinstance(self.edge_constraint, bool):
@@ -174,6 +183,7 @@ class FlowSpec:
             ("tau_growth", True),
             ("tau_max_ratio", False),
             ("refactor_factor", False),
+            ("newton_tau_ratio", False),
         ):
             value = getattr(self, key)
             finite = is_number(value) and math.isfinite(value)
@@ -305,6 +315,8 @@ class GradientFlow(StepCounters):
         self._linear_defect = 0.0  # D_h after the last linearised step, before projection
         self.rejected_steps = 0  # steps redone with a smaller τ (flow.adaptive_tau)
         self.refactorisations = 0  # changes of τ in the step matrix (each reassembles A_const)
+        self.newton_steps = 0  # accepted SQP steps (flow.newton_finish)
+        self.newton_rejections = 0  # SQP steps redone as plain steps
         self._build_forms()
         self._E_form = dolfinx.fem.form(self.energy.total)
         self._last_energy = self.evaluate_energy()
@@ -334,6 +346,7 @@ class GradientFlow(StepCounters):
         b = linearised_isometry(v, y, multiplier) + linearised_isometry(dy, y, q)
         # residual of the nonlinear constraint in the multiplier rows: ∫ (∇yᵀ∇y − I) : q
         residual = -ufl.inner(metric_tensor_defect(y), symmetric(q)) * ufl.dx
+        edge = None
         if self.settings.edge_constraint:
             (edge_trial,), (edge_test,) = edge_multiplier, edge_q
             edge = EdgeConstraint(facets)
@@ -362,6 +375,10 @@ class GradientFlow(StepCounters):
         self._rhs_fn: Function = dolfinx.fem.Function(self.W)  # a ghosted vector in every version
         self.rhs = self._rhs_fn.x.petsc_vec
         self.solution: Function = dolfinx.fem.Function(self.W)
+        curvature = sqp.lagrangian_curvature(
+            y, self.solution, self.energy.explicit, edge, s, (dy, v)
+        )
+        self._newton = sqp.NewtonStep(self.comm, curvature, self.settings.solver)
         self._balance_constraint_rows()
         self.solver = self._make_solver()
 
@@ -485,20 +502,35 @@ class GradientFlow(StepCounters):
             term.update()
         compat.assemble_vector_into(self.rhs, self._rhs)
 
-    def step(self) -> StepInfo:
-        """One step of the flow from yⁿ to yⁿ⁺¹ (collective)."""
-        t0 = time.perf_counter()
+    def _newton_system(self) -> solvers.DirectStepSolver:
+        """K, K_N = K + H (:mod:`dgplate.solvers.sqp`) and −DE_h[yⁿ]; K_N's solver."""
         self.assemble_system()
+        return self._newton.assemble(self.K)
+
+    def step(self, newton: bool = False) -> StepInfo:
+        """One step of the flow from yⁿ to yⁿ⁺¹ (collective).
+
+        ``newton``: the SQP step (:mod:`dgplate.solvers.sqp`), its projections by its factors.
+        """
+        t0 = time.perf_counter()
+        solver: schur.StepSolver | solvers.DirectStepSolver = self.solver
+        if newton:
+            solver = self._newton_system()
+        else:
+            self.assemble_system()
         t1 = time.perf_counter()
-        stats = self.solver.solve(self.rhs, self.solution.x.petsc_vec)
+        stats = solver.solve(self.rhs, self.solution.x.petsc_vec)
         self.solution.x.scatter_forward()
         t2 = time.perf_counter()
         dy = self.solution.x.array[self._vdofs].copy()
         self.y.x.array[:] += dy
         if self.settings.adaptive_tau:
             self._linear_defect = self.defect()
-        for _ in range(self.settings.projection_steps):
-            dy += self._project(stats)
+        # an SQP step lowers E_h partly along the constraint's curvature: two more corrections
+        # (back-solves) bring it to a discrete isometry to round-off, or the next steps, which
+        # restore the constraint, would raise E_h
+        for _ in range(self.settings.projection_steps + 2 * newton):
+            dy += self._project(stats, solver)
         self._last_increment = dy
         owned = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
         increment = mpi.global_max(self.comm, float(np.max(np.abs(dy[:owned]), initial=0.0)))
@@ -555,14 +587,16 @@ class GradientFlow(StepCounters):
         rises = -info.rate * info.tau > 1e-12 * max(1.0, abs(info.energy))
         return accepted and not rises
 
-    def _project(self, stats: solvers.SolveStats) -> Array:
+    def _project(
+        self, stats: solvers.SolveStats, solver: schur.StepSolver | solvers.DirectStepSolver
+    ) -> Array:
         """One correction towards ∫_T (∇yᵀ∇y − I) q = 0, reusing the step's factorisation.
 
         Its fall-backs are added to the step's ``stats``; returns the change of y's dofs.
         """
         compat.assemble_vector_into(self.rhs, self._constraint_residual)
         correction: Function = dolfinx.fem.Function(self.W)
-        more = self.solver.solve(self.rhs, correction.x.petsc_vec, refactor=False)
+        more = solver.solve(self.rhs, correction.x.petsc_vec, refactor=False)
         stats.fallbacks += more.fallbacks
         correction.x.scatter_forward()
         c = correction.x.array[self._vdofs]
@@ -622,6 +656,8 @@ class GradientFlow(StepCounters):
             "target_tau": self._target_tau,
             "rejected_steps": self.rejected_steps,
             "refactorisations": self.refactorisations,
+            "newton_steps": self.newton_steps,
+            "newton_rejections": self.newton_rejections,
         }
 
     @property
@@ -650,6 +686,9 @@ class GradientFlow(StepCounters):
             "rejected_steps": self.rejected_steps,
             "refactorisations": self.refactorisations,
             "factorisations": getattr(self.solver, "factorisations", None),
+            "newton_steps": self.newton_steps,
+            "newton_rejections": self.newton_rejections,
+            "newton_factorisations": self._newton.factorisations,
         }
 
     def restore_state(self, state: dict[str, Any]) -> None:
@@ -662,6 +701,8 @@ class GradientFlow(StepCounters):
         self._target_tau = float(state.get("target_tau", tau))
         self.rejected_steps = int(state.get("rejected_steps", 0))
         self.refactorisations = int(state.get("refactorisations", 0))
+        self.newton_steps = int(state.get("newton_steps", 0))
+        self.newton_rejections = int(state.get("newton_rejections", 0))
 
     def undo(self) -> None:
         """Take back the last step (used when it produced a non-finite state)."""
@@ -719,22 +760,61 @@ class GradientFlow(StepCounters):
         (:meth:`_grow_tau`). Otherwise the step is taken back and redone with half the τ it
         was taken with (refactorised at once), down to 10⁻⁶ of the initial τ (below that the
         step is accepted as it is). Rejected steps are counted in :attr:`rejected_steps`.
+
+        With ``flow.newton_finish``, once τ is at its cap the step is first tried as an SQP step
+        (:mod:`dgplate.solvers.sqp`); if it fails the same test (or its matrix cannot be
+        factorised) it is taken back and redone as a plain step with the same τ
+        (:attr:`newton_rejections`).
         """
         y0 = self.y.x.array.copy()
         energy0, time0, count0 = self._last_energy, self.time, self.step_count
         tau_min = 1e-6 * self._initial_tau
+        newton = self._newton_due()
         while True:
-            info = self.step()
-            rose = info.energy > energy0 + 1e-12 * max(1.0, abs(energy0))
-            too_far = self._linear_defect > self.settings.defect_bound
-            refused = not all([term.accept() for term in self.energy.nonlocal_terms])
-            if not (rose or too_far or refused) or self.tau / 2 < tau_min:
+            info = self._attempt(newton)
+            if info is not None and (
+                self._accepted(info, energy0) or (self.tau / 2 < tau_min and not newton)
+            ):
+                self.newton_steps += newton
                 self._grow_tau()
                 return info
-            self.rejected_steps += 1
             self.y.x.array[:] = y0
             self._last_energy, self.time, self.step_count = energy0, time0, count0
+            if newton:  # redone as a plain step with the same τ
+                self.newton_rejections += 1
+                newton = False
+                continue
+            self.rejected_steps += 1
             self.tau = self.tau / 2
+
+    def _attempt(self, newton: bool) -> StepInfo | None:
+        """A step; an SQP step whose matrix cannot be factorised gives None (to redo it plain)."""
+        if not newton:
+            return self.step()
+        try:
+            return self.step(newton=True)
+        except SolverError:
+            return None
+
+    def _accepted(self, info: StepInfo, energy0: float) -> bool:
+        """The adaptive controller's test of a step from the energy ``energy0``.
+
+        E_h did not rise, the linearisation error is at most ``flow.defect_bound`` and the
+        nonlocal terms accept the state; a non-finite energy or defect fails.
+        """
+        lowered = info.energy <= energy0 + 1e-12 * max(1.0, abs(energy0))
+        close = self._linear_defect <= self.settings.defect_bound
+        accepted = all([term.accept() for term in self.energy.nonlocal_terms])
+        return lowered and close and accepted
+
+    def _newton_due(self) -> bool:
+        """Whether the next step is an SQP step: ``flow.newton_finish`` and τ large enough.
+
+        τ (the held one) at least ``flow.newton_tau_ratio`` times the initial τ, or at its cap.
+        """
+        settings = self.settings
+        ratio = min(settings.newton_tau_ratio, settings.tau_max_ratio)
+        return settings.newton_finish and self.tau >= ratio * self._initial_tau * (1 - 1e-12)
 
     def _grow_tau(self) -> None:
         """After an accepted step: the proposal grows by ``flow.tau_growth``, up to its cap.
@@ -764,6 +844,7 @@ class GradientFlow(StepCounters):
     def destroy(self) -> None:
         """Free the solver and the matrices."""
         self.solver.destroy()
+        self._newton.destroy()
         if self._stationarity is not None:
             self._stationarity[2].destroy()
             self._stationarity[1].destroy()

@@ -1,0 +1,132 @@
+"""The SQP (Newton) finish of adaptive τ (flow.newton_finish): the step matrix with the
+Lagrangian's curvature.
+
+The finish changes the path, not the end: the run must stop at the fixed-τ run's state (E_h to
+1e-7 relative, 1 and 2 ranks), lower E_h at every accepted step, and, since the next SQP
+matrix is built from the multipliers of the last step solve, a run stopped and resumed from
+its checkpoint must take the uninterrupted run's steps. On the bilayer cylinder the SQP matrix
+also has the explicit terms' second derivative and the edge moments' curvature.
+"""
+
+import json
+from itertools import pairwise
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+from dgplate.cli import main
+from dgplate.errors import InputError
+from dgplate.models.kirchhoff import bnn_plate
+from dgplate.reference.bnn import bnn_h
+from dgplate.solvers.flow import FlowSpec, GradientFlow
+
+VERTICAL = Path(__file__).resolve().parent.parent / "demos" / "problems" / "vertical_load.toml"
+# SQP steps from the start (newton_tau_ratio = 1), so that the 6×6 plate takes some
+NEWTON = {"adaptive_tau": True, "newton_finish": True, "newton_tau_ratio": 1.0}
+
+
+def run_bnn(comm, **flow):
+    model = bnn_plate(comm, 6)
+    settings = FlowSpec(
+        tau=bnn_h(6), tol=1e-6, stop="stationarity", projection_steps=1, max_steps=400, **flow
+    )
+    solver = GradientFlow(model.facets, 2, model.energy, settings)
+    result = solver.run()
+    counts = (solver.newton_steps, solver.newton_rejections)
+    solver.destroy()
+    return result, counts
+
+
+@pytest.mark.mpi
+def test_newton_finish_ends_at_the_fixed_tau_state():
+    fixed, _ = run_bnn(MPI.COMM_WORLD)
+    adaptive, _ = run_bnn(MPI.COMM_WORLD, adaptive_tau=True, newton_finish=False)
+    newton, (steps, _) = run_bnn(MPI.COMM_WORLD, **NEWTON)
+    for result in (fixed, adaptive, newton):
+        assert result.converged and result.energy_increases == []
+        energies = [row.energy for row in result.history]
+        assert all(b <= a + 1e-12 for a, b in pairwise(energies))
+    assert newton.energy == pytest.approx(fixed.energy, rel=1e-7)
+    assert 0 < steps <= newton.steps
+    # the finish takes fewer steps than plain adaptive τ, which takes fewer than fixed τ
+    assert newton.steps < adaptive.steps < fixed.steps
+
+
+def summary_of(out: Path) -> dict:
+    return json.loads((out / "summary.json").read_text())
+
+
+def test_resumed_newton_run_takes_the_same_steps(tmp_path):
+    options = [
+        f"--set={key}"
+        for key in (
+            "mesh.cells=[6,6]",
+            "flow.adaptive_tau=true",
+            "flow.newton_finish=true",
+            "flow.newton_tau_ratio=1",
+            "flow.projection_steps=1",
+            "flow.stop='stationarity'",
+            "flow.tol=1e-6",
+            "output.vtx=false",
+            "output.png=false",
+            "output.progress=0",
+        )
+    ]
+    reference = tmp_path / "reference"
+    assert main(["run", str(VERTICAL), "--out", str(reference), *options]) == 0
+    expected = summary_of(reference)
+    assert expected["converged"] and expected["newton_steps"] > 2
+    out = tmp_path / "resumed"
+    budget = ["--set=flow.max_steps=3", "--set=flow.checkpoint_every=1"]
+    assert main(["run", str(VERTICAL), "--out", str(out), *options, *budget]) == 1
+    assert main(["run", str(VERTICAL), "--out", str(out), *options, "--resume"]) == 0
+    summary = summary_of(out)
+    for key in ("steps", "rejected_steps", "newton_steps", "newton_rejections"):
+        assert summary[key] == expected[key], key
+    assert np.isclose(summary["energy"], expected["energy"], rtol=1e-12, atol=0)
+    # step, time, τ and E_h of every step, before and after the interruption
+    rows = [line.split(",")[:4] for line in (out / "history.csv").read_text().splitlines()]
+    lines = (reference / "history.csv").read_text().splitlines()
+    assert rows == [line.split(",")[:4] for line in lines]
+
+
+CYLINDER = VERTICAL.parent / "bilayer_cylinder.toml"
+
+
+def test_newton_finish_on_the_bilayer_cylinder(tmp_path):
+    """The explicit terms' D²E_expl and the edge moments' curvature (8×4 cylinder)."""
+    common = [
+        f"--set={key}"
+        for key in (
+            "mesh.cells=[8,4]",
+            "flow.tau='h'",
+            "flow.stop='stationarity'",
+            "flow.tol=1e-5",
+            "output.vtx=false",
+            "output.png=false",
+            "output.progress=0",
+        )
+    ]
+    newton = [
+        "--set=flow.adaptive_tau=true",
+        "--set=flow.newton_tau_ratio=1",
+        "--set=flow.defect_bound=0.1",
+    ]
+    summaries = {}
+    for name, extra in (("fixed", []), ("newton", newton)):
+        out = tmp_path / name
+        assert main(["run", str(CYLINDER), "--out", str(out), *common, *extra]) == 0
+        summaries[name] = summary_of(out)
+        assert summaries[name]["converged"] and summaries[name]["energy_increases"] == []
+    fixed, sqp = summaries["fixed"], summaries["newton"]
+    assert sqp["energy"] == pytest.approx(fixed["energy"], rel=1e-7)
+    assert sqp["newton_steps"] > 0 and sqp["steps"] < fixed["steps"] / 5
+
+
+@pytest.mark.parametrize(("key", "value"), [("newton_finish", 1), ("newton_tau_ratio", 0.5)])
+def test_bad_newton_keys_are_refused(key, value):
+    with pytest.raises(InputError, match=rf"^flow\.{key} must be"):
+        FlowSpec(adaptive_tau=True, **{key: value})
