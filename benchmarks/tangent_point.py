@@ -5,9 +5,10 @@ Three measurements (docs/self_avoidance.md):
 * accuracy and speed-up: TP and its derivatives by the tree (θ = 0.25, 0.5, 1) against the
   exact all-pairs sums, on the cell centres of a strip rolled into a spiral of 1.5 turns
   (a bent configuration whose layers face each other), for M points up to ``--exact-max``;
-* cost against M: one tree evaluation (θ = 0.5; build and sums timed apart) for M = 10³ …
-  ``--max-m`` (3·10⁵; 10⁶ with ``--max-m 1000000``), with the slope of log t against log M and
-  t/(M log M); ``--leaf 0 32`` repeats it with the old leaf size 32;
+* cost against M: one tree evaluation (θ = 0.5; build and sums timed apart, CPU and wall
+  seconds) for M = 10³ … ``--max-m`` (10⁶), the same surface sampled finer, with interactions
+  per point, the tree's depth, t/(M log M) and the slopes of log t against log M and against
+  log(M log M); ``--leaf 0 32`` repeats it with leaves of 32 points;
 * per step of the demo ``self_avoiding_strip`` (flow): the time of one TP evaluation against
   the step's assembly and solve.
 
@@ -122,30 +123,46 @@ def cost(sizes: list[int], theta: float, leaf: int | None) -> dict[str, Any]:
         size = leaf or tp._default_leaf(cloud, theta)
         w0, c0 = time.perf_counter(), time.process_time()
         tree = tp.build_tree(cloud.points, cloud.weights, size)
-        w1 = time.perf_counter()
+        w1, c1 = time.perf_counter(), time.process_time()
         result = tp.evaluate(cloud, 4.5, theta, 3 * h, tree=tree)
         w2, c2 = time.perf_counter(), time.process_time()
         n = len(cloud.points)
-        rows.append({"M": n, "build_s": w1 - w0, "sums_s": w2 - w1, "total_s": w2 - w0,
+        rows.append({"M": n, "depth": depth(tree), "build_s": w1 - w0, "sums_s": w2 - w1,
+                     "total_s": w2 - w0, "build_cpu_s": c1 - c0, "sums_cpu_s": c2 - c1,
                      "cpu_s": c2 - c0, "near_per_point": result.pairs_exact / n,
                      "far_per_point": result.pairs_far / n})  # fmt: skip
         first, row = rows[0], rows[-1]
         mlogm = row["M"] * np.log2(row["M"]) / (first["M"] * np.log2(first["M"]))
         row["per_MlogM"] = row["cpu_s"] / first["cpu_s"] / mlogm
+        row["per_MlogM_wall"] = row["total_s"] / first["total_s"] / mlogm
         print0(MPI.COMM_WORLD, json.dumps(rows[-1]))
     return {"theta": theta, "leaf": leaf or "default", "rows": rows, **slopes(rows)}
 
 
+def depth(tree: tp.Tree) -> int:
+    """The number of levels below the root (the longest path to a leaf)."""
+    level, nodes = 0, np.array([0])
+    while True:
+        nodes = tree.children[nodes[~tree.is_leaf(nodes)]].ravel()
+        if not nodes.size:
+            return level
+        level += 1
+
+
 def slopes(rows: list[dict[str, Any]]) -> dict[str, float]:
-    """Slopes of log t over log M (wall and CPU, all rows and the last two)."""
+    """Slopes of log t over log M and over log(M log M) (wall and CPU, all rows and the last two).
+
+    A slope 1 over log(M log M) is a cost growing like M log M.
+    """
     if len(rows) < 2:
         return {}
-    m = np.log([r["M"] for r in rows])
+    m = np.array([r["M"] for r in rows], dtype=float)
     out = {}
-    for key in ("total_s", "cpu_s"):
-        t = np.log([r[key] for r in rows])
-        out[f"slope_{key}"] = float(np.polyfit(m, t, 1)[0])
-        out[f"slope_{key}_last_two"] = float((t[-1] - t[-2]) / (m[-1] - m[-2]))
+    for name, x in (("", np.log(m)), ("_MlogM", np.log(m * np.log(m)))):
+        for key in ("total_s", "cpu_s"):
+            t = np.log([r[key] for r in rows])
+            out[f"slope{name}_{key}"] = float(np.polyfit(x, t, 1)[0])
+            out[f"slope{name}_{key}_last_two"] = float((t[-1] - t[-2]) / (x[-1] - x[-2]))
     return out
 
 
@@ -209,14 +226,14 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--history", action="append", default=[], help="label=history.csv")
     parser.add_argument("--exact-max", type=int, default=10000)
     parser.add_argument("--thetas", type=float, nargs="*", default=[0.25, 0.5, 1.0])
-    parser.add_argument("--max-m", type=int, default=300000, help="10⁶ only when asked")
+    parser.add_argument("--max-m", type=int, default=1000000)
     parser.add_argument("--theta", type=float, default=0.5, help="θ of the cost sweep")
     parser.add_argument(
         "--leaf",
         type=int,
         nargs="*",
         default=[0],
-        help="leaf sizes of the cost sweep (0: the default; 32 was the old one)",
+        help="leaf sizes of the cost sweep (0: the default)",
     )
     parser.add_argument("--no-flow", action="store_true", help="skip the demo's flow")
     parser.add_argument("--steps", type=int, default=10)

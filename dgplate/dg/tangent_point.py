@@ -16,19 +16,22 @@ integrand is singular. The code knows nothing of meshes: a point carries the ids
 vertices (``vertices``), so that rods (two ids per segment) can use it as well.
 
 The far field is approximated Barnes–Hut style: points are sorted into a binary tree of
-bounding boxes; a target point and a source box of diameter D at box distance g > D/θ (and
-farther apart than ``reach``, the largest distance of neighbouring points, so no excluded pair
-is approximated) interact through the box's weight and weighted centroid (a monopole). Near
-pairs are summed exactly. All sums are vectorised over dense blocks, a target leaf against a
-source leaf (near; |d|², a·d and the sums over sources and over targets are batched matrix
-products of the leaves' coordinates) or against far nodes' monopoles (far), never over single
+bounding boxes (cut at the middle of the longest side, so that boxes keep a bounded aspect
+ratio); a target point and a source box of diameter D at box distance g > D/θ (and farther
+apart than ``reach``, the largest distance of neighbouring points, so no excluded pair is
+approximated) interact through the box's weight and weighted centroid (a monopole). Near
+pairs are summed exactly. The points are taken in tree order (every leaf a contiguous range)
+and all sums are vectorised over dense blocks: a target leaf against the concatenated points
+of all its near leaves (near) or against the centroids of all its far boxes (far); |d|², a·d
+and the sums over sources and over targets are batched matrix products, never loops over
 pairs in Python.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from itertools import pairwise
 
 import numpy as np
 import numpy.typing as npt
@@ -102,8 +105,12 @@ class Tree:
         return np.asarray(self.children[nodes, 0] < 0)
 
 
-def build_tree(points: Array, weights: Array, leaf: int = _LEAF) -> Tree:
-    """Split boxes at the median of their longest side until at most ``leaf`` points remain.
+def build_tree(points: Array, weights: Array, leaf: int = _LEAF, median: bool = False) -> Tree:
+    """Split boxes at the middle of their longest side until at most ``leaf`` points remain.
+
+    ``median``: split at the median instead (leaves of ``leaf``/2 … ``leaf`` points; used on
+    curves, where a box's diameter shrinks with its points either way and the larger leaves
+    keep the monopoles' error down).
 
     The loop runs over nodes (about 2M/leaf of them), never over points or pairs; the boxes
     are reduced over the leaves' contiguous ranges and then level by level up the tree.
@@ -117,10 +124,7 @@ def build_tree(points: Array, weights: Array, leaf: int = _LEAF) -> Tree:
         if e - s <= leaf:
             continue
         idx = order[s:e]
-        axis = int(np.argmax(np.ptp(points[idx], axis=0)))
-        half = (e - s) // 2
-        part = np.argpartition(points[idx, axis], half)
-        order[s:e] = idx[part]
+        order[s:e], half = _split(points[idx], idx, median)
         kids = [len(starts), len(starts) + 1]
         starts += [s, s + half]
         ends += [s + half, e]
@@ -138,6 +142,28 @@ def build_tree(points: Array, weights: Array, leaf: int = _LEAF) -> Tree:
     centroid = (cwp[end] - cwp[start]) / safe[:, None]
     lo, hi = _boxes(p, start, child, np.array(depth))
     return Tree(order, start, end, child, lo, hi, weight, centroid)
+
+
+def _split(p: Array, idx: IntArray, median: bool) -> tuple[IntArray, int]:
+    """``idx`` reordered into the two halves of its box, cut at the middle of its longest side.
+
+    A cut at the middle (not at the median) keeps every box's aspect ratio bounded, so that a
+    box's diameter halves every few levels and the boxes admitted as far per level stay
+    bounded; both halves are non-empty because the box is the points' own. Coincident points
+    (a box of size 0) are split into two halves of their order.
+    """
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    axis = int(np.argmax(hi - lo))
+    if median:
+        half = len(idx) // 2
+        return idx[np.argpartition(p[:, axis], half)], half
+    if hi[axis] <= lo[axis]:
+        return idx, len(idx) // 2
+    left = p[:, axis] < 0.5 * (lo[axis] + hi[axis])
+    half = int(np.count_nonzero(left))
+    if not 0 < half < len(idx):  # lo and hi adjacent floating-point numbers
+        return idx, len(idx) // 2
+    return np.concatenate([idx[left], idx[~left]]), half
 
 
 def _boxes(p: Array, start: IntArray, child: IntArray, depth: IntArray) -> tuple[Array, Array]:
@@ -285,16 +311,30 @@ def _projected(cloud: Cloud, s: Array, n2: Array, q: float) -> tuple[Array, Arra
 def _accumulate(target: Array, index: IntArray, values: Array) -> None:
     """target[index] += values, with repeated indices.
 
-    By one ``bincount`` over the flattened components while the target is small; otherwise by
-    ``np.add.at``, whose cost does not grow with the target (a bincount per block of pairs
-    would cost O(M) each, O(M²) in all: 1.6 s per 10⁴ blocks at M = 10⁵).
+    Only the window of ``target`` between the least and the largest index is touched: by one
+    ``bincount`` over its flattened components while the window is small (blocks of pairs of
+    neighbouring leaves of points in tree order), otherwise by ``np.add.at``, whose cost does
+    not grow with the target (a bincount over all of it per block would cost O(M) each).
     """
+    if not index.size:
+        return
+    first = int(index.min())
+    window = target[first : int(index.max()) + 1]
     width = values.shape[1]
-    flat = (index[:, None] * width + np.arange(width)).reshape(-1)
-    if target.size <= 8 * flat.size:
-        target += np.bincount(flat, values.reshape(-1), minlength=target.size).reshape(target.shape)
+    flat = ((index - first)[:, None] * width + np.arange(width)).reshape(-1)
+    if window.size <= 8 * flat.size:
+        window += np.bincount(flat, values.reshape(-1), minlength=window.size).reshape(window.shape)
     else:
-        np.add.at(target.reshape(-1), flat, values.reshape(-1))
+        np.add.at(window.reshape(-1), flat, values.reshape(-1))
+
+
+def _valid(padded: IntArray) -> IntArray:
+    """Rows of leaf indices with the padding (−1) replaced by the row's first point.
+
+    The padding's weights are set to 0 by the callers; pointing it into the row keeps the
+    indices of a block within a narrow window (:func:`_accumulate`).
+    """
+    return np.where(padded >= 0, padded, padded[:, :1])
 
 
 def _range(tree: Tree, nodes: IntArray) -> tuple[IntArray, IntArray]:
@@ -321,26 +361,90 @@ def evaluate(
     """
     m = len(cloud.points)
     if tree is None:
-        tree = build_tree(cloud.points, cloud.weights, leaf or _default_leaf(cloud, theta))
+        size = leaf or _default_leaf(cloud, theta)
+        tree = build_tree(cloud.points, cloud.weights, size, median=cloud.curve)
     mask = np.ones(m, dtype=bool) if targets is None else targets
+    # the points in tree order: every leaf is a contiguous range, blocks read and add locally
+    perm = tree.order
+    cloud = Cloud(
+        cloud.points[perm],
+        cloud.normals[perm],
+        cloud.weights[perm],
+        cloud.vertices[perm],
+        cloud.curve,
+    )
+    out = _sums(cloud, replace(tree, order=np.arange(m)), mask[perm], q, theta, reach)
+    for name in ("d_points", "d_normals"):
+        unsorted = np.empty((m, 3))
+        unsorted[perm] = getattr(out, name)
+        setattr(out, name, unsorted)
+    return out
+
+
+def _sums(
+    cloud: Cloud, tree: Tree, mask: npt.NDArray[np.bool_], q: float, theta: float, reach: float
+) -> TPResult:
+    """:func:`evaluate` for a cloud in tree order (``tree.order`` the identity)."""
+    m = len(cloud.points)
     leaves = np.flatnonzero(tree.children[:, 0] < 0)
-    count = np.concatenate([[0], np.cumsum(mask[tree.order])])
+    count = np.concatenate([[0], np.cumsum(mask)])
     has_target = count[tree.end[leaves]] > count[tree.start[leaves]]
     near_t, near_s, far_t, far_s = interactions(tree, leaves[has_target], 0.0, theta, reach)
     out = TPResult(0.0, np.zeros((m, 3)), np.zeros((m, 3)))
     padded = _padded_leaves(tree)
     width = padded.shape[1]
-    step = max(1, _BLOCK // width**2)
-    for first in range(0, len(near_t), step):
-        rows = slice(first, first + step)
-        _near_block(cloud, padded[near_t[rows]], padded[near_s[rows]], mask, q, reach, out)
+    order = np.argsort(tree.start[near_t], kind="stable")  # grouped by target, in tree order
+    near_t, near_s = near_t[order], near_s[order]
+    for rows, sources in _source_rows(near_t, *_range(tree, near_s), width):
+        _near_block(cloud, padded[rows], sources, mask, q, reach, out)
     node_force = np.zeros((len(tree.start), 3))
-    step = max(1, _BLOCK // width)
-    for first in range(0, len(far_t), step):
-        rows = slice(first, first + step)
-        _far_block(cloud, tree, padded[far_t[rows]], far_s[rows], mask, q, out, node_force)
+    order = np.argsort(tree.start[far_t], kind="stable")
+    far_t, far_s = far_t[order], far_s[order]
+    for rows, nodes in _source_rows(far_t, far_s, np.ones_like(far_s), width):
+        _far_block(cloud, tree, padded[rows], nodes, mask, q, out, node_force)
     _push_down(tree, node_force, cloud.weights, out.d_points)
     return out
+
+
+def _source_rows(
+    leaves: IntArray, first: IntArray, length: IntArray, width: int
+) -> Iterator[tuple[IntArray, IntArray]]:
+    """Target leaves and the lists of their sources, in blocks of about ``_BLOCK`` pairs.
+
+    ``leaves[k]`` meets the sources ``first[k] … first[k] + length[k] − 1`` (points of a leaf
+    or one far node), ``leaves`` grouped by leaf. Yields the leaves (p,) of a block and their
+    sources (p, S), all ranges of a leaf concatenated into one row, padded with −1: one dense
+    (p, L, S) block per row instead of one (L, L) block per pair of leaves, so that the
+    matrix products are long and the padding is only at each row's end. A leaf's list longer
+    than a block (the exact sums) is cut into several rows.
+    """
+    if not leaves.size:
+        return
+    per = max(1, _BLOCK // width)
+    row_first = _row_starts(leaves, length, per)
+    row_total = np.add.reduceat(length, row_first)
+    row_first = np.append(row_first, len(leaves))
+    cuts = np.searchsorted(np.cumsum(row_total), np.arange(per, row_total.sum(), per), "right")
+    bounds = np.unique(np.concatenate([[0], cuts, [len(row_total)]]))
+    for a, b in pairwise(bounds):
+        pairs = slice(row_first[a], row_first[b])
+        count, totals = length[pairs], row_total[a:b]
+        k = np.arange(totals.sum())
+        owner = np.repeat(np.arange(len(count)), count)
+        position = first[pairs][owner] + k - (np.cumsum(count) - count)[owner]
+        row = np.repeat(np.arange(b - a), totals)
+        sources = np.full((b - a, int(totals.max())), -1, dtype=np.int64)
+        sources[row, k - (np.cumsum(totals) - totals)[row]] = position
+        yield leaves[row_first[a:b]], sources
+
+
+def _row_starts(leaves: IntArray, length: IntArray, per: int) -> IntArray:
+    """The first pair of every row: a new leaf, or its sources so far reaching a multiple of ``per``."""
+    new_leaf = np.concatenate([[True], leaves[1:] != leaves[:-1]])
+    before = np.cumsum(length) - length  # sources before each pair, over all leaves
+    leaf_start = np.maximum.accumulate(np.where(new_leaf, before, 0))
+    piece = (before - leaf_start) // per
+    return np.flatnonzero(new_leaf | np.concatenate([[False], piece[1:] != piece[:-1]]))
 
 
 def _default_leaf(cloud: Cloud, theta: float) -> int:
@@ -436,7 +540,7 @@ def _near_block(
 
     Gathering per leaf instead of per pair is what makes the near field cheap.
     """
-    it, js = np.maximum(targets, 0), np.maximum(sources, 0)
+    it, js = _valid(targets), _valid(sources)
     wt = np.where((targets >= 0) & mask[it], cloud.weights[it], 0.0)
     ws = np.where(sources >= 0, cloud.weights[js], 0.0)
     block = _Block.of(cloud.points[it], cloud.normals[it], cloud.points[js])
@@ -470,33 +574,25 @@ def _far_block(
     out: TPResult,
     node_force: Array,
 ) -> None:
-    """Target leaves (p, L) against the monopoles of far nodes (p,), as dense (p, L) arrays.
+    """Target leaves (p, L) against the monopoles of their far nodes (p, F; padding −1).
 
-    The force on a node's centroid is kept per unit weight in ``node_force`` (pushed down to
-    the node's points once, by :func:`_push_down`).
+    The nodes' centroids are sources of weight the nodes' weights in a dense block like the
+    near field's (no excluded pairs). The force on a node's centroid is kept per unit weight
+    in ``node_force`` (pushed down to the node's points once, by :func:`_push_down`).
     """
-    it = np.maximum(targets, 0)
-    ww = np.where((targets >= 0) & mask[it], cloud.weights[it], 0.0)
-    ww *= tree.weight[nodes][:, None]
-    d = tree.centroid[nodes][:, None, :] - cloud.points[it]
-    nu = cloud.normals[it]
-    n2 = np.einsum("pik,pik->pi", d, d)
-    n2[ww == 0] = 1.0
-    f, sq, ag = _projected(cloud, np.einsum("pik,pik->pi", nu, d), n2, q)
+    it, nj = _valid(targets), _valid(nodes)
+    wt = np.where((targets >= 0) & mask[it], cloud.weights[it], 0.0)
+    ws = np.where(nodes >= 0, tree.weight[nj], 0.0)
+    block = _Block.of(cloud.points[it], cloud.normals[it], tree.centroid[nj])
+    ww = wt[:, :, None] * ws[:, None, :]
+    block.n2[ww == 0] = 1.0
     out.pairs_far += int(np.count_nonzero(ww))
-    sq *= ww
-    f *= ww
-    out.energy += float(f.sum()) / q
-    f /= n2
-    f *= 2.0
-    if ag is not None:
-        f -= ag * ww
-    # ∂/∂d per pair = S a_t − C d: on the target with −, on the node's centroid with +
-    pair = nu * sq[:, :, None]
-    pair -= d * f[:, :, None]
-    _accumulate(out.d_points, it.reshape(-1), -pair.reshape(-1, 3))
-    _accumulate(out.d_normals, it.reshape(-1), (d * sq[:, :, None]).reshape(-1, 3))
-    _accumulate(node_force, nodes, pair.sum(axis=1) / tree.weight[nodes][:, None])
+    energy, on_target, on_source, d_nu = block.sums(cloud, ww, q)
+    out.energy += energy
+    _accumulate(out.d_points, it.reshape(-1), -on_target.reshape(-1, 3))
+    _accumulate(out.d_normals, it.reshape(-1), d_nu.reshape(-1, 3))
+    on_source /= np.where(ws > 0, ws, 1.0)[:, :, None]
+    _accumulate(node_force, nj.reshape(-1), on_source.reshape(-1, 3))
 
 
 def _push_down(tree: Tree, node_force: Array, weights: Array, d_points: Array) -> None:
