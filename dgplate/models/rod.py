@@ -93,6 +93,18 @@ ROD_IGNORES = {
             "edge_constraint",
         )
     },
+    **{
+        f"flow.{key}": "the rod flow has a fixed τ (its self-avoidance safety net halves it for "
+        "single steps) and stops at (E[xⁿ⁻¹] − E[xⁿ])/τ < tol"
+        for key in (
+            "stop",
+            "adaptive_tau",
+            "defect_bound",
+            "tau_growth",
+            "tau_max_ratio",
+            "refactor_factor",
+        )
+    },
 }
 _START, _END = 1, 2  # the tags of the nodes s = 0 and s = L
 
