@@ -5,20 +5,25 @@ ball of radius R are μ-circles (a circle covered μ times) or μ-ν-clews (μ t
 discrete rotation axis, a 2ν-periodic curvature), and lie on the sphere. Here, for each
 L/(2πR) of ``--ratios``, a closed rod (c_b = 1, c_t = 0.5, ``--cells`` cells, degree 2) flows
 with the confinement (ε = ``--epsilon``) and the tangent-point self-avoidance (ρ = ``--rho``,
-q = 3: it must not pass through itself, or a rod that winds more than once could cross)
-until ΔE/τ < ``--tol`` or ``--steps`` steps, from one or two starts that lie in the ball:
+q = 3: it must not pass through itself, or a rod that winds more than once could cross),
+with ``--projection`` Newton corrections towards the constraints after every step (1:
+without them the constraint defects grow like tτ and the discrete rod kinks at its nodes,
+docs/rods.md), until ΔE/τ < ``--tol`` or ``--steps`` steps, from starts that lie in the ball:
 
 - ``clew``: the spherical curve (cos θ cos t, cos θ sin t, sin θ), θ = a sin 2t, a 1-2 clew
   whose amplitude a makes it ``--slack`` times longer than the great circle of the ball it
   is scaled into (so it lies inside; possible while L/(2πR)·slack < 2.04, a < 1.55);
 - ``wound``: the (μ₀, 1) torus curve ((1 + r cos t) cos μ₀t, (1 + r cos t) sin μ₀t, r sin t),
   r = 0.15, an unknot that winds μ₀ = ⌊L/(2πR)⌋ + 1 times about e₃, near the μ₀-circle
-  (which fits: L/(2πμ₀) < R).
+  (which fits: L/(2πμ₀) < R);
+- ``circle`` (only for an integer L/(2πR) = μ ≥ 2, where the μ-circle is a great circle):
+  the wavy μ-circle (cos μt, sin μt, A sin (2μ + 1)t), A chosen so that it reaches 0.98 R;
+  it crosses itself, so it is meant for ``--rho 0``.
 
 The final shape is classified by :func:`dgplate.measure.rod_shapes.classify` (μ the winding
 number about the axis of ∮ u × u′, 2ν the number of curvature maxima, a circle when the
 curvature varies by less than 10 %), and drawn (tube, stripe along b, the sphere) into
-``--pictures``. Every run's energies (bending, torsion, confinement, ρ·TP), least distance,
+``--pictures``. Every run's energies (bending, torsion, jumps, torsion defect, confinement, ρ·TP), least distance,
 steps and wall time go into ``--json``.
 
     python benchmarks/rod_sphere_study.py --json benchmarks/results/rod_sphere_study.json \\
@@ -27,7 +32,9 @@ steps and wall time go into ``--json``.
 ``--fine`` runs 96 cells and 6000 steps instead (not part of the default budget). With
 ``--rho 0 --starts wound`` the rod may pass through itself: an embedded curve on the sphere
 winds at most once about an axis, so clews and circles with μ ≥ 2 on the sphere cross
-themselves, and only a rod that may cross can reach them (docs/rods.md).
+themselves, and only a rod that may cross can reach them (docs/rods.md). The JSON is written
+after every run; ``--append`` keeps the runs of other (ratio, start) pairs already in it, so
+that the study can be split over invocations by ``--ratios``.
 """
 
 from __future__ import annotations
@@ -52,12 +59,20 @@ from dgplate.models.rod import nodes_in_order
 
 SPHERE = Path(__file__).resolve().parent.parent / "demos" / "problems" / "rod_sphere.toml"
 TORUS_R = 0.15  # the tube radius of the wound start, relative to its core radius 1
+CIRCLE_REACH = 0.98  # the circle start's largest |u| / R
+SKIPPED = {
+    "clew": "the 1-2 clew start does not fit",
+    "circle": "no μ-circle on the sphere (L/2πR is not an integer μ ≥ 2)",
+}
 FIGURES = (
     "energy",
     "energy_bending",
     "energy_torsion",
     "energy_confinement",
     "energy_self_avoidance",
+    "energy_jumps",
+    "energy_torsion_defect",
+    "energy_rest",
     "min_distance",
     "max_distance_to_center",
     "writhe",
@@ -89,8 +104,34 @@ def clew_amplitude(target: float) -> float | None:
     return 0.5 * (low + high)
 
 
+def wavy_circle(turns: int, amplitude: float, samples: int = 20000) -> float:
+    """max|u| · 2π·turns / length of the curve (cos μt, sin μt, A sin((2μ + 1)t)), μ = turns.
+
+    Scaled to the length L = 2π·turns·R, the curve reaches this multiple of R.
+    """
+    t = np.linspace(0.0, 2.0 * math.pi, samples + 1)
+    p = np.c_[np.cos(turns * t), np.sin(turns * t), amplitude * np.sin((2 * turns + 1) * t)]
+    length = float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)))
+    return float(np.max(np.linalg.norm(p, axis=1))) * 2.0 * math.pi * turns / length
+
+
+def circle_amplitude(turns: int, reach: float) -> float:
+    """The wave amplitude A whose wavy μ-circle reaches ``reach``·R, L = 2πμR (bisection)."""
+    low, high = 0.0, 0.5
+    for _ in range(50):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if wavy_circle(turns, middle) > reach else (low, middle)
+    return 0.5 * (low + high)
+
+
 def start_curve(kind: str, ratio: float, slack: float) -> list[str] | None:
     """The formulas of the start ``kind`` for L/(2πR) = ratio, or None if it does not fit."""
+    if kind == "circle":
+        turns = round(ratio)
+        if abs(ratio - turns) > 1e-9 or turns < 2:
+            return None
+        a = circle_amplitude(turns, CIRCLE_REACH)
+        return [f"cos({turns}*t)", f"sin({turns}*t)", f"{a:.6f}*sin({2 * turns + 1}*t)"]
     if kind == "clew":
         a = clew_amplitude(ratio * slack)
         if a is None:
@@ -114,6 +155,7 @@ def settings(args: argparse.Namespace, ratio: float, curve: list[str]) -> dict[s
         "flow.tau": args.tau,
         "flow.tol": args.tol,
         "flow.max_steps": args.steps,
+        "flow.projection_steps": args.projection,
         "output.progress": 0,
         "output.vtx": False,
         "output.png": False,
@@ -142,8 +184,8 @@ def one_run(args: argparse.Namespace, ratio: float, kind: str, scratch: Path) ->
     comm = MPI.COMM_WORLD
     curve = start_curve(kind, ratio, args.slack)
     if curve is None:
-        print0(comm, f"L/2πR = {ratio:g} ({kind}): skipped, the 1-2 clew start does not fit")
-        return {"ratio": ratio, "start": kind, "skipped": "the 1-2 clew start does not fit"}
+        print0(comm, f"L/2πR = {ratio:g} ({kind}): skipped, {SKIPPED[kind]}")
+        return {"ratio": ratio, "start": kind, "skipped": SKIPPED[kind]}
     radius = 1.0 / (2.0 * math.pi * ratio)
     problem = dgplate.load_problem(SPHERE, settings(args, ratio, curve))
     wall = time.perf_counter()
@@ -164,6 +206,9 @@ def one_run(args: argparse.Namespace, ratio: float, kind: str, scratch: Path) ->
         "reason": result["reason"],
         "shape": shape.as_dict(),
         "picture": f"{name}.png" if args.pictures else None,
+        "settings": {
+            k: getattr(args, k) for k in ("cells", "tau", "tol", "epsilon", "rho", "projection")
+        },
         "wall_time_s": wall,
     }
     print0(
@@ -183,40 +228,69 @@ def main() -> None:
     parser.add_argument("--ratios", type=float, nargs="+", default=[1.1, 1.3, 1.6, 2.0, 2.5, 3.0])
     parser.add_argument("--starts", nargs="+", default=["clew", "wound"])
     parser.add_argument("--cells", type=int, default=48)
-    parser.add_argument("--steps", type=int, default=1500)
+    parser.add_argument("--steps", type=int, default=3000)
     parser.add_argument("--tau", type=float, default=0.02)
     parser.add_argument("--tol", type=float, default=1e-3)
     parser.add_argument("--epsilon", type=float, default=1e-6)
     parser.add_argument("--rho", type=float, default=0.01)
+    parser.add_argument("--projection", type=int, default=1, help="flow.projection_steps")
     parser.add_argument("--slack", type=float, default=1.02)
     parser.add_argument("--fine", action="store_true", help="96 cells, 6000 steps (slow)")
     parser.add_argument("--json", default=None)
+    parser.add_argument(
+        "--append",
+        action="store_true",
+        help="keep the runs of --json of other (ratio, start) pairs (a study split by --ratios)",
+    )
     parser.add_argument("--pictures", default=None, help="a folder for one PNG per run")
     args = parser.parse_args()
     if args.fine:
         args.cells, args.steps = 96, 6000
     comm = MPI.COMM_WORLD
     wall = time.perf_counter()
+    rows: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as folder:
         scratch = Path(comm.bcast(folder if comm.rank == 0 else None))
-        rows = [
-            one_run(args, ratio, kind, scratch) for ratio in args.ratios for kind in args.starts
-        ]
-    wall = time.perf_counter() - wall
-    summary = {
+        for ratio in args.ratios:
+            for kind in args.starts:
+                rows.append(one_run(args, ratio, kind, scratch))
+                if args.json and comm.rank == 0:  # after every run: an interrupted study keeps it
+                    summary = study(args, comm.size, rows, time.perf_counter() - wall)
+                    write(Path(args.json), summary, args.append)
+    print0(comm, f"total {time.perf_counter() - wall:.0f} s")
+
+
+def study(
+    args: argparse.Namespace, ranks: int, rows: list[dict[str, Any]], wall: float
+) -> dict[str, Any]:
+    """The study's JSON: its settings and the runs so far."""
+    return {
         **{k: v for k, v in vars(args).items() if k not in ("json", "pictures")},
         "length": 1.0,
         "c_b": 1.0,
         "c_t": 0.5,
         "q": 3.0,
-        "ranks": comm.size,
+        "ranks": ranks,
         "wall_time_s": wall,
         "runs": rows,
     }
-    print0(comm, f"total {wall:.0f} s")
-    if args.json and comm.rank == 0:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
+
+
+def write(path: Path, summary: dict[str, Any], append: bool) -> None:
+    """The study's JSON; with ``append`` the file's runs of other (ratio, start) pairs stay.
+
+    Its settings and wall time are then this invocation's; every run keeps its own
+    (``settings``, ``wall_time_s``).
+    """
+    rows = summary["runs"]
+    if append and path.exists():
+        old = json.loads(path.read_text(encoding="utf-8"))
+        new = {(row["ratio"], row["start"]) for row in rows}
+        kept = [row for row in old["runs"] if (row["ratio"], row["start"]) not in new]
+        rows = sorted(kept + rows, key=lambda row: (row["ratio"], row["start"]))
+        summary = {**summary, "runs": rows}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(summary, indent=1) + "\n", encoding="utf-8")
 
 
 if __name__ == "__main__":

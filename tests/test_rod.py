@@ -125,6 +125,8 @@ def test_defects_grow_like_tau(tmp_path):
         ("mesh.cells=[4, 4]", "mesh.cells has no effect with model.name = 'rod'"),
         ("mesh.type=gmsh", "mesh.type has no effect with model.name = 'rod'"),
         ("flow.linear_solver=direct", "flow.linear_solver has no effect with model.name"),
+        ("flow.adaptive_tau=true", "flow.adaptive_tau has no effect with model.name = 'rod'"),
+        ("flow.stop=stationarity", "flow.stop has no effect with model.name = 'rod'"),
     ],
 )
 def test_bad_input_is_one_line_with_exit_2(tmp_path, capsys, setting, message):

@@ -57,7 +57,15 @@ from dgplate.solvers import linear as solvers
 from dgplate.solvers.driver import Observer, StepCounters
 from dgplate.solvers.flow import FlowResult, FlowSpec
 
-__all__ = ["RodFlow", "RodState", "RodStep", "ip_product", "nitsche_slope", "tangent"]
+__all__ = [
+    "RodFlow",
+    "RodState",
+    "RodStep",
+    "ip_jumps",
+    "ip_product",
+    "nitsche_slope",
+    "tangent",
+]
 
 #: (u, b) ↦ the rod energy.
 RodEnergy = Callable[[Function, Function], Energy]
@@ -472,8 +480,18 @@ class RodFlow(StepCounters):
 def ip_product(x: Expr, y: Expr, mesh: Mesh, penalty: Expr) -> ufl.Form:
     """∫x″·y″ by C⁰ interior penalty: symmetric and penalised jumps of the slopes at the nodes.
 
+    The cell integrals Σ_T∫_T x″·y″ plus :func:`ip_jumps`.
+    """
+    cells: ufl.Form = ufl.dot(tangent(tangent(x)), tangent(tangent(y))) * ufl.dx(domain=mesh)
+    form: ufl.Form = cells + ip_jumps(x, y, mesh, penalty)
+    return form
+
+
+def ip_jumps(x: Expr, y: Expr, mesh: Mesh, penalty: Expr) -> ufl.Form:
+    """The node terms of the C⁰-IP product: −{x″}·[[y′]] − {y″}·[[x′]] + (σ/h)[[x′]]·[[y′]].
+
     In 1D a facet is a node, n = ±1 and [[x′]] = x′⁺n⁺ + x′⁻n⁻; ``penalty``/h is the
-    stability term (σ ≳ 1 for k = 2).
+    stability term (σ ≳ 1 for k = 2). They vanish for a C¹ function.
     """
     h = ufl.avg(ufl.CellDiameter(mesh))
     n = ufl.FacetNormal(mesh)
@@ -487,7 +505,7 @@ def ip_product(x: Expr, y: Expr, mesh: Mesh, penalty: Expr) -> ufl.Form:
         out: Expr = ufl.avg(tangent(tangent(w)))
         return out
 
-    form: ufl.Form = ufl.dot(tangent(tangent(x)), tangent(tangent(y))) * ufl.dx(domain=mesh) + (
+    form: ufl.Form = (
         -ufl.dot(avg2(x), jump(y))
         - ufl.dot(avg2(y), jump(x))
         + penalty / h * ufl.dot(jump(x), jump(y))
