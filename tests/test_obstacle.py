@@ -18,9 +18,9 @@ QUIET = {"png": False, "vtx": False, "progress": 0}
 STRIP = Path(__file__).resolve().parent.parent / "demos" / "problems" / "obstacle_strip.toml"
 
 
-def strip(cells: int, epsilon: float) -> dgplate.Problem:
+def strip(cells: int, epsilon: float, **more: object) -> dgplate.Problem:
     """A strip clamped horizontally at height H above the table y₃ ≥ 0, under its weight."""
-    overrides = {"mesh.cells": [cells, 2], "model.obstacle.epsilon": epsilon}
+    overrides = {"mesh.cells": [cells, 2], "model.obstacle.epsilon": epsilon, **more}
     return dgplate.load_problem(STRIP, overrides | {f"output.{k}": v for k, v in QUIET.items()})
 
 
@@ -50,6 +50,52 @@ def test_strip_lifts_off_the_table_at_the_penalised_beam_length(tmp_path):
     assert errors[1] < errors[0] and errors[1] < 0.03, errors
 
 
+ACTIVE = {"model.obstacle.treatment": "active_set", "flow.projection_steps": 2}
+
+
+def test_strip_lifts_off_the_table_at_the_closed_form_length(tmp_path):
+    """The active-set treatment at ε = 1e−10: lift-off within 3 % of ℓ = (72μH/q)^{1/4}.
+
+    At this ε the penalised beam's ℓ_ε is 0.4 % below ℓ (docs/obstacle.md); the error of the
+    plate falls under refinement (8, 16, 32 cells), every step lowers the energy, and the
+    contact force is the rigid table's reaction q b (L − 2ℓ/3).
+    """
+    epsilon, ell = 1e-10, lift_off_length(MU, HEIGHT, WEIGHT)
+    assert abs(penalised_lift_off(MU, HEIGHT, WEIGHT, epsilon, LENGTH, n=1600) / ell - 1) < 0.005
+    errors = []
+    for cells in (8, 16, 32):
+        problem = strip(cells, epsilon, **ACTIVE)
+        result = dgplate.run(problem, out=tmp_path / str(cells), initial=at_height)
+        assert result["converged"] and result["energy_increases"] == []
+        assert result["steps"] < 40 and result["active_set_changes"] < 60
+        errors.append(abs(result["contact_extent"][0] / ell - 1))
+        assert result["contact_extent"][1:] == pytest.approx([LENGTH, 0.0, WIDTH], abs=1e-12)
+        reaction = WEIGHT * WIDTH * (LENGTH - 2 * ell / 3)
+        assert result["contact_force"] == pytest.approx(reaction, rel=0.02)
+    assert errors[2] < errors[1] < errors[0] and errors[2] < 0.03, errors
+
+
+def test_active_set_and_splitting_reach_the_same_minimiser(tmp_path):
+    """At ε = 1e−3 both treatments stop at the same state (the active set in ~1/4 the steps)."""
+    runs = [
+        dgplate.run(
+            strip(8, 1e-3, **{**ACTIVE, "model.obstacle.treatment": treatment}),
+            out=tmp_path / treatment,
+            initial=at_height,
+        )
+        for treatment in ("splitting", "active_set")
+    ]
+    for result in runs:
+        assert result["converged"] and result["energy_increases"] == []
+    split, active = runs
+    assert active["energy"] == pytest.approx(split["energy"], rel=1e-5)
+    assert active["max_penetration"] == pytest.approx(split["max_penetration"], rel=1e-3)
+    assert active["contact_force"] == pytest.approx(split["contact_force"], rel=1e-2)
+    assert active["contact_extent"] == pytest.approx(split["contact_extent"], abs=1e-12)
+    assert active["steps"] < split["steps"] / 2
+    assert split["active_set_changes"] == 0 < active["active_set_changes"]
+
+
 @pytest.mark.parametrize(
     "obstacle",
     [
@@ -60,13 +106,15 @@ def test_strip_lifts_off_the_table_at_the_penalised_beam_length(tmp_path):
     ],
     ids=["plane", "below", "sphere outside", "sphere inside"],
 )
-def test_energy_decreases_at_every_step_against_any_obstacle(tmp_path, obstacle):
+@pytest.mark.parametrize("treatment", ["splitting", "active_set"])
+def test_energy_decreases_at_every_step_against_any_obstacle(tmp_path, obstacle, treatment):
     """A cantilever pushed up by f = (0, 0, 1) into a ceiling, a ball or a spherical shell.
 
     The obstacles are close to the flat start: under the splitting the plate rises by at most
     ~ε·f per step while the penalty's (1/ε) mass is in the step matrix (docs/obstacle.md).
+    The active-set treatment puts that mass on the contact set only.
     """
-    problem = bnn_small({**obstacle, "epsilon": 1e-3}, max_steps=40)
+    problem = bnn_small({**obstacle, "epsilon": 1e-3, "treatment": treatment}, max_steps=40)
     result = dgplate.run(problem, out=tmp_path / "out")
     assert result["energy_increases"] == []
     assert result["contact_cells"] > 0 and result["max_penetration"] > 0
@@ -122,16 +170,19 @@ def test_bilayer_rolls_against_a_plane(tmp_path):
 
 
 @pytest.mark.mpi
-def test_two_ranks_agree_with_one(tmp_path, comm):
+@pytest.mark.parametrize("treatment", ["splitting", "active_set"])
+def test_two_ranks_agree_with_one(tmp_path, comm, treatment):
     """Energy and contact figures of a whole run on the ranks of ``comm`` and on one rank."""
-    obstacle = {"type": "below", "psi": 0.01, "epsilon": 1e-3}
+    obstacle = {"type": "below", "psi": 0.01, "epsilon": 1e-3, "treatment": treatment}
     problem = bnn_small(obstacle, max_steps=40, linear_solver="direct")
     out = comm.bcast(tmp_path / "out" if comm.rank == 0 else None)
     shared = dgplate.run(problem, out=out, comm=comm)
     single = dgplate.run(problem, out=tmp_path / f"single{comm.rank}", comm=MPI.COMM_SELF)
     for key in ("energy", "contact_area", "max_penetration", "contact_force"):
         assert math.isclose(shared[key], single[key], rel_tol=PARITY_RTOL), key
-    assert shared["contact_cells"] == single["contact_cells"] > 0
+    for key in ("contact_cells", "steps", "active_set_changes", "active_set_redos"):
+        assert shared[key] == single[key], key
+    assert shared["contact_cells"] > 0
 
 
 BAD = {
@@ -144,6 +195,7 @@ BAD = {
     "center text": ({"type": "sphere", "center": "origin"}, r"model\.obstacle\.center must be"),
     "radius negative": ({"type": "sphere", "radius": -1.0}, r"model\.obstacle\.radius must be"),
     "side": ({"type": "sphere", "side": "above"}, r"model\.obstacle\.side must be"),
+    "treatment": ({"type": "above", "treatment": "newton"}, r"model\.obstacle\.treatment must be 'splitting' or 'active_set'"),
     "formula": ({"type": "below", "psi": "0.2 + import(x)"}, r"model\.obstacle\.psi"),
     "not a table": ("ceiling", r"model\.obstacle must be dict"),
 }  # fmt: skip

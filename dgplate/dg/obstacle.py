@@ -20,6 +20,14 @@ The price of the splitting: the implicit part puts (1/ε) times an L² mass into
 matrix everywhere, also where the plate is far from the obstacle, so free parts move at most
 ~ε·(force) per step in the constrained direction. Small ε needs many steps.
 
+The ``active_set`` treatment (``treatment = "active_set"``) restricts the implicit part to the
+contact set A of the current state, an indicator χ at the quadrature points (:class:`ContactSet`):
+implicit (1/2ε)∫χ s² (sphere: χ|y − c|²), explicit P_ε minus that. Where χ = 1 the explicit
+part is concave as above; where χ = 0 it is (1/2ε)(s)₋², which does not act as long as s stays
+≥ 0 there. So a step is energy stable when no point outside A enters contact: the flow enlarges A
+by the points the trial step brought into contact and redoes the step (A only grows within a
+step, so this ends). Free parts are then free of the (1/ε) mass, and ε can be small.
+
 The obstacle ``above``/``below`` a height ψ(x₁, x₂) is Lagrangian: ψ is evaluated at each
 material point's reference position (exact for a constant ψ, an approximation when the plate
 slides in-plane over a varying ψ); planes and spheres are spatial obstacles.
@@ -31,11 +39,14 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import basix.ufl
+import dolfinx.fem
+import numpy as np
 import ufl
 from ufl.core.expr import Expr
 
-from dgplate import expressions, values
-from dgplate.compat import Mesh
+from dgplate import compat, expressions, mpi, values
+from dgplate.compat import Function, Mesh
 from dgplate.dg.energy import Energy
 from dgplate.errors import InputError
 from dgplate.schema import is_number
@@ -50,6 +61,8 @@ _KEYS = {
     "sphere": ("center", "radius", "side"),
 }
 _SIDES = ("outside", "inside")
+#: How the penalty enters the flow (``model.obstacle.treatment``).
+TREATMENTS = ("splitting", "active_set")
 
 
 def _vector(value: object, key: str) -> tuple[float, float, float]:
@@ -73,6 +86,7 @@ class Obstacle:
 
     kind: str
     epsilon: float
+    treatment: str = "splitting"
     psi: float | str = 0.0
     normal: tuple[float, float, float] = (0.0, 0.0, 1.0)
     point: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -94,7 +108,7 @@ class Obstacle:
         kind = table.get("type")
         if kind not in TYPES:
             raise InputError(f"{key}.type must be one of {', '.join(TYPES)}, got {kind!r}")
-        known = ("type", "epsilon", *_KEYS[kind])
+        known = ("type", "epsilon", "treatment", *_KEYS[kind])
         unknown = sorted(set(table) - set(known))
         if unknown:
             raise InputError(
@@ -103,7 +117,12 @@ class Obstacle:
         epsilon = table.get("epsilon", 1e-4)
         if not (is_number(epsilon) and epsilon > 0 and math.isfinite(epsilon)):
             raise InputError(f"{key}.epsilon must be a number > 0, got {epsilon!r}")
-        data: dict[str, Any] = {"kind": kind, "epsilon": float(epsilon)}
+        treatment = table.get("treatment", "splitting")
+        if treatment not in TREATMENTS:
+            raise InputError(
+                f"{key}.treatment must be 'splitting' or 'active_set', got {treatment!r}"
+            )
+        data: dict[str, Any] = {"kind": kind, "epsilon": float(epsilon), "treatment": treatment}
         data.update(_parse_geometry(kind, table, key))
         return cls(**data)
 
@@ -136,24 +155,86 @@ class Obstacle:
         pressure: Expr = -ufl.min_value(s, 0.0) / values.constant(mesh, self.epsilon)
         return indicator, pressure
 
-    def energy(self, y: Expr, mesh: Mesh, degree: int) -> Energy:
+    def energy(self, y: Function, mesh: Mesh, degree: int) -> Energy:
         """The penalty P_ε split into an implicit (convex quadratic) and an explicit part.
 
         ``degree``: the polynomial degree of y; the quadrature has degree 2k + 2 for both parts,
-        so that they cancel exactly where no contact is.
+        so that they cancel exactly where no contact is. With ``treatment = "active_set"`` the
+        implicit part is restricted to the contact set (:class:`ContactSet`, in
+        ``Energy.active_sets``).
         """
-        dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": 2 * degree + 2})
+        quadrature = 2 * degree + 2
+        dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": quadrature})
         inv = 1.0 / values.constant(mesh, self.epsilon)
         s = self.distance(y, mesh)
         negative = ufl.min_value(s, 0.0)
+        square = s * s if self.linear else _squared_distance(y, self.center, mesh)
+        if self.treatment == "active_set":
+            contact = ContactSet(s, mesh, quadrature)
+            implicit: ufl.Form = 0.5 * inv * contact.chi * square * dx
+            explicit: ufl.Form = 0.5 * inv * (negative**2 - contact.chi * square) * dx
+            # points of A not in contact at yⁿ (they entered it at a trial step): their step
+            # aims at the obstacle, (1/2ε)(s)² instead of (1/2ε)(s − s(yⁿ))²
+            shift: ufl.Form = 0.5 * inv * contact.chi * ufl.max_value(s, 0.0) ** 2 * dx
+            return Energy(implicit, explicit, active_sets=(contact,), step_shift=shift)
+        implicit = 0.5 * inv * square * dx
         if self.linear:
-            implicit: ufl.Form = 0.5 * inv * s * s * dx
-            explicit: ufl.Form = -0.5 * inv * ufl.max_value(s, 0.0) ** 2 * dx
+            explicit = -0.5 * inv * ufl.max_value(s, 0.0) ** 2 * dx
         else:
-            shift = y - values.constant(mesh, list(self.center))
-            implicit = 0.5 * inv * ufl.dot(shift, shift) * dx
-            explicit = 0.5 * inv * (negative**2 - ufl.dot(shift, shift)) * dx
+            explicit = 0.5 * inv * (negative**2 - square) * dx
         return Energy(implicit=implicit, explicit=explicit)
+
+
+def _squared_distance(y: Expr, center: tuple[float, float, float], mesh: Mesh) -> Expr:
+    """|y − c|², the sphere's isotropic stabilisation."""
+    shift = y - values.constant(mesh, list(center))
+    square: Expr = ufl.dot(shift, shift)
+    return square
+
+
+class ContactSet:
+    """The contact set A = {s < 0} of the ``active_set`` treatment, χ = 1_A at quadrature points.
+
+    χ lives in a quadrature space of the penalty's degree, so that (1/2ε)∫χ s² is exactly the
+    penalty's s² restricted to the points of A. It starts at χ = 1 (the splitting), so that the
+    step matrix's sparsity pattern, built once, has every coupling of the penalty.
+    :meth:`begin` sets A = {s(yⁿ) < 0}; :meth:`enlarge` adds the points in contact at a trial
+    state. Both report a change on any rank to all ranks.
+    """
+
+    #: redone steps per step at most (A grows by at least one point per redo)
+    max_redo = 50
+
+    def __init__(self, s: Expr, mesh: Mesh, degree: int) -> None:
+        element = basix.ufl.quadrature_element(mesh.basix_cell(), value_shape=(), degree=degree)
+        space = dolfinx.fem.functionspace(mesh, element)
+        self.comm = mesh.comm
+        self.chi: Function = dolfinx.fem.Function(space, name="contact_set")
+        self.chi.x.array[:] = 1.0
+        self._state: Function = dolfinx.fem.Function(space)
+        indicator = ufl.conditional(ufl.lt(s, 0.0), 1.0, 0.0)
+        self._indicator: compat.Expression = dolfinx.fem.Expression(
+            indicator, compat.interpolation_points(space.element)
+        )
+
+    def _in_contact(self) -> np.ndarray:
+        """1 at the quadrature points where the current state penetrates, else 0."""
+        self._state.interpolate(self._indicator)
+        return self._state.x.array.real.copy()
+
+    def _put(self, chi: np.ndarray) -> bool:
+        """χ := ``chi``; whether it changed on any rank (collective)."""
+        same = bool(np.array_equal(chi, self.chi.x.array.real))
+        self.chi.x.array[:] = chi
+        return not mpi.global_all(self.comm, same)
+
+    def begin(self) -> bool:
+        """A = {s(yⁿ) < 0}; whether it changed (collective)."""
+        return self._put(self._in_contact())
+
+    def enlarge(self) -> bool:
+        """A ∪ {s(ỹ) < 0} at a trial state ỹ; whether A grew (collective)."""
+        return self._put(np.maximum(self.chi.x.array.real, self._in_contact()))
 
 
 def _height(psi: float | Expr, mesh: Mesh) -> Expr:

@@ -38,7 +38,7 @@ def penalised_lift_off(
 
     Minimises ∫ ½μ w''² + q w + (1/2ε)(w)₋² with w(0) = H, w'(0) = 0 and a free end, on n
     intervals (second differences; the clamp by a ghost node), by Newton's method on the active
-    set {w < 0}; the zero crossing is interpolated linearly between nodes.
+    set {w < 0}, continued in ε from 10⁻³ down by decades; the zero crossing is interpolated linearly between nodes.
     """
     h = length / n
     # unknowns w_1 .. w_n (w_0 = H); ghost w_{-1} = w_1 (w'(0) = 0); free end: natural
@@ -61,13 +61,17 @@ def penalised_lift_off(
     rhs0[-1] += weight * h / 2
     active = np.zeros(n, dtype=bool)
     u = np.zeros(n)
-    for _ in range(100):
-        mass = np.where(active, h / epsilon, 0.0)
-        u = np.linalg.solve(K + np.diag(mass), rhs0)
-        new = u < 0
-        if np.array_equal(new, active):
-            break
-        active = new
+    # below ε ~ 1e-8 the active-set iteration from an empty set cycles: it is warm-started
+    # from the active set of ten times larger ε, down from 1e-3
+    schedule = [e for e in 10.0 ** np.arange(-3.0, np.log10(epsilon), -1.0) if e > epsilon]
+    for eps in [*schedule, epsilon]:
+        for _ in range(100):
+            mass = np.where(active, h / eps, 0.0)
+            u = np.linalg.solve(K + np.diag(mass), rhs0)
+            new = u < 0
+            if np.array_equal(new, active):
+                break
+            active = new
     w = np.concatenate([[height], u])
     first = int(np.argmax(w < 0))
     return float(h * (first - 1 + w[first - 1] / (w[first - 1] - w[first])))

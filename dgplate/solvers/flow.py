@@ -54,6 +54,8 @@ from dgplate.solvers.driver import Observer, StepCounters
 from dgplate.solvers.linear import OptionValue
 
 _OPTION = re.compile(r"^[A-Za-z0-9_]+$")
+#: How often a step that raised E_h is redone with τ/2 when only active sets ask for it.
+HALVINGS = 10
 #: The stopping tests (``flow.stop``).
 STOPS = ("rate", "stationarity")
 
@@ -317,6 +319,8 @@ class GradientFlow(StepCounters):
         self.refactorisations = 0  # changes of τ in the step matrix (each reassembles A_const)
         self.newton_steps = 0  # accepted SQP steps (flow.newton_finish)
         self.newton_rejections = 0  # SQP steps redone as plain steps
+        self.active_set_changes = 0  # changes of an active set (each reassembles A_const)
+        self.active_set_redos = 0  # steps redone because a point entered an active set
         self._build_forms()
         self._E_form = dolfinx.fem.form(self.energy.total)
         self._last_energy = self.evaluate_energy()
@@ -363,12 +367,15 @@ class GradientFlow(StepCounters):
         self._a_const = dolfinx.fem.form(a_const)
         self._b = dolfinx.fem.form(b)
         explicit = self.energy.total
+        if self.energy.step_shift is not None:
+            explicit = explicit + self.energy.step_shift
         for term in self.energy.nonlocal_terms:
             explicit = explicit + term.linearisation
         self._rhs = dolfinx.fem.form(-ufl.derivative(explicit, y, v))
         self._constraint_residual = dolfinx.fem.form(residual)
         self.step_form = dolfinx.fem.form(a_const + b)  # the whole step matrix, one form
         self.A_const = self._compact_constant_block()
+        self._begin_active_sets()  # the pattern above has the couplings of the whole sets
         # one sparsity pattern for the three matrices, so that K = A_const + B is a cheap axpy
         self.B = self.A_const.duplicate(copy=False)
         self.K = self.A_const.duplicate(copy=False)
@@ -480,6 +487,47 @@ class GradientFlow(StepCounters):
         if isinstance(self.solver, schur.SchurStepSolver):
             self.solver.constant_changed()
 
+    def _begin_active_sets(self) -> None:
+        """The active sets from the current state yⁿ; A_const follows them when they change."""
+        if any([term.begin() for term in self.energy.active_sets]):
+            self._active_sets_changed()
+
+    def _active_sets_changed(self) -> None:
+        """An active set changed: reassemble A_const and refactorise at the next solve."""
+        self.active_set_changes += 1
+        compat.assemble_matrix_into(self.A_const, self._a_const)
+        solver = getattr(self, "solver", None)  # None while the forms are built
+        if solver is not None and not isinstance(solver, solvers.DirectStepSolver):
+            solver.constant_changed()
+
+    def _contact_step(self) -> StepInfo:
+        """A step with active sets: taken from the sets of yⁿ, redone with larger sets when E_h rose.
+
+        A step that lowers E_h is accepted as it is (points that entered a set join it at the
+        next step, as in a semismooth Newton iteration). A step that raised E_h is taken back,
+        the sets are enlarged by the points in them at the trial state, and the step is redone
+        from yⁿ, at most ``max_redo`` times (counted in :attr:`active_set_redos`). With every
+        entering point in the sets the step is energy stable (docs/obstacle.md); if the sets
+        did not grow, the increase is left to the caller (:meth:`_safe_step` halves τ).
+        """
+        sets = self.energy.active_sets
+        if not sets:
+            return self.step()
+        self._begin_active_sets()
+        saved = (self.y.x.array.copy(), self._last_energy, self.time, self.step_count)
+        info = self.step()
+        for _ in range(max(term.max_redo for term in sets)):
+            if not self._rose(info) or not any([term.enlarge() for term in sets]):
+                break
+            self.y.x.array[:], self._last_energy, self.time, self.step_count = (
+                saved[0].copy(),
+                *saved[1:],
+            )
+            self.active_set_redos += 1
+            self._active_sets_changed()
+            info = self.step()
+        return info
+
     @property
     def num_dofs(self) -> int:
         """The global number of unknowns of the step system."""
@@ -557,35 +605,42 @@ class GradientFlow(StepCounters):
         return info
 
     def _safe_step(self) -> StepInfo:
-        """A step; with nonlocal terms one they accept and that lowers E_h, else redone with τ/2.
+        """A step; with nonlocal terms or active sets one that is accepted and lowers E_h.
+
+        A refused step is redone with τ/2 (at most :data:`HALVINGS` times with active sets
+        alone).
 
         Nonlocal terms are explicit (self-avoidance): a step too long for them may bring parts
         of the plate through each other. A refused step is taken back and redone with half
         the step, at most ``max_redo`` times; τ is restored for the next step.
         """
         terms = self.energy.nonlocal_terms
-        if not terms:
+        if not terms and not self.energy.active_sets:
             return self.step()
         tau, saved = self.tau, (self.y.x.array.copy(), self._last_energy, self.time)
-        limit = max(term.max_redo for term in terms)
+        limit = max([term.max_redo for term in terms], default=HALVINGS)
         redone = 0
-        info = self.step()
+        info = self._contact_step()
         while not self._acceptable(info) and redone < limit:
             self.y.x.array[:], self._last_energy, self.time = saved[0], saved[1], saved[2]
             self.step_count -= 1
             self.tau, redone = self.tau / 2, redone + 1
-            info = self.step()
+            info = self._contact_step()
         if redone:
             self.tau = tau
-        distance = min(term.min_distance for term in terms)
+        distance = min([term.min_distance for term in terms], default=math.inf)
         info.safety = {"min_distance": distance, "redone": float(redone)}
         return info
 
     def _acceptable(self, info: StepInfo) -> bool:
         """The nonlocal terms accept the new state and E_h did not go up (beyond round-off)."""
         accepted = all([term.accept() for term in self.energy.nonlocal_terms])
-        rises = -info.rate * info.tau > 1e-12 * max(1.0, abs(info.energy))
-        return accepted and not rises
+        return accepted and not self._rose(info)
+
+    @staticmethod
+    def _rose(info: StepInfo) -> bool:
+        """Whether the step raised E_h beyond round-off."""
+        return -info.rate * info.tau > 1e-12 * max(1.0, abs(info.energy))
 
     def _project(
         self, stats: solvers.SolveStats, solver: schur.StepSolver | solvers.DirectStepSolver
@@ -685,6 +740,8 @@ class GradientFlow(StepCounters):
             "solver_fallbacks": self.fallbacks,
             "rejected_steps": self.rejected_steps,
             "refactorisations": self.refactorisations,
+            "active_set_changes": self.active_set_changes,
+            "active_set_redos": self.active_set_redos,
             "factorisations": getattr(self.solver, "factorisations", None),
             "newton_steps": self.newton_steps,
             "newton_rejections": self.newton_rejections,
@@ -790,7 +847,7 @@ class GradientFlow(StepCounters):
     def _attempt(self, newton: bool) -> StepInfo | None:
         """A step; an SQP step whose matrix cannot be factorised gives None (to redo it plain)."""
         if not newton:
-            return self.step()
+            return self._contact_step()
         try:
             return self.step(newton=True)
         except SolverError:

@@ -271,6 +271,10 @@ class LaggedStepSolver:
         self._stale = True
         self.factorisations = 0
 
+    def constant_changed(self) -> None:
+        """K changed by more than its constraint block: refactorise at the next solve."""
+        self._stale = True
+
     def _refactor(self) -> None:
         if self.numbering is None:
             self.K.copy(self.P, structure=compat.SAME_NONZERO_PATTERN)
