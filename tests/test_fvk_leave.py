@@ -23,7 +23,7 @@ from dgplate.models.fvk import FvKSpec, build_fvk
 H, T, DEPTH = 0.15, 0.02, 0.03  # mesh size, thickness, indentation (onset δ_c = 0.0277 on H)
 
 
-def _cone(comm: MPI.Comm) -> dict:
+def _cone(comm: MPI.Comm) -> dict:  # comm: MPI parity (1 vs 2 ranks) is not yet tested
     """The cone at δ = DEPTH in one step with leave_unstable: summary, mode spectrum on r = ½."""
     tagged = load_geo(comm, "polar_disc.geo", {"R": 1.0, "Rc": 0.15, "N": 16, "h": H})
     spec = FvKSpec(nu=0.0, thickness=T, degree=3, natural_shape="0.1*(1 - sqrt(x**2 + y**2))",
@@ -77,13 +77,6 @@ def test_every_relaxation_step_lowers_the_energy(left):
         energies = relaxation["energies"]
         assert len(energies) > 1
         assert all(b <= a for a, b in itertools.pairwise(energies))
-
-
-@pytest.mark.mpi
-def test_same_final_energy_on_any_number_of_ranks(left):
-    """The state left for on the world communicator has the one-rank energy."""
-    parallel = _cone(MPI.COMM_WORLD)
-    assert parallel["energy"] == pytest.approx(left["energy"], rel=1e-6)
 
 
 @pytest.mark.parametrize(
