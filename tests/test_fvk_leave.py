@@ -57,11 +57,14 @@ def left() -> dict:
 
 def test_leaves_the_symmetric_saddle_for_a_stable_state_of_lower_energy(left):
     """The symmetric state at δ = 0.03 is a saddle (lowest eigenvalue −8.1·10⁻⁸); the final
-    state has a lowest eigenvalue ≥ −10⁻³ × 8.1·10⁻⁸ and an energy below the saddle's."""
+    state has a lowest eigenvalue ≥ −10⁻³ × 8.1·10⁻⁸ and an energy below the saddle's
+    (0.19 % below, λ₁ = −1.5·10⁻¹¹ measured) but positive (a negative discrete energy would
+    be a spurious state of a non-coercive dG energy)."""
     first = left["perturbations"][0]
     assert first["eigenvalue"] < -1e-8  # Newton landed on the unstable symmetric state
     assert left["lowest"] >= -1e-3 * abs(first["eigenvalue"])
     assert left["energy"] < first["energy_before"] * (1 - 1e-4)
+    assert left["energy"] > 0  # the continuous energy is a sum of squares (no pressure)
 
 
 def test_the_state_is_not_axisymmetric(left):

@@ -698,7 +698,8 @@ class Continuation:
 
         Takes ownership of ``pairs``. Each round is recorded in ``perturbations``.
         """
-        tol = self._stable_tol(leave, float(pairs.values[0]))
+        first = float(pairs.values[0])
+        tol = self._stable_tol(leave, first)
         its, start_energy = 0, self.energy_value()
         for _ in range(leave.rounds):
             before, lowest = self.energy_value(), float(pairs.values[0])
@@ -725,7 +726,7 @@ class Continuation:
         if self.comm.rank == 0:
             print(
                 f"left an unstable state at load factor {factor:g}: lowest eigenvalue "
-                f"{lowest:.3e} -> {after:.3e}, energy {start_energy:.6e} -> "
+                f"{first:.3e} -> {after:.3e}, energy {start_energy:.6e} -> "
                 f"{self.energy_value():.6e}",
                 flush=True,
             )
