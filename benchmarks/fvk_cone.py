@@ -6,6 +6,11 @@ eigenvalue along the symmetric path, by regula falsi), the final bracket, the nu
 and the state after the push along the unstable mode (docs/fvk_experiments.md):
 
     python benchmarks/fvk_cone.py --h 0.15 0.1 0.07 --json benchmarks/results/fvk_cone.json
+
+With ``--leave A --tau T`` each mesh also leaves the unstable symmetric state at the first
+unstable indentation of the first pass (push by A × the deflection scale, relax from the first
+pseudo-time step T, repeat until stable): the energy drop and the angular mode of the
+non-symmetric state are in each run's ``after``.
 """
 
 from __future__ import annotations
@@ -13,6 +18,7 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -22,11 +28,11 @@ from pathlib import Path
 DEMO = Path(__file__).resolve().parents[1] / "demos" / "fvk_cone.py"
 
 
-def run(h: float, folder: Path) -> dict:
+def run(h: float, folder: Path, extra: list[str]) -> dict:
     """One mesh: the demo's summary, its wall time and whether its checks passed."""
     start = time.perf_counter()
     done = subprocess.run(
-        [sys.executable, str(DEMO), "--h", str(h), "--out", str(folder)],
+        [sys.executable, str(DEMO), "--h", str(h), "--out", str(folder), *extra],
         capture_output=True,
         text=True,
     )
@@ -44,11 +50,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--h", type=float, nargs="+", default=[0.15, 0.1, 0.07])
     parser.add_argument("--json", default="")
+    parser.add_argument("--leave", type=float, default=0.0, help="the demo's --leave (0: none)")
+    parser.add_argument("--tau", type=float, default=1.0, help="the demo's --tau")
+    parser.add_argument("--pictures", default="", help="copy each mesh's cone.png to DIR/h<h>.png")
     args = parser.parse_args()
+    extra = ["--leave", str(args.leave), "--tau", str(args.tau)] if args.leave else []
     runs: list[dict] = []
     with tempfile.TemporaryDirectory() as tmp:
         for h in args.h:
-            runs.append(run(h, Path(tmp) / f"h{h}"))
+            runs.append(run(h, Path(tmp) / f"h{h}", extra))
+            if args.pictures and (Path(tmp) / f"h{h}" / "cone.png").exists():
+                Path(args.pictures).mkdir(parents=True, exist_ok=True)
+                shutil.copy(Path(tmp) / f"h{h}" / "cone.png", Path(args.pictures) / f"h{h}.png")
             onset = runs[-1].get("onset_indentation")
             print(f"h = {h}: δ_c = {onset}  {runs[-1]['seconds']:.0f} s", flush=True)
             onsets = [r.get("onset_indentation") for r in runs]

@@ -42,7 +42,13 @@
 # the N points of r = ½ that the mesh's rotations map onto each other (three such orbits): zero
 # to round-off for a discretely symmetric state.
 #
-# Run: `python demos/fvk_cone.py [--paper] [--h H] [--out DIR]` (also under mpirun);
+# Newton from a push may fall back onto the symmetric saddle; `--leave A` instead leaves it
+# like `model.leave_unstable`: push by A × the deflection scale along the unstable mode, relax
+# by the energy-decreasing proximal flow (first pseudo-time step `--tau`), repeat until the
+# lowest eigenvalue is ≥ −10⁻³ × its scale on the path. The non-symmetric state is
+# characterised by its angular Fourier modes of w − w₀ₕ on the circles r = 0.3, 0.5, 0.7.
+#
+# Run: `python demos/fvk_cone.py [--paper] [--h H] [--leave A] [--out DIR]` (also under mpirun);
 # `--paper`: h = 0.1 instead of 0.2. `benchmarks/fvk_cone.py` runs it on three meshes.
 
 # %%
@@ -59,7 +65,7 @@ from dgplate.errors import SolverError
 from dgplate.measure.wrinkles import line_values
 from dgplate.mesh.tagged import load_geo
 from dgplate.models.fvk import FvKSpec, build_fvk
-from dgplate.solvers.newton import Relaxation
+from dgplate.solvers.newton import Leave, Relaxation
 
 parser = demo.parser("fvk_cone", "FvK: an indented elastic cone", "h = 0.1")
 parser.add_argument("--h", type=float, default=None, help="mesh size (refinement studies)")
@@ -68,6 +74,13 @@ parser.add_argument(
     "--relax", type=float, default=0.0, help="solve after the push by the relaxation (first τ)"
 )
 parser.add_argument("--steps", type=int, default=4, help="load steps of the first pass to δ = 0.06")
+parser.add_argument(
+    "--leave",
+    type=float,
+    default=0.0,
+    help="leave the unstable state past the onset: push by this fraction of the deflection, relax, repeat",
+)
+parser.add_argument("--tau", type=float, default=1.0, help="first τ of the relaxation of --leave")
 args = demo.parse(parser)
 comm = MPI.COMM_WORLD
 out = Path(args.out)
@@ -222,7 +235,7 @@ symmetric = [p["spread"] for p in path]
 # ## Before and after
 #
 # The symmetric state just before the onset (0.95 δ_c; the last state when there is no onset
-# up to δ = 0.06). With `--push A`: then the state at the
+# up to δ = 0.06). With `--leave A` (or `--push A`): then the state at the
 # first coarse indentation past the onset, pushed along its unstable mode by A·t (doubled up to
 # three times until Newton lands on a stable state); a push whose Newton iteration fails is
 # reported and the symmetric state is kept.
@@ -237,10 +250,27 @@ def snapshot(driver) -> np.ndarray:
     return line_values(displacement(driver), 0.999 * polar_points).reshape(polar_r.shape)
 
 
+def angular_modes(driver, radius: float = 0.5) -> list[list[float]]:
+    """The three largest angular Fourier modes n ≥ 1 of w − w₀ₕ on r = radius: [n, amplitude]."""
+    angles = 2 * np.pi * (np.arange(256) + 0.5) / 256
+    values = line_values(displacement(driver), radius * np.c_[np.cos(angles), np.sin(angles)])
+    spectrum = np.abs(np.fft.rfft(values - values.mean())) * 2 / len(values)
+    largest = np.argsort(spectrum[1:])[::-1][:3] + 1
+    return [[int(n), float(spectrum[n])] for n in largest]
+
+
 def push(driver) -> tuple[dict | None, np.ndarray | None]:
-    """The state past the onset pushed along the unstable mode: its record and snapshot."""
+    """The state past the onset pushed along the unstable mode: its record and snapshot.
+
+    With ``--leave``: rounds of push and relaxation until the lowest eigenvalue is ≥ −tol
+    (:class:`dgplate.solvers.newton.Leave`); else one push by ``--push`` × t and Newton.
+    """
+    leave = None
+    if args.leave:
+        relax = Relaxation(tau=args.tau, rtol=1e-4, max_steps=300, stall=10)
+        leave = Leave(fraction=args.leave, relaxation=relax)
     driver.stability = type(driver.stability)(
-        **{**vars(driver.stability), "perturb": args.push * T}
+        **{**vars(driver.stability), "perturb": args.push * T, "leave": leave}
     )
     if args.relax:  # the energy-decreasing flow (model.relaxation) for the solve after the push
         driver.relaxation = Relaxation(tau=args.relax)
@@ -250,10 +280,13 @@ def push(driver) -> tuple[dict | None, np.ndarray | None]:
         demo.say(f"no non-symmetric state reached: {err}")
         return None, None
     demo.save_shape(driver, out / "after", "the indented cone after the onset")
+    path[-1]["modes"] = {str(r): angular_modes(driver, r) for r in (0.3, 0.5, 0.7)}
+    path[-1]["mode"] = path[-1]["modes"]["0.5"][0][0]
     demo.say(
         f"after the push at δ = {path[-1]['indentation']:.4f}: lowest eigenvalue "
         f"{path[-1]['lowest_eigenvalue']:+.3e}, spread {path[-1]['spread']:.3f} δ, energy "
-        f"{path[-1]['energy']:.6e} (symmetric state: {symmetric_energy:.6e})"
+        f"{path[-1]['energy']:.6e} (symmetric state: {symmetric_energy:.6e}), angular mode "
+        f"{path[-1]['mode']} on r = 0.5"
     )
     return path[-1], snapshot(driver)
 
@@ -266,7 +299,7 @@ before_state = path[-1]
 symmetric_energy = next(
     (p["energy"] for p in path if beyond and p["indentation"] == DEPTH * beyond), None
 )
-pushed, after = push(driver) if args.push and beyond else (None, None)
+pushed, after = push(driver) if (args.push or args.leave) and beyond else (None, None)
 summary = driver.summary()
 driver.destroy()
 

@@ -63,7 +63,12 @@ solves again: a perfect plate then leaves the flat, unstable branch at the first
 buckling. ``relaxation = true`` solves each load step (and each solve after a push) first by an
 energy-decreasing proximal gradient flow (first pseudo-time step ``relaxation_tau``), then by
 Newton: Newton alone finds critical points, and from a small push it often returns to the flat
-state. See :mod:`dgplate.solvers.newton` and :mod:`dgplate.solvers.eigen`.
+state. ``leave_unstable = true`` leaves every state whose lowest eigenvalue is negative (below
+−10⁻³ × the largest |lowest eigenvalue| of the path): it is pushed along the unstable mode by
+``leave_unstable_push`` × the largest change of the state since the start, relaxed by that flow
+(which lowers Π, so it cannot return to the saddle), and pushed and relaxed again until the
+lowest eigenvalue is ≥ that tolerance (at most 4 rounds); rank 0 prints one line per branch left.
+See :mod:`dgplate.solvers.newton` and :mod:`dgplate.solvers.eigen`.
 
 The driver's shape is the deformation y = (x₁ + u₁, x₂ + u₂, w) in [DG_k]³, written and drawn
 like every other model's; its records carry ``w_center`` (w at ``model.probe``) and ``w_max``.
@@ -105,7 +110,7 @@ from dgplate.mpi import allreduce_array, bounds
 from dgplate.schema import option
 from dgplate.solvers import eigen
 from dgplate.solvers.driver import Observer
-from dgplate.solvers.newton import Continuation, Relaxation, Stability
+from dgplate.solvers.newton import Continuation, Leave, Relaxation, Stability
 
 #: Facet-set id of simply supported boundary facets (beside dg.SMOOTH … dg.FREE = 1 … 4).
 SIMPLY_SUPPORTED = 5
@@ -174,6 +179,14 @@ class FvKSpec:
         "amplitude (a deflection) of the push along the unstable mode when the lowest eigenvalue turns negative; 0: none",
     )
     eigensolver: str = option("auto", "'auto' (SLEPc when importable), 'slepc' or 'lanczos'")
+    leave_unstable: bool = option(
+        False,
+        "leave every state whose lowest eigenvalue is negative: push along the unstable mode, relax by the energy-decreasing flow (first τ relaxation_tau), repeat until the lowest eigenvalue is >= -1e-3 × its path scale",
+    )
+    leave_unstable_push: float = option(
+        0.05,
+        "push of leave_unstable: this fraction (0 < a <= 1) of the largest change of the state since the start",
+    )
     relaxation: bool = option(
         False,
         "solve each load step (and each solve after a push) by an energy-decreasing proximal gradient flow, then Newton",
@@ -252,6 +265,18 @@ class FvKSpec:
             raise InputError("model.eigensolver = 'slepc' but slepc4py cannot be imported")
         if self.perturb_unstable and not self.stability:
             raise InputError("model.perturb_unstable needs model.stability = true")
+        self._check_leave()
+
+    def _check_leave(self) -> None:
+        if not isinstance(self.leave_unstable, bool):
+            raise InputError(
+                f"model.leave_unstable must be true or false, got {self.leave_unstable!r}"
+            )
+        push = self.leave_unstable_push
+        if not (_number(push) and 0 < push <= 1):
+            raise InputError(f"model.leave_unstable_push must be in (0, 1], got {push!r}")
+        if self.leave_unstable and not self.stability:
+            raise InputError("model.leave_unstable needs model.stability = true")
 
     def _check_relaxation(self) -> None:
         if not isinstance(self.relaxation, bool):
@@ -265,10 +290,15 @@ class FvKSpec:
         """The driver's :class:`Stability` (None with ``stability = false``)."""
         if not self.stability:
             return None
+        leave = Leave(
+            fraction=float(self.leave_unstable_push),
+            relaxation=Relaxation(tau=self.relaxation_tau, rtol=1e-4, max_steps=300, stall=10),
+        )
         return Stability(
             modes=self.stability_modes,
             perturb=float(self.perturb_unstable),
             solver=self.eigensolver,
+            leave=leave if self.leave_unstable else None,
         )
 
     def _check_groups(self) -> None:

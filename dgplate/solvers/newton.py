@@ -36,6 +36,18 @@ by a·φ (φ the unstable mode, max |φ_i| = 1, signed by :mod:`dgplate.solvers.
 is run again at the same load factor: the path leaves an unstable (e.g. symmetric) branch for
 a stable one. The next step then starts from the new state alone (no secant through the jump).
 
+Leaving an unstable branch (``Stability.leave``, a :class:`Leave`). Newton from a push may fall
+back onto the unstable state, and a flow whose stopping test is a small residual may stop on a
+saddle. With ``leave`` set, every converged step whose lowest eigenvalue is below −tol (tol =
+``eig_rtol`` × the largest |lowest eigenvalue| of the path so far) is left by rounds of
+push–relax: the state is moved by a·φ along the unstable mode with a = ``fraction`` × the
+deflection scale (the largest change of a free unknown since the start of the path), relaxed by
+the proximal flow of :class:`Relaxation` (which only lowers Π, so it cannot return to the
+saddle it left), polished by Newton (kept only if it converged without raising Π), and the
+eigenvalues computed again; the rounds end when the lowest eigenvalue is ≥ −tol (a stable state,
+up to the near-zero modes a broken symmetry leaves) or after ``rounds`` rounds. Rank 0 prints one
+line per branch left; ``perturbations`` records each round (amplitude, energies, eigenvalues).
+
 Relaxation (``relaxation``, a :class:`Relaxation`). Newton finds critical points, not minima:
 from a small push off an unstable state it often returns to it. With a :class:`Relaxation` each
 load step (and each solve after a push) is a proximal gradient flow in pseudo-time instead,
@@ -121,6 +133,8 @@ class Stability:
             eigenvalue turns negative; 0 for none.
         solver: "auto", "slepc" or "lanczos" (:data:`dgplate.solvers.eigen.SOLVERS`).
         tol: relative tolerance of the eigenvalues.
+        leave: leave every unstable state by rounds of push and relaxation (:class:`Leave`);
+            None: only ``perturb`` (once, where the eigenvalue turns negative).
     """
 
     modes: int = 3
@@ -128,6 +142,7 @@ class Stability:
     perturb: float = 0.0
     solver: str = "auto"
     tol: float = 1e-10
+    leave: Leave | None = None
 
 
 @dataclass(frozen=True)
@@ -140,6 +155,8 @@ class Relaxation:
         atol: ... or below atol.
         max_steps: accepted plus rejected steps per solve before the solve fails.
         fast: a step converged in at most this many Newton iterations doubles τ.
+        stall: stop also when the residual has not reached a new minimum in this many steps
+            (round-off reached); 0: never.
     """
 
     tau: float = 1.0
@@ -147,6 +164,29 @@ class Relaxation:
     atol: float = 1e-14
     max_steps: int = 200
     fast: int = 4
+    stall: int = 0
+
+
+@dataclass(frozen=True)
+class Leave:
+    """Push–relax rounds that leave an unstable state for a stable one (module docstring).
+
+    Attributes:
+        fraction: push amplitude / the deflection scale (largest change of a free unknown since
+            the start of the path); a fraction, so it scales with the deformation.
+        eig_rtol: the state is stable when its lowest eigenvalue is ≥ −eig_rtol × the largest
+            |lowest eigenvalue| met on the path (the scale of the Hessian's small eigenvalues).
+        rounds: push–relax rounds at most per load step.
+        relaxation: the proximal flow after each push (its ``rtol`` relative to the residual of
+            the pushed state; ``stall`` accepts a flow that has reached round-off).
+    """
+
+    fraction: float = 0.05
+    eig_rtol: float = 1e-3
+    rounds: int = 4
+    relaxation: Relaxation = dataclasses.field(
+        default_factory=lambda: Relaxation(tau=1.0, rtol=1e-4, max_steps=300, stall=10)
+    )
 
 
 @dataclass
@@ -275,6 +315,7 @@ class Continuation:
         self._states: list[tuple[float, npt.NDArray[np.float64]]] = [
             (self.time, state.x.array.copy())
         ]
+        self._initial = state.x.array.copy()  # the deflection scale is measured from it
         self._set_load(self.time)
         self._shape = self._update_shape()
         self.stability = stability
@@ -561,9 +602,11 @@ class Continuation:
         self.state.x.scatter_forward()
         energies = [self.energy_value()]
         goal = max(relax.rtol * self.plain_residual_norm(), relax.atol)
+        best, since = math.inf, 0  # the least residual so far, steps since it
         for _ in range(relax.max_steps):
             residual = self.plain_residual_norm()
-            if residual <= goal:
+            best, since = (residual, 0) if residual < best else (best, since + 1)
+            if residual <= goal or 0 < relax.stall <= since:
                 break
             self._anchor.x.array[:] = self.state.x.array
             self._inv_tau.value = np.asarray(1.0 / tau)
@@ -630,6 +673,8 @@ class Continuation:
             f0 = self.history[-1].load_factor
             self.crossings.append(f0 + (factor - f0) * previous / (previous - lowest))
         its = 0
+        if stability.leave and lowest < -self._stable_tol(stability.leave, lowest):
+            return self._leave_branch(factor, stability, stability.leave, pairs)
         if stability.perturb and lowest < 0 and not previous < 0:
             amplitude, its = self._leave_unstable(factor, stability, pairs.vectors[0])
             self.perturbations.append(
@@ -641,6 +686,73 @@ class Continuation:
         pairs.destroy()
         return lowest, its
 
+    def _stable_tol(self, leave: Leave, lowest: float) -> float:
+        """−tol is the least lowest eigenvalue of a stable state (:class:`Leave`)."""
+        met = [abs(getattr(r, LOWEST)) for r in self.history if math.isfinite(getattr(r, LOWEST))]
+        return float(leave.eig_rtol * max([abs(lowest), *met]))
+
+    def _leave_branch(
+        self, factor: float, stability: Stability, leave: Leave, pairs: eigen.Eigenpairs
+    ) -> tuple[float, int]:
+        """Push–relax rounds from an unstable state: (the final lowest eigenvalue, Newton its).
+
+        Takes ownership of ``pairs``. Each round is recorded in ``perturbations``.
+        """
+        first = float(pairs.values[0])
+        tol = self._stable_tol(leave, first)
+        its, start_energy = 0, self.energy_value()
+        for _ in range(leave.rounds):
+            before, lowest = self.energy_value(), float(pairs.values[0])
+            amplitude = leave.fraction * self._deflection_scale()
+            self._push(pairs.vectors[0], amplitude)
+            pairs.destroy()
+            its += self._relax(factor, leave.relaxation) + self._polish(factor)
+            pairs = self.lowest_eigenpairs(stability)
+            after = float(pairs.values[0]) if len(pairs.values) else math.nan
+            self.perturbations.append(
+                {
+                    "load_factor": factor,
+                    "eigenvalue": lowest,
+                    "amplitude": amplitude,
+                    "energy_before": before,
+                    "energy_after": self.energy_value(),
+                    "eigenvalue_after": after,
+                }
+            )
+            if not after < -tol:
+                break
+        pairs.destroy()
+        self._states = [(factor, self.state.x.array.copy())]
+        if self.comm.rank == 0:
+            print(
+                f"left an unstable state at load factor {factor:g}: lowest eigenvalue "
+                f"{first:.3e} -> {after:.3e}, energy {start_energy:.6e} -> "
+                f"{self.energy_value():.6e}",
+                flush=True,
+            )
+        return after, its
+
+    def _deflection_scale(self) -> float:
+        """The largest change of a free unknown since the start of the path (collective)."""
+        change = self.state.x.array[self._free[1]] - self._initial[self._free[1]]
+        return float(self.comm.allreduce(float(np.abs(change).max(initial=0.0)), op=MPI.MAX))
+
+    def _push(self, mode: PETSc.Vec, amplitude: float) -> None:
+        """Move the free unknowns by amplitude × the mode scaled to max |φ_i| = 1."""
+        values = eigen.values_of(mode)
+        largest = self.comm.allreduce(float(np.abs(values).max(initial=0.0)), op=MPI.MAX)
+        self.state.x.array[self._free[1]] += amplitude * values / largest
+        self.state.x.scatter_forward()
+
+    def _polish(self, factor: float) -> int:
+        """Newton from the relaxed state, kept only if it converges without raising Π."""
+        relaxed, energy = self.state.x.array.copy(), self.energy_value()
+        reason, its = self._snes()
+        if reason < 0 or self.energy_value() > energy + 1e-12 * abs(energy):
+            self.state.x.array[:] = relaxed
+            self._set_load(factor)
+        return its
+
     def _leave_unstable(
         self, factor: float, stability: Stability, mode: PETSc.Vec
     ) -> tuple[float, int]:
@@ -651,15 +763,11 @@ class Continuation:
         then doubled, at most three times.
         """
         unstable = self.state.x.array.copy()
-        values = eigen.values_of(mode)
-        largest = self.comm.allreduce(float(np.abs(values).max(initial=0.0)), op=MPI.MAX)
-        direction = values / largest
         amplitude, its = stability.perturb, 0
         for attempt in range(4):
             amplitude = stability.perturb * 2**attempt
             self.state.x.array[:] = unstable
-            self.state.x.array[self._free[1]] += amplitude * direction
-            self.state.x.scatter_forward()
+            self._push(mode, amplitude)
             its += self._solve_at(factor)
             pairs = self.lowest_eigenpairs(stability)
             stable = len(pairs.values) > 0 and pairs.values[0] >= 0
