@@ -27,10 +27,11 @@ from mpi4py import MPI
 import dolfinx.fem
 import dolfinx.mesh
 import numpy as np
+import ufl
 from ufl.core.expr import Expr
 
 from dgplate import compat, mpi
-from dgplate.compat import Array, Form, Function, entities_to_geometry, geometry_dofmap
+from dgplate.compat import Array, Form, Function, Mesh, entities_to_geometry, geometry_dofmap
 from dgplate.dg.forms import cell_measure
 from dgplate.dg.geometry import image_of_direction, unit_normal
 from dgplate.errors import InputError
@@ -319,23 +320,37 @@ class EdgePlacement:
         return height / max(count, 1), distance / max(count, 1)
 
 
-def hinge_strip(comm: MPI.Comm, width: float = math.pi / 24, n: int = 4, m: int = 4) -> TaggedMesh:
+def hinge_strip(
+    comm: MPI.Comm,
+    width: float = math.pi / 24,
+    n: int = 4,
+    m: int = 4,
+    like: Mesh | None = None,
+) -> TaggedMesh:
     """Two unit squares joined by a hinge strip: the test piece of a self-folding net.
 
     ω = [0, 2 + width] × [0, 1] with cell groups ``left`` = [0, 1] × [0, 1], ``hinge`` =
     [1, 1 + width] × [0, 1] and ``right``; structured quadrilaterals, n × n per square and
     m × n in the hinge (the same cells as ``meshes/box_net.geo``), shared-facet ghosts.
+    ``like``: a mesh whose coordinate element the strip takes if it is one of affine
+    quadrilaterals (a gmsh mesh has the equispaced variant, DOLFINx's rectangles the
+    GLL-warped one), so that forms on the strip have the signatures of those on ``like`` and
+    are compiled once for both.
     """
     if not width > 0 or n < 1 or m < 1:
         raise InputError(f"hinge_strip needs width > 0 and n, m >= 1, got {width}, {n}, {m}")
     cols = 2 * n + m
-    mesh = dolfinx.mesh.create_rectangle(
-        comm,
-        [np.array([0.0, 0.0]), np.array([float(cols), 1.0])],
-        [cols, n],
-        cell_type=dolfinx.mesh.CellType.quadrilateral,
-        ghost_mode=dolfinx.mesh.GhostMode.shared_facet,
-    )
+    domain = None if like is None else _affine_quadrilateral_domain(like)
+    if domain is None:
+        mesh = dolfinx.mesh.create_rectangle(
+            comm,
+            [np.array([0.0, 0.0]), np.array([float(cols), 1.0])],
+            [cols, n],
+            cell_type=dolfinx.mesh.CellType.quadrilateral,
+            ghost_mode=dolfinx.mesh.GhostMode.shared_facet,
+        )
+    else:
+        mesh = _grid(comm, domain, like.geometry.dim if like else 2, cols, n)
     x = mesh.geometry.x
     s = x[:, 0].copy()  # column index → physical abscissa, piecewise linear
     x[:, 0] = np.where(
@@ -352,16 +367,26 @@ def hinge_strip(comm: MPI.Comm, width: float = math.pi / 24, n: int = 4, m: int 
     return TaggedMesh(mesh, cell_tags, facet_tags, groups, f"hinge strip w={width:g} n={n} m={m}")
 
 
-__all__ = [
-    "ClosureGap",
-    "EdgePlacement",
-    "FoldAngles",
-    "Hinge",
-    "HingeGeometry",
-    "RegionFrame",
-    "RegionIntegrals",
-    "edge_nodes",
-    "edge_segments",
-    "hinge_geometry",
-    "hinge_strip",
-]
+def _affine_quadrilateral_domain(mesh: Mesh) -> ufl.Mesh | None:
+    """A ``ufl.Mesh`` with the coordinate element of ``mesh``, None unless affine quadrilaterals."""
+    domain = mesh.ufl_domain()
+    if domain is None or mesh.topology.cell_type != dolfinx.mesh.CellType.quadrilateral:
+        return None
+    element = domain.ufl_coordinate_element()  # type: ignore[no-untyped-call]
+    if element.embedded_superdegree != 1:
+        return None
+    new: ufl.Mesh = ufl.Mesh(element)  # type: ignore[no-untyped-call]
+    return new
+
+
+def _grid(comm: MPI.Comm, domain: ufl.Mesh, gdim: int, cols: int, rows: int) -> Mesh:
+    """[0, cols] × [0, 1] in cols × rows quadrilaterals with the coordinate element of domain."""
+    i, j = np.meshgrid(np.arange(cols + 1), np.arange(rows + 1), indexing="xy")
+    points = np.c_[i.ravel(), j.ravel() / rows].astype(np.float64)
+    corner = (np.arange(rows)[:, None] * (cols + 1) + np.arange(cols)[None, :]).ravel()
+    # DOLFINx's quadrilateral: vertices (0,0), (1,0), (0,1), (1,1) of the reference square
+    cells = np.c_[corner, corner + 1, corner + cols + 1, corner + cols + 2].astype(np.int64)
+    points = np.c_[points, np.zeros((len(points), gdim - 2))]
+    if comm.rank:  # rank 0 holds the whole mesh; the partitioner distributes it
+        points, cells = points[:0], cells[:0]
+    return compat.create_mesh(comm, cells, points, domain, compat.shared_facet_partitioner())

@@ -41,6 +41,7 @@ import numpy as np
 import ufl
 
 from dgplate import expressions
+from dgplate.compat import Mesh
 from dgplate.coupling.heat import HeatSolver, HeatSource
 from dgplate.coupling.thermal import Measure, Schedule, ThermalBilayer
 from dgplate.dg.energy import Energy
@@ -173,6 +174,7 @@ def calibrate_alpha(
     target: float = np.pi / 2,
     max_steps: int = 2000,
     penalty: Penalty | None = None,
+    like: Mesh | None = None,
 ) -> tuple[float, dict[str, Any]]:
     """The coupling α at which one discrete hinge of this mesh folds by ``target`` at θ.
 
@@ -181,13 +183,17 @@ def calibrate_alpha(
     squares, one anchored) folds a little less, an O(h) discretisation error of the curvature
     jump at the hinge edges. This relaxes that strip at θ with α_cw and corrects α by one
     secant step (the fold angle is linear in α): α = α_cw · target / φ_h. ``penalty`` defaults
-    to :func:`hinge_penalty`. Returns α and the figures of the calibration.
+    to :func:`hinge_penalty`; ``like`` is passed on to :func:`hinge_strip` (the strip's forms
+    then are the model's, compiled once). Returns α and the figures of the calibration.
     """
     alpha_cw = target / (width * theta)
-    tagged = hinge_strip(comm, width, n, m)
+    tagged = hinge_strip(comm, width, n, m, like)
     facets = facet_sets(tagged)
-    alpha = region_coefficient(tagged, {"hinge": alpha_cw}, "alpha")
+    # μ before α, as build_thermal and ThermalModel._energy create them: UFL numbers the
+    # coefficients of a form in their order of creation, so this order gives the strip's forms
+    # the model's signatures (one JIT compilation for both)
     mu = piecewise_constant(tagged, {"left": mu_face, "hinge": mu_hinge, "right": mu_face}, "mu")
+    alpha = region_coefficient(tagged, {"hinge": alpha_cw}, "alpha")
     penalty = penalty or hinge_penalty(width, n, m)
 
     def energy(
@@ -579,6 +585,7 @@ class ThermalModel:
             mu_panel,
             target,
             penalty=self.penalty,
+            like=self.tagged.mesh,
         )
         self.calibration = {
             "alpha_cw": info["alpha_cw"],

@@ -17,6 +17,7 @@ grows. The flow is generic: it only sees an :class:`Energy`.
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 import time
@@ -373,7 +374,7 @@ class GradientFlow(StepCounters):
             explicit = explicit + term.linearisation
         self._rhs = dolfinx.fem.form(-ufl.derivative(explicit, y, v))
         self._constraint_residual = dolfinx.fem.form(residual)
-        self.step_form = dolfinx.fem.form(a_const + b)  # the whole step matrix, one form
+        self._step_ufl = a_const + b
         self.A_const = self._compact_constant_block()
         self._begin_active_sets()  # the pattern above has the couplings of the whole sets
         # one sparsity pattern for the three matrices, so that K = A_const + B is a cheap axpy
@@ -439,6 +440,16 @@ class GradientFlow(StepCounters):
         norm_b = _max_row_sum(self.B)
         if norm_b > 0:
             self._constraint_scale.value = np.asarray(_max_row_sum(self.A_const) / norm_b)
+
+    @functools.cached_property
+    def step_form(self) -> compat.Form:
+        """The whole step matrix as one form, compiled at its first use.
+
+        The step assembles A_const and B apart; this form is for inspection, and compiling it
+        up front would cost a second JIT compilation the size of a_const's.
+        """
+        form: compat.Form = dolfinx.fem.form(self._step_ufl)
+        return form
 
     def _compact_constant_block(self) -> PETSc.Mat:
         """A_const in the pattern of the step form minus the constant block's exact zeros.
