@@ -18,8 +18,8 @@ demo: setup
 test: setup test-serial test-mpi
 
 # Two passes: the tests on NP parallel workers (pytest-xdist), then those that launch mpirun
-# themselves (marker spawns_mpirun: every demo on 2 ranks) one at a time, with the cores to
-# themselves and the forms already in the JIT cache.
+# themselves (marker spawns_mpirun, among them a demo of each model and feature on 2 ranks) one
+# at a time, with the cores to themselves and the forms already in the JIT cache.
 test-serial: setup
 	$(PY) -m pytest $(PYTEST_FLAGS) -n $(NP) -m "not spawns_mpirun" tests
 	$(PY) -m pytest $(PYTEST_FLAGS) -m spawns_mpirun tests

@@ -127,7 +127,8 @@ CENV=(env -i PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin
   HOME=/root XDG_CACHE_HOME=/root/.cache LANG=C.UTF-8 PYTHONPATH=/project
   OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
   PRTE_MCA_rmaps_default_mapping_policy=:oversubscribe "OMPI_MCA_btl=self,sm"
-  PYVISTA_OFF_SCREEN=true MPLBACKEND=Agg)
+  PYVISTA_OFF_SCREEN=true MPLBACKEND=Agg
+  DGPLATE_ALL_DEMOS_NP2=1)   # any demo may be picked for the 2-rank runs below
 chroot "$ROOT" "${CENV[@]}" python3 -c '
 from mpi4py import MPI
 import dolfinx, basix, ufl, petsc4py
@@ -157,7 +158,7 @@ if (($# > 0)); then
 else
   # Every test but the demos on two workers; the tests that launch mpirun themselves; and a
   # demo of each driver and model family on 2 ranks (Open MPI), two at a time. `make test`
-  # runs every demo serially and on 2 ranks with the wheel; here each demo pays its cold
+  # runs every demo serially and a set on 2 ranks with the wheel; here each demo pays its cold
   # JIT (gcc compiles every form, most of the time under DOLFINx 0.9), and all of them would
   # take CI past its 90 minutes.
   demos=(box_folding straight_fold fvk_buckling buckling_strip rod_circle self_avoiding_strip
