@@ -341,7 +341,9 @@ def hinge_strip(
         raise InputError(f"hinge_strip needs width > 0 and n, m >= 1, got {width}, {n}, {m}")
     cols = 2 * n + m
     domain = None if like is None else _affine_quadrilateral_domain(like)
-    if domain is None:
+    if like is not None and domain is not None:
+        mesh = _grid(comm, domain, like.geometry.dim, cols, n)
+    else:
         mesh = dolfinx.mesh.create_rectangle(
             comm,
             [np.array([0.0, 0.0]), np.array([float(cols), 1.0])],
@@ -349,8 +351,6 @@ def hinge_strip(
             cell_type=dolfinx.mesh.CellType.quadrilateral,
             ghost_mode=dolfinx.mesh.GhostMode.shared_facet,
         )
-    else:
-        mesh = _grid(comm, domain, like.geometry.dim if like else 2, cols, n)
     x = mesh.geometry.x
     s = x[:, 0].copy()  # column index → physical abscissa, piecewise linear
     x[:, 0] = np.where(
@@ -390,3 +390,18 @@ def _grid(comm: MPI.Comm, domain: ufl.Mesh, gdim: int, cols: int, rows: int) -> 
     if comm.rank:  # rank 0 holds the whole mesh; the partitioner distributes it
         points, cells = points[:0], cells[:0]
     return compat.create_mesh(comm, cells, points, domain, compat.shared_facet_partitioner())
+
+
+__all__ = [
+    "ClosureGap",
+    "EdgePlacement",
+    "FoldAngles",
+    "Hinge",
+    "HingeGeometry",
+    "RegionFrame",
+    "RegionIntegrals",
+    "edge_nodes",
+    "edge_segments",
+    "hinge_geometry",
+    "hinge_strip",
+]
