@@ -1,5 +1,8 @@
 """Shared fixtures. Tests marked ``mpi`` run serially and again under ``mpirun -n 2``."""
 
+import json
+from pathlib import Path
+
 from mpi4py import MPI
 
 import pytest
@@ -93,3 +96,28 @@ def check_pair_sum_derivatives(cloud, q: float, seed: int, rel_tol: float = 1e-6
     fd = (energy(1) - energy(-1)) / (2 * eps)
     exact = np.sum(base.d_points * dx) + np.sum(base.d_normals * dn)
     assert math.isclose(fd, exact, rel_tol=rel_tol)
+
+
+def summary_of(out: Path) -> dict:
+    """The ``summary.json`` of a run's output folder."""
+    return json.loads((out / "summary.json").read_text())
+
+
+def stop_and_resume(problem: Path, tmp_path: Path, options: list[str], max_steps: int):
+    """Run ``problem`` to its end, and again stopped at ``max_steps`` (checkpoints every step)
+    and then resumed; the two histories must agree in step, time, τ and E_h of every step.
+
+    Returns the summaries of the whole run, of the stopped run and of the resumed run.
+    """
+    from dgplate.cli import main
+
+    reference, out = tmp_path / "reference", tmp_path / "resumed"
+    assert main(["run", str(problem), "--out", str(reference), *options]) == 0
+    budget = [f"--set=flow.max_steps={max_steps}", "--set=flow.checkpoint_every=1"]
+    assert main(["run", str(problem), "--out", str(out), *options, *budget]) == 1
+    stopped = summary_of(out)
+    assert main(["run", str(problem), "--out", str(out), *options, "--resume"]) == 0
+    rows = [line.split(",")[:4] for line in (out / "history.csv").read_text().splitlines()]
+    lines = (reference / "history.csv").read_text().splitlines()
+    assert rows == [line.split(",")[:4] for line in lines]
+    return summary_of(reference), stopped, summary_of(out)

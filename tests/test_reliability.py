@@ -9,7 +9,6 @@ uninterrupted run's final state, on the same and on another number of ranks.
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import signal
@@ -22,6 +21,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from conftest import summary_of
 
 from dgplate.cli import main
 
@@ -62,10 +62,6 @@ def dgplate(*args: str, ranks: int = 1, timeout: float = 300) -> subprocess.Comp
         command = [_mpirun(), "-n", str(ranks), sys.executable, "-m", "mpi4py", "-m", "dgplate"]
         command += list(args)
     return subprocess.run(command, capture_output=True, text=True, timeout=timeout)
-
-
-def summary_of(out: Path) -> dict:
-    return json.loads((out / "summary.json").read_text())
 
 
 # -- output folders -------------------------------------------------------------------------

@@ -8,7 +8,6 @@ its checkpoint must take the uninterrupted run's steps. On the bilayer cylinder 
 also has the explicit terms' second derivative and the edge moments' curvature.
 """
 
-import json
 from itertools import pairwise
 from pathlib import Path
 
@@ -16,6 +15,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from conftest import stop_and_resume, summary_of
 
 from dgplate.cli import main
 from dgplate.errors import InputError
@@ -55,10 +55,6 @@ def test_newton_finish_ends_at_the_fixed_tau_state():
     assert newton.steps < adaptive.steps < fixed.steps
 
 
-def summary_of(out: Path) -> dict:
-    return json.loads((out / "summary.json").read_text())
-
-
 def test_resumed_newton_run_takes_the_same_steps(tmp_path):
     options = [
         f"--set={key}"
@@ -75,22 +71,11 @@ def test_resumed_newton_run_takes_the_same_steps(tmp_path):
             "output.progress=0",
         )
     ]
-    reference = tmp_path / "reference"
-    assert main(["run", str(VERTICAL), "--out", str(reference), *options]) == 0
-    expected = summary_of(reference)
+    expected, _, summary = stop_and_resume(VERTICAL, tmp_path, options, max_steps=3)
     assert expected["converged"] and expected["newton_steps"] > 2
-    out = tmp_path / "resumed"
-    budget = ["--set=flow.max_steps=3", "--set=flow.checkpoint_every=1"]
-    assert main(["run", str(VERTICAL), "--out", str(out), *options, *budget]) == 1
-    assert main(["run", str(VERTICAL), "--out", str(out), *options, "--resume"]) == 0
-    summary = summary_of(out)
     for key in ("steps", "rejected_steps", "newton_steps", "newton_rejections"):
         assert summary[key] == expected[key], key
     assert np.isclose(summary["energy"], expected["energy"], rtol=1e-12, atol=0)
-    # step, time, τ and E_h of every step, before and after the interruption
-    rows = [line.split(",")[:4] for line in (out / "history.csv").read_text().splitlines()]
-    lines = (reference / "history.csv").read_text().splitlines()
-    assert rows == [line.split(",")[:4] for line in lines]
 
 
 CYLINDER = VERTICAL.parent / "bilayer_cylinder.toml"

@@ -16,7 +16,9 @@ from typing import Any, Protocol, cast
 
 from mpi4py import MPI
 
-from dgplate.compat import Function
+from dgplate.compat import Form, Function, FunctionSpace
+from dgplate.dg.energy import Energy
+from dgplate.dg.forms import integral
 
 
 class Record(Protocol):
@@ -175,3 +177,27 @@ class StepCounters:
         self.step_count, self.time = int(state["step"]), float(state["time"])
         self._last_energy = float(state["energy"])
         self.energy_increases = [int(s) for s in state.get("energy_increases", [])]
+
+
+class EnergyFlow(StepCounters):
+    """A flow of an :class:`~dgplate.dg.energy.Energy` on a mixed space ``W``.
+
+    What the plate's and the rod's flows share: the size of the step system and the energy of
+    the current state, its nonlocal terms (self-avoidance) included.
+    """
+
+    W: FunctionSpace
+    comm: MPI.Comm
+    energy: Energy
+    _E_form: Form
+
+    @property
+    def num_dofs(self) -> int:
+        """The global number of unknowns of the step system."""
+        imap = self.W.dofmap.index_map
+        return int(imap.size_global * self.W.dofmap.index_map_bs)
+
+    def evaluate_energy(self) -> float:
+        """The energy of the current state, nonlocal terms included (collective)."""
+        terms = sum(term.update() for term in self.energy.nonlocal_terms)
+        return integral(self._E_form, self.comm) + self.energy.constant + terms

@@ -37,7 +37,7 @@ from petsc4py import PETSc
 from dgplate import compat, interrupt, mpi, values
 from dgplate.compat import Array, Function
 from dgplate.dg.energy import Energy
-from dgplate.dg.forms import FacetSets, h2_metric, integral
+from dgplate.dg.forms import FacetSets, h2_metric
 from dgplate.dg.geometry import max_cell_diameter
 from dgplate.errors import InputError, SolverError
 from dgplate.schema import is_integer, is_number, option
@@ -51,7 +51,7 @@ from dgplate.solvers.constraint import (
     multiplier_element,
     symmetric,
 )
-from dgplate.solvers.driver import Observer, StepCounters
+from dgplate.solvers.driver import EnergyFlow, Observer
 from dgplate.solvers.linear import OptionValue
 
 _OPTION = re.compile(r"^[A-Za-z0-9_]+$")
@@ -277,7 +277,7 @@ class FlowResult:
         return cls(converged, reason, len(history), energy, defect, history, increases, signum)
 
 
-class GradientFlow(StepCounters):
+class GradientFlow(EnergyFlow):
     """The constrained H² gradient flow of an energy built by ``energy_fn(y)``."""
 
     def __init__(
@@ -538,18 +538,6 @@ class GradientFlow(StepCounters):
             self._active_sets_changed()
             info = self.step()
         return info
-
-    @property
-    def num_dofs(self) -> int:
-        """The global number of unknowns of the step system."""
-        imap = self.W.dofmap.index_map
-        return int(imap.size_global * self.W.dofmap.index_map_bs)
-
-    # -- evaluation -------------------------------------------------------------------------
-    def evaluate_energy(self) -> float:
-        """E_h[y] of the current state (collective)."""
-        terms = sum(term.update() for term in self.energy.nonlocal_terms)
-        return integral(self._E_form, self.comm) + self.energy.constant + terms
 
     # -- one step ---------------------------------------------------------------------------
     def assemble_system(self) -> None:

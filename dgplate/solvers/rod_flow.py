@@ -54,7 +54,7 @@ from dgplate.dg.energy import Energy
 from dgplate.dg.forms import integral
 from dgplate.errors import SolverError
 from dgplate.solvers import linear as solvers
-from dgplate.solvers.driver import Observer, StepCounters
+from dgplate.solvers.driver import EnergyFlow, Observer
 from dgplate.solvers.flow import FlowResult, FlowSpec
 
 __all__ = [
@@ -185,7 +185,7 @@ class Defects:
         return out
 
 
-class RodFlow(StepCounters):
+class RodFlow(EnergyFlow):
     """The constrained gradient flow of a rod energy E(u, b) (a Driver)."""
 
     def __init__(
@@ -308,17 +308,6 @@ class RodFlow(StepCounters):
     def checkpoint_every(self) -> int:
         """Steps between checkpoints: ``flow.checkpoint_every``."""
         return self.settings.checkpoint_every
-
-    @property
-    def num_dofs(self) -> int:
-        """The global number of unknowns of the step system."""
-        imap = self.W.dofmap.index_map
-        return int(imap.size_global * self.W.dofmap.index_map_bs)
-
-    def evaluate_energy(self) -> float:
-        """E[u, b] of the current state, nonlocal terms included (collective)."""
-        terms = sum(term.update() for term in self.energy.nonlocal_terms)
-        return integral(self._E_form, self.comm) + self.energy.constant + terms
 
     def remaining_steps(self) -> int:
         """Steps left of ``flow.max_steps``."""
