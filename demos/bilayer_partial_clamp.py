@@ -88,10 +88,6 @@ demo.say(
     f"principal curvatures: mean κ1 = {curv['kappa1_mean']:.3f}, mean κ2 = "
     f"{curv['kappa2_mean']:.3f}; {demo.describe_cylinder(fit)}"
 )
-demo.check("the flow converged and E_h decreased at every step",
-           summary["converged"] and not summary["energy_increases"])  # fmt: skip
-demo.check_close("E_h", summary["energy"], ideal, rel=0.05, source="the cylinder: ½α²|ω|")
-demo.check_between("angle of the axis to x₁ (°)", demo.axis_angle(fit, (1, 0, 0)), high=5.0,
-                   source="the clamped segment's direction")  # fmt: skip
+demo.check_rolled(summary, ideal, rel=0.05, axis="x₁", max_angle=5.0, source="clamped segment")
 demo.check_between("RMS distance from the cylinder", fit["rms_residual"], high=0.01,
                    source="one cylinder")  # fmt: skip

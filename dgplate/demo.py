@@ -45,6 +45,7 @@ __all__ = [
     "check",
     "check_between",
     "check_close",
+    "check_rolled",
     "copy_figure",
     "describe_cylinder",
     "parse",
@@ -289,6 +290,31 @@ def check(what: str, ok: bool, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
         AssertionError: ``ok`` is false.
     """
     _passed(what, bool(ok), what, comm)
+
+
+def check_rolled(
+    summary: Mapping[str, Any],
+    ideal: float,
+    *,
+    rel: float,
+    axis: str,
+    max_angle: float,
+    source: str,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> None:
+    """The checks of a bilayer that rolls into one cylinder about its clamped side.
+
+    The flow converged with a decreasing energy, E_h is within ``rel`` of ``ideal`` (½α²|ω|)
+    and the fitted axis within ``max_angle`` degrees of the coordinate axis ``axis``
+    (``"x₁"`` or ``"x₂"``), the direction of the clamped ``source``.
+    """
+    direction = {"x₁": (1, 0, 0), "x₂": (0, 1, 0)}[axis]
+    check("the flow converged and E_h decreased at every step",
+          summary["converged"] and not summary["energy_increases"], comm)  # fmt: skip
+    check_close("E_h", summary["energy"], ideal, rel=rel, source="the cylinder: ½α²|ω|", comm=comm)
+    angle = axis_angle(summary["cylinder_fit"], direction)
+    check_between(f"angle of the axis to {axis} (°)", angle, high=max_angle,
+                  source=f"the {source}'s direction", comm=comm)  # fmt: skip
 
 
 def check_self_avoiding(result: Any, headline: str, comm: MPI.Comm = MPI.COMM_WORLD) -> list[float]:
