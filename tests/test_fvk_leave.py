@@ -14,6 +14,7 @@ from mpi4py import MPI
 import dolfinx.fem
 import numpy as np
 import pytest
+from conftest import PARITY_RTOL
 
 from dgplate.errors import InputError
 from dgplate.measure.wrinkles import line_values
@@ -23,7 +24,7 @@ from dgplate.models.fvk import FvKSpec, build_fvk
 H, T, DEPTH = 0.15, 0.02, 0.03  # mesh size, thickness, indentation (onset δ_c = 0.0277 on H)
 
 
-def _cone(comm: MPI.Comm) -> dict:  # comm: MPI parity (1 vs 2 ranks) is not yet tested
+def _cone(comm: MPI.Comm) -> dict:
     """The cone at δ = DEPTH in one step with leave_unstable: summary, mode spectrum on r = ½."""
     tagged = load_geo(comm, "polar_disc.geo", {"R": 1.0, "Rc": 0.15, "N": 16, "h": H})
     spec = FvKSpec(nu=0.0, thickness=T, degree=3, natural_shape="0.1*(1 - sqrt(x**2 + y**2))",
@@ -80,6 +81,24 @@ def test_every_relaxation_step_lowers_the_energy(left):
         energies = relaxation["energies"]
         assert len(energies) > 1
         assert all(b <= a for a, b in itertools.pairwise(energies))
+
+
+@pytest.mark.mpi
+def test_same_state_on_any_number_of_ranks(left):
+    """Under mpirun the push–relax rounds reach the serial state: the same energy, spectrum
+    and rounds (the eigenvector is signed independently of the partition), and every rank
+    takes part in every reduction (a rank-0-only one would hang the next)."""
+    if MPI.COMM_WORLD.size == 1:
+        pytest.skip("rank parity: run under mpirun")
+    shared = _cone(MPI.COMM_WORLD)
+    assert shared["energy"] == pytest.approx(left["energy"], rel=PARITY_RTOL)
+    assert len(shared["perturbations"]) == len(left["perturbations"])
+    assert abs(shared["lowest"] - left["lowest"]) <= 1e-3 * abs(
+        left["perturbations"][0]["eigenvalue"]
+    )
+    # the relaxation stops on a residual, so the modes agree to its size, not to round-off
+    spectrum = left["spectrum"]
+    assert np.allclose(shared["spectrum"], spectrum, rtol=0, atol=1e-4 * spectrum.max())
 
 
 @pytest.mark.parametrize(

@@ -723,11 +723,11 @@ class Continuation:
                 break
         pairs.destroy()
         self._states = [(factor, self.state.x.array.copy())]
+        final_energy = self.energy_value()  # collective: not inside the rank-0 branch
         if self.comm.rank == 0:
             print(
                 f"left an unstable state at load factor {factor:g}: lowest eigenvalue "
-                f"{first:.3e} -> {after:.3e}, energy {start_energy:.6e} -> "
-                f"{self.energy_value():.6e}",
+                f"{first:.3e} -> {after:.3e}, energy {start_energy:.6e} -> {final_energy:.6e}",
                 flush=True,
             )
         return after, its
