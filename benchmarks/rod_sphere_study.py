@@ -35,6 +35,12 @@ winds at most once about an axis, so clews and circles with μ ≥ 2 on the sphe
 themselves, and only a rod that may cross can reach them (docs/rods.md). The JSON is written
 after every run; ``--append`` keeps the runs of other (ratio, start) pairs already in it, so
 that the study can be split over invocations by ``--ratios``.
+
+``--history-every n`` keeps every n-th step's energy, ΔE/τ, redone steps and least distance
+in the JSON (how a run approaches the stopping test, or why it does not). ``--keep`` writes
+the runs' folders (and checkpoints) there instead of a temporary folder, and ``--resume``
+continues each run from its checkpoint in ``--keep`` up to the larger ``--steps``: a run
+stopped by SIGTERM writes its checkpoint and can be taken up again.
 """
 
 from __future__ import annotations
@@ -83,6 +89,7 @@ FIGURES = (
     "steps",
     "converged",
 )
+HISTORY = ("step", "energy", "rate", "redone", "min_distance")  # kept by --history-every
 
 
 def clew_length(amplitude: float, samples: int = 20000) -> float:
@@ -133,10 +140,10 @@ def start_curve(kind: str, ratio: float, slack: float) -> list[str] | None:
         a = circle_amplitude(turns, CIRCLE_REACH)
         return [f"cos({turns}*t)", f"sin({turns}*t)", f"{a:.6f}*sin({2 * turns + 1}*t)"]
     if kind == "clew":
-        a = clew_amplitude(ratio * slack)
-        if a is None:
+        amplitude = clew_amplitude(ratio * slack)
+        if amplitude is None:
             return None
-        theta = f"({a:.6f}*sin(2*t))"
+        theta = f"({amplitude:.6f}*sin(2*t))"
         return [f"cos({theta})*cos(t)", f"cos({theta})*sin(t)", f"sin({theta})"]
     turns = math.floor(ratio) + 1
     ring = f"(1 + {TORUS_R}*cos(t))"
@@ -156,7 +163,7 @@ def settings(args: argparse.Namespace, ratio: float, curve: list[str]) -> dict[s
         "flow.tol": args.tol,
         "flow.max_steps": args.steps,
         "flow.projection_steps": args.projection,
-        "output.progress": 0,
+        "output.progress": args.progress,
         "output.vtx": False,
         "output.png": False,
     }
@@ -179,6 +186,14 @@ def picture(result: Any, radius: float, path: Path, title: str) -> None:
     )
 
 
+def thinned(history: list[dict[str, Any]], every: int) -> dict[str, list[Any]]:
+    """Every ``every``-th row of the history (and the last) as columns of :data:`HISTORY`."""
+    rows = [row for row in history if row["step"] % every == 0]
+    if history and (not rows or rows[-1] is not history[-1]):
+        rows.append(history[-1])
+    return {key: [row.get(key) for row in rows] for key in HISTORY}
+
+
 def one_run(args: argparse.Namespace, ratio: float, kind: str, scratch: Path) -> dict[str, Any]:
     """Flow one start in the ball of L/(2πR) = ratio; its figures and shape (collective)."""
     comm = MPI.COMM_WORLD
@@ -189,7 +204,7 @@ def one_run(args: argparse.Namespace, ratio: float, kind: str, scratch: Path) ->
     radius = 1.0 / (2.0 * math.pi * ratio)
     problem = dgplate.load_problem(SPHERE, settings(args, ratio, curve))
     wall = time.perf_counter()
-    result = dgplate.run(problem, out=scratch / f"{kind}_{ratio}", comm=comm)
+    result = dgplate.run(problem, out=scratch / f"{kind}_{ratio}", comm=comm, resume=args.resume)
     wall = time.perf_counter() - wall
     shape = classify(nodes_in_order(result.fields["u"]), radius)
     name = f"ratio{ratio:g}_{kind}".replace(".", "_")
@@ -211,6 +226,11 @@ def one_run(args: argparse.Namespace, ratio: float, kind: str, scratch: Path) ->
         },
         "wall_time_s": wall,
     }
+    if args.resume:  # wall_time_s is this invocation's; the steps' seconds span every one
+        row["resumed"] = True
+        row["step_seconds"] = sum(r["seconds"] for r in result.history)
+    if args.history_every:
+        row["history"] = thinned(result.history, args.history_every)
     print0(
         comm,
         f"L/2πR = {ratio:g} ({kind}): {shape.label} (winding {shape.winding:.2f}, "
@@ -243,14 +263,22 @@ def main() -> None:
         help="keep the runs of --json of other (ratio, start) pairs (a study split by --ratios)",
     )
     parser.add_argument("--pictures", default=None, help="a folder for one PNG per run")
+    parser.add_argument("--progress", type=int, default=0, help="a progress line every n steps")
+    parser.add_argument("--history-every", type=int, default=0, help="0: no history in the JSON")
+    parser.add_argument("--keep", default=None, help="a folder for the runs (default: temporary)")
+    parser.add_argument(
+        "--resume", action="store_true", help="continue every run from its checkpoint in --keep"
+    )
     args = parser.parse_args()
     if args.fine:
         args.cells, args.steps = 96, 6000
     comm = MPI.COMM_WORLD
     wall = time.perf_counter()
     rows: list[dict[str, Any]] = []
+    if args.resume and not args.keep:
+        parser.error("--resume needs --keep")
     with tempfile.TemporaryDirectory() as folder:
-        scratch = Path(comm.bcast(folder if comm.rank == 0 else None))
+        scratch = Path(comm.bcast((args.keep or folder) if comm.rank == 0 else None))
         for ratio in args.ratios:
             for kind in args.starts:
                 rows.append(one_run(args, ratio, kind, scratch))
@@ -265,7 +293,9 @@ def study(
 ) -> dict[str, Any]:
     """The study's JSON: its settings and the runs so far."""
     return {
-        **{k: v for k, v in vars(args).items() if k not in ("json", "pictures")},
+        **{
+            k: v for k, v in vars(args).items() if k not in ("json", "pictures", "keep", "progress")
+        },
         "length": 1.0,
         "c_b": 1.0,
         "c_t": 0.5,
