@@ -141,8 +141,8 @@ def penalty_lengths(mesh: Mesh) -> tuple[Expr, Expr]:
     is the length of the penalty for simplices of Shahbazi (*An explicit expression for the
     penalty parameter of the interior penalty method*, J. Comput. Phys. 205 (2005)) and of
     Epshteyn & Rivière (J. Comput. Appl. Math. 206 (2007)). On affine triangles c = |T| and
-    f = |F| (``ufl.CellVolume``, ``ufl.FacetArea``). FFCx evaluates those on affine simplices
-    only, so on quadrilaterals and curved cells c is a DG0 field of the cell's smallest such
+    f = |F| (``ufl.CellVolume``, ``ufl.FacetArea``). UFL lowers those on affine simplices
+    only (FFCx has no code for them), so on quadrilaterals and curved cells c is a DG0 field of the cell's smallest such
     length, |T| over its longest facet (|T| integrated, the facet by its vertex distance), and
     f = 1: a cell-wise, more cautious h_F.
     """

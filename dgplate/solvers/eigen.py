@@ -32,6 +32,7 @@ import numpy as np
 import numpy.typing as npt
 from petsc4py import PETSc
 
+from dgplate import compat
 from dgplate.errors import SolverError
 from dgplate.solvers import linear
 
@@ -110,7 +111,7 @@ def negative_count(K: PETSc.Mat, M: PETSc.Mat | None = None, shift: float = 0.0)
             shifted.shift(-shift)
         else:
             shifted.axpy(-shift, M)
-    shifted.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+    shifted.setOption(compat.SYMMETRIC, True)
     ksp = PETSc.KSP().create(K.comm)
     try:
         ksp.setOperators(shifted)
