@@ -14,6 +14,10 @@ and the face terms are the consistent symmetric IP terms of the moment M: div co
 the shear terms of dg.py stay as they are. ν matters for free edges (the Kirchhoff free-edge
 condition) and in the twisting moment on simply supported edges.
 
+Penalty length. ``penalty_length`` chooses the h of the penalties γ₀D/h³ and γ₁D/hᵖ on
+interior and boundary facets: "diameter" (default) or "facet_normal", |T|/|F|, which keeps the
+energy coercive on meshes with thin triangles (:func:`dgplate.dg.forms.penalty_lengths`).
+
 Simply supported faces: w = 0 with the rotation free. An element-wise integration by parts leaves
 M_nt ∂_t v − Q_n v on such a face (M_nn = 0 there is the natural condition), so the Nitsche terms
 are −(M n)·P_t∇w + Q_n w + ½γ₁D/hᵖ |P_t∇w|² + ½γ₀D/h³ w², P_t = I − n⊗n: the value jump and its
