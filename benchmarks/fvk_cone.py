@@ -10,7 +10,9 @@ and the state after the push along the unstable mode (docs/fvk_experiments.md):
 With ``--leave A --tau T`` each mesh also leaves the unstable symmetric state at the first
 unstable indentation of the first pass (push by A × the deflection scale, relax from the first
 pseudo-time step T, repeat until stable): the energy drop and the angular mode of the
-non-symmetric state are in each run's ``after``.
+non-symmetric state are in each run's ``after``. ``--penalty-length facet_normal`` runs the
+demo with ``model.penalty_length = "facet_normal"`` (on this mesh the default, the cell diameter,
+leaves the dG bending energy indefinite: ``benchmarks/dg_coercivity.py``).
 """
 
 from __future__ import annotations
@@ -52,9 +54,11 @@ def main() -> None:
     parser.add_argument("--json", default="")
     parser.add_argument("--leave", type=float, default=0.0, help="the demo's --leave (0: none)")
     parser.add_argument("--tau", type=float, default=1.0, help="the demo's --tau")
+    parser.add_argument("--penalty-length", default="diameter", help="the demo's --penalty-length")
     parser.add_argument("--pictures", default="", help="copy each mesh's cone.png to DIR/h<h>.png")
     args = parser.parse_args()
     extra = ["--leave", str(args.leave), "--tau", str(args.tau)] if args.leave else []
+    extra += ["--penalty-length", args.penalty_length]
     runs: list[dict] = []
     with tempfile.TemporaryDirectory() as tmp:
         for h in args.h:

@@ -61,6 +61,7 @@ import dolfinx.fem
 import numpy as np
 
 from dgplate import demo
+from dgplate.dg.forms import PENALTY_LENGTHS
 from dgplate.errors import SolverError
 from dgplate.measure.wrinkles import line_values
 from dgplate.mesh.tagged import load_geo
@@ -81,6 +82,12 @@ parser.add_argument(
     help="leave the unstable state past the onset: push by this fraction of the deflection, relax, repeat",
 )
 parser.add_argument("--tau", type=float, default=1.0, help="first τ of the relaxation of --leave")
+parser.add_argument(
+    "--penalty-length",
+    choices=PENALTY_LENGTHS,
+    default="diameter",
+    help="model.penalty_length: h of the dG penalties (facet_normal: |T|/|F|, coercive here)",
+)
 args = demo.parse(parser)
 comm = MPI.COMM_WORLD
 out = Path(args.out)
@@ -107,6 +114,7 @@ spec = FvKSpec(
     load_steps=COARSE,
     stability_modes=4,
     probe=[0.0, 0.0],
+    penalty_length=args.penalty_length,
 )
 model = build_fvk(spec, tagged)
 
@@ -162,14 +170,15 @@ def solve(driver, factor: float) -> float:
         {
             "indentation": DEPTH * factor,
             "lowest_eigenvalue": record.lowest_eigenvalue,
+            "negative_eigenvalues": driver.negative_eigenvalues(),
             "spread": spread(driver),
             "energy": record.energy,
             "newton_iterations": record.iterations,
         }
     )
     demo.say(
-        f"  δ = {DEPTH * factor:.5f}   lowest eigenvalue {record.lowest_eigenvalue:+.4e}   "
-        f"spread {path[-1]['spread']:.1e} δ"
+        f"  δ = {DEPTH * factor:.5f}   lowest eigenvalue {record.lowest_eigenvalue:+.4e} "
+        f"({path[-1]['negative_eigenvalues']} negative)   spread {path[-1]['spread']:.1e} δ"
     )
     return float(record.lowest_eigenvalue)
 
@@ -345,6 +354,7 @@ if comm.rank == 0:
         "dofs": summary["dofs"],
         "alpha": ALPHA,
         "thickness": T,
+        "penalty_length": args.penalty_length,
         "onset_indentation": onset,
         "final_bracket": [DEPTH * f for f in final],
         "path": path,

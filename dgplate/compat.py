@@ -215,6 +215,7 @@ DIFFERENT_NONZERO_PATTERN = cast(
 NORM_INFINITY = cast("PETSc.NormType", PETSc.NormType.INFINITY)
 IGNORE_ZERO_ENTRIES = cast("PETSc.Mat.Option", PETSc.Mat.Option.IGNORE_ZERO_ENTRIES)
 NEW_NONZERO_LOCATION_ERR = cast("PETSc.Mat.Option", PETSc.Mat.Option.NEW_NONZERO_LOCATION_ERR)
+SYMMETRIC = cast("PETSc.Mat.Option", PETSc.Mat.Option.SYMMETRIC)
 
 
 def converged_reason(ksp: PETSc.KSP) -> int:

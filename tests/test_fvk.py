@@ -407,6 +407,10 @@ def test_cli_failed_fvk_exits_1_with_outputs_and_no_traceback(tmp_path):
         ({"penalty": {"gamma0": -1.0, "gamma1": 1.0}}, "model.penalty.gamma0 must be"),
         ({"penalty": {"gradient_power": 4}}, "model.penalty.gradient_power must be in [1, 3]"),
         ({"penalty": {"gamma2": 1.0}}, "unknown key model.penalty.gamma2"),
+        (
+            {"penalty_length": "height"},
+            "model.penalty_length must be one of diameter, facet_normal, got 'height'",
+        ),
         ({"clamped": ["left"], "simply_supported": ["left"]}, "both list 'left'"),
         ({"probe": [0.5]}, "model.probe must be a point [x, y]"),
         ({"snes": {"-snes_rtol": 1e-8}}, "model.snes.-snes_rtol is not a PETSc option name"),

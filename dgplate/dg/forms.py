@@ -1,9 +1,11 @@
 """Interior-penalty dG building blocks for fourth-order (bending) problems.
 
 Notation (docs/design.md §2): jumps ``[v] = v⁺ − v⁻`` with ``n = n⁺``; averages ``{v}``;
-``h_e`` the mean cell diameter of the two cells of an interior facet and the cell diameter on
-a boundary facet. On clamped facets the jumps carry the Nitsche data, ``[v] = v − g`` and
-``[∇v] = ∇v − Φ``, and averages are one-sided. Facets tagged ``crease`` keep the value-jump
+``h_e`` the length scale of the penalties: by default (``penalty_length = "diameter"``) the mean
+cell diameter of the two cells of an interior facet and the cell diameter on a boundary facet;
+with ``"facet_normal"`` the cell's extent normal to the facet, |T|/|F| (:func:`penalty_lengths`).
+On clamped facets the jumps carry the Nitsche data, ``[v] = v − g`` and ``[∇v] = ∇v − Φ``, and
+averages are one-sided. Facets tagged ``crease`` keep the value-jump
 terms only: the deformation stays continuous there while its gradient may jump.
 
 Everything here works for scalar and vector-valued (ℝ³) unknowns, any degree k ≥ 2, on
@@ -40,6 +42,9 @@ Coefficient = float | Expr
 
 #: The keys of a penalty table in a problem file (``model.penalty``).
 PENALTY_KEYS = ("gamma0", "gamma1", "gradient_power")
+
+#: The length scales h_e of the penalties (``model.penalty_length``), the default first.
+PENALTY_LENGTHS = ("diameter", "facet_normal")
 
 
 @dataclass(frozen=True)
@@ -120,6 +125,46 @@ def cell_size(mesh: Mesh) -> Expr:
     return field
 
 
+def check_penalty_length(value: object, key: str = "model.penalty_length") -> str:
+    """``value`` if it is one of :data:`PENALTY_LENGTHS`, else a one-line InputError naming ``key``."""
+    if not (isinstance(value, str) and value in PENALTY_LENGTHS):
+        raise InputError(f"{key} must be one of {', '.join(PENALTY_LENGTHS)}, got {value!r}")
+    return value
+
+
+def penalty_lengths(mesh: Mesh) -> tuple[Expr, Expr]:
+    """(c, f) with the facet-normal length h_F = c/f of a cell T at its facet F: |T|/|F|.
+
+    On a cell whose diameter is set by a long edge while its height normal to a facet is small
+    (thin triangles, e.g. at the centre of a polar mesh) the diameter overestimates the length
+    that the inverse trace inequality needs, and γ/h_e may be too weak for coercivity; |T|/|F|
+    is the length of the penalty for simplices of Shahbazi (*An explicit expression for the
+    penalty parameter of the interior penalty method*, J. Comput. Phys. 205 (2005)) and of
+    Epshteyn & Rivière (J. Comput. Appl. Math. 206 (2007)). On affine triangles c = |T| and
+    f = |F| (``ufl.CellVolume``, ``ufl.FacetArea``). UFL lowers those on affine simplices
+    only (FFCx has no code for them), so on quadrilaterals and curved cells c is a DG0 field of the cell's smallest such
+    length, |T| over its longest facet (|T| integrated, the facet by its vertex distance), and
+    f = 1: a cell-wise, more cautious h_F.
+    """
+    triangle = mesh.topology.cell_type == dolfinx.mesh.CellType.triangle
+    if triangle and compat.coordinate_element_degree(mesh) == 1:
+        return ufl.CellVolume(mesh), ufl.FacetArea(mesh)
+    space = dolfinx.fem.functionspace(mesh, ("DG", 0))
+    volumes = dolfinx.fem.assemble_vector(dolfinx.fem.form(ufl.TestFunction(space) * ufl.dx))
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim, tdim - 1)
+    volumes.scatter_forward()  # the ghost cells' volumes (cell integrals run on owned cells)
+    cells = local_entities(mesh, tdim)
+    connectivity = mesh.topology.connectivity(tdim, tdim - 1)
+    per_cell = int(connectivity.offsets[1]) if cells.size else 1  # one cell type per mesh
+    cell_facets = connectivity.array.reshape(-1, per_cell)
+    longest = mesh.h(tdim - 1, cell_facets[cells].ravel()).reshape(cells.size, -1).max(axis=1)
+    dofs = space.dofmap.list[cells, 0]
+    field: compat.Function = dolfinx.fem.Function(space, name="h_F")
+    field.x.array[dofs] = volumes.array[dofs] / longest
+    return field, ufl.as_ufl(1.0)
+
+
 def cell_measure(
     mesh: Mesh, quadrature_degree: int | None = None, subdomain_data: MeshTags | None = None
 ) -> ufl.Measure:
@@ -139,21 +184,27 @@ class FacetSets:
     """The facets Γ_h of the dG forms, split into smooth interior, crease and clamped facets.
 
     The measures ``dS`` and ``ds`` carry the facet-set ids SMOOTH, CREASE, CLAMPED and FREE;
-    ``n`` is the facet normal and ``h`` the cell size of the forms (:func:`cell_size`). The
-    methods that return measures take an optional quadrature degree.
+    ``n`` is the facet normal and ``h`` the cell size (:func:`cell_size`); the penalties use
+    ``h_interior`` and ``h_boundary``, which depend on ``penalty_length`` (:data:`PENALTY_LENGTHS`).
+    The methods that return measures take an optional quadrature degree.
     """
 
     mesh: Mesh
     tags: MeshTags
     num_clamped: int  # global number of clamped boundary facets
     num_crease: int  # global number of crease facets
+    penalty_length: str = "diameter"
 
     def __post_init__(self) -> None:
+        check_penalty_length(self.penalty_length, "penalty_length")
         self.dx = ufl.Measure("dx", domain=self.mesh)
         self.dS = ufl.Measure("dS", domain=self.mesh, subdomain_data=self.tags)
         self.ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.tags)
         self.n: Expr = ufl.FacetNormal(self.mesh)
         self.h = cell_size(self.mesh)
+        self._normal: tuple[Expr, Expr] | None = None
+        if self.penalty_length == "facet_normal":
+            self._normal = penalty_lengths(self.mesh)
 
     @property
     def has_clamped(self) -> bool:
@@ -162,9 +213,22 @@ class FacetSets:
 
     @property
     def h_interior(self) -> Expr:
-        """h_e on interior facets: the mean of the two cells' sizes."""
-        mean: Expr = ufl.avg(self.h)
-        return mean
+        """h_e on interior facets: the mean of the two cells' diameters, or min(|T±|)/|F|."""
+        if self._normal is None:
+            mean: Expr = ufl.avg(self.h)
+            return mean
+        cell, facet = self._normal
+        smaller: Expr = ufl.min_value(cell("+"), cell("-")) / facet("+")
+        return smaller
+
+    @property
+    def h_boundary(self) -> Expr:
+        """h_e on boundary facets: the cell's diameter, or |T|/|F|."""
+        if self._normal is None:
+            return self.h
+        cell, facet = self._normal
+        length: Expr = cell / facet
+        return length
 
     def _interior(self, degree: int | None) -> ufl.Measure:
         return self.dS if degree is None else self.dS.reconstruct(metadata=_quadrature(degree))
@@ -188,12 +252,16 @@ class FacetSets:
 
 
 def facet_sets(
-    tagged: TaggedMesh, clamped: Sequence[str] = (), crease: Sequence[str] = ()
+    tagged: TaggedMesh,
+    clamped: Sequence[str] = (),
+    crease: Sequence[str] = (),
+    penalty_length: str = "diameter",
 ) -> FacetSets:
     """Classify the facets of ``tagged`` by the named clamped and crease groups.
 
     Clamped groups must lie on the boundary, crease groups in the interior: anything else is an
-    ``InputError`` naming the group. Collective on the mesh communicator.
+    ``InputError`` naming the group. ``penalty_length`` chooses h_e (:class:`FacetSets`).
+    Collective on the mesh communicator.
     """
     mesh = tagged.mesh
     tdim = mesh.topology.dim
@@ -206,7 +274,7 @@ def facet_sets(
     num_clamped = _mark_groups(tagged, clamped, boundary, kinds, on_boundary=True)
     num_crease = _mark_groups(tagged, crease, boundary, kinds, on_boundary=False)
     tags = make_tags(mesh, fdim, facets, kinds)
-    return FacetSets(mesh, tags, num_clamped, num_crease)
+    return FacetSets(mesh, tags, num_clamped, num_crease, penalty_length)
 
 
 def _mark_groups(
@@ -291,7 +359,7 @@ def bending_energy(
     mu = data.get("mu")
     g, Phi = data.get("g"), data.get("Phi")
     mu = 1.0 if mu is None else mu
-    n, h = facets.n, facets.h
+    n, h = facets.n, facets.h_boundary
     gamma0, gamma1 = penalty.constants(facets.mesh)
     D2, G3 = hessian(y), grad_laplacian(y)
     energy: ufl.Form = 0.5 * mu * ufl.inner(D2, D2) * facets.dx
@@ -332,7 +400,7 @@ def h2_metric(w: Expr, v: Expr, facets: FacetSets, l2: bool = False) -> ufl.Form
     Gradient jumps are left out on creases, as in the energy. ``l2`` adds the L² product,
     needed when nothing is clamped (rigid motions).
     """
-    h = facets.h
+    h = facets.h_boundary
     form: ufl.Form = ufl.inner(hessian(w), hessian(v)) * facets.dx
     form += ufl.inner(jump(ufl.grad(w)), jump(ufl.grad(v))) / facets.h_interior * facets.dS_smooth()
     form += ufl.inner(jump(w), jump(v)) / facets.h_interior**3 * facets.dS_all()

@@ -14,6 +14,10 @@ and the face terms are the consistent symmetric IP terms of the moment M: div co
 the shear terms of dg.py stay as they are. ν matters for free edges (the Kirchhoff free-edge
 condition) and in the twisting moment on simply supported edges.
 
+Penalty length. ``penalty_length`` chooses the h of the penalties γ₀D/h³ and γ₁D/hᵖ on
+interior and boundary facets: "diameter" (default) or "facet_normal", |T|/|F|, which keeps the
+energy coercive on meshes with thin triangles (:func:`dgplate.dg.forms.penalty_lengths`).
+
 Simply supported faces: w = 0 with the rotation free. An element-wise integration by parts leaves
 M_nt ∂_t v − Q_n v on such a face (M_nn = 0 there is the natural condition), so the Nitsche terms
 are −(M n)·P_t∇w + Q_n w + ½γ₁D/hᵖ |P_t∇w|² + ½γ₀D/h³ w², P_t = I − n⊗n: the value jump and its
@@ -94,9 +98,11 @@ import ufl
 from dgplate import compat, expressions, values
 from dgplate.dg.forms import (
     FREE,
+    PENALTY_LENGTHS,
     FacetSets,
     Penalty,
     bending_energy,
+    check_penalty_length,
     facet_sets,
     grad_laplacian,
     hessian,
@@ -163,6 +169,10 @@ class FvKSpec:
         {"gamma0": PENALTY.gamma0, "gamma1": PENALTY.gamma1},
         "IP penalties γ₀ (h⁻³[w]²) and γ₁ (h⁻ᵖ[∇w]²); gradient_power p (default 1, at most 3) over-penalises gradient jumps",
     )
+    penalty_length: str = option(
+        "diameter",
+        f"length h of the penalties: {' or '.join(PENALTY_LENGTHS)} (|T|/|F|, for thin triangles)",
+    )
     load_steps: int | list[Any] = option(10, "n uniform load steps, or a list of load factors")
     probe: list[Any] | None = option(
         None, "point [x, y] for w_center (default: bounding-box centre)"
@@ -209,6 +219,7 @@ class FvKSpec:
         self._check_material()
         self._check_groups()
         self._penalty = Penalty.from_table(self.penalty, "model.penalty", PENALTY)
+        check_penalty_length(self.penalty_length, "model.penalty_length")
         self._load_factors = _load_factors(self.load_steps)
         if self.probe is not None and not (
             isinstance(self.probe, list | tuple) and len(self.probe) == 2
@@ -409,7 +420,7 @@ def fvk_bending_energy(
     w: Any, faces: FacetSets, penalty: Penalty, D: Any, nu: Any, simply_supported: bool
 ) -> ufl.Form:
     """½a_h(w, w) with the Poisson part and simply supported facets (module docstring)."""
-    n, h = faces.n, faces.h
+    n, h = faces.n, faces.h_boundary
     gamma0, gamma1 = penalty.constants(faces.mesh)
     H = hessian(w)
     zero = ufl.as_vector((0.0, 0.0))
@@ -477,7 +488,7 @@ def fvk_energy(
 # -- facets, spaces and in-plane conditions ----------------------------------------------------
 def fvk_facet_sets(tagged: TaggedMesh, spec: FvKSpec) -> FacetSets:
     """dg.facet_sets plus the simply supported facets (id SIMPLY_SUPPORTED), all in one tag."""
-    facets = facet_sets(tagged, clamped=spec.clamped, crease=spec.crease)
+    facets = facet_sets(tagged, spec.clamped, spec.crease, spec.penalty_length)
     if not spec.simply_supported:
         return facets
     mesh, fdim = tagged.mesh, tagged.mesh.topology.dim - 1
@@ -498,7 +509,7 @@ def fvk_facet_sets(tagged: TaggedMesh, spec: FvKSpec) -> FacetSets:
             )
         tags[position[indices]] = SIMPLY_SUPPORTED
     meshtags = dolfinx.mesh.meshtags(mesh, fdim, facets.tags.indices, tags)
-    return FacetSets(mesh, meshtags, facets.num_clamped, facets.num_crease)
+    return FacetSets(mesh, meshtags, facets.num_clamped, facets.num_crease, spec.penalty_length)
 
 
 def fvk_space(

@@ -32,6 +32,7 @@ import numpy as np
 import numpy.typing as npt
 from petsc4py import PETSc
 
+from dgplate import compat
 from dgplate.errors import SolverError
 from dgplate.solvers import linear
 
@@ -95,6 +96,41 @@ def nearest_eigenpairs(
     for vector in vectors:
         _fix_sign(vector)
     return Eigenpairs(np.asarray(values)[order], [vectors[i] for i in order], name)
+
+
+def negative_count(K: PETSc.Mat, M: PETSc.Mat | None = None, shift: float = 0.0) -> int:
+    """The number of eigenvalues of K x = λ M x below ``shift`` (M = I when None; collective).
+
+    Sylvester's law of inertia: the negative pivots of an LDLᵀ factorisation (MUMPS) of
+    K − σM. Exact, unlike the eigenvalues nearest a shift, which miss large negative ones. A
+    :class:`SolverError` when K − σM is singular.
+    """
+    shifted = K.copy()
+    if shift:
+        if M is None:
+            shifted.shift(-shift)
+        else:
+            shifted.axpy(-shift, M)
+    shifted.setOption(compat.SYMMETRIC, True)
+    ksp = PETSc.KSP().create(K.comm)
+    try:
+        ksp.setOperators(shifted)
+        ksp.setType("preonly")
+        pc = ksp.getPC()
+        pc.setType("cholesky")
+        pc.setFactorSolverType("mumps")
+        pc.setFactorSetUpSolverType()
+        factor = pc.getFactorMatrix()
+        factor.setMumpsIcntl(13, 1)  # a sequential root: the inertia counts every pivot
+        factor.setMumpsIcntl(24, 1)  # null pivots detected (needed for the inertia)
+        pc.setUp()
+        negative, _, _ = factor.getInertia()
+    except PETSc.Error as err:
+        raise SolverError(f"the inertia of K − {shift:g}M failed: {err}") from None
+    finally:
+        ksp.destroy()
+        shifted.destroy()
+    return int(negative)
 
 
 def _fix_sign(v: PETSc.Vec) -> None:

@@ -657,6 +657,19 @@ class Continuation:
         finally:
             free.destroy()
 
+    def negative_eigenvalues(self) -> int:
+        """The number of negative Hessian eigenvalues of the current state (free dofs; inertia).
+
+        Zero for a stable state; unlike :meth:`lowest_eigenpairs` it cannot miss a negative
+        eigenvalue far from the shift (:func:`dgplate.solvers.eigen.negative_count`).
+        """
+        self._assemble_jacobian(self.snes, self.state.x.petsc_vec, self._A, self._A)
+        free = self._A.createSubMatrix(self._free[0], self._free[0])
+        try:
+            return eigen.negative_count(free)
+        finally:
+            free.destroy()
+
     def _check_stability(self, factor: float, stability: Stability) -> tuple[float, int]:
         """The lowest eigenvalue after the step (and after a perturbation), Newton its spent.
 
