@@ -10,9 +10,10 @@ and the state after the push along the unstable mode (docs/fvk_experiments.md):
 With ``--leave A --tau T`` each mesh also leaves the unstable symmetric state at the first
 unstable indentation of the first pass (push by A × the deflection scale, relax from the first
 pseudo-time step T, repeat until stable): the energy drop and the angular mode of the
-non-symmetric state are in each run's ``after``. ``--penalty-length facet_normal`` runs the
-demo with ``model.penalty_length = "facet_normal"`` (on this mesh the default, the cell diameter,
-leaves the dG bending energy indefinite: ``benchmarks/dg_coercivity.py``).
+non-symmetric state are in each run's ``after``. The penalty length is the demo's,
+``facet_normal`` (|T|/|F|); ``--penalty-length diameter`` runs dgplate's general default, the
+cell diameter, which leaves the dG bending energy indefinite on this mesh
+(``benchmarks/dg_coercivity.py``; the results files without ``facet_normal`` in their name).
 """
 
 from __future__ import annotations
@@ -54,7 +55,9 @@ def main() -> None:
     parser.add_argument("--json", default="")
     parser.add_argument("--leave", type=float, default=0.0, help="the demo's --leave (0: none)")
     parser.add_argument("--tau", type=float, default=1.0, help="the demo's --tau")
-    parser.add_argument("--penalty-length", default="diameter", help="the demo's --penalty-length")
+    parser.add_argument(
+        "--penalty-length", default="facet_normal", help="the demo's --penalty-length"
+    )
     parser.add_argument("--pictures", default="", help="copy each mesh's cone.png to DIR/h<h>.png")
     args = parser.parse_args()
     extra = ["--leave", str(args.leave), "--tau", str(args.tau)] if args.leave else []

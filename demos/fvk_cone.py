@@ -38,6 +38,15 @@
 # lowest eigenvalue. Then the state is pushed along the unstable mode
 # (`model.perturb_unstable`) and Newton finds the non-symmetric shape.
 #
+# The interior-penalty terms scale with 1/h_e. With h_e the cell diameter (dgplate's default,
+# the published reproductions' choice) the dG bending energy is *not* coercive on this mesh:
+# its thin central triangles are long and narrow, the diameter overstates their width across
+# a facet, and the bending matrix has 70–289 negative eigenvalues on h = 0.2 … 0.05
+# (`benchmarks/dg_coercivity.py`). The demo therefore uses
+# `model.penalty_length = "facet_normal"` (h_e = |T|/|F|, the cell's height over the facet),
+# with which the bending matrix is positive definite on every polar mesh;
+# `--penalty-length diameter` runs the indefinite energy for comparison (docs/fvk_experiments.md).
+#
 # Symmetry is measured by the spread of w − w₀ₕ (the displacement from the discrete cone) over
 # the N points of r = ½ that the mesh's rotations map onto each other (three such orbits): zero
 # to round-off for a discretely symmetric state.
@@ -85,7 +94,7 @@ parser.add_argument("--tau", type=float, default=1.0, help="first τ of the rela
 parser.add_argument(
     "--penalty-length",
     choices=PENALTY_LENGTHS,
-    default="diameter",
+    default="facet_normal",
     help="model.penalty_length: h of the dG penalties (facet_normal: |T|/|F|, coercive here)",
 )
 args = demo.parse(parser)
@@ -372,9 +381,10 @@ if comm.rank == 0:
 #
 # The symmetric path is symmetric to round-off (spread below 10⁻⁸ δ; 10⁻¹³ measured) up to the
 # onset or δ = 0.06, and the lowest eigenvalue falls along it (its minimum is below 90 % of its
-# maximum: 45 % measured on h = 0.2). After a push (`--push`) the state is stable, clearly
-# non-symmetric (spread above 1 % of δ) and of lower energy than the symmetric state at the
-# same indentation.
+# maximum: 0.8 % measured on h = 0.2, no negative eigenvalue up to δ = 0.06). After a push
+# (`--push`) the state is stable (after `--leave`: stable to the driver's tolerance, λ₁ ≥ −10⁻³
+# × the path's eigenvalue scale), clearly non-symmetric (spread above 1 % of δ) and of lower
+# energy than the symmetric state at the same indentation.
 
 # %%
 eigenvalues = [p["lowest_eigenvalue"] for p in path[: len(symmetric)]]
@@ -383,7 +393,12 @@ demo.check_between(
     "lowest eigenvalue: minimum / maximum", min(eigenvalues) / max(eigenvalues), -np.inf, 0.9
 )
 if pushed is not None and symmetric_energy is not None:
-    demo.check_between("lowest eigenvalue after the push", pushed["lowest_eigenvalue"], 0, np.inf)
+    # stable: λ₁ ≥ 0 after a push; after --leave, λ₁ ≥ −10⁻³ × the path's eigenvalue scale, the
+    # driver's own test (a nearly neutral mode of the non-symmetric state may remain)
+    scale = max(abs(p["lowest_eigenvalue"]) for p in path) if args.leave else 0.0
+    demo.check_between(
+        "lowest eigenvalue after the push", pushed["lowest_eigenvalue"], -1e-3 * scale, np.inf
+    )
     demo.check_between("spread after the push / δ", pushed["spread"], 0.01, np.inf)
     demo.check_between(
         "energy after the push − symmetric", pushed["energy"] - symmetric_energy, -np.inf, 0.0
