@@ -207,15 +207,18 @@ def regula_falsi(driver, f_lo: float, l_lo: float, f_hi: float, l_hi: float) -> 
     """Shrink the bracket by the Illinois variant of regula falsi: the final bracket.
 
     Stops once an end's eigenvalue is below 2 % of the first state's (or the stable end's, if
-    larger): closer, the Hessian is nearly singular and Newton on the symmetric branch slows
-    down.
+    larger) and the bracket is narrower than 10 % of its upper end: closer, the Hessian is
+    nearly singular and Newton on the symmetric branch slows down. A wide bracket with such an
+    end is halved instead (the eigenvalue is not linear over a coarse step, and interpolating
+    across it may place δ_c past unstable states).
     """
     small = 0.02 * max(l_lo, path[0]["lowest_eigenvalue"])
     side = 0
     for _ in range(SECANTS):
-        if min(abs(l_lo), abs(l_hi)) < small:
+        near_zero = min(abs(l_lo), abs(l_hi)) < small
+        if near_zero and f_hi - f_lo <= 0.1 * f_hi:
             break
-        f = f_lo + (f_hi - f_lo) * l_lo / (l_lo - l_hi)
+        f = 0.5 * (f_lo + f_hi) if near_zero else f_lo + (f_hi - f_lo) * l_lo / (l_lo - l_hi)
         lowest = solve(driver, f)
         if lowest >= 0:
             f_lo, l_lo = f, lowest
