@@ -179,7 +179,7 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
     """Facet sets, the energy and the curvature figures of a bilayer problem."""
     from dgplate.measure.analysis import curvature_summary
 
-    facets = facet_sets(tagged, clamped=spec.clamped, crease=spec.crease)
+    facets = facet_sets(tagged, spec.clamped, spec.crease, spec.penalty_length)
     load = values.vector(spec.load, tagged.mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     Z = spontaneous_curvature(spec.Z, tagged)

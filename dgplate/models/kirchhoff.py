@@ -18,7 +18,15 @@ from ufl.core.expr import Expr
 from dgplate import expressions, values
 from dgplate.compat import Function
 from dgplate.dg.energy import Energy
-from dgplate.dg.forms import BendingData, FacetSets, Penalty, bending_energy, facet_sets
+from dgplate.dg.forms import (
+    PENALTY_LENGTHS,
+    BendingData,
+    FacetSets,
+    Penalty,
+    bending_energy,
+    check_penalty_length,
+    facet_sets,
+)
 from dgplate.dg.obstacle import Obstacle
 from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.errors import InputError
@@ -69,6 +77,10 @@ class KirchhoffSpec:
         {"gamma0": 5000.0, "gamma1": 1100.0},
         "IP penalties γ₀ (h⁻³[y]) and γ₁ (h⁻ᵖ[∇y]); gradient_power p (default 1, at most 3) over-penalises gradient jumps",
     )
+    penalty_length: str = option(
+        "diameter",
+        f"length h of the penalties: {' or '.join(PENALTY_LENGTHS)} (|T|/|F|, for thin triangles)",
+    )
     continuation: dict[str, object] = option(
         {},
         "move the clamped data along α ∈ (0, 1]: {steps = N} (α = 1/N, …, 1), {alpha = [increasing values]} or {rate = δα} (α grows by δα per flow step); stage_steps = flow steps per stage (200). Path: boundary_data formulas in x, y, alpha, else (1 − α)·id + α·g",
@@ -99,6 +111,7 @@ class KirchhoffSpec:
                 f"model.boundary_data must be 'flat' or a table {{g, Phi}}, got {self.boundary_data!r}"
             )
         self._penalty = Penalty.from_table(self.penalty, "model.penalty")
+        check_penalty_length(self.penalty_length, "model.penalty_length")
         self._obstacle = Obstacle.from_table(self.obstacle, "model.obstacle")
         self._self_avoidance = SelfAvoidance.from_table(self.self_avoidance)
         self._check_data()
@@ -142,7 +155,7 @@ class KirchhoffSpec:
 
 def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     """Facet sets and the energy of a Kirchhoff problem (validates group names)."""
-    facets = facet_sets(tagged, clamped=spec.clamped, crease=spec.crease)
+    facets = facet_sets(tagged, spec.clamped, spec.crease, spec.penalty_length)
     load = values.vector(spec.load, tagged.mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     path = continuation_path(spec.schedule, tagged.mesh)

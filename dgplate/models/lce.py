@@ -85,7 +85,7 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
     from dgplate.measure.analysis import curvature_summary
 
     mesh = tagged.mesh
-    facets = facet_sets(tagged, clamped=spec.clamped, crease=spec.crease)
+    facets = facet_sets(tagged, spec.clamped, spec.crease, spec.penalty_length)
     load = values.vector(spec.load, mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     g, Phi = clamped_data(spec.boundary_data, mesh)
