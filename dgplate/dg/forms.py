@@ -45,6 +45,10 @@ PENALTY_KEYS = ("gamma0", "gamma1", "gradient_power")
 
 #: The length scales h_e of the penalties (``model.penalty_length``), the default first.
 PENALTY_LENGTHS = ("diameter", "facet_normal")
+#: The help text of ``model.penalty_length`` in the plate models' schemas.
+PENALTY_LENGTH_HELP = (
+    f"length h of the penalties: {' or '.join(PENALTY_LENGTHS)} (|T|/|F|, for thin triangles)"
+)
 
 
 @dataclass(frozen=True)

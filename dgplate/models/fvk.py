@@ -98,7 +98,7 @@ import ufl
 from dgplate import compat, expressions, values
 from dgplate.dg.forms import (
     FREE,
-    PENALTY_LENGTHS,
+    PENALTY_LENGTH_HELP,
     FacetSets,
     Penalty,
     bending_energy,
@@ -169,10 +169,7 @@ class FvKSpec:
         {"gamma0": PENALTY.gamma0, "gamma1": PENALTY.gamma1},
         "IP penalties γ₀ (h⁻³[w]²) and γ₁ (h⁻ᵖ[∇w]²); gradient_power p (default 1, at most 3) over-penalises gradient jumps",
     )
-    penalty_length: str = option(
-        "diameter",
-        f"length h of the penalties: {' or '.join(PENALTY_LENGTHS)} (|T|/|F|, for thin triangles)",
-    )
+    penalty_length: str = option("diameter", PENALTY_LENGTH_HELP)
     load_steps: int | list[Any] = option(10, "n uniform load steps, or a list of load factors")
     probe: list[Any] | None = option(
         None, "point [x, y] for w_center (default: bounding-box centre)"

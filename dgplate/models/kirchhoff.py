@@ -19,7 +19,7 @@ from dgplate import expressions, values
 from dgplate.compat import Function
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import (
-    PENALTY_LENGTHS,
+    PENALTY_LENGTH_HELP,
     BendingData,
     FacetSets,
     Penalty,
@@ -77,10 +77,7 @@ class KirchhoffSpec:
         {"gamma0": 5000.0, "gamma1": 1100.0},
         "IP penalties γ₀ (h⁻³[y]) and γ₁ (h⁻ᵖ[∇y]); gradient_power p (default 1, at most 3) over-penalises gradient jumps",
     )
-    penalty_length: str = option(
-        "diameter",
-        f"length h of the penalties: {' or '.join(PENALTY_LENGTHS)} (|T|/|F|, for thin triangles)",
-    )
+    penalty_length: str = option("diameter", PENALTY_LENGTH_HELP)
     continuation: dict[str, object] = option(
         {},
         "move the clamped data along α ∈ (0, 1]: {steps = N} (α = 1/N, …, 1), {alpha = [increasing values]} or {rate = δα} (α grows by δα per flow step); stage_steps = flow steps per stage (200). Path: boundary_data formulas in x, y, alpha, else (1 − α)·id + α·g",

@@ -68,12 +68,13 @@ polishes the state to the SNES tolerance. The energies of the accepted steps are
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import itertools
 import logging
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any, TypeAlias, cast
 
@@ -648,14 +649,10 @@ class Continuation:
 
         The eigenvectors live on the free unknowns (:meth:`free_rows`); destroy them after use.
         """
-        self._assemble_jacobian(self.snes, self.state.x.petsc_vec, self._A, self._A)
-        free = self._A.createSubMatrix(self._free[0], self._free[0])
-        try:
+        with self._free_hessian() as free:
             return eigen.nearest_eigenpairs(
                 free, stability.modes, stability.shift, stability.solver, stability.tol
             )
-        finally:
-            free.destroy()
 
     def negative_eigenvalues(self) -> int:
         """The number of negative Hessian eigenvalues of the current state (free dofs; inertia).
@@ -663,10 +660,16 @@ class Continuation:
         Zero for a stable state; unlike :meth:`lowest_eigenpairs` it cannot miss a negative
         eigenvalue far from the shift (:func:`dgplate.solvers.eigen.negative_count`).
         """
+        with self._free_hessian() as free:
+            return eigen.negative_count(free)
+
+    @contextlib.contextmanager
+    def _free_hessian(self) -> Iterator[PETSc.Mat]:
+        """The Hessian of the current state on the free unknowns (destroyed on exit)."""
         self._assemble_jacobian(self.snes, self.state.x.petsc_vec, self._A, self._A)
         free = self._A.createSubMatrix(self._free[0], self._free[0])
         try:
-            return eigen.negative_count(free)
+            yield free
         finally:
             free.destroy()
 
