@@ -94,3 +94,27 @@ def test_kirchhoff_key_runs_and_is_checked(tmp_path):
         energies[length] = summary["energy"]
     assert energies["facet_normal"] != energies["diameter"]  # the key reaches the forms
     assert energies["diameter"] < energies["facet_normal"] < 0.9 * energies["diameter"]
+
+
+def test_thermal_key_reaches_the_facets():
+    """The thermal model has the key too: checked (one-line error naming it), and given to
+    the facets of the box's net, whose thin hinge cells make |T|/|F| much smaller than the
+    diameter there: ∫h_e over the interior facets falls."""
+    from dgplate.errors import InputError
+    from dgplate.models.thermal import ThermalSpec
+    from dgplate.problems.registry import MODELS
+    from dgplate.problems.runner import build_mesh
+    from dgplate.problems.specs import load_problem
+
+    with pytest.raises(InputError, match=r"model\.penalty_length must be one of"):
+        ThermalSpec(penalty_length="normal")
+    box = Path(__file__).resolve().parents[1] / "demos" / "problems" / "box_folding.toml"
+    inside = {}
+    for length in ("diameter", "facet_normal"):
+        problem = load_problem(box, [f"model.penalty_length='{length}'"])
+        tagged = build_mesh(problem.mesh, MPI.COMM_WORLD)
+        model = MODELS["thermal"].build(problem.model, tagged)
+        assert model.facets.penalty_length == length
+        form = dolfinx.fem.form(model.facets.h_interior * model.facets.dS_all())
+        inside[length] = integral(form, tagged.mesh.comm)
+    assert inside["facet_normal"] < 0.9 * inside["diameter"]

@@ -45,7 +45,13 @@ from dgplate.compat import Mesh
 from dgplate.coupling.heat import HeatSolver, HeatSource
 from dgplate.coupling.thermal import Measure, Schedule, ThermalBilayer
 from dgplate.dg.energy import Energy
-from dgplate.dg.forms import FacetSets, Penalty, facet_sets
+from dgplate.dg.forms import (
+    PENALTY_LENGTH_HELP,
+    FacetSets,
+    Penalty,
+    check_penalty_length,
+    facet_sets,
+)
 from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.errors import InputError
 from dgplate.measure.analysis import curvature_summary
@@ -175,6 +181,7 @@ def calibrate_alpha(
     max_steps: int = 2000,
     penalty: Penalty | None = None,
     like: Mesh | None = None,
+    penalty_length: str = "diameter",
 ) -> tuple[float, dict[str, Any]]:
     """The coupling α at which one discrete hinge of this mesh folds by ``target`` at θ.
 
@@ -184,11 +191,12 @@ def calibrate_alpha(
     jump at the hinge edges. This relaxes that strip at θ with α_cw and corrects α by one
     secant step (the fold angle is linear in α): α = α_cw · target / φ_h. ``penalty`` defaults
     to :func:`hinge_penalty`; ``like`` is passed on to :func:`hinge_strip` (the strip's forms
-    then are the model's, compiled once). Returns α and the figures of the calibration.
+    then are the model's, compiled once), ``penalty_length`` to its facets (the model's h_e).
+    Returns α and the figures of the calibration.
     """
     alpha_cw = target / (width * theta)
     tagged = hinge_strip(comm, width, n, m, like)
-    facets = facet_sets(tagged)
+    facets = facet_sets(tagged, penalty_length=penalty_length)
     # μ before α, as build_thermal and ThermalModel._energy create them: UFL numbers the
     # coefficients of a form in their order of creation, so this order gives the strip's forms
     # the model's signatures (one JIT compilation for both)
@@ -342,6 +350,7 @@ class ThermalSpec:
         1.0,
         "thin cells: γ₀ scaled by A³ and γ₁ by A; a number A >= 1, or 'mesh': A = the largest ratio of a cell's longest to its shortest edge (hinge strips of thin cells)",
     )
+    penalty_length: str = option("diameter", PENALTY_LENGTH_HELP)
     kappa: float = option(1.0, "heat diffusivity κ > 0 (θ_t − κΔθ = s, insulated edges)")
     source: list[Any] = option(
         [[0.0, 1.0]],
@@ -381,6 +390,7 @@ class ThermalSpec:
         _check_alpha(self)
         _check_hinges(self.hinges)
         _check_penalty(self.penalty, self.penalty_aspect)
+        check_penalty_length(self.penalty_length, "model.penalty_length")
         SelfAvoidance.from_table(self.self_avoidance)  # validated (and warned about) once
         _check_closure(self.closure)
         for key in ("clamped", "source_regions"):
@@ -586,6 +596,7 @@ class ThermalModel:
             target,
             penalty=self.penalty,
             like=self.tagged.mesh,
+            penalty_length=self.spec.penalty_length,
         )
         self.calibration = {
             "alpha_cw": info["alpha_cw"],
@@ -726,7 +737,7 @@ def _check_groups(spec: ThermalSpec, tagged: TaggedMesh) -> None:
 def build_thermal(spec: ThermalSpec, tagged: TaggedMesh) -> ThermalModel:
     """Facets, μ, penalties and checked group names of a thermal problem (collective)."""
     _check_groups(spec, tagged)
-    facets = facet_sets(tagged, clamped=spec.clamped)
+    facets = facet_sets(tagged, clamped=spec.clamped, penalty_length=spec.penalty_length)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     if spec.alpha != "calibrate":
         region_coefficient(tagged, spec.alpha, "model.alpha")  # unknown groups: an error now
