@@ -364,7 +364,8 @@ class GradientFlow(EnergyFlow):
         b, residual = s * b, s * residual
         # the projected-gradient system (compiled at its first use: see stationarity())
         self._stationarity_ufl = metric + b
-        self._stationarity: tuple[compat.Form, PETSc.Mat, solvers.DirectStepSolver] | None = None
+        self._stationarity: tuple[compat.Form, PETSc.Mat, solvers.LaggedStepSolver] | None = None
+        self._gradient: Function = dolfinx.fem.Function(self.W)  # the last g: the next guess
         self._a_const = dolfinx.fem.form(a_const)
         self._b = dolfinx.fem.form(b)
         explicit = self.energy.total
@@ -664,23 +665,31 @@ class GradientFlow(EnergyFlow):
         M g + b(·, μ) = −DE_h[y], b(g, q) = 0 (g: the steepest descent in the tangent space of
         the linearised constraint), it is ‖g‖_M = (−DE_h[y](g))^½. It vanishes exactly at the
         discrete constrained critical points, and unlike the rate (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ it does
-        not depend on τ. One assembly and one LU solve (its own factors, freed at destroy()).
+        not depend on τ. One assembly and one solve per call: the matrix changes from call to
+        call only through b_n(y), as the step matrix does, so it is solved like the step, by
+        FGMRES preconditioned with lagged LU factors of its own (refactorised when the
+        iterations grow; freed at destroy()), from the previous call's g.
         """
         if self._stationarity is None:
             form = dolfinx.fem.form(self._stationarity_ufl)
             matrix = dolfinx.fem.petsc.assemble_matrix(form)
             matrix.assemble()
-            self._stationarity = (
-                form,
+            solver = solvers.LaggedStepSolver(
+                self.comm,
                 matrix,
-                solvers.DirectStepSolver(self.comm, matrix, self.settings.solver, prefix=None),
+                self.settings.solver,
+                None,
+                self.settings.refactor_its,
+                ordering.cellwise_numbering(self.W),
             )
+            self._stationarity = (form, matrix, solver)
         form, matrix, solver = self._stationarity
         compat.assemble_matrix_into(matrix, form)
         compat.assemble_vector_into(self.rhs, self._rhs)
-        gradient: Function = dolfinx.fem.Function(self.W)
-        solver.solve(self.rhs, gradient.x.petsc_vec)
-        return math.sqrt(max(float(self.rhs.dot(gradient.x.petsc_vec)), 0.0))
+        gradient = self._gradient.x.petsc_vec
+        solver.solve(self.rhs, gradient)
+        self._gradient.x.scatter_forward()
+        return math.sqrt(max(float(self.rhs.dot(gradient)), 0.0))
 
     def rebase_energy(self) -> None:
         """Measure the energy decrease from the current state again.
