@@ -71,7 +71,6 @@ def run(
     result = run_problem(problem, Path(folder) / "run", comm)
     wall = time.perf_counter() - t0
     summary = result.summary
-    attempts = summary["steps"] + summary["rejected_steps"] + summary["newton_rejections"]
     return {
         "adaptive_tau": adaptive,
         "settings": texts,
@@ -80,9 +79,8 @@ def run(
         "rejected_steps": summary["rejected_steps"],
         "newton_steps": summary["newton_steps"],
         "newton_rejections": summary["newton_rejections"],
-        # an SQP step makes two more corrections (back-solves with its factors)
-        "step_solves": attempts * (1 + problem.flow.projection_steps)
-        + 2 * (summary["newton_steps"] + summary["newton_rejections"]),
+        # every solve with a step or SQP matrix: attempted steps and their corrections
+        "step_solves": summary["step_solves"],
         "stationarity_solves": summary["steps"],
         "refactorisations": summary["refactorisations"],
         "factorisations": summary["factorisations"],
