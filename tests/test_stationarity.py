@@ -81,3 +81,27 @@ def test_adaptive_tau_reaches_the_same_state_in_fewer_steps():
 def test_bad_defect_bound_is_refused():
     with pytest.raises(InputError, match=r"flow\.defect_bound"):
         FlowSpec(adaptive_tau=True, defect_bound=0.0)
+
+
+def test_measure_is_regular_on_a_free_plate():
+    """The box's net has nothing clamped and no L² part in the flow's metric (an anchor spring
+    holds it): the measure's own metric gets the L² part, or its system is singular in the
+    rigid motions and every solve falls back (counted in ``fallbacks``)."""
+    from pathlib import Path
+
+    from dgplate.problems.registry import MODELS
+    from dgplate.problems.runner import build_mesh
+    from dgplate.problems.specs import load_problem
+
+    box = Path(__file__).resolve().parents[1] / "demos" / "problems" / "box_folding.toml"
+    overrides = ["model.flow_steps=5"]  # the default mesh: its second heat step fell back
+    overrides += ["flow.stop='stationarity'", "flow.tol=1e-12", "flow.checkpoint_every=0"]
+    problem = load_problem(box, overrides)
+    tagged = build_mesh(problem.mesh, MPI.COMM_WORLD)
+    driver = MODELS["thermal"].build(problem.model, tagged).driver(problem.flow, [], None)
+    for _ in range(2):
+        driver.advance()
+    measures = [info.stationarity for info in driver.last_result.history]
+    assert len(measures) == 5 and all(math.isfinite(m) and m > 0 for m in measures)
+    assert driver.flow.fallbacks == 0
+    driver.destroy()

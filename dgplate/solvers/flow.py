@@ -345,9 +345,13 @@ class GradientFlow(EnergyFlow):
         l2 = self.settings.l2
         # rigid motions, or a flap that can turn freely about a crease, leave the H² metric
         # singular: the L² product controls them
-        l2 = (not facets.has_clamped or facets.num_crease > 0) if l2 is None else l2
+        rigid = not facets.has_clamped or facets.num_crease > 0
+        l2 = rigid if l2 is None else l2
         hessian = ufl.derivative(ufl.derivative(self.energy.implicit, y, v), y, dy)
         metric = h2_metric(dy, v, facets, l2=l2)
+        # the stationarity measure's metric must be definite by itself: a free plate's flow
+        # may leave rigid motions to its implicit energy (an anchor spring) instead of L²
+        stationarity_metric = h2_metric(dy, v, facets, l2=True) if rigid and not l2 else metric
         a_const = (1.0 / self._tau) * metric + hessian
         # The constraint rows are scaled by s (λ by 1/s, δy unchanged) so that they weigh like
         # the displacement rows: unscaled, ‖b_n‖ ~ 1 against ‖a‖ ~ h⁻³/τ, and a residual test
@@ -366,11 +370,12 @@ class GradientFlow(EnergyFlow):
             pin = edge.interior * ufl.inner(edge_trial, edge_test) / facets.h * ufl.dx
             a_const += pin
             metric += pin
+            stationarity_metric += pin
         b, residual = s * b, s * residual
         # the projected-gradient system (compiled at its first use: see stationarity())
-        self._stationarity_ufl = metric + b
+        self._stationarity_ufl = stationarity_metric + b
         self._stationarity: tuple[compat.Form, PETSc.Mat, solvers.LaggedStepSolver] | None = None
-        self._gradient: Function = dolfinx.fem.Function(self.W)  # the last g: the next guess
+        self._gradient: Function = dolfinx.fem.Function(self.W)  # g of stationarity()
         self._a_const = dolfinx.fem.form(a_const)
         self._b = dolfinx.fem.form(b)
         explicit = self.energy.total
@@ -701,7 +706,9 @@ class GradientFlow(EnergyFlow):
         not depend on τ. One assembly and one solve per call: the matrix changes from call to
         call only through b_n(y), as the step matrix does, so it is solved like the step, by
         FGMRES preconditioned with lagged LU factors of its own (refactorised when the
-        iterations grow; freed at destroy()), from the previous call's g.
+        iterations grow; freed at destroy()). Without clamped facets its metric has the L²
+        part even where the flow's has not (flow.l2_metric = false with an anchor), or rigid
+        motions would make it singular.
         """
         if self._stationarity is None:
             form = dolfinx.fem.form(self._stationarity_ufl)
@@ -720,7 +727,8 @@ class GradientFlow(EnergyFlow):
         compat.assemble_matrix_into(matrix, form)
         compat.assemble_vector_into(self.rhs, self._rhs)
         gradient = self._gradient.x.petsc_vec
-        solver.solve(self.rhs, gradient)
+        gradient.set(0.0)  # g can change much between calls (a heat step, new data)
+        self.fallbacks += solver.solve(self.rhs, gradient).fallbacks
         self._gradient.x.scatter_forward()
         return math.sqrt(max(float(self.rhs.dot(gradient)), 0.0))
 
