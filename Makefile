@@ -7,7 +7,7 @@ NP     ?= 2
 DEMO   ?= $(firstword $(wildcard demos/box_folding.py demos/vertical_load.py demos/biharmonic.py))
 PYTEST_FLAGS ?= -q
 
-.PHONY: setup demo test test-serial test-mpi lint format check-debian bench docs docs-check clean
+.PHONY: setup demo test test-serial test-mpi lint format check-debian bench bench-tau docs docs-check clean
 
 setup:
 	@bash .ci/setup-venv.sh
@@ -53,6 +53,18 @@ bench: setup
 	  $(MPIRUN) -n 2 $(PY) benchmarks/flow.py --cells $$n --compare-naive --naive-steps 3 \
 	    $$( [ $$n = 64 ] && echo --repeat 3 ) --json $(BENCH_OUT)/flow_$${n}_np2.json || exit 1; \
 	done
+	$(PY) benchmarks/report.py --results $(BENCH_OUT)
+
+# Time to solution (about 35 min on 2 cores, 1 rank): fixed τ = h against adaptive τ and the
+# SQP finish, each to the τ-independent stop, on the BNN 64² plate, the bilayer cylinder 32×16
+# and the box's two holds; then the README's performance section again (its table below the
+# flow study's).
+bench-tau: setup
+	$(PY) benchmarks/adaptive_tau.py --problem bnn --cells 64 \
+	  --json $(BENCH_OUT)/adaptive_tau_bnn64_newton_np1.json
+	$(PY) benchmarks/adaptive_tau.py --problem cylinder --cells 32 16 \
+	  --json $(BENCH_OUT)/adaptive_tau_cylinder32x16_newton_np1.json
+	$(PY) benchmarks/box_relaxation.py --json $(BENCH_OUT)/box_relaxation_np1.json
 	$(PY) benchmarks/report.py --results $(BENCH_OUT)
 
 # The documentation site in docs/_build/html (entry page index.html), warnings as errors.

@@ -3,16 +3,16 @@
 The box (demos/problems/box_folding.toml) is heated step by step to the switch t = 28.2 with
 the problem's own settings, every relaxation stopping at ‖P DE_h[yⁿ]‖_*' < tol
 (``flow.stop = 'stationarity'``) or at its budget. At each hold (the closed box at t = 28.2,
-the flat net at t = 56.4) the same state is relaxed three times to that stop: with the
-fixed τ of the holds (``model.hold_tau``), with adaptive τ from it, and with adaptive τ and
-the SQP finish. The run then goes on from the fixed-τ result, so all three variants of a
+the flat net at t = 56.4) the same state is relaxed three times to that stop: with a fixed
+τ (``--hold-tau``: by default h, the largest cell diameter, as for the other problems of
+benchmarks/adaptive_tau.py), with adaptive τ from it, and with adaptive τ and the SQP finish. The run then goes on from the fixed-τ result, so all three variants of a
 hold start from the same state and the path between the holds is the published one. The
 record holds, per hold and variant, the accepted and rejected steps, the step solves (each
 attempted step and its corrections: the flow's count), E_h, D_h, the steps at which E_h
 rose and the wall time.
 
     python benchmarks/box_relaxation.py --json benchmarks/results/box_relaxation_np1.json
-    mpirun -n 2 python benchmarks/box_relaxation.py --tol 1e-4
+    mpirun -n 2 python benchmarks/box_relaxation.py --tol 1e-4 --hold-tau 0.25
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from typing import Any
 from mpi4py import MPI
 
 from dgplate.coupling.thermal import ThermalBilayer
+from dgplate.dg.geometry import max_cell_diameter
 from dgplate.io.output import print0
 from dgplate.problems.registry import MODELS
 from dgplate.problems.runner import build_mesh
@@ -36,13 +37,15 @@ BOX = Path(__file__).resolve().parent.parent / "demos" / "problems" / "box_foldi
 VARIANTS = {"fixed": (False, False), "adaptive": (True, False), "newton": (True, True)}
 
 
-def relax(driver: ThermalBilayer, adaptive: bool, newton: bool, budget: int) -> dict[str, Any]:
+def relax(
+    driver: ThermalBilayer, adaptive: bool, newton: bool, budget: int, tau: float
+) -> dict[str, Any]:
     """One hold from the driver's current state with the given τ control; its counts."""
     flow = driver.flow
     flow.settings.adaptive_tau, flow.settings.newton_finish = adaptive, newton
     before = (flow.rejected_steps, flow.newton_steps, flow.newton_rejections, flow.step_solves)
     t0 = time.perf_counter()
-    record = driver.hold(budget, driver.schedule.hold_tau)
+    record = driver.hold(budget, tau)
     wall = time.perf_counter() - t0
     result = driver.last_result
     assert result is not None
@@ -69,8 +72,13 @@ def relax(driver: ThermalBilayer, adaptive: bool, newton: bool, budget: int) -> 
 
 def main(argv: list[str]) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--tol", type=float, default=1e-4, help="the stationarity stop")
+    parser.add_argument("--tol", type=float, default=1e-5, help="the stationarity stop")
     parser.add_argument("--budget", type=int, default=3000, help="steps per hold")
+    parser.add_argument(
+        "--hold-tau",
+        default="h",
+        help="τ of the holds: 'h' (the largest cell diameter) or a number",
+    )
     parser.add_argument("--set", action="append", default=[], help="key=value for the box")
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args(argv)
@@ -86,6 +94,7 @@ def main(argv: list[str]) -> None:
     model = MODELS["thermal"].build(problem.model, tagged)
     driver = model.driver(problem.flow, [], None)
     assert isinstance(driver, ThermalBilayer)
+    tau = max_cell_diameter(tagged.mesh) if args.hold_tau == "h" else float(args.hold_tau)
     holds: list[dict[str, Any]] = []
     for t_hold in driver.schedule.holds:
         while driver.heat.time < t_hold - 1e-9 * driver.heat.dt:
@@ -94,7 +103,7 @@ def main(argv: list[str]) -> None:
         runs: dict[str, Any] = {}
         for name, (adaptive, newton) in reversed(VARIANTS.items()):  # fixed last: it goes on
             driver.y.x.array[:] = start
-            runs[name] = relax(driver, adaptive, newton, args.budget)
+            runs[name] = relax(driver, adaptive, newton, args.budget, tau)
             print0(comm, f"hold t = {t_hold:g}, {name}: {json.dumps(_brief(runs[name]))}")
         fixed = runs["fixed"]
         for name in ("adaptive", "newton"):
@@ -104,7 +113,14 @@ def main(argv: list[str]) -> None:
                 fixed["energy"]
             )
         holds.append({"time": t_hold, "dofs": driver.num_dofs, **runs})
-    record = {"problem": str(BOX.name), "settings": texts, "ranks": comm.size, "holds": holds}
+    record = {
+        "problem": str(BOX.name),
+        "settings": texts,
+        "hold_tau": tau,
+        "tol": args.tol,
+        "ranks": comm.size,
+        "holds": holds,
+    }
     print0(comm, json.dumps([{k: _brief(v) for k, v in h.items()} for h in holds], indent=1))
     if args.json and comm.rank == 0:
         args.json.write_text(json.dumps(record, indent=2) + "\n")

@@ -2,7 +2,9 @@
 
     python benchmarks/report.py [--results benchmarks/results] [--readme README.md]
 
-Reads ``flow_<cells>_np<ranks>.json`` (written by benchmarks/flow.py), fits the per-step cost
+Reads ``flow_<cells>_np<ranks>.json`` (written by benchmarks/flow.py) and, if present, the
+time-to-solution records of ``make bench-tau`` (benchmarks/adaptive_tau.py and
+benchmarks/box_relaxation.py), fits the per-step cost
 against the number of unknowns on the largest rank count that has three or more sizes, draws
 ``performance.png`` next to the JSON files and replaces the text between the README markers
 ``<!-- performance:begin -->`` and ``<!-- performance:end -->``.
@@ -177,6 +179,63 @@ def section(records: list[dict], fit, speedup: float | None, image: str) -> str:
     return "\n".join(lines)
 
 
+#: The time-to-solution records of ``make bench-tau``: (file, problem as the table names it).
+TIME_TO_SOLUTION = (
+    ("adaptive_tau_bnn64_newton_np1.json", "BNN 64², 1 projection"),
+    ("adaptive_tau_cylinder32x16_newton_np1.json", "bilayer cylinder 32×16, 2 projections"),
+)
+BOX = "box_relaxation_np1.json"
+
+
+def _run_cell(run: dict) -> str:
+    """'steps (step solves)' of a run, with its rejected steps and the steps that raised E_h."""
+    extra = [f"{run['rejected_steps']} rejected"] if run.get("rejected_steps") else []
+    if run.get("energy_increases"):
+        extra.append(f"E_h rose at {run['energy_increases']}")
+    return f"{run['steps']} ({run['step_solves']})" + (f", {', '.join(extra)}" if extra else "")
+
+
+def _row(name: str, fixed: dict, adaptive: dict, newton: dict) -> str:
+    diff = max(
+        abs(r["energy"] - fixed["energy"]) / abs(fixed["energy"]) for r in (adaptive, newton)
+    )
+    return (
+        f"| {name} | {_run_cell(fixed)} | {_run_cell(adaptive)} | {_run_cell(newton)} "
+        f"| {fixed['step_solves'] / adaptive['step_solves']:.1f} "
+        f"| {fixed['step_solves'] / newton['step_solves']:.1f} | {diff:.1e} |"
+    )
+
+
+def time_to_solution(folder: Path) -> list[str]:
+    """The table of ``make bench-tau`` (fixed τ against adaptive τ), if its records exist."""
+    rows = []
+    for name, label in TIME_TO_SOLUTION:
+        path = folder / name
+        if path.exists():
+            r = json.loads(path.read_text())
+            rows.append(_row(f"{label} (tol {r['tol']:g})", r["fixed"], r["adaptive"], r["newton"]))
+    box = folder / BOX
+    if box.exists():
+        r = json.loads(box.read_text())
+        for hold in r["holds"]:
+            label = f"box, hold at t = {hold['time']:g} ({hold['dofs']:,} DoFs, tol {r['tol']:g})"
+            rows.append(_row(label, hold["fixed"], hold["adaptive"], hold["newton"]))
+    if not rows:
+        return []
+    return [
+        "",
+        "Time to solution (`make bench-tau`, 1 rank): each problem relaxed to the τ-independent "
+        "stop ‖P DE_h‖_*' < tol from the same start, with fixed τ = h, with adaptive τ, and with "
+        "adaptive τ and the SQP finish (defaults). Steps (step solves: every solve with a step or "
+        "SQP matrix, corrections included); the ratios are fixed / adaptive step solves.",
+        "",
+        "| problem | fixed τ = h | adaptive | adaptive + SQP | ratio adaptive | ratio SQP "
+        "| E_h, largest relative difference to fixed |",
+        "|---|---|---|---|---|---|---|",
+        *rows,
+    ]
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--results", type=Path, default=Path("benchmarks/results"))
@@ -189,6 +248,9 @@ def main(argv: list[str] | None = None) -> None:
     image = args.results / "performance.png"
     plot(records, fit, image)
     text = section(records, fit, scaling(records), image.as_posix())
+    extra = time_to_solution(args.results)
+    if extra:
+        text = text.replace(f"\n\n{END}", "\n" + "\n".join(extra) + f"\n\n{END}")
     readme = args.readme.read_text()
     if BEGIN in readme and END in readme:
         head, rest = readme.split(BEGIN, 1)
