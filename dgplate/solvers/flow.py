@@ -372,8 +372,9 @@ class GradientFlow(EnergyFlow):
             metric += pin
             stationarity_metric += pin
         b, residual = s * b, s * residual
-        # the projected-gradient system (compiled at its first use: see stationarity())
-        self._stationarity_ufl = stationarity_metric + b
+        # the projected-gradient system (compiled at its first use: see stationarity()), its
+        # metric rows scaled by 1/τ⁰ so that they weigh against the constraint rows as in K
+        self._stationarity_ufl = (1.0 / self._initial_tau) * stationarity_metric + b
         self._stationarity: tuple[compat.Form, PETSc.Mat, solvers.LaggedStepSolver] | None = None
         self._gradient: Function = dolfinx.fem.Function(self.W)  # g of stationarity()
         self._a_const = dolfinx.fem.form(a_const)
@@ -706,7 +707,10 @@ class GradientFlow(EnergyFlow):
         not depend on τ. One assembly and one solve per call: the matrix changes from call to
         call only through b_n(y), as the step matrix does, so it is solved like the step, by
         FGMRES preconditioned with lagged LU factors of its own (refactorised when the
-        iterations grow; freed at destroy()). Without clamped facets its metric has the L²
+        iterations grow; freed at destroy()); its metric rows carry 1/τ⁰ (the initial τ), so
+        that the rows weigh as in the step matrix and the iterative solve's residual test sees
+        both parts (unscaled, the measure of one state varied by 10⁻⁶ between solves). Without
+        clamped facets its metric has the L²
         part even where the flow's has not (flow.l2_metric = false with an anchor), or rigid
         motions would make it singular.
         """
@@ -730,7 +734,8 @@ class GradientFlow(EnergyFlow):
         gradient.set(0.0)  # g can change much between calls (a heat step, new data)
         self.fallbacks += solver.solve(self.rhs, gradient).fallbacks
         self._gradient.x.scatter_forward()
-        return math.sqrt(max(float(self.rhs.dot(gradient)), 0.0))
+        # the solution is τ⁰ g (the metric rows carry 1/τ⁰)
+        return math.sqrt(max(float(self.rhs.dot(gradient)) / self._initial_tau, 0.0))
 
     def rebase_energy(self) -> None:
         """Measure the energy decrease from the current state again.
