@@ -82,11 +82,9 @@ demo.check("the plate touches the ceiling", s["contact_cells"] > 0)
 demo.check_between("contact force", s["contact_force"], 0.0, 4.0, source="at most ∫f = 4")
 # a penetration of a few % of the gap at most: the penalty holds the plate back
 demo.check_between("penetration", s["max_penetration"], 0.0, 0.02)
-if args.paper:
-    demo.check_between(
-        "D_h",
-        s["isometry_defect"],
-        0.0,
-        10 * BNN_OBSTACLE["isometry_defect"],
-        source="BNN 2021 ×10",
-    )
+if args.paper:  # measured: D_h 0.81×, penetration 1.00× the published values (docs/obstacle.md)
+    demo.check("the flow reached its stopping rule", s["converged"])
+    for key in ("isometry_defect", "penetration"):
+        published = BNN_OBSTACLE[key]
+        value = s["max_penetration" if key == "penetration" else key]
+        demo.check_between(key, value, published / 2, 2 * published, source="BNN 2021, factor 2")
