@@ -211,8 +211,8 @@ def time_to_solution(folder: Path) -> list[str]:
     rows = []
     for name, label in TIME_TO_SOLUTION:
         path = folder / name
-        if path.exists():
-            r = json.loads(path.read_text())
+        r = json.loads(path.read_text()) if path.exists() else {}
+        if r.get("fixed") and r.get("adaptive") and r.get("newton"):  # not a --no-fixed record
             rows.append(_row(f"{label} (tol {r['tol']:g})", r["fixed"], r["adaptive"], r["newton"]))
     box = folder / BOX
     if box.exists():

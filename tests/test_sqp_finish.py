@@ -73,7 +73,7 @@ def test_resumed_newton_run_takes_the_same_steps(tmp_path):
     ]
     expected, _, summary = stop_and_resume(VERTICAL, tmp_path, options, max_steps=3)
     assert expected["converged"] and expected["newton_steps"] > 2
-    for key in ("steps", "rejected_steps", "newton_steps", "newton_rejections"):
+    for key in ("steps", "rejected_steps", "newton_steps", "newton_rejections", "step_solves"):
         assert summary[key] == expected[key], key
     assert np.isclose(summary["energy"], expected["energy"], rtol=1e-12, atol=0)
 

@@ -374,9 +374,12 @@ class GradientFlow(EnergyFlow):
         b, residual = s * b, s * residual
         # the projected-gradient system (compiled at its first use: see stationarity()), its
         # metric rows scaled by 1/τ⁰ so that they weigh against the constraint rows as in K
-        self._stationarity_ufl = (1.0 / self._initial_tau) * stationarity_metric + b
-        self._stationarity: tuple[compat.Form, PETSc.Mat, solvers.LaggedStepSolver] | None = None
+        # (a Constant, so that the compiled form does not depend on τ⁰)
+        scale = values.constant(facets.mesh, 1.0 / self._initial_tau)
+        self._stationarity_ufl = scale * stationarity_metric + b
+        self._stationarity: tuple[compat.Form, PETSc.Mat, schur.StepSolver] | None = None
         self._gradient: Function = dolfinx.fem.Function(self.W)  # g of stationarity()
+        self._stationarity_fallbacks = 0  # of its solves, added to the step's record
         self._a_const = dolfinx.fem.form(a_const)
         self._b = dolfinx.fem.form(b)
         explicit = self.energy.total
@@ -707,24 +710,28 @@ class GradientFlow(EnergyFlow):
         not depend on τ. One assembly and one solve per call: the matrix changes from call to
         call only through b_n(y), as the step matrix does, so it is solved like the step, by
         FGMRES preconditioned with lagged LU factors of its own (refactorised when the
-        iterations grow; freed at destroy()); its metric rows carry 1/τ⁰ (the initial τ), so
-        that the rows weigh as in the step matrix and the iterative solve's residual test sees
-        both parts (unscaled, the measure of one state varied by 10⁻⁶ between solves). Without
-        clamped facets its metric has the L²
-        part even where the flow's has not (flow.l2_metric = false with an anchor), or rigid
-        motions would make it singular.
+        iterations grow; a fresh LU with ``flow.linear_solver = 'direct'``; freed at
+        destroy()); its metric rows carry 1/τ⁰ (the initial τ), so that the rows weigh as in
+        the step matrix and the iterative solve's residual test sees both parts (unscaled, the
+        measure of one state varied by 10⁻⁶ between solves). Where rigid motions or a free
+        flap about a crease leave the H² metric singular, M has the L² part, also where the
+        flow's metric has not (flow.l2_metric = false with an anchor).
         """
         if self._stationarity is None:
             form = dolfinx.fem.form(self._stationarity_ufl)
             matrix = dolfinx.fem.petsc.assemble_matrix(form)
             matrix.assemble()
-            solver = solvers.LaggedStepSolver(
-                self.comm,
-                matrix,
-                self.settings.solver,
-                None,
-                self.settings.refactor_its,
-                ordering.cellwise_numbering(self.W),
+            solver: schur.StepSolver = (
+                solvers.DirectStepSolver(self.comm, matrix, self.settings.solver, prefix=None)
+                if self.settings.linear_solver == "direct"
+                else solvers.LaggedStepSolver(
+                    self.comm,
+                    matrix,
+                    self.settings.solver,
+                    None,
+                    self.settings.refactor_its,
+                    ordering.cellwise_numbering(self.W),
+                )
             )
             self._stationarity = (form, matrix, solver)
         form, matrix, solver = self._stationarity
@@ -732,7 +739,7 @@ class GradientFlow(EnergyFlow):
         compat.assemble_vector_into(self.rhs, self._rhs)
         gradient = self._gradient.x.petsc_vec
         gradient.set(0.0)  # g can change much between calls (a heat step, new data)
-        self.fallbacks += solver.solve(self.rhs, gradient).fallbacks
+        self._stationarity_fallbacks += solver.solve(self.rhs, gradient).fallbacks
         self._gradient.x.scatter_forward()
         # the solution is τ⁰ g (the metric rows carry 1/τ⁰)
         return math.sqrt(max(float(self.rhs.dot(gradient)) / self._initial_tau, 0.0))
@@ -947,7 +954,11 @@ class GradientFlow(EnergyFlow):
         """Why the flow stops converged after this step ('' to go on): ``flow.stop``."""
         tol = self.settings.tol
         if self.settings.stop == "stationarity":
+            before = self._stationarity_fallbacks
             info.stationarity = self.stationarity()
+            more = self._stationarity_fallbacks - before  # in the record and in the total
+            info.fallbacks += more
+            self.fallbacks += more
             if info.stationarity < tol:
                 return f"‖P DE_h[yⁿ]‖_*' = {info.stationarity:.3e} < {tol:g}"
             return ""
