@@ -193,6 +193,8 @@ class IsometryDefect:
         self.comm = mesh.comm
         self.num_owned = mesh.topology.index_map(mesh.topology.dim).size_local
         self.volumes = cell_areas(dolfinx.fem.functionspace(mesh, ("DG", 0)))
+        #: |ω|, the area of the reference domain (a scale for D_h)
+        self.area = mpi.global_sum(self.comm, float(np.sum(self.volumes[: self.num_owned])))
 
     def cell_values(self) -> Array:
         """|∫_T (∇yᵀ∇y − I)| for each owned cell (in the order of the DG0 dofs)."""

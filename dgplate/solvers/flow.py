@@ -691,10 +691,7 @@ class GradientFlow(EnergyFlow):
         while each correction at least halves D_h, and at most ``SQP_CORRECTIONS``.
         """
         change: Array = np.zeros(self._vdofs.shape)
-        area = mpi.global_sum(
-            self.comm, float(np.sum(self.defect.volumes[: self.defect.num_owned]))
-        )
-        tol = SQP_DEFECT_TOL * area
+        tol = SQP_DEFECT_TOL * self.defect.area
         defect = math.inf
         for count in range(SQP_CORRECTIONS):
             change += self._project(stats, solver)
