@@ -235,6 +235,11 @@ def accumulate_ghosts(vector: PETSc.Vec) -> None:
 def assemble_matrix_into(matrix: PETSc.Mat, form: Form) -> None:
     """Zero ``matrix`` and assemble the bilinear ``form`` into it (in its sparsity pattern)."""
     matrix.zeroEntries()
+    add_matrix_form(matrix, form)
+
+
+def add_matrix_form(matrix: PETSc.Mat, form: Form) -> None:
+    """Add the bilinear ``form`` to the assembled ``matrix`` (in its sparsity pattern)."""
     dolfinx.fem.petsc.assemble_matrix(matrix, form)  # type: ignore[arg-type]
     matrix.assemble()
 

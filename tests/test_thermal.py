@@ -234,8 +234,11 @@ def test_checkpoint_and_restore_continue_exactly(tmp_path):
     assert result.converged == expected.converged and result.steps == 1
     assert [r.step for r in second.records] == [r.step for r in reference.records]
     assert isinstance(second.records[0], HeatStepRecord)
+    # the uninterrupted flow carries B(yⁿ) in its step matrix by increments, the restored one
+    # assembles it whole: the two agree to round-off, seen through the lagged solver's 1e-9
+    # (measured 4.6e-12; the reliability requirement is 1e-10)
     assert second.summary()["energy"] == pytest.approx(
-        reference.summary()["energy"], rel=1e-12, abs=0
+        reference.summary()["energy"], rel=1e-10, abs=0
     )
     for driver in (reference, first, second):
         driver.destroy()

@@ -64,6 +64,9 @@ SQP_DEFECT_TOL = 1e-12
 #: The measure's Krylov tolerance: near a critical point ‖P DE_h‖ is a small part of ‖DE_h‖,
 #: the right-hand side, and the step's 10⁻⁹ left it reproducible to only ~10⁻⁵ (2 ranks).
 STATIONARITY_KRYLOV: dict[str, OptionValue] = {"ksp_rtol": 1e-13}
+#: K follows yⁿ by increments B(yⁿ − y_K); it is assembled whole after this many, so that
+#: their round-off (~10⁻¹⁶ of ‖B‖ each) cannot accumulate.
+K_REASSEMBLY = 100
 #: The stopping tests (``flow.stop``).
 STOPS = ("rate", "stationarity")
 
@@ -385,6 +388,13 @@ class GradientFlow(EnergyFlow):
         self._stationarity_fallbacks = 0  # of its solves, added to the step's record
         self._a_const = dolfinx.fem.form(a_const)
         self._b = dolfinx.fem.form(b)
+        # b is linear in yⁿ, so B(yⁿ) = B(y_K) + B(yⁿ − y_K): K follows yⁿ by that increment
+        # alone (see assemble_system), with the same compiled kernel (same signature)
+        self._y_increment: Function = dolfinx.fem.Function(self.V)
+        self._b_increment = dolfinx.fem.form(ufl.replace(b, {y: self._y_increment}))
+        self._y_in_K = self.y.x.array.copy()  # the state whose B(y) K holds
+        self._K_updates = 0  # increments added since K was last assembled whole
+        self._K_whole = True  # K must be assembled whole at the next step
         explicit = self.energy.total
         if self.energy.step_shift is not None:
             explicit = explicit + self.energy.step_shift
@@ -393,11 +403,14 @@ class GradientFlow(EnergyFlow):
         self._rhs = dolfinx.fem.form(-ufl.derivative(explicit, y, v))
         self._constraint_residual = dolfinx.fem.form(residual)
         self._step_ufl = a_const + b
-        self.A_const = self._compact_constant_block()
+        # One matrix for the step: K = A_const + B(yⁿ), updated in place. A_const and B are not
+        # stored apart (at 256² a matrix of this pattern is 1.6 GB), except A_const for the
+        # Schur solver, which factorises its scalar block.
+        self.K = self._compact_constant_block()
+        self.A_const: PETSc.Mat | None = (
+            self.K.duplicate(copy=False) if self.settings.linear_solver == "schur" else None
+        )
         self._begin_active_sets()  # the pattern above has the couplings of the whole sets
-        # one sparsity pattern for the three matrices, so that K = A_const + B is a cheap axpy
-        self.B = self.A_const.duplicate(copy=False)
-        self.K = self.A_const.duplicate(copy=False)
         self._rhs_fn: Function = dolfinx.fem.Function(self.W)  # a ghosted vector in every version
         self.rhs = self._rhs_fn.x.petsc_vec
         self.solution: Function = dolfinx.fem.Function(self.W)
@@ -419,7 +432,13 @@ class GradientFlow(EnergyFlow):
             if solver is not None:
                 return solver
         return solvers.LaggedStepSolver(
-            self.comm, self.K, settings.solver, None, settings.refactor_its, numbering
+            self.comm,
+            self.K,
+            settings.solver,
+            None,
+            settings.refactor_its,
+            numbering,
+            symmetric=True,
         )
 
     def _schur_solver(self, numbering: PETSc.IS | None) -> schur.SchurStepSolver | None:
@@ -434,13 +453,16 @@ class GradientFlow(EnergyFlow):
         mine = self._vdofs < owned
         component[self._vdofs[mine]] = kinds[mine]
         split = schur.split_unknowns(self.K, component, numbering)
-        reason = schur.unsupported(self.A_const, split)
+        A_const = self._assembled_constant_block()
+        reason = schur.unsupported(A_const, split)
         if reason:
             schur.fall_back(self.comm, reason)
+            A_const.destroy()
+            self.A_const = None
             return None
         nodes = self.V.dofmap.dof_layout.num_dofs
         solver = schur.SchurStepSolver(
-            self.comm, self.K, self.A_const, split, nodes, self.settings.solver
+            self.comm, self.K, A_const, split, nodes, self.settings.solver
         )
         if solver.wants_embedding:
             solver.use_embedding(schur.continuous_embedding(self.W, self.V, self._vdofs))
@@ -454,10 +476,27 @@ class GradientFlow(EnergyFlow):
         solutions that meet the tolerance drift off the constraint step by step (E_h to only
         ~1e-8 after a flow). Balanced, fewer iterations give E_h to ~1e-9.
         """
-        compat.assemble_matrix_into(self.B, self._b)
-        norm_b = _max_row_sum(self.B)
+        # K holds A_const, then B alone, until the first step assembles it whole
+        compat.assemble_matrix_into(self.K, self._a_const)
+        norm_a = _max_row_sum(self.K)
+        compat.assemble_matrix_into(self.K, self._b)
+        norm_b = _max_row_sum(self.K)
         if norm_b > 0:
-            self._constraint_scale.value = np.asarray(_max_row_sum(self.A_const) / norm_b)
+            self._constraint_scale.value = np.asarray(norm_a / norm_b)
+        self._K_whole = True
+
+    def _assembled_constant_block(self) -> PETSc.Mat:
+        """A_const, assembled now (the Schur solver's copy; see :meth:`_constant_changed`)."""
+        if self.A_const is None:
+            self.A_const = self.K.duplicate(copy=False)
+        compat.assemble_matrix_into(self.A_const, self._a_const)
+        return self.A_const
+
+    def _constant_changed(self) -> None:
+        """A_const changed (τ, active sets): K is assembled whole at the next step."""
+        self._K_whole = True
+        if self.A_const is not None:
+            compat.assemble_matrix_into(self.A_const, self._a_const)
 
     @functools.cached_property
     def step_form(self) -> compat.Form:
@@ -512,7 +551,7 @@ class GradientFlow(EnergyFlow):
         """τ into the step matrix: reassemble A_const, tell the solver, count it."""
         self.refactorisations += 1
         self._tau.value = np.asarray(value)
-        compat.assemble_matrix_into(self.A_const, self._a_const)
+        self._constant_changed()
         if isinstance(self.solver, schur.SchurStepSolver):
             self.solver.constant_changed()
 
@@ -524,7 +563,7 @@ class GradientFlow(EnergyFlow):
     def _active_sets_changed(self) -> None:
         """An active set changed: reassemble A_const and refactorise at the next solve."""
         self.active_set_changes += 1
-        compat.assemble_matrix_into(self.A_const, self._a_const)
+        self._constant_changed()
         solver = getattr(self, "solver", None)  # None while the forms are built
         if solver is not None and not isinstance(solver, solvers.DirectStepSolver):
             solver.constant_changed()
@@ -559,10 +598,22 @@ class GradientFlow(EnergyFlow):
 
     # -- one step ---------------------------------------------------------------------------
     def assemble_system(self) -> None:
-        """K = A_const + B(yⁿ) and the right-hand side −DE_h[yⁿ]."""
-        compat.assemble_matrix_into(self.B, self._b)
-        self.A_const.copy(self.K, structure=compat.SAME_NONZERO_PATTERN)
-        self.K.axpy(1.0, self.B, structure=compat.SAME_NONZERO_PATTERN)
+        """K = A_const + B(yⁿ) and the right-hand side −DE_h[yⁿ].
+
+        K is assembled whole after A_const changed, and every K_REASSEMBLY steps so that
+        the round-off of the increments cannot accumulate; otherwise B(yⁿ − y_K) is added to K,
+        which holds A_const + B(y_K).
+        """
+        y = self.y.x.array
+        if self._K_whole or self._K_updates >= K_REASSEMBLY:
+            compat.assemble_matrix_into(self.K, self._a_const)
+            compat.add_matrix_form(self.K, self._b)
+            self._K_whole, self._K_updates = False, 0
+        else:
+            self._y_increment.x.array[:] = y - self._y_in_K
+            compat.add_matrix_form(self.K, self._b_increment)
+            self._K_updates += 1
+        self._y_in_K[:] = y
         for term in self.energy.nonlocal_terms:
             term.update()
         compat.assemble_vector_into(self.rhs, self._rhs)
@@ -731,6 +782,7 @@ class GradientFlow(EnergyFlow):
                     None,
                     self.settings.refactor_its,
                     ordering.cellwise_numbering(self.W),
+                    symmetric=True,
                 )
             )
             self._stationarity = (form, matrix, solver)
@@ -973,8 +1025,9 @@ class GradientFlow(EnergyFlow):
         if self._stationarity is not None:
             self._stationarity[2].destroy()
             self._stationarity[1].destroy()
-        for obj in (self.A_const, self.B, self.K):
-            obj.destroy()
+        self.K.destroy()
+        if self.A_const is not None:
+            self.A_const.destroy()
 
 
 def _flat(x: Array) -> Array:

@@ -19,6 +19,9 @@ from petsc4py import PETSc
 
 from dgplate import compat
 
+#: Stored entries handled at once by :func:`without_exact_zeros`.
+_BLOCK_ENTRIES = 1 << 22
+
 
 def without_exact_zeros(
     A: PETSc.Mat, keep_rows: npt.NDArray[np.bool_], keep_cols: npt.NDArray[np.int64]
@@ -33,13 +36,28 @@ def without_exact_zeros(
     silently allocated.
     """
     indptr, indices, values = A.getValuesCSR()
-    rows = np.repeat(np.arange(len(indptr) - 1), np.diff(indptr))
-    keep = (values != 0.0) | keep_rows[rows] | np.isin(indices, keep_cols)
-    counts = np.bincount(rows[keep], minlength=len(indptr) - 1)
+    num_rows = len(indptr) - 1
+    counts = np.zeros(num_rows, dtype=np.int64)
+    kept_indices, kept_values = [], []
+    # in blocks of rows: the masks and the row index of each entry are then never whole-matrix
+    # arrays (at 256² they would be several GB per rank, next to the matrix and its copy)
+    rows_per_block = max(1, _BLOCK_ENTRIES * num_rows // max(len(indices), 1))
+    for first in range(0, num_rows, rows_per_block):
+        last = min(first + rows_per_block, num_rows)
+        lo, hi = indptr[first], indptr[last]
+        rows = np.repeat(np.arange(first, last), np.diff(indptr[first : last + 1]))
+        cols, vals = indices[lo:hi], values[lo:hi]
+        keep = (vals != 0.0) | keep_rows[rows] | np.isin(cols, keep_cols)
+        counts[first:last] = np.bincount(rows[keep] - first, minlength=last - first)
+        kept_indices.append(cols[keep])
+        kept_values.append(vals[keep])
+    del indices, values
     new_indptr = np.concatenate([[0], np.cumsum(counts)]).astype(PETSc.IntType)
     # petsc4py's stubs want sequences where it takes arrays, and call sizes layouts
     sizes = cast("tuple[tuple[int, int], tuple[int, int]]", A.getSizes())
-    csr = (new_indptr, indices[keep].astype(PETSc.IntType), values[keep])
+    new_indices = np.concatenate([np.zeros(0, PETSc.IntType), *kept_indices])
+    new_values = np.concatenate([np.zeros(0, PETSc.ScalarType), *kept_values])
+    csr = (new_indptr, new_indices.astype(PETSc.IntType, copy=False), new_values)
     compact = PETSc.Mat().createAIJ(size=sizes, csr=csr, comm=A.comm)  # type: ignore[arg-type]
     compact.setLGMap(*A.getLGMap())
     compact.assemble()
