@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import json
 import platform
-import resource
 import sys
 import time
 from pathlib import Path
@@ -30,6 +29,7 @@ import dolfinx.fem.petsc
 import numpy as np
 from petsc4py import PETSc
 
+from dgplate import mpi
 from dgplate.io.output import ProgressPrinter, print0
 from dgplate.models.kirchhoff import bnn_plate
 from dgplate.reference.bnn import BNN_TABLE1, bnn_h
@@ -87,14 +87,6 @@ def bnn_flow(comm: MPI.Comm, cells: int, naive: bool = False, progress: int = 0)
     cls = NaiveFlow if naive else GradientFlow
     observers = [ProgressPrinter(comm, progress)] if progress else []
     return cls(model.facets, model.degree, model.energy, settings, observers)
-
-
-def peak_memory_mb(comm: MPI.Comm) -> dict[str, float]:
-    mine = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # kB on Linux
-    return {
-        "max_rank": comm.allreduce(mine, op=MPI.MAX),
-        "total": comm.allreduce(mine, op=MPI.SUM),
-    }
 
 
 def measure(
@@ -180,7 +172,7 @@ def main(argv: list[str] | None = None) -> dict:
         runs.append(measure(comm, args.cells, False, args.max_steps, 0))
     optimised = sorted(runs, key=lambda run: run["wall_s"])[(len(runs) - 1) // 2]
     optimised["repeats_wall_s"] = [run["wall_s"] for run in runs]
-    memory = peak_memory_mb(comm)  # before the naive run, so it is the optimised flow's
+    memory = mpi.peak_memory_mb(comm)  # before the naive run, so it is the optimised flow's
     record = {
         "problem": "BNN vertical load (M3AS 2021, Table 1)",
         "cells": args.cells,

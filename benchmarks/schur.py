@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import shutil
 import subprocess
 import sys
@@ -36,6 +35,7 @@ SOLVERS = ("lagged", "schur")
 
 def child(cells: int, solver: str, steps: int, out: Path, pc: str) -> None:
     """Run ``steps`` steps with ``solver`` (``pc``: Σ's preconditioner) and write the record."""
+    from dgplate import mpi
     from dgplate.models.kirchhoff import bnn_plate
     from dgplate.reference.bnn import bnn_h
     from dgplate.solvers.flow import FlowSpec, GradientFlow
@@ -57,7 +57,7 @@ def child(cells: int, solver: str, steps: int, out: Path, pc: str) -> None:
     wall = time.perf_counter() - t0
     seconds = [h.seconds for h in result.history]
     factor = _factor_matrix(flow.solver)
-    mine = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    memory = mpi.peak_memory_mb(comm)
     record = {
         "solver": type(flow.solver).__name__,
         "preconditioner": pc if solver == "schur" else None,
@@ -75,8 +75,8 @@ def child(cells: int, solver: str, steps: int, out: Path, pc: str) -> None:
         "isometry_defect": result.defect,
         "factor_entries": float(factor.getMumpsInfog(29)) if factor else None,
         "factor_memory_mb_total": float(factor.getMumpsInfog(22)) if factor else None,
-        "peak_rss_mb_max_rank": comm.allreduce(mine, op=MPI.MAX),
-        "peak_rss_mb_total": comm.allreduce(mine, op=MPI.SUM),
+        "peak_rss_mb_max_rank": memory["max_rank"],
+        "peak_rss_mb_total": memory["total"],
     }
     record["all_factor_entries"] = (record["factor_entries"] or 0) + (
         record["h_factor_entries"] or 0

@@ -7,6 +7,8 @@ rank of ``comm`` must call them, and every rank gets the same result.
 
 from __future__ import annotations
 
+import resource
+
 from mpi4py import MPI
 
 import numpy as np
@@ -51,6 +53,12 @@ def allreduce_array(
     out = np.empty_like(send)
     comm.Allreduce(send, out, op=op)
     return out
+
+
+def peak_memory_mb(comm: MPI.Comm) -> dict[str, float]:
+    """The resident-set peak of this process so far (MiB): the largest rank's and the sum."""
+    mine = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB on Linux
+    return {"max_rank": global_max(comm, mine), "total": global_sum(comm, mine)}
 
 
 def bounding_box(

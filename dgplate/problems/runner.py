@@ -23,7 +23,7 @@ import dolfinx.fem
 import numpy as np
 import ufl
 
-from dgplate import compat, interrupt
+from dgplate import compat, interrupt, mpi
 from dgplate.errors import InputError
 from dgplate.io import checkpoint
 from dgplate.io.output import (
@@ -333,6 +333,7 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
     if problem.output.png:
         _picture(problem, model, driver, summary, out.path / "final.png")
     summary["wall_time_s"] = time.perf_counter() - wall0
+    summary["peak_memory_mb"] = mpi.peak_memory_mb(comm)
     write_json(comm, out.path / "summary.json", summary)
     out.commit()
     return Result(summary, driver.shape, driver.checkpoint_fields(), checkpoints.history)
