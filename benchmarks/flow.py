@@ -89,6 +89,12 @@ def bnn_flow(comm: MPI.Comm, cells: int, naive: bool = False, progress: int = 0)
     return cls(model.facets, model.degree, model.energy, settings, observers)
 
 
+def factorisation_kind(flow: GradientFlow) -> str:
+    """ "LDLᵀ" or "LU": the factors the flow's step solver holds."""
+    ksp = getattr(flow.solver, "factor_ksp", None) or getattr(flow.solver, "ksp", None)
+    return "LDLᵀ" if ksp is not None and ksp.getPC().getType() == "cholesky" else "LU"
+
+
 def measure(
     comm: MPI.Comm, cells: int, naive: bool, max_steps: int | None, progress: int = 0
 ) -> dict:
@@ -117,6 +123,7 @@ def measure(
         "breakdown_per_step_s": {k: totals[k] / steps for k in PHASES},
         "factorisations": sum(h.factor_s > 0 for h in result.history),
         "mean_iterations": float(np.mean([h.iterations for h in result.history])),
+        "factorisation": factorisation_kind(flow),
         "energy": result.energy,
         "isometry_defect": result.defect,
     }
