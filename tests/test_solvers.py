@@ -105,7 +105,7 @@ def bnn_flow(comm: MPI.Comm, **settings) -> GradientFlow:
 
 @pytest.mark.mpi
 def test_step_matrix_carried_by_increments_equals_its_whole_assembly(comm):
-    """K follows yⁿ by B(yⁿ − y_K) (b_n is linear in y): after four increments it equals
+    """K follows yⁿ by B(yⁿ − y_K) (b_n is linear in y): after five increments it equals
     A_const + B(yⁿ) assembled whole, to round-off."""
     flow = bnn_flow(comm, max_steps=5)
     flow.run()
@@ -134,9 +134,28 @@ def test_lagged_solver_refactorises_ldlt_without_a_copy_cache(comm):
             assert solver.factor_ksp.getPC().getType() == "cholesky"
             assert solver.factorisations >= 2  # a refactorisation with a new copy
             assert solver.P.query("SubMatrix") is None
+            # PETSc's own copy keeps the cache under MPI: what _permuted_copy drops is there
+            raw = solver.K.createSubMatrix(solver.numbering, solver.numbering)
+            assert (raw.query("SubMatrix") is not None) == (comm.size > 1)
+            raw.destroy()
         flow.destroy()
     assert np.allclose(
         [h.energy for h in results["lagged"].history],
         [h.energy for h in results["direct"].history],
         rtol=1e-9,
     )
+
+
+@pytest.mark.mpi
+def test_lagged_solver_keeps_lu_for_another_factor_package(comm):
+    """LDLᵀ is MUMPS's: with SuperLU_dist named, the lagged solver factorises K as LU (a
+    Cholesky there would fail on the saddle point) and gives the default solver's flow."""
+    energies = {}
+    for package in ("superlu_dist", "mumps"):
+        flow = bnn_flow(comm, max_steps=3, solver={"pc_factor_mat_solver_type": package})
+        energies[package] = [h.energy for h in flow.run().history]
+        pc = flow.solver.factor_ksp.getPC()
+        assert pc.getFactorSolverType() == package
+        assert pc.getType() == ("lu" if package == "superlu_dist" else "cholesky")
+        flow.destroy()
+    assert np.allclose(energies["superlu_dist"], energies["mumps"], rtol=1e-9)

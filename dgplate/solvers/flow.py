@@ -91,7 +91,8 @@ class FlowSpec:
         "auto", "add the L² product to the metric; 'auto': when nothing is clamped"
     )
     solver: dict[str, OptionValue] = option(
-        {}, "PETSc options for the step solve (default: MUMPS LU)"
+        {},
+        "PETSc options for the step solve (default: MUMPS, LDLᵀ for the lagged solver, LU for 'direct')",
     )
     multiplier_degree: int = option(
         0,
@@ -103,7 +104,7 @@ class FlowSpec:
     )
     linear_solver: str = option(
         "lagged",
-        "step solver: 'lagged' (one LU reused as FGMRES preconditioner, refactorised when needed), 'direct' (LU every step) or 'schur' (one Cholesky of the scalar constant block per run, CG on the multipliers' Schur complement; falls back to 'lagged' where the model couples the components of y)",
+        "step solver: 'lagged' (one MUMPS LDLᵀ factorisation reused as FGMRES preconditioner, refactorised when needed), 'direct' (LU every step) or 'schur' (one Cholesky of the scalar constant block per run, CG on the multipliers' Schur complement; falls back to 'lagged' where the model couples the components of y)",
     )
     refactor_its: int = option(
         12, "lagged solver: refactorise after a solve that needed more FGMRES iterations"
@@ -244,7 +245,7 @@ class StepInfo:
     rate: float  # (E_h[yⁿ⁻¹] − E_h[yⁿ]) / τ
     seconds: float
     assembly_s: float
-    factor_s: float  # LU factorisation (0 when the lagged solver reused its factors)
+    factor_s: float  # factorisation (0 when the lagged solver reused its factors)
     solve_s: float  # triangular solves and Krylov iterations
     iterations: int  # Krylov iterations of the step solve (1 for a direct solve)
     fallbacks: int = 0  # failed lagged solves redone (fresh factors, then direct LU)
@@ -815,7 +816,10 @@ class GradientFlow(EnergyFlow):
         """The counters a checkpoint must hold (with :meth:`checkpoint_fields`).
 
         With them τ (that of the step matrix and the adaptive controller's proposal), so that a
-        resumed adaptive run goes on with the τ it had, not the initial one.
+        resumed adaptive run goes on with the τ it had, not the initial one. K is not in it: a
+        resumed run assembles K whole, where the uninterrupted one may carry it by increments,
+        so the two can differ by round-off from there on (writing a checkpoint must not change
+        the run, so it does not reassemble K).
         """
         return {
             **super().checkpoint_state(),

@@ -50,6 +50,19 @@ _counter = itertools.count()
 _log = logging.getLogger(__name__)
 
 
+def with_defaults(defaults: Options, options: Options | None) -> dict[str, OptionValue]:
+    """``defaults`` updated by ``options``.
+
+    Without the defaults' MUMPS options when ``options`` choose another factor package: PETSc
+    would report them as never used.
+    """
+    given = options or {}
+    merged = {**defaults, **given}
+    if merged.get("pc_factor_mat_solver_type", "mumps") != "mumps":
+        merged = {k: v for k, v in merged.items() if k in given or not k.startswith("mat_mumps_")}
+    return merged
+
+
 def make_ksp(
     comm: MPI.Comm,
     A: PETSc.Mat,
@@ -60,7 +73,7 @@ def make_ksp(
     """A KSP on ``A`` configured from ``defaults`` updated by ``options``."""
     prefix = prefix or f"dgplate_{next(_counter)}_"
     opts = PETSc.Options()
-    for key, value in {**defaults, **(options or {})}.items():
+    for key, value in with_defaults(defaults, options).items():
         opts.setValue(f"{prefix}{key}", value)
     ksp = PETSc.KSP().create(comm)  # type: ignore[arg-type]  # an mpi4py comm is taken
     ksp.setOptionsPrefix(prefix)
@@ -190,7 +203,7 @@ def _permuted_copy(K: PETSc.Mat, numbering: PETSc.IS) -> PETSc.Mat:
 
 
 class PermutedFactors:
-    """Python PC context: the LU factors of P, a copy of K in another numbering of its rows.
+    """Python PC context: the factors (LU or LDLᵀ) of P, a copy of K in another numbering of its rows.
 
     ``numbering`` lists, for each row of P owned here, its global index in K (see
     :func:`dgplate.solvers.ordering.cellwise_numbering`); applying the PC scatters the vector into P's
@@ -230,14 +243,14 @@ class LaggedStepSolver:
     ~‖A_const‖/‖b_n‖, so that ‖b − K x₀‖ can exceed 10⁴‖b‖, and PETSc's default test then
     declares DIVERGED_DTOL at iteration 0, before any factors are applied.
 
-    With a ``numbering`` (:func:`dgplate.solvers.ordering.cellwise_numbering`) and MUMPS LU (the
-    default), P holds K's rows and columns in that numbering, so that MUMPS orders the same
+    With a ``numbering`` (:func:`dgplate.solvers.ordering.cellwise_numbering`) and MUMPS factors
+    (the default), P holds K's rows and columns in that numbering, so that MUMPS orders the same
     graph on any number of ranks; the Krylov solve itself stays in K's numbering.
 
     ``symmetric``: K is symmetric by construction (a Hessian, a metric and a constraint block
     paired with its transpose). The factors are then MUMPS's symmetric indefinite LDLᵀ
     (``pc_type = "cholesky"``, 2×2 pivots for the saddle point) unless the options name a
-    ``pc_type``: they hold about half the entries of the LU factors (BNN 128², 2 ranks:
+    ``pc_type`` or another factor package: they hold about half the entries of the LU factors (BNN 128², 2 ranks:
     310 M against 567 M, peak memory 5.7 against 9.2 GB), and each application reads about as
     many bytes (L, then Lᵀ), so a solve costs about the same.
     """
@@ -259,8 +272,14 @@ class LaggedStepSolver:
         self._direct_options = {
             k: v for k, v in (options or {}).items() if not str(k).startswith("ksp_")
         }
-        merged = {**LAGGED_MUMPS, **(options or {})}
-        if symmetric and "pc_type" not in (options or {}):
+        merged = with_defaults(LAGGED_MUMPS, options)
+        # LDLᵀ only with MUMPS: other packages (SuperLU_dist, UMFPACK, ...) have no symmetric
+        # indefinite factorisation, and PETSc's own Cholesky does not pivot the zero block
+        if (
+            symmetric
+            and "pc_type" not in (options or {})
+            and merged.get("pc_factor_mat_solver_type") == "mumps"
+        ):
             merged["pc_type"] = "cholesky"
         permuted = (
             numbering is not None

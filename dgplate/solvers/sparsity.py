@@ -10,7 +10,7 @@ LU factors (fewer structural nonzeros for the ordering).
 
 from __future__ import annotations
 
-from typing import cast
+from typing import Any, cast
 
 import dolfinx.common
 import numpy as np
@@ -35,23 +35,8 @@ def without_exact_zeros(
     zeros are then skipped, and a non-zero outside the pattern raises instead of being
     silently allocated.
     """
-    indptr, indices, values = A.getValuesCSR()
-    num_rows = len(indptr) - 1
-    counts = np.zeros(num_rows, dtype=np.int64)
-    kept_indices, kept_values = [], []
-    # in blocks of rows: the masks and the row index of each entry are then never whole-matrix
-    # arrays (at 256² they would be several GB per rank, next to the matrix and its copy)
-    rows_per_block = max(1, _BLOCK_ENTRIES * num_rows // max(len(indices), 1))
-    for first in range(0, num_rows, rows_per_block):
-        last = min(first + rows_per_block, num_rows)
-        lo, hi = indptr[first], indptr[last]
-        rows = np.repeat(np.arange(first, last), np.diff(indptr[first : last + 1]))
-        cols, vals = indices[lo:hi], values[lo:hi]
-        keep = (vals != 0.0) | keep_rows[rows] | np.isin(cols, keep_cols)
-        counts[first:last] = np.bincount(rows[keep] - first, minlength=last - first)
-        kept_indices.append(cols[keep])
-        kept_values.append(vals[keep])
-    del indices, values
+    # the CSR copy of A lives only inside _kept_entries: freed before the compact copy is made
+    counts, kept_indices, kept_values = _kept_entries(*A.getValuesCSR(), keep_rows, keep_cols)
     new_indptr = np.concatenate([[0], np.cumsum(counts)]).astype(PETSc.IntType)
     # petsc4py's stubs want sequences where it takes arrays, and call sizes layouts
     sizes = cast("tuple[tuple[int, int], tuple[int, int]]", A.getSizes())
@@ -64,6 +49,37 @@ def without_exact_zeros(
     compact.setOption(compat.IGNORE_ZERO_ENTRIES, True)
     compact.setOption(compat.NEW_NONZERO_LOCATION_ERR, True)
     return compact
+
+
+def _kept_entries(
+    indptr: npt.NDArray[np.integer[Any]],
+    indices: npt.NDArray[np.integer[Any]],
+    values: npt.NDArray[np.inexact[Any]],
+    keep_rows: npt.NDArray[np.bool_],
+    keep_cols: npt.NDArray[np.int64],
+) -> tuple[
+    npt.NDArray[np.int64], list[npt.NDArray[np.integer[Any]]], list[npt.NDArray[np.inexact[Any]]]
+]:
+    """Per local row, the number of entries kept; the kept columns and values, by row block.
+
+    In blocks of rows: the masks and the row index of each entry are then never whole-matrix
+    arrays (at 256² they would be several GB per rank, next to the matrix and its copy). The
+    kept arrays are copies, so the caller's CSR arrays can be freed once this returns.
+    """
+    num_rows = len(indptr) - 1
+    counts = np.zeros(num_rows, dtype=np.int64)
+    kept_indices, kept_values = [], []
+    rows_per_block = max(1, _BLOCK_ENTRIES * num_rows // max(len(indices), 1))
+    for first in range(0, num_rows, rows_per_block):
+        last = min(first + rows_per_block, num_rows)
+        lo, hi = indptr[first], indptr[last]
+        rows = np.repeat(np.arange(first, last), np.diff(indptr[first : last + 1]))
+        cols, vals = indices[lo:hi], values[lo:hi]
+        keep = (vals != 0.0) | keep_rows[rows] | np.isin(cols, keep_cols)
+        counts[first:last] = np.bincount(rows[keep] - first, minlength=last - first)
+        kept_indices.append(cols[keep])
+        kept_values.append(vals[keep])
+    return counts, kept_indices, kept_values
 
 
 def global_indices(
