@@ -203,7 +203,7 @@ def _permuted_copy(K: PETSc.Mat, numbering: PETSc.IS) -> PETSc.Mat:
 
 
 class PermutedFactors:
-    """Python PC context: the factors (LU or LDLᵀ) of P, a copy of K in another numbering of its rows.
+    """Python PC context: the factors (LU or LDLᵀ) of P, K in another numbering of its rows.
 
     ``numbering`` lists, for each row of P owned here, its global index in K (see
     :func:`dgplate.solvers.ordering.cellwise_numbering`); applying the PC scatters the vector into P's
@@ -250,9 +250,9 @@ class LaggedStepSolver:
     ``symmetric``: K is symmetric by construction (a Hessian, a metric and a constraint block
     paired with its transpose). The factors are then MUMPS's symmetric indefinite LDLᵀ
     (``pc_type = "cholesky"``, 2×2 pivots for the saddle point) unless the options name a
-    ``pc_type`` or another factor package: they hold about half the entries of the LU factors (BNN 128², 2 ranks:
-    310 M against 567 M, peak memory 5.7 against 9.2 GB), and each application reads about as
-    many bytes (L, then Lᵀ), so a solve costs about the same.
+    ``pc_type`` or another factor package: they hold about half the entries of the LU factors
+    (BNN 128², 2 ranks: 310 M against 567 M, peak memory 5.7 against 9.2 GB), and each
+    application reads about as many bytes (L, then Lᵀ), so a solve costs about the same.
     """
 
     def __init__(
