@@ -159,3 +159,31 @@ def test_lagged_solver_keeps_lu_for_another_factor_package(comm):
         assert pc.getType() == ("lu" if package == "superlu_dist" else "cholesky")
         flow.destroy()
     assert np.allclose(energies["superlu_dist"], energies["mumps"], rtol=1e-9)
+
+
+@pytest.mark.mpi
+def test_lagged_solve_that_stagnates_is_stopped_early(comm):
+    """On the BNN plate (16², τ = h) the third step's FGMRES, preconditioned by the first
+    step's factors, drops fast and then stagnates near 10⁻⁹ of ‖r₀‖, short of its target: it
+    is stopped once its recent rate cannot reach the target within ksp_max_it, redone with
+    fresh factors, and the flow equals the direct LU flow."""
+    from dgplate.models.kirchhoff import bnn_plate
+    from dgplate.reference.bnn import bnn_h
+
+    model = bnn_plate(comm, 16)
+    results = {}
+    for kind in ("lagged", "direct"):
+        settings = FlowSpec(tau=bnn_h(16), max_steps=4, linear_solver=kind)
+        flow = GradientFlow(model.facets, model.degree, model.energy, settings)
+        results[kind] = flow.run()
+        flow.destroy()
+    lagged = results["lagged"].history
+    print("\nFGMRES iterations per step:", [h.iterations for h in lagged])
+    stopped = [h for h in lagged[1:] if h.factor_s > 0 and h.iterations > settings.refactor_its]
+    assert stopped, "a step with old factors past refactor_its was redone with fresh ones"
+    # stopped a few iterations past refactor_its (not at ksp_max_it = 30), then 1–2 more
+    assert all(h.iterations <= settings.refactor_its + 4 for h in lagged)
+    assert not any(h.fallbacks for h in lagged)
+    assert np.allclose(
+        [h.energy for h in lagged], [h.energy for h in results["direct"].history], rtol=1e-9
+    )

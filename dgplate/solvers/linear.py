@@ -14,9 +14,11 @@ from __future__ import annotations
 
 import itertools
 import logging
+import math
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import cast
 
 from mpi4py import MPI
 
@@ -150,6 +152,9 @@ LAGGED_MUMPS: dict[str, OptionValue] = {
 }
 
 STEP_SOLVERS = ("lagged", "direct", "schur")
+#: Iterations over which the lagged solver measures FGMRES's recent rate of convergence
+#: (:meth:`LaggedStepSolver._hopeless`).
+RATE_WINDOW = 4
 
 
 @dataclass
@@ -311,6 +316,10 @@ class LaggedStepSolver:
         # to step, so the initial residual is far below ‖b‖ and the solution's absolute error,
         # which the stopping test ties to ‖b‖, becomes small next to δy even as δy → 0.
         self.ksp.setInitialGuessNonzero(True)
+        # after PETSc's own test: stop a solve with old factors that cannot converge in time
+        self.ksp.addConvergenceTest(self._hopeless)  # type: ignore[arg-type]  # (stub: an enum)
+        self._old_factors = False
+        self._target, self._norms = 0.0, list[float]()
         self._stale = True
         self.factorisations = 0
 
@@ -342,7 +351,9 @@ class LaggedStepSolver:
         stats = SolveStats(False, 0, 0.0, 0.0)
         if refactor and self._stale:
             self._timed_refactor(stats)
+        self._old_factors = not stats.factorised
         reason = self._krylov(b, x, stats)
+        self._old_factors = False
         if reason < 0:
             # old factors that no longer precondition well are the lagged method's normal
             # case (refactorise and go on); anything else is worth a line
@@ -362,6 +373,38 @@ class LaggedStepSolver:
         # the count with the factors now held decides whether the next step refactorises
         self._stale = self.ksp.getIterationNumber() > self.refactor_its
         return stats
+
+    def _hopeless(self, ksp: PETSc.KSP, its: int, rnorm: float) -> int:
+        """Stop a solve with old factors whose residual falls too slowly to converge in time.
+
+        From iteration ``refactor_its`` on (past it the next step refactorises anyway), FGMRES
+        preconditioned by the factors of an earlier K is stopped (DIVERGED_MAX_IT, the lagged
+        method's ordinary refactorisation) when the reduction of its last
+        :data:`RATE_WINDOW` iterations, kept up, would not bring the residual to PETSc's target
+        max(rtol‖b‖, atol) within ``ksp_max_it``. Factors of a K far from the current one (the
+        first steps, where yⁿ moves most) make FGMRES drop fast and then stagnate: without
+        this test all ``ksp_max_it`` iterations are spent before the solve is redone with
+        fresh factors (30 at the third step of the BNN plate). Solves with fresh factors are
+        never stopped here. Every rank computes the same from the same (global) norms.
+        """
+        if its == 0:
+            rtol, atol, _, _ = ksp.getTolerances()
+            # PETSc's reference with a nonzero initial guess (KSPConvergedDefault) is ‖b‖
+            self._target = max(rtol * cast(float, ksp.getRhs().norm()), atol)
+            self._norms = []
+        self._norms.append(rnorm)
+        if not self._old_factors or its < self.refactor_its or len(self._norms) <= RATE_WINDOW:
+            return 0
+        before = self._norms[-1 - RATE_WINDOW]  # (a restart tests one iteration twice)
+        if not 0.0 < self._target < rnorm:
+            return 0
+        max_it = ksp.getTolerances()[3]
+        if rnorm >= before:  # stagnation: FGMRES's residual never grows
+            return int(PETSc.KSP.ConvergedReason.DIVERGED_MAX_IT)
+        remaining = RATE_WINDOW * math.log(self._target / rnorm) / math.log(rnorm / before)
+        if its + remaining > max_it:
+            return int(PETSc.KSP.ConvergedReason.DIVERGED_MAX_IT)
+        return 0
 
     def _timed_refactor(self, stats: SolveStats) -> None:
         t0 = time.perf_counter()
