@@ -20,7 +20,8 @@ from dgplate import compat
 from dgplate.io.output import bounding_box
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
-from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
+from dgplate.models.kirchhoff import KirchhoffSpec, bnn_plate, build_kirchhoff
+from dgplate.reference.bnn import bnn_h
 from dgplate.solvers.flow import FlowSpec, GradientFlow
 
 
@@ -167,9 +168,6 @@ def test_lagged_solve_that_stagnates_is_stopped_early(comm):
     step's factors, drops fast and then stagnates near 10⁻⁹ of ‖r₀‖, short of its target: it
     is stopped once its recent rate cannot reach the target within ksp_max_it, redone with
     fresh factors, and the flow equals the direct LU flow."""
-    from dgplate.models.kirchhoff import bnn_plate
-    from dgplate.reference.bnn import bnn_h
-
     model = bnn_plate(comm, 16)
     results = {}
     for kind in ("lagged", "direct"):

@@ -319,7 +319,7 @@ class LaggedStepSolver:
         # after PETSc's own test: stop a solve with old factors that cannot converge in time
         self.ksp.addConvergenceTest(self._hopeless)  # type: ignore[arg-type]  # (stub: an enum)
         self._old_factors = False
-        self._target, self._norms = 0.0, list[float]()
+        self._target, self._max_it, self._norms = 0.0, 0, list[float]()
         self._stale = True
         self.factorisations = 0
 
@@ -388,7 +388,7 @@ class LaggedStepSolver:
         never stopped here. Every rank computes the same from the same (global) norms.
         """
         if its == 0:
-            rtol, atol, _, _ = ksp.getTolerances()
+            rtol, atol, _, self._max_it = ksp.getTolerances()
             # PETSc's reference with a nonzero initial guess (KSPConvergedDefault) is ‖b‖
             self._target = max(rtol * cast(float, ksp.getRhs().norm()), atol)
             self._norms = []
@@ -398,11 +398,12 @@ class LaggedStepSolver:
         before = self._norms[-1 - RATE_WINDOW]  # (a restart tests one iteration twice)
         if not 0.0 < self._target < rnorm:
             return 0
-        max_it = ksp.getTolerances()[3]
-        if rnorm >= before:  # stagnation: FGMRES's residual never grows
-            return int(PETSc.KSP.ConvergedReason.DIVERGED_MAX_IT)
-        remaining = RATE_WINDOW * math.log(self._target / rnorm) / math.log(rnorm / before)
-        if its + remaining > max_it:
+        # FGMRES's residual never grows: no decrease is stagnation, else extrapolate the rate
+        if (
+            rnorm >= before
+            or its + RATE_WINDOW * math.log(self._target / rnorm) / math.log(rnorm / before)
+            > self._max_it
+        ):
             return int(PETSc.KSP.ConvergedReason.DIVERGED_MAX_IT)
         return 0
 
