@@ -110,6 +110,9 @@ def test_auxiliary_space_preconditioner():
     solver = out["schur"][3]
     assert solver.preconditioner == "aux" and solver.aux.rebuilds >= 1
     assert solver.aux.baseline < 60  # the cell-block preconditioner needs hundreds
+    # the profile: Σ and its preconditioner applied at least once per CG iteration, and timed
+    for tally in (solver.sigma_tally, solver.pc_tally):
+        assert tally.applications > 3 * solver.aux.baseline // 2 and tally.seconds > 0
     assert_agree(out)
 
 

@@ -29,6 +29,9 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import cast
 
 from mpi4py import MPI
@@ -165,22 +168,42 @@ def _norm(matrix: PETSc.Mat) -> float:
     return float(cast("float", matrix.norm(compat.NORM_INFINITY)))
 
 
+@dataclass
+class Tally:
+    """How often an operator was applied, and the wall time it took: where a solve's time goes."""
+
+    applications: int = 0
+    seconds: float = 0.0
+
+    @contextmanager
+    def timing(self) -> Iterator[None]:
+        """Count one application and add its wall time."""
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.applications += 1
+            self.seconds += time.perf_counter() - start
+
+
 class SchurContext:
     """Python shell context: Σ λ = B (A⁻¹ ⊗ I₃) Bᵀ λ − C λ."""
 
     def __init__(self, solver: SchurStepSolver):
         self.s = solver
-        self.applications = 0
 
     def mult(self, mat: PETSc.Mat, x: PETSc.Vec, y: PETSc.Vec) -> None:
         """Apply Σ: y = Σ x (called by petsc4py)."""
+        with self.s.sigma_tally.timing():
+            self._mult(x, y)
+
+    def _mult(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
         s = self.s
         for c, Bc in enumerate(s.B):
             column = s.rhs.getDenseColumnVec(c, "w")
             Bc.multTranspose(x, column)
             s.rhs.restoreDenseColumnVec(c, "w")
         s.apply_inverse()
-        self.applications += 1
         if s.C is not None:
             s.C.mult(x, y)
             y.scale(-1.0)
@@ -211,9 +234,10 @@ class ScaledBFBt:
         assert s.inner is not None and s.F is not None
         if self.work is None:
             self.work = x.duplicate()
-        s.inner.solve(x, y)
-        s.F.mult(y, self.work)
-        s.inner.solve(self.work, y)
+        with s.pc_tally.timing():
+            s.inner.solve(x, y)
+            s.F.mult(y, self.work)
+            s.inner.solve(self.work, y)
 
 
 class AuxiliarySpace:
@@ -298,6 +322,10 @@ class AuxiliarySpace:
 
     def apply(self, pc: PETSc.PC, x: PETSc.Vec, y: PETSc.Vec) -> None:
         """Apply the preconditioner: y = P⁻¹ x − P⁻¹ Ĝ H⁻¹ Ĝᵀ P⁻¹ x (called by petsc4py)."""
+        with self.s.pc_tally.timing():
+            self._apply(x, y)
+
+    def _apply(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
         assert self.Pinv is not None and self.ksp is not None
         assert self.h_rhs is not None and self.h_sol is not None
         self.Pinv.mult(x, self.u)
@@ -438,7 +466,8 @@ class SchurStepSolver:
         self.aux: AuxiliarySpace | None = None
         self._factored = False
         self.factorisations = 0
-        self._B_current = False
+        #: applications of Σ and of its preconditioner, and their wall time (profiles)
+        self.sigma_tally, self.pc_tally = Tally(), Tally()
 
     # -- the constant part ------------------------------------------------------------------
     def constant_changed(self) -> None:
