@@ -45,9 +45,11 @@ format: setup
 # and the README's performance section. Growth and scaling use the 2-rank rows; 64² also runs
 # on 1 rank with the naive flow to the end (same step count, same E_h), and 128² on 1 rank for
 # the scaling. The 64² optimised runs are repeated three times on 1 and 2 ranks; the scaling
-# uses the median runs.
+# uses the median runs. The memory bandwidth on 1 and on 2 ranks at once (the ceiling of the
+# substitutions' speed-up) is measured before and after them.
 BENCH_OUT ?= benchmarks/results
 bench: setup
+	$(PY) benchmarks/bandwidth.py --json $(BENCH_OUT)/bandwidth_before.json
 	$(PY) benchmarks/flow.py --cells 64 --repeat 3 --compare-naive \
 	  --json $(BENCH_OUT)/flow_64_np1.json
 	$(PY) benchmarks/flow.py --cells 128 --json $(BENCH_OUT)/flow_128_np1.json
@@ -55,6 +57,7 @@ bench: setup
 	  $(MPIRUN) -n 2 $(PY) benchmarks/flow.py --cells $$n --compare-naive --naive-steps 3 \
 	    $$( [ $$n = 64 ] && echo --repeat 3 ) --json $(BENCH_OUT)/flow_$${n}_np2.json || exit 1; \
 	done
+	$(PY) benchmarks/bandwidth.py --json $(BENCH_OUT)/bandwidth_after.json
 	$(PY) benchmarks/report.py --results $(BENCH_OUT)
 
 # The BNN plate past Table 1: 256² cells (1.97 M DoFs) on 2 ranks to the published stop, about

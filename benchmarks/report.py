@@ -168,7 +168,24 @@ def plot(records: list[dict], fit, path: Path) -> None:
     plt.close(fig)
 
 
-def section(records: list[dict], fit, speedup: dict[int, float], image: str) -> str:
+def bandwidth_notes(folder: Path) -> list[str]:
+    """The machine's memory bandwidth, 2 ranks over 1, measured before and after the flow runs
+    (``bandwidth_before.json``, ``bandwidth_after.json``, benchmarks/bandwidth.py)."""
+    runs = [folder / f"bandwidth_{when}.json" for when in ("before", "after")]
+    ratios = [json.loads(p.read_text())["ratio_two_over_one"] for p in runs if p.exists()]
+    if not ratios:
+        return []
+    read = " and ".join(f"{r['read_gb_per_s']:.2f}×" for r in ratios)
+    triad = " and ".join(f"{r['triad_gb_per_s']:.2f}×" for r in ratios)
+    return [
+        f"- Memory bandwidth, 2 ranks at once over 1 (benchmarks/bandwidth.py, "
+        f"{'before and after' if len(ratios) == 2 else 'once in'} this run): read {read}, "
+        f"triad {triad}. The substitutions with the factors, most of a step, are bound by "
+        "memory traffic, so this is about the ceiling of their 1 → 2-rank speed-up."
+    ]
+
+
+def section(records: list[dict], fit, speedup: dict[int, float], image: str, folder: Path) -> str:
     machine = records[-1]["machine"]
     # records from before the LDLᵀ default name no factorisation: they were measured with LU
     kinds = sorted({r["optimized"].get("factorisation", "LU") for r in records})
@@ -220,6 +237,7 @@ def section(records: list[dict], fit, speedup: dict[int, float], image: str) -> 
             f"- 1 → 2 ranks at {cells}², optimised flow, whole run: {factor:.2f}× faster"
             + (f" (medians; {spread})." if spread else ".")
         )
+    notes += bandwidth_notes(folder)
     if fit:
         ranks, p, rows = fit
         notes.append(
@@ -298,7 +316,7 @@ def main(argv: list[str] | None = None) -> None:
     fit = growth_fit(records)
     image = args.results / "performance.png"
     plot(records, fit, image)
-    text = section(records, fit, scaling(records), image.as_posix())
+    text = section(records, fit, scaling(records), image.as_posix(), args.results)
     extra = large_section(load_large(args.results), fit) + time_to_solution(args.results)
     if extra:
         text = text.replace(f"\n\n{END}", "\n" + "\n".join(extra) + f"\n\n{END}")

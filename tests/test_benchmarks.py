@@ -50,3 +50,17 @@ def test_flow_benchmark_smoke(tmp_path):
         text = readme.read_text()
         assert "## Performance" in text and "| 8² |" in text
         assert (out.parent / "performance.png").stat().st_size > 1000
+
+
+def test_bandwidth_benchmark_smoke(tmp_path):
+    """The bandwidth script measures 1 and 2 ranks, and the report quotes its ratios."""
+    out = tmp_path / "bandwidth_before.json"
+    _load("bandwidth").main(["--megabytes", "8", "--repeat", "2", "--json", str(out)])
+    record = json.loads(out.read_text())
+    assert record["one_rank"]["ranks"] == 1 and record["two_ranks"]["ranks"] == 2
+    for kernel in ("read_gb_per_s", "triad_gb_per_s"):
+        assert record["one_rank"][kernel] > 0 and record["two_ranks"][kernel] > 0
+        ratio = record["two_ranks"][kernel] / record["one_rank"][kernel]
+        assert record["ratio_two_over_one"][kernel] == pytest.approx(ratio)
+    (note,) = _load("report").bandwidth_notes(tmp_path)
+    assert f"read {record['ratio_two_over_one']['read_gb_per_s']:.2f}×" in note
