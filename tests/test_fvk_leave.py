@@ -97,9 +97,13 @@ def test_same_state_on_any_number_of_ranks(left):
     shared = _cone(MPI.COMM_WORLD)
     assert shared["energy"] == pytest.approx(left["energy"], rel=PARITY_RTOL)
     assert len(shared["perturbations"]) == len(left["perturbations"])
-    assert abs(shared["lowest"] - left["lowest"]) <= 1e-3 * abs(
-        left["perturbations"][0]["eigenvalue"]
-    )
+    # The final lowest eigenvalue is a nearly neutral mode (−3.5·10⁻¹¹ serially, −8.3·10⁻¹² in
+    # one 2-rank run): its value is set by where the relaxation stopped, not by round-off, so
+    # it is compared on the driver's stability scale, 10⁻³ × the path's eigenvalues, which is
+    # still 19 times smaller than the saddle's −1.09·10⁻⁸ and so tells the two states apart.
+    scale = max(abs(value) for value in left["lowest_eigenvalues"] if np.isfinite(value))
+    assert shared["lowest"] >= -1e-3 * scale
+    assert abs(shared["lowest"] - left["lowest"]) <= 1e-3 * scale
     # the relaxation stops on a residual, so the modes agree to its size, not to round-off
     spectrum = left["spectrum"]
     assert np.allclose(shared["spectrum"], spectrum, rtol=0, atol=1e-4 * spectrum.max())
