@@ -23,6 +23,7 @@ from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.kirchhoff import KirchhoffSpec, bnn_plate, build_kirchhoff
 from dgplate.reference.bnn import bnn_h
 from dgplate.solvers.flow import FlowSpec, GradientFlow
+from dgplate.solvers.linear import RATE_WINDOW
 
 
 def rolling_strip(comm: MPI.Comm, linear_solver: str):
@@ -179,8 +180,10 @@ def test_lagged_solve_that_stagnates_is_stopped_early(comm):
     print("\nFGMRES iterations per step:", [h.iterations for h in lagged])
     stopped = [h for h in lagged[1:] if h.factor_s > 0 and h.iterations > settings.refactor_its]
     assert stopped, "a step with old factors past refactor_its was redone with fresh ones"
-    # stopped a few iterations past refactor_its (not at ksp_max_it = 30), then 1–2 more
-    assert all(h.iterations <= settings.refactor_its + 4 for h in lagged)
+    # stopped within two rate windows past refactor_its, well before ksp_max_it = 30, then a
+    # few more with fresh factors (13 + 1 serially; 15 + 2 on 2 ranks in one CI run, where
+    # parallel round-off changed the stagnating tail's rate; 30 + 1 without the early stop)
+    assert all(h.iterations <= settings.refactor_its + 2 * RATE_WINDOW for h in lagged)
     assert not any(h.fallbacks for h in lagged)
     assert np.allclose(
         [h.energy for h in lagged], [h.energy for h in results["direct"].history], rtol=1e-9
