@@ -26,6 +26,8 @@ from mpi4py import MPI
 
 import numpy as np
 
+from dgplate.io.output import write_json
+
 MB = 1024**2
 
 
@@ -48,8 +50,7 @@ def child(megabytes: int, repeat: int, out: Path) -> None:
             elapsed = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
             best = min(best, elapsed)
         record[f"{name}_gb_per_s"] = comm.size * nbytes / best / 1e9
-    if comm.rank == 0:
-        out.write_text(json.dumps(record))
+    write_json(comm, out, record)
 
 
 def run(ranks: int, megabytes: int, repeat: int) -> dict:
@@ -82,11 +83,10 @@ def main(argv: list[str]) -> None:
             key: two[key] / one[key] for key in one if key.endswith("_gb_per_s")
         },
     }
-    text = json.dumps(record, indent=2)
-    print(text)
+    print(json.dumps(record, indent=2))
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(text + "\n")
+        write_json(MPI.COMM_SELF, args.json, record)
 
 
 if __name__ == "__main__":
