@@ -55,6 +55,22 @@ def test_newton_finish_ends_at_the_fixed_tau_state():
     assert newton.steps < adaptive.steps < fixed.steps
 
 
+@pytest.mark.mpi
+def test_sqp_step_left_off_the_constraint_is_redone_as_a_plain_step(monkeypatch):
+    """Without its corrections an SQP step ends below the constrained energy, off the constraint.
+
+    Accepted, every later step would "raise" E_h when its projection restores the constraint;
+    the controller must redo it as a plain step instead, and the run still end at the fixed-τ
+    state with E_h lowered at every step.
+    """
+    fixed, _ = run_bnn(MPI.COMM_WORLD)
+    monkeypatch.setattr(GradientFlow, "_close_constraint", lambda self, stats, solver: 0.0)
+    newton, (_, rejections) = run_bnn(MPI.COMM_WORLD, **NEWTON)
+    assert newton.converged and newton.energy_increases == []
+    assert rejections > 0
+    assert newton.energy == pytest.approx(fixed.energy, rel=1e-7)
+
+
 def test_resumed_newton_run_takes_the_same_steps(tmp_path):
     options = [
         f"--set={key}"
