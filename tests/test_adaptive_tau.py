@@ -75,8 +75,8 @@ def test_refactor_factor_keeps_tau_between_refactorisations():
     runs = {}
     for name, flow in (
         ("fixed", {}),
-        ("every change", {"adaptive_tau": True}),
-        ("factor 3", {"adaptive_tau": True, "refactor_factor": 3.0}),
+        ("every change", {"adaptive_tau": True, "tau_growth_max": 2.0}),
+        ("factor 3", {"adaptive_tau": True, "tau_growth_max": 2.0, "refactor_factor": 3.0}),
     ):
         solver = bnn(MPI.COMM_WORLD, **flow)
         result = solver.run()
@@ -104,9 +104,71 @@ def test_refactor_factor_keeps_tau_between_refactorisations():
     assert runs["factor 3"][1] < runs["every change"][1]
 
 
+def growth_record(solver):
+    """Record, at every growth of τ: rejections so far, defect before projection, τ before, after."""
+    record, grow = [], solver._grow_tau
+
+    def recorded():
+        before = solver._target_tau
+        grow()
+        record.append((solver.rejected_steps, solver._linear_defect, before, solver._target_tau))
+
+    solver._grow_tau = recorded
+    return record
+
+
+def fast_factor(bound, defect):
+    """The growth of the SQP-finish runs before a rejection: √(bound/D)/2 in [2, 8]."""
+    return min(max(0.5 * math.sqrt(bound / defect), 2.0), 8.0)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize(
+    ("newton_finish", "bound"),
+    [(True, 1e-2), (True, 2e-3), (False, 1e-2)],
+    ids=["finish", "finish-rejections", "plain"],
+)
+def test_tau_grows_by_the_defect_until_the_first_rejection(newton_finish, bound):
+    """With the SQP finish, τ grows by √(bound/D)/2 in [2, 8] until a rejection, then by 2;
+    without it, by 2 throughout. Either way the run ends at the fixed-τ state.
+
+    The 6² plate with the default bound has no rejection; with 2·10⁻³ the first step is
+    rejected, and the later steps, whose defects would allow more, still grow by 2.
+    """
+    fixed = bnn(MPI.COMM_WORLD)
+    reference = fixed.run()
+    fixed.destroy()
+    ratio = 1e3  # SQP steps only at the cap: the growth below it is what is tested
+    flow = {"adaptive_tau": True, "defect_bound": bound, "newton_finish": newton_finish}
+    solver = bnn(MPI.COMM_WORLD, tau_max_ratio=ratio, newton_tau_ratio=ratio, **flow)
+    record = growth_record(solver)
+    result = solver.run()
+    cap = ratio * solver._initial_tau
+    solver.destroy()
+    assert result.converged and result.energy_increases == []
+    assert result.energy == pytest.approx(reference.energy, rel=1e-6)
+    assert len(record) == result.steps
+    factors = [
+        fast_factor(bound, defect) if newton_finish and not rejected else 2.0
+        for rejected, defect, *_ in record
+    ]
+    expected = [min(f * before, cap) for f, (*_, before, _) in zip(factors, record, strict=True)]
+    assert [after for *_, after in record] == pytest.approx(expected, rel=1e-12)
+    if bound == 1e-2 and newton_finish:  # the rule grew τ faster than doubling
+        assert max(factors) > 2.0
+    if bound == 2e-3:  # after the rejection, defects that would have allowed more
+        assert all(rejected > 0 for rejected, *_ in record)
+        assert max(fast_factor(bound, defect) for _, defect, *_ in record) > 2.0
+
+
 @pytest.mark.parametrize(
     ("key", "value"),
-    [("refactor_factor", 0.5), ("tau_growth", 1.0), ("tau_max_ratio", math.inf)],
+    [
+        ("refactor_factor", 0.5),
+        ("tau_growth", 1.0),
+        ("tau_growth_max", 0.5),
+        ("tau_max_ratio", math.inf),
+    ],
 )
 def test_bad_controller_numbers_are_refused(key, value):
     with pytest.raises(InputError, match=rf"^flow\.{key} must be a number"):

@@ -101,8 +101,11 @@ ROD_IGNORES = {
             "adaptive_tau",
             "defect_bound",
             "tau_growth",
+            "tau_growth_max",
             "tau_max_ratio",
             "refactor_factor",
+            "newton_finish",
+            "newton_tau_ratio",
         )
     },
 }
