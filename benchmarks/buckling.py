@@ -8,6 +8,8 @@ mesh and δα and writes E_h, D_h, the height and its elastica value, steps and 
     python benchmarks/buckling.py --cells 16 2 --rate 5e-5 --json benchmarks/results/buckling.json
 
 ``--max-steps 1000`` stops at α = 0.05 (the defect's growth early on the path, on finer meshes).
+``--tau``, ``--load`` and ``--penalty`` change the published τ, upward force and γ₀ = γ₁ (how
+D_h depends on them, docs/continuation.md).
 The record also holds the pointwise norms ∫|∇yᵀ∇y − I| and ∫|∇yᵀ∇y − I|² of the final state.
 """
 
@@ -56,6 +58,9 @@ def main() -> None:
     parser.add_argument(
         "--max-steps", type=int, default=0, help="stop after this many flow steps (0: the file's)"
     )
+    parser.add_argument("--tau", type=float, default=0.0, help="flow.tau (0: the published)")
+    parser.add_argument("--load", type=float, default=None, help="upward force (published 1e-2)")
+    parser.add_argument("--penalty", type=float, default=None, help="γ₀ = γ₁ (published 1e4)")
     parser.add_argument("--out", default="out/benchmark_buckling")
     parser.add_argument("--json", default="")
     args = parser.parse_args()
@@ -68,6 +73,12 @@ def main() -> None:
     }
     if args.max_steps:
         overrides["flow.max_steps"] = args.max_steps
+    if args.tau:
+        overrides["flow.tau"] = args.tau
+    if args.load is not None:
+        overrides["model.load"] = [0.0, 0.0, args.load]
+    if args.penalty is not None:
+        overrides["model.penalty"] = {"gamma0": args.penalty, "gamma1": args.penalty}
     problem = dgplate.load_problem(PROBLEM, overrides)
     t0 = time.perf_counter()
     result = dgplate.run(problem, out=args.out, force=True)
@@ -78,6 +89,9 @@ def main() -> None:
         "rate": args.rate,
         "alpha": min(1.0, args.rate * result["steps"]),
         "projection_steps": args.projection_steps,
+        "tau": problem.flow.tau,
+        "load": problem.model.load,
+        "penalty": problem.model.penalty,
         "ranks": MPI.COMM_WORLD.size,
         "dofs": result["dofs"],
         "steps": result["steps"],
