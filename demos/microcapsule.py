@@ -25,8 +25,8 @@
 # anchored (every part curls): the L² product in the flow's metric controls rigid motions.
 #
 # The problem file is `demos/problems/microcapsule.toml`; `dgplate run` on it computes the
-# same. Run: `python demos/microcapsule.py` (n = 8 cells per side, minutes) or under
-# `mpirun -n 2`; `--paper` uses n = 16 (the curl resolved by ~20° per cell, about 4× the
+# same at n = 8 (minutes). Run: `python demos/microcapsule.py` (n = 4 cells per side, seconds)
+# or under `mpirun -n 2`; `--paper` uses n = 16 (the curl resolved by ~20° per cell, about 4× the
 # cost per step); `--out DIR`, `--force`, `--resume` as for every run.
 
 # %%
