@@ -205,6 +205,8 @@ class ProgressPrinter:
 
     def __init__(self, comm: MPI.Comm, every: int = 1, stream: TextIO | None = None):
         self.comm, self.every, self.stream = comm, every, stream or sys.stdout
+        #: steps done before a resume (the runner sets it), so the last line counts them all
+        self.earlier_steps = 0
 
     def step(self, driver: Driver, record: Record) -> None:
         """Print ``record.line()`` every ``every`` steps."""
@@ -214,12 +216,15 @@ class ProgressPrinter:
     def finish(self, driver: Driver, result: RunResult) -> None:
         """Print how the run ended, and the steps at which the energy went up (if any)."""
         status = "converged" if result.converged else "NOT converged"
-        print0(self.comm, f"{status} after {result.steps} steps: {result.reason}", file=self.stream)
+        steps = f"{result.steps} steps"
+        if self.earlier_steps:
+            steps = f"{self.earlier_steps + result.steps} steps ({result.steps} since the resume)"
+        print0(self.comm, f"{status} after {steps}: {result.reason}", file=self.stream)
         increases = getattr(result, "energy_increases", None)
         if increases:
             print0(
                 self.comm,
-                f"warning: the energy increased at step(s) {increases[:10]}",
+                f"dgplate: warning: the energy increased at step(s) {increases[:10]}",
                 file=self.stream,
             )
 

@@ -88,7 +88,7 @@ class KirchhoffSpec:
     )
     obstacle: dict[str, object] = option(
         {},
-        "rigid obstacle (penalty (1/2ε)∫(s)₋², docs/obstacle.md): {} none, or {type = 'above'|'below' (y₃ ≥ ψ | y₃ ≤ ψ), psi = number or formula in x, y}, {type = 'plane', normal = [3], point = [3]} (n·(y − p) ≥ 0), {type = 'sphere', center = [3], radius = R, side = 'outside'|'inside'}; each with epsilon = ε > 0 (default 1e-4)",
+        "rigid obstacle (penalty (1/2ε)∫(s)₋², docs/obstacle.md): {} none, or {type = 'above'|'below' (y₃ ≥ ψ | y₃ ≤ ψ), psi = number or formula in x, y}, {type = 'plane', normal = [3], point = [3]} (n·(y − p) ≥ 0), {type = 'sphere', center = [3], radius = R, side = 'outside'|'inside'}; each with epsilon = ε > 0 (default 1e-4) and treatment = 'splitting' (default; the convex part implicit, the concave part explicit) or 'active_set' (the implicit part on the last contact set only)",
     )
 
     self_avoidance: dict[str, float] = option(

@@ -83,8 +83,8 @@ ENDS = ("clamped-free", "clamped-guided", "free-free", "closed")
 ROD_IGNORES = {
     "mesh": "a rod has its own mesh: model.cells intervals of (0, model.length)",
     **{
-        f"flow.{key}": "the rod flow always has the L² product in its metric, cell-wise DG1 and "
-        "nodal multipliers and a direct solve at every step"
+        f"flow.{key}": "the rod flow chooses its metric itself (L² products only when no end is "
+        "clamped), cell-wise DG1 and nodal multipliers and a direct solve at every step"
         for key in (
             "l2_metric",
             "multiplier_degree",

@@ -301,6 +301,9 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
     initial, force, wall0 = job.initial, job.force, job.wall0
     comm = tagged.comm
     earlier = _start(driver, start, target)
+    for observer in driver.observers:
+        if isinstance(observer, ProgressPrinter):
+            observer.earlier_steps = len(earlier)
     if start is None:
         advice.warn(comm, advice.before_run(problem, tagged, initial))
     out = OutputDir(comm, target, force, resume=start is not None)
