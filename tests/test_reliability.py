@@ -222,8 +222,9 @@ def killed_then_resumed(
     problem: Path = VERTICAL,
     at: int = 18,
     base: list[str] = RESUMABLE,
-) -> dict:
-    """Run until SIGKILL after step ``at`` (checkpoint at 15), then ``--resume``."""
+) -> tuple[dict, str]:
+    """Run until SIGKILL after step ``at`` (checkpoint at 15), then ``--resume``: the summary
+    and the resumed run's output."""
     args = ["run", str(problem), "--out", str(out), *base, *extra]
     driver = "fvk" if "fvk" in problem.name else "flow"
     env = {**os.environ, "DGPLATE_TEST_KILL_AT": f"{driver}:{at}"}
@@ -235,7 +236,7 @@ def killed_then_resumed(
     assert (out / "checkpoint" / "state.npz").is_file()
     resumed = dgplate(*args, "--resume", ranks=ranks_after)
     assert resumed.returncode == 0, resumed.stderr
-    return summary_of(out)
+    return summary_of(out), resumed.stdout
 
 
 @pytest.mark.parametrize("ranks_after", [1, TWO_RANKS])
@@ -247,8 +248,11 @@ def test_killed_run_resumes_to_the_same_state(ranks_after, tmp_path):
     done = dgplate("run", str(VERTICAL), "--out", str(reference), *RESUMABLE, *direct)
     assert done.returncode == 0, done.stderr
     expected = summary_of(reference)
-    summary = killed_then_resumed(tmp_path / "resumed", direct, ranks_after)
+    shown = [*direct, "--set", "output.progress=1000"]  # the last line only
+    summary, output = killed_then_resumed(tmp_path / "resumed", shown, ranks_after)
     assert summary["steps"] == expected["steps"] > 18
+    # the last line counts every step, as summary.json does, and those since the resume
+    assert f"after {summary['steps']} steps ({summary['steps'] - 15} since the resume)" in output
     # same ranks: the same operations (equal to the last bit here); 1 → 2 ranks: only the
     # partition's round-off (2e-13 here)
     rtol = 1e-10
@@ -270,7 +274,7 @@ def test_killed_fvk_schedule_resumes(ranks_after, tmp_path):
     reference = tmp_path / "reference"
     assert dgplate("run", str(problem), "--out", str(reference), *small).returncode == 0
     expected = summary_of(reference)
-    summary = killed_then_resumed(tmp_path / "resumed", [], ranks_after, problem, 3, small)
+    summary, _ = killed_then_resumed(tmp_path / "resumed", [], ranks_after, problem, 3, small)
     assert summary["steps"] == expected["steps"] == 6 and summary["converged"]
     assert np.isclose(summary["w_center"], expected["w_center"], rtol=1e-9, atol=0)
     assert np.isclose(summary["energy"], expected["energy"], rtol=1e-9, atol=0)
