@@ -229,10 +229,15 @@ def test_cli_runs_a_mesh_with_curved_cells(tmp_path):
             "output.png=false",
         ]
     )
-    assert code in (0, 1)  # 1: the 3-step budget ends before convergence
+    assert code == 1  # the 3-step budget ends before convergence
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["steps"] == 3 and np.isfinite(summary["energy"])
-    assert summary["crease"]["facets"] > 0 and summary["fold_angle_deg"]["mean"] > 0.0
+    assert summary["steps"] == 3 and summary["crease"]["facets"] == 3
+    energies = np.loadtxt(out / "history.csv", delimiter=",", skiprows=1, usecols=3)
+    assert np.all(np.diff(np.r_[0.0, energies]) < 0.0)  # from the flat start, E_h = 0
+    # C is the arc of radius 1.5 between y = 0 and y = 1: its length 3·asin(1/3) = 1.01951,
+    # which the three chords (1.01727) miss by 2e-3 and the curved cells match to 1e-5
+    assert summary["crease"]["length"] == pytest.approx(3 * np.arcsin(1 / 3), rel=1e-5)
+    assert summary["fold_angle_deg"]["mean"] > 1.0  # the flap has started to fold down
 
 
 def crease_tags(comm, name, parameters):

@@ -73,11 +73,19 @@ def test_face_sets_classify_and_validate():
 
 
 def test_crease_facets_are_tagged():
-    tagged = load_geo(MPI.COMM_SELF, "rectangle", {"h": 1.0})
-    # a clamped group made of interior facets is refused as well
-    faces = facet_sets(tagged, clamped=["left", "right"])
-    assert faces.num_clamped > 0
-    assert np.count_nonzero(faces.tags.values == CREASE) == 0
+    """A crease group's facets (inside) become CREASE, a clamped group's CLAMPED; a crease
+    group used as a clamped one is refused, naming it."""
+    tagged = load_geo(MPI.COMM_SELF, "straight_crease", {"h": 0.25, "quads": 1})
+    crease = tagged.facets("crease")
+    assert crease.size == 4  # the line x = 0 of height 1 in facets of length 0.25
+    faces = facet_sets(tagged, clamped=["left"], crease=["crease"])
+    values = faces.tags.values
+    assert faces.num_crease == crease.size
+    assert faces.num_clamped == tagged.facets("left").size == 4
+    assert np.count_nonzero(values == CREASE) == crease.size
+    assert np.all(values[np.searchsorted(faces.tags.indices, crease)] == CREASE)
+    with pytest.raises(InputError, match="clamped group 'crease' contains 4 interior"):
+        facet_sets(tagged, clamped=["crease"])
 
 
 @pytest.mark.mpi

@@ -10,7 +10,8 @@ normal ν of the other side — the convention of the bilayer model, where Z = �
 towards +ν) and negative for a mountain fold.
 
 Summaries are over the whole crease: min, max and the length-weighted mean (weights: the
-reference facet lengths, i.e. the chords between the facet's vertices), reduced over the
+reference facet lengths, i.e. the chords between the facet's vertices), and the length of C,
+∫_C ds in the reference configuration (the arcs of curved cells, not their chords), reduced over the
 communicator, so every rank gets the same numbers and they do not depend on the number of
 ranks. The crease lines in deformed coordinates (``polylines``) are gathered to rank 0 for
 pictures (``plot_deformation(..., lines=...)``).
@@ -28,6 +29,7 @@ import basix
 import dolfinx.fem
 import numpy as np
 import numpy.typing as npt
+import ufl
 
 from dgplate import compat, mpi
 from dgplate.compat import Array, Function, Indices
@@ -74,6 +76,10 @@ class CreaseMeasure:
         self._num_per_facet = samples + 1
         self._ref_points = points.reshape(-1, tdim)
         self._reference_geometry(ref_facets)
+        # ∫_C ds by quadrature, exact for the arcs of curved (higher-order geometry) cells
+        degree = 2 * compat.coordinate_element_degree(mesh)
+        ds_crease = facets.dS(CREASE, metadata={"quadrature_degree": degree})
+        self._length_form = dolfinx.fem.form(ufl.as_ufl(1.0) * ds_crease)
 
         y = surface(u)
         grad, nu = compat.grad(y), unit_normal(y)
@@ -191,7 +197,7 @@ class CreaseMeasure:
             "fold_angle_deg": stats(angle),
             "crease": {
                 "facets": self.num_facets,
-                "length": total,
+                "length": mpi.global_sum(comm, dolfinx.fem.assemble_scalar(self._length_form)),
                 "signed_fold_angle_deg": stats(signed),
                 "max_value_jump": mpi.global_max(comm, float(gap.max(initial=0.0))),
             },
