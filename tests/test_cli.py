@@ -6,7 +6,9 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import PARITY_RTOL
 
+import dgplate
 from dgplate.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -73,7 +75,8 @@ def test_cli_end_to_end(tmp_path):
 
 @pytest.mark.mpi
 def test_cli_in_parallel(tmp_path):
-    """`mpirun -n 2 dgplate run …`: one output directory, the same summary on every rank."""
+    """`mpirun -n 2 dgplate run …`: one output directory, and the energy and step count of a
+    serial run of the same problem."""
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD
@@ -83,5 +86,9 @@ def test_cli_in_parallel(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["ranks"] == comm.size
     assert summary["bbox"][1][2] > 0.0
+    problem = dgplate.load_problem(VERTICAL, {"mesh.cells": [6, 6], "output.progress": 0})
+    serial = dgplate.run(problem, out=tmp_path / f"serial{comm.rank}", comm=MPI.COMM_SELF)
+    assert summary["steps"] == serial["steps"]
+    assert summary["energy"] == pytest.approx(serial["energy"], rel=PARITY_RTOL, abs=0)
     for name in ("history.csv", "final.png", "deformation.bp"):
         assert (out / name).exists()
