@@ -103,7 +103,8 @@ for rho in STAGES:
 # the table. The demo prints, for every stage, ρ, the total energy $I_h + \rho TP_h$, the
 # bending energy, its ratio to the doubly covered circle's, the least distance of
 # non-neighbouring points over the whole stage and the wall time. It asserts: the energy fell
-# at every step of every stage; the least distance stayed positive (no crossing) and the
+# at every step of every stage; the least distance stayed above a quarter of the cell length
+# (the strands kept apart: 0.024 at 32 cells, h = 0.031, by default) and the
 # writhe never jumped (a crossing changes it by ±2); the final bending energy lies between the
 # doubly covered circle's $(c_b/2)(4\pi)^2/L = 78.96$ and the start's; it fell from stage to
 # stage.
@@ -124,7 +125,8 @@ jumps = [
     for _, result, _ in rows
     for a, b in zip(result.history, result.history[1:], strict=False)
 ]
-demo.check_between("least distance of non-neighbouring points", least, low=1e-12)
+cell_length = LENGTH / problem.model.cells
+demo.check_between("least distance of non-neighbouring points", least, low=0.25 * cell_length)
 demo.check_between("largest change of the writhe in one step", max(jumps), high=0.5)
 demo.check_between("final bending energy", final["energy_bending"], low=LIMIT, high=bending0)
 bendings = [result["energy_bending"] for _, result, _ in rows]

@@ -40,7 +40,7 @@ def test_thermal_strip_with_tangent_point():
     for record in records:
         assert record.figures["min_distance"] > 0.05
         assert 0 < record.figures["least_distance"] <= record.figures["min_distance"] + 1e-12
-        assert record.figures["redone"] >= 0
+        assert record.figures["redone"] == 0  # no step came close enough to be redone
     figures = model.figures(driver)
     assert figures["self_avoidance_energy"] > 0
     assert figures["min_distance"] == pytest.approx(records[-1].figures["min_distance"])
