@@ -29,7 +29,6 @@ import basix
 import dolfinx.fem
 import numpy as np
 import numpy.typing as npt
-import ufl
 
 from dgplate import compat, mpi
 from dgplate.compat import Array, Function, Indices
@@ -79,7 +78,7 @@ class CreaseMeasure:
         # ∫_C ds by quadrature, exact for the arcs of curved (higher-order geometry) cells
         degree = 2 * compat.coordinate_element_degree(mesh)
         ds_crease = facets.dS(CREASE, metadata={"quadrature_degree": degree})
-        self._length_form = dolfinx.fem.form(ufl.as_ufl(1.0) * ds_crease)
+        self._length_form = dolfinx.fem.form(dolfinx.fem.Constant(mesh, 1.0) * ds_crease)
 
         y = surface(u)
         grad, nu = compat.grad(y), unit_normal(y)
@@ -197,7 +196,9 @@ class CreaseMeasure:
             "fold_angle_deg": stats(angle),
             "crease": {
                 "facets": self.num_facets,
-                "length": mpi.global_sum(comm, dolfinx.fem.assemble_scalar(self._length_form)),
+                "length": mpi.global_sum(
+                    comm, float(dolfinx.fem.assemble_scalar(self._length_form).real)
+                ),
                 "signed_fold_angle_deg": stats(signed),
                 "max_value_jump": mpi.global_max(comm, float(gap.max(initial=0.0))),
             },
