@@ -9,7 +9,8 @@ The Python API in two calls::
     result["energy"], result.shape  # summary.json's numbers and the final deformation
 
 ``run`` does what ``dgplate run`` does: it validates, writes the same outputs and returns a
-:class:`~dgplate.problems.runner.Result`.
+:class:`~dgplate.problems.runner.Result`. ``check(problem)`` does what ``dgplate check`` does:
+it validates everything ``run`` would (output folder, mesh, model, start) without solving.
 """
 
 from typing import TYPE_CHECKING, Any
@@ -19,7 +20,7 @@ from mpi4py import MPI  # noqa: F401  (MPI must be initialised before dolfinx is
 from dgplate.errors import DgplateError, InputError, SolverError, UnsupportedVersionError
 
 if TYPE_CHECKING:
-    from dgplate.problems.runner import Result, run
+    from dgplate.problems.runner import Result, check, run
     from dgplate.problems.specs import Problem, load_problem, problem_from_dict
 
 __version__ = "0.1.0"
@@ -29,6 +30,7 @@ _LAZY = {
     "problem_from_dict": "dgplate.problems.specs",
     "Problem": "dgplate.problems.specs",
     "run": "dgplate.problems.runner",
+    "check": "dgplate.problems.runner",
     "Result": "dgplate.problems.runner",
 }
 
@@ -50,6 +52,7 @@ __all__ = [
     "SolverError",
     "UnsupportedVersionError",
     "__version__",
+    "check",
     "load_problem",
     "problem_from_dict",
     "run",

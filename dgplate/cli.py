@@ -1,5 +1,8 @@
 """Command line: ``dgplate run PROBLEM.toml [--out DIR] [--force] [--resume] [--set k=v ...]``.
 
+``dgplate check`` takes the same arguments and validates everything ``run`` would (the output
+folder, the mesh, the model, the start) without solving or writing: 0 valid, 2 bad input.
+
 Exit codes: 0 success; 1 the solve did not converge, or failed (outputs are written, with the
 reason); 2 bad input (a one-line message on stderr, nothing written); 130 and 143 the run was
 interrupted by SIGINT or SIGTERM (outputs and a checkpoint are written; ``--resume`` goes on).
@@ -12,12 +15,15 @@ import argparse
 import sys
 import time
 import traceback
-from typing import NoReturn
+from typing import TYPE_CHECKING, NoReturn
 
 from mpi4py import MPI
 
 from dgplate import interrupt
 from dgplate.errors import InputError, UnsupportedVersionError
+
+if TYPE_CHECKING:
+    from dgplate.problems.specs import Problem
 
 AGREE_SECONDS = 10.0
 """How long ranks that failed wait for the others before aborting the whole job."""
@@ -29,26 +35,32 @@ def _parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="solve a problem file and write its outputs")
-    run.add_argument("problem", help="a TOML problem file (see `dgplate schema`)")
-    run.add_argument("--out", help="output directory (default: output.dir or out/<name>)")
-    run.add_argument(
-        "--force",
-        action="store_true",
-        help="write into a non-empty folder that dgplate did not write (its files are kept)",
+    check = sub.add_parser(
+        "check",
+        help="validate a problem file as `run` would (mesh, model, output folder), "
+        "without solving or writing",
     )
-    run.add_argument(
-        "--resume",
-        action="store_true",
-        help="continue from the checkpoint in the output folder (same problem, any ranks)",
-    )
-    run.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="override a problem-file key, e.g. --set mesh.cells=[32,32] --set flow.tau=0.1",
-    )
+    for command in (run, check):
+        command.add_argument("problem", help="a TOML problem file (see `dgplate schema`)")
+        command.add_argument("--out", help="output directory (default: output.dir or out/<name>)")
+        command.add_argument(
+            "--force",
+            action="store_true",
+            help="write into a non-empty folder that dgplate did not write (its files are kept)",
+        )
+        command.add_argument(
+            "--resume",
+            action="store_true",
+            help="continue from the checkpoint in the output folder (same problem, any ranks)",
+        )
+        command.add_argument(
+            "--set",
+            dest="overrides",
+            action="append",
+            default=[],
+            metavar="KEY=VALUE",
+            help="override a problem-file key, e.g. --set mesh.cells=[32,32] --set flow.tau=0.1",
+        )
     schema = sub.add_parser("schema", help="print every problem-file key with its default")
     schema.add_argument(
         "--model", default="kirchhoff", help="the model whose [model] keys to print"
@@ -79,6 +91,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return _command(args, comm)
     except (InputError, UnsupportedVersionError) as err:
+        _drop_solver_options()
         return end_together(errors, 2, f"dgplate: error: {err}")
     except KeyboardInterrupt:
         return end_together(errors, 130, "dgplate: interrupted (SIGINT)")
@@ -97,6 +110,8 @@ def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
     from dgplate.problems.specs import load_problem
 
     problem = load_problem(args.problem, args.overrides)
+    if args.command == "check":
+        return _check(problem, args, comm)
     with interrupt.StopOnSignal():
         summary = run(problem, args.out, comm, force=args.force, resume=args.resume).summary
     if summary.get("interrupted"):
@@ -117,6 +132,37 @@ def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
             )
         return 1
     return 0
+
+
+def _check(problem: Problem, args: argparse.Namespace, comm: MPI.Comm) -> int:
+    """``dgplate check``: one line saying what the run would be, and its warnings."""
+    from dgplate.problems import advice
+    from dgplate.problems.runner import check
+
+    report = check(problem, args.out, comm, force=args.force, resume=args.resume)
+    advice.warn(comm, report["warnings"])
+    if comm.rank == 0:
+        resume = report["resume_step"]
+        after = f", resumes after step {resume}" if resume is not None else ""
+        print(
+            f"dgplate: {report['problem']}: valid: model {report['model']}, "
+            f"{report['cells']:,} cells, {report['dofs']:,} dofs on {report['ranks']} rank(s)"
+            f"{after}, output → {report['output']}",
+            flush=True,
+        )
+    return 0
+
+
+def _drop_solver_options() -> None:
+    """Forget the options of solvers that bad input stopped before they ran.
+
+    PETSc would report them as unused at exit (:func:`dgplate.solvers.linear.drop_options`);
+    without them the error stays one line.
+    """
+    if "petsc4py.PETSc" in sys.modules:
+        from dgplate.solvers.linear import drop_options
+
+        drop_options()
 
 
 def end_together(comm: MPI.Comm, code: int, message: str) -> int:

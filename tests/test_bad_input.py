@@ -220,9 +220,9 @@ def problem_file(case: Case, inputs: Path, name: str) -> Path:
     return Path(case.problem)
 
 
-def command(case: Case, problem: Path, out: Path) -> list[str]:
+def command(case: Case, problem: Path, out: Path, verb: str = "run") -> list[str]:
     sets = [arg for value in (*case.base, *case.sets) for arg in ("--set", value)]
-    return ["run", str(problem), "--out", str(out), *sets]
+    return [verb, str(problem), "--out", str(out), *sets]
 
 
 def assert_nothing_written(run_dir: Path) -> None:
@@ -241,11 +241,13 @@ def test_matrix_size():
     assert set(MPI_CASES) <= set(BAD_INPUT)
 
 
+@pytest.mark.parametrize("verb", ["run", "check"])
 @pytest.mark.parametrize("name", list(BAD_INPUT))
-def test_bad_input_is_one_line_naming_the_key(name, inputs, tmp_path, capsys):
+def test_bad_input_is_one_line_naming_the_key(name, verb, inputs, tmp_path, capsys):
+    """``dgplate check`` refuses every bad input that ``dgplate run`` refuses, in its words."""
     case = BAD_INPUT[name]
     (tmp_path / "keep.txt").write_text("user data")
-    code = main(command(case, problem_file(case, inputs, name), tmp_path / "out"))
+    code = main(command(case, problem_file(case, inputs, name), tmp_path / "out", verb))
     captured = capsys.readouterr()
     assert code == 2, captured.err
     assert_one_error(captured.err, case.expected)

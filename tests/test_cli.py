@@ -73,6 +73,40 @@ def test_cli_end_to_end(tmp_path):
     assert rows[0].startswith("step,time,tau,energy,defect") and len(rows) == 14
 
 
+def test_check_validates_without_writing(tmp_path, capsys):
+    """`dgplate check` builds what `run` would and says what the run would be, writing
+    nothing; `dgplate.check` returns it; a checkpoint is reported with its step."""
+    out = tmp_path / "out"
+    assert main(["check", str(VERTICAL), "--out", str(out), *SMALL]) == 0
+    line = capsys.readouterr().out
+    assert "vertical_load: valid: model kirchhoff, 16 cells, 480 dofs on 1 rank(s)" in line
+    assert not out.exists()
+    short = {"mesh.cells": [4, 4], "flow.max_steps": 2, "output.progress": 0}
+    report = dgplate.check(dgplate.load_problem(VERTICAL, short), out=out)
+    assert report["resume_step"] is None and report["warnings"] == [] and not out.exists()
+    result = dgplate.run(dgplate.load_problem(VERTICAL, short), out=out)
+    assert (report["dofs"], report["cells"]) == (result["dofs"], 16)
+    longer = dgplate.load_problem(VERTICAL, {**short, "flow.max_steps": 5})
+    before = sorted(p.name for p in out.iterdir())
+    assert dgplate.check(longer, out=out, resume=True)["resume_step"] == 2
+    assert sorted(p.name for p in out.iterdir()) == before
+
+
+def test_check_refuses_what_run_refuses(tmp_path, capsys):
+    """An obstacle that the clamped data penetrate, found when the model is built, and a
+    user's folder: exit 2, one line, nothing written."""
+    bad = ["--set", "model.obstacle={type='below', psi=-0.1, epsilon=1e-3}"]
+    assert main(["check", str(VERTICAL), "--out", str(tmp_path / "o"), *SMALL, *bad]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "model.obstacle: the clamped data" in err, err
+    assert not (tmp_path / "o").exists()
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "notes.txt").write_text("user data")
+    assert main(["check", str(VERTICAL), "--out", str(tmp_path / "mine"), *SMALL]) == 2
+    assert "did not write; choose another or pass --force" in capsys.readouterr().err
+    assert [p.name for p in (tmp_path / "mine").iterdir()] == ["notes.txt"]
+
+
 @pytest.mark.mpi
 def test_cli_in_parallel(tmp_path):
     """`mpirun -n 2 dgplate run …`: one output directory, and the energy and step count of a
@@ -81,6 +115,7 @@ def test_cli_in_parallel(tmp_path):
 
     comm = MPI.COMM_WORLD
     out = Path(comm.bcast(str(tmp_path / "par"), root=0))
+    checked = dgplate.check(dgplate.load_problem(VERTICAL, {"mesh.cells": [6, 6]}), out=out)
     assert main(["run", str(VERTICAL), "--out", str(out), "--set", "mesh.cells=[6,6]"]) == 0
     comm.barrier()
     summary = json.loads((out / "summary.json").read_text())
@@ -89,6 +124,7 @@ def test_cli_in_parallel(tmp_path):
     problem = dgplate.load_problem(VERTICAL, {"mesh.cells": [6, 6], "output.progress": 0})
     serial = dgplate.run(problem, out=tmp_path / f"serial{comm.rank}", comm=MPI.COMM_SELF)
     assert summary["steps"] == serial["steps"]
+    assert checked["dofs"] == summary["dofs"] == serial["dofs"] and checked["ranks"] == comm.size
     assert summary["energy"] == pytest.approx(serial["energy"], rel=PARITY_RTOL, abs=0)
     for name in ("history.csv", "final.png", "deformation.bp"):
         assert (out / name).exists()

@@ -245,15 +245,57 @@ def run(
     outputs, with ``converged = false`` and the reason, and a checkpoint.
     """
     wall0 = time.perf_counter()
+    with interrupt.StopOnSignal():
+        target, start, tagged, model = _set_up(problem, out, comm, force, resume)
+        return _solve(_Job(problem, tagged, target, initial, force, start, wall0), model)
+
+
+def check(
+    problem: Problem,
+    out: str | Path | None = None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    initial: Initial | None = None,
+    force: bool = False,
+    resume: bool = False,
+) -> dict[str, Any]:
+    """Validate ``problem`` as :func:`run` would, without solving it or writing anything.
+
+    The output folder, the checkpoint (``resume``), the mesh, the model and its driver with
+    the start's checks (an obstacle the start penetrates, a self-intersecting start) are all
+    built and checked, so every ``InputError`` that :func:`run` would raise is raised here:
+    the check for a cluster job before it queues. Returns what the run would be: problem,
+    model, cells, dofs, ranks, the output folder, the step a resume starts from (None) and
+    the warnings ``run`` would print. Collective on ``comm``.
+    """
+    target, start, tagged, model = _set_up(problem, out, comm, force, resume)
+    driver = model.driver(problem.flow, [], initial)
+    _start(driver, start, target)
+    tdim = tagged.mesh.topology.dim
+    report = {
+        "problem": problem.name,
+        "model": problem.model.name,
+        "cells": int(tagged.mesh.topology.index_map(tdim).size_global),
+        "dofs": _dofs(driver),
+        "ranks": comm.size,
+        "output": str(target),
+        "resume_step": driver.step_count if start is not None else None,
+        "warnings": advice.before_run(problem, tagged, initial) if start is None else [],
+    }
+    driver.destroy()  # not on an error: it is collective, and the error may be on one rank
+    return report
+
+
+def _set_up(
+    problem: Problem, out: str | Path | None, comm: MPI.Comm, force: bool, resume: bool
+) -> tuple[Path, checkpoint.Checkpoint | None, TaggedMesh, Model]:
+    """The output folder (checked), the checkpoint to resume from, the mesh and the model."""
     target = Path(out or problem.output.dir or f"out/{problem.name}")
     OutputDir.check(comm, target, force, resume)
     start = _resume_point(problem, target, comm) if resume else None
-    with interrupt.StopOnSignal():
-        entry = MODELS[problem.model.name]
-        own = entry.mesh  # a model with its own mesh (a rod) has no [mesh]
-        tagged = own(problem.model, comm) if own else build_mesh(problem.mesh, comm)
-        model = entry.build(problem.model, tagged)
-        return _solve(_Job(problem, tagged, target, initial, force, start, wall0), model)
+    entry = MODELS[problem.model.name]
+    own = entry.mesh  # a model with its own mesh (a rod) has no [mesh]
+    tagged = own(problem.model, comm) if own else build_mesh(problem.mesh, comm)
+    return target, start, tagged, entry.build(problem.model, tagged)
 
 
 def _start(

@@ -91,9 +91,18 @@ def destroy_ksp(ksp: PETSc.KSP) -> None:
     prefix = ksp.getOptionsPrefix() or ""
     ksp.destroy()
     if prefix.startswith("dgplate_"):
-        opts = PETSc.Options()
-        for key in [k for k in opts.getAll() if k.startswith(prefix)]:
-            opts.delValue(key)
+        drop_options(prefix)
+
+
+def drop_options(prefix: str = "dgplate_") -> None:
+    """Delete the options database's keys that start with ``prefix`` (not collective).
+
+    With the default, every solver option dgplate set: a command that ends on an error before
+    its solvers ran calls it, so that PETSc does not report them as unused at exit.
+    """
+    opts = PETSc.Options()
+    for key in [k for k in opts.getAll() if k.startswith(prefix)]:
+        opts.delValue(key)
 
 
 def factorise(ksp: PETSc.KSP) -> None:
