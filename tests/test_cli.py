@@ -86,6 +86,12 @@ def test_check_validates_without_writing(tmp_path, capsys):
     assert report["resume_step"] is None and report["warnings"] == [] and not out.exists()
     result = dgplate.run(dgplate.load_problem(VERTICAL, short), out=out)
     assert (report["dofs"], report["cells"]) == (result["dofs"], 16)
+    view = result._repr_html_()  # a notebook's view: the figures and final.png
+    assert (
+        result.folder == out.absolute()
+        and f"<td style='text-align:left'>{result['energy']:.6g}<" in view
+    )
+    assert "<img src='data:image/png;base64," in view
     longer = dgplate.load_problem(VERTICAL, {**short, "flow.max_steps": 5})
     before = sorted(p.name for p in out.iterdir())
     assert dgplate.check(longer, out=out, resume=True)["resume_step"] == 2

@@ -51,16 +51,38 @@ class Result:
 
     ``result["energy"]`` reads the summary. ``shape`` is the final deformation y: ω → ℝ³;
     ``fields`` holds every function of the final state (those a checkpoint stores);
-    ``history`` the rows of ``history.csv``.
+    ``history`` the rows of ``history.csv``; ``folder`` the output folder. In a notebook a
+    result shows itself as a table of its main figures beside its ``final.png``.
     """
 
     summary: dict[str, Any]
     shape: dolfinx.fem.Function[np.float64] | None = None
     fields: dict[str, dolfinx.fem.Function[np.float64]] = field(default_factory=dict)
     history: list[dict[str, Any]] = field(default_factory=list)
+    folder: Path | None = None
 
     def __getitem__(self, key: str) -> Any:
         return self.summary[key]
+
+    def _repr_html_(self) -> str:
+        """Jupyter's view: the main figures of summary.json and the final picture."""
+        import base64
+        import html
+
+        keys = ["problem", "model", "converged", "reason", "steps", "energy"]
+        keys += ["isometry_defect", "dofs", "ranks", "wall_time_s"]
+        rows = "".join(
+            f"<tr><th style='text-align:left'>{key}</th><td style='text-align:left'>"
+            f"{html.escape(_shown(self.summary[key]))}</td></tr>"
+            for key in keys
+            if key in self.summary
+        )
+        out = f"<table>{rows}</table>"
+        picture = self.folder / "final.png" if self.folder is not None else None
+        if picture is not None and picture.is_file():
+            data = base64.b64encode(picture.read_bytes()).decode("ascii")
+            out += f"<img src='data:image/png;base64,{data}' style='max-width:640px'>"
+        return out
 
     def get(self, key: str, default: Any = None) -> Any:
         """``summary.get(key, default)``."""
@@ -381,7 +403,14 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
     summary["peak_memory_mb"] = mpi.peak_memory_mb(comm)
     write_json(comm, out.path / "summary.json", summary)
     out.commit()
-    return Result(summary, driver.shape, driver.checkpoint_fields(), checkpoints.history)
+    return Result(
+        summary, driver.shape, driver.checkpoint_fields(), checkpoints.history, out.target
+    )
+
+
+def _shown(value: Any) -> str:
+    """A summary value as a notebook shows it: floats to 6 significant digits."""
+    return f"{value:.6g}" if isinstance(value, float) else str(value)
 
 
 def _dofs(driver: Driver) -> int:
