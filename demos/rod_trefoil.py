@@ -125,7 +125,7 @@ jumps = [
     for _, result, _ in rows
     for a, b in zip(result.history, result.history[1:], strict=False)
 ]
-cell_length = LENGTH / problem.model.cells
+cell_length = problem.model.length / problem.model.cells
 demo.check_between("least distance of non-neighbouring points", least, low=0.25 * cell_length)
 demo.check_between("largest change of the writhe in one step", max(jumps), high=0.5)
 demo.check_between("final bending energy", final["energy_bending"], low=LIMIT, high=bending0)

@@ -73,7 +73,7 @@ def test_cli_end_to_end(tmp_path):
     assert rows[0].startswith("step,time,tau,energy,defect") and len(rows) == 14
 
 
-def test_check_validates_without_writing(tmp_path, capsys):
+def test_check_validates_without_writing(tmp_path, capsys, monkeypatch):
     """`dgplate check` builds what `run` would and says what the run would be, writing
     nothing; `dgplate.check` returns it; a checkpoint is reported with its step."""
     out = tmp_path / "out"
@@ -93,9 +93,17 @@ def test_check_validates_without_writing(tmp_path, capsys):
     )
     assert "<img src='data:image/png;base64," in view
     longer = dgplate.load_problem(VERTICAL, {**short, "flow.max_steps": 5})
-    before = sorted(p.name for p in out.iterdir())
+    before = sorted((p.relative_to(out), p.stat().st_mtime_ns) for p in out.rglob("*"))
     assert dgplate.check(longer, out=out, resume=True)["resume_step"] == 2
-    assert sorted(p.name for p in out.iterdir()) == before
+    assert sorted((p.relative_to(out), p.stat().st_mtime_ns) for p in out.rglob("*")) == before
+    monkeypatch.chdir(tmp_path)  # a relative folder is reported as run reports it: absolute
+    assert dgplate.check(longer, out="rel")["output"] == str(tmp_path / "rel")
+    assert not (tmp_path / "rel").exists()
+
+
+def test_result_view_escapes_the_summary():
+    view = dgplate.Result({"problem": "p", "reason": "E < tol & steps > 3"})._repr_html_()
+    assert "E &lt; tol &amp; steps &gt; 3" in view and "<img" not in view
 
 
 def test_check_refuses_what_run_refuses(tmp_path, capsys):

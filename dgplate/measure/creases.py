@@ -11,9 +11,9 @@ towards +ν) and negative for a mountain fold.
 
 Summaries are over the whole crease: min, max and the length-weighted mean (weights: the
 reference facet lengths, i.e. the chords between the facet's vertices), and the length of C,
-∫_C ds in the reference configuration (the arcs of curved cells, not their chords), reduced over the
-communicator, so every rank gets the same numbers and they do not depend on the number of
-ranks. The crease lines in deformed coordinates (``polylines``) are gathered to rank 0 for
+∫_C ds in the reference configuration (on curved cells their curved facets, not the chords),
+reduced over the communicator, so every rank gets the same numbers and they do not depend on
+the number of ranks. The crease lines in deformed coordinates (``polylines``) are gathered to rank 0 for
 pictures (``plot_deformation(..., lines=...)``).
 
 Works for vector deformations y ∈ [DG_k]³ and for scalar deflections w (surface (x₁, x₂, w)),
@@ -75,10 +75,8 @@ class CreaseMeasure:
         self._num_per_facet = samples + 1
         self._ref_points = points.reshape(-1, tdim)
         self._reference_geometry(ref_facets)
-        # ∫_C ds by quadrature, exact for the arcs of curved (higher-order geometry) cells
-        degree = 2 * compat.coordinate_element_degree(mesh)
-        ds_crease = facets.dS(CREASE, metadata={"quadrature_degree": degree})
-        self._length_form = dolfinx.fem.form(dolfinx.fem.Constant(mesh, 1.0) * ds_crease)
+        self.facet_sets = facets
+        self._length_form: compat.Form | None = None  # ∫_C ds, compiled by the first length()
 
         y = surface(u)
         grad, nu = compat.grad(y), unit_normal(y)
@@ -179,6 +177,20 @@ class CreaseMeasure:
         sign = np.where(np.einsum("ki,ki->k", conormal, nu0) >= 0.0, 1.0, -1.0)
         return angle, sign * angle, np.linalg.norm(y1 - y0, axis=1)
 
+    def length(self) -> float:
+        """|C| = ∫_C ds in the reference configuration. Collective.
+
+        By quadrature on the cells' own geometry: on curved (order-2) cells the curved facets,
+        not their chords.
+        """
+        if self._length_form is None:
+            mesh = self.mesh
+            degree = 2 * compat.coordinate_element_degree(mesh)
+            ds_crease = self.facet_sets.dS(CREASE, metadata={"quadrature_degree": degree})
+            self._length_form = dolfinx.fem.form(dolfinx.fem.Constant(mesh, 1.0) * ds_crease)
+        local = float(dolfinx.fem.assemble_scalar(self._length_form).real)
+        return mpi.global_sum(self.comm, local)
+
     def summary(self) -> dict[str, Any]:
         """Fold-angle statistics over C (same numbers on every rank), for summary.json."""
         comm = self.comm
@@ -196,9 +208,7 @@ class CreaseMeasure:
             "fold_angle_deg": stats(angle),
             "crease": {
                 "facets": self.num_facets,
-                "length": mpi.global_sum(
-                    comm, float(dolfinx.fem.assemble_scalar(self._length_form).real)
-                ),
+                "length": self.length(),
                 "signed_fold_angle_deg": stats(signed),
                 "max_value_jump": mpi.global_max(comm, float(gap.max(initial=0.0))),
             },

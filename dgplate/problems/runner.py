@@ -52,7 +52,7 @@ class Result:
     ``result["energy"]`` reads the summary. ``shape`` is the final deformation y: ω → ℝ³;
     ``fields`` holds every function of the final state (those a checkpoint stores);
     ``history`` the rows of ``history.csv``; ``folder`` the output folder. In a notebook a
-    result shows itself as a table of its main figures beside its ``final.png``.
+    result shows itself as a table of its main figures and its ``final.png``.
     """
 
     summary: dict[str, Any]
@@ -82,7 +82,7 @@ class Result:
         if picture is not None and picture.is_file():
             data = base64.b64encode(picture.read_bytes()).decode("ascii")
             out += f"<img src='data:image/png;base64,{data}' style='max-width:640px'>"
-        return out
+        return f"<div style='display:flex;gap:1em;align-items:flex-start'>{out}</div>"
 
     def get(self, key: str, default: Any = None) -> Any:
         """``summary.get(key, default)``."""
@@ -288,6 +288,9 @@ def check(
     the check for a cluster job before it queues. Returns what the run would be: problem,
     model, cells, dofs, ranks, the output folder, the step a resume starts from (None) and
     the warnings ``run`` would print. Collective on ``comm``.
+
+    Args: those of :func:`run`; nothing is written, so ``force`` only accepts a user's folder
+    and ``resume`` checks the checkpoint there.
     """
     target, start, tagged, model = _set_up(problem, out, comm, force, resume)
     driver = model.driver(problem.flow, [], initial)
@@ -299,7 +302,7 @@ def check(
         "cells": int(tagged.mesh.topology.index_map(tdim).size_global),
         "dofs": _dofs(driver),
         "ranks": comm.size,
-        "output": str(target),
+        "output": str(target.absolute()),
         "resume_step": driver.step_count if start is not None else None,
         "warnings": advice.before_run(problem, tagged, initial) if start is None else [],
     }
@@ -329,6 +332,7 @@ def _start(
     start.restore(driver.checkpoint_fields())
     driver.restore_state(start.state["driver"])
     if driver.remaining_steps() <= 0:
+        driver.destroy()  # collective, and safe: every rank restored the same state
         raise InputError(
             f"--resume: the run in {target} spent its step budget already "
             f"({driver.step_count} steps); raise flow.max_steps to continue it"
