@@ -142,3 +142,39 @@ def test_cli_in_parallel(tmp_path):
     assert summary["energy"] == pytest.approx(serial["energy"], rel=PARITY_RTOL, abs=0)
     for name in ("history.csv", "final.png", "deformation.bp"):
         assert (out / name).exists()
+
+
+class _PathDriver:
+    """A driver on a path of known length: a fifth of it per step."""
+
+    def __init__(self) -> None:
+        self.fraction = 0.0
+
+    def path_progress(self) -> tuple[float, str]:
+        return self.fraction, "α = 1"
+
+
+def test_progress_printer_estimates_the_time_left():
+    """From the pace after the first step: 0.2 of the path per 10 s, so 0.4 left is 20 s."""
+    import io
+    from types import SimpleNamespace
+
+    from mpi4py import MPI
+
+    from dgplate.io.output import ProgressPrinter, duration
+
+    ticks = iter([100.0, 110.0, 120.0, 130.0, 140.0])
+    stream = io.StringIO()
+    printer = ProgressPrinter(MPI.COMM_SELF, 1, stream, clock=lambda: next(ticks))
+    driver = _PathDriver()
+    for step in range(1, 6):
+        driver.fraction = 0.2 * step
+        printer.step(driver, SimpleNamespace(step=step, line=lambda: "line"))
+    assert stream.getvalue().splitlines() == [
+        "line",
+        "line  (α = 1 in ~30 s)",
+        "line  (α = 1 in ~20 s)",
+        "line  (α = 1 in ~10 s)",
+        "line",
+    ]
+    assert [duration(s) for s in (45, 720, 12600)] == ["45 s", "12 min", "3.5 h"]

@@ -76,6 +76,18 @@ def test_rigid_motion_of_the_data_gives_a_rigid_plate(tmp_path, comm, model):
     assert result["continuation_stage"] == result["continuation_stages"] == 4
 
 
+def test_progress_lines_estimate_when_alpha_reaches_one(tmp_path, capsys):
+    """Once a stage has ended (the pace is known), the lines end with the time left to α = 1
+    until the last stage starts; the last stage's lines (its length is unknown) do not."""
+    dgplate.run(flap(**{"output.progress": 1}), out=tmp_path / "o", comm=MPI.COMM_SELF)
+    lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("α =")]
+    alphas = ("0.25", "0.50", "0.75", "1.00")
+    stage = {a: [line for line in lines if line.startswith(f"α = {a}")] for a in alphas}
+    assert all(stage.values())
+    assert not any("α = 1 in" in line for line in stage["0.25"][:-1] + stage["1.00"])
+    assert all(line.endswith(" s)") and "  (α = 1 in ~" in line for line in stage["0.50"])
+
+
 @pytest.mark.mpi
 def test_resume_keeps_alpha(tmp_path, comm):
     """A run stopped in the second stage resumes there (any number of ranks) and ends where an

@@ -195,6 +195,11 @@ class ThermalBilayer:
         """The physical time of the heat equation."""
         return self.heat.time
 
+    def path_progress(self) -> tuple[float, str]:
+        """The part of the heating schedule done, t / end_time, and its end (for the ETA)."""
+        end = self.schedule.end_time
+        return min(self.heat.time / end, 1.0), f"t = {end:g}"
+
     @property
     def interrupted(self) -> int:
         """The signal that stopped the last relaxation (0: none)."""

@@ -16,6 +16,7 @@ import os
 import shutil
 import sys
 import tempfile
+import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TextIO
@@ -201,17 +202,48 @@ def _jsonable(value: object) -> object:
 
 
 class ProgressPrinter:
-    """Rank-0 progress: each record's line every ``every`` steps, and how the run ended."""
+    """Rank-0 progress: each record's line every ``every`` steps, and how the run ended.
 
-    def __init__(self, comm: MPI.Comm, every: int = 1, stream: TextIO | None = None):
-        self.comm, self.every, self.stream = comm, every, stream or sys.stdout
+    A driver with a path of known length (a continuation in α, a heating schedule) has
+    ``path_progress() -> (fraction done, name of the end)``; its lines then end with the
+    estimated time to that end, ``(α = 1 in ~12 min)``, from the pace since the first step
+    (which holds the compilation and the first factorisation, so it is left out).
+    """
+
+    def __init__(
+        self,
+        comm: MPI.Comm,
+        every: int = 1,
+        stream: TextIO | None = None,
+        clock: Callable[[], float] = time.perf_counter,
+    ):
+        self.comm, self.every, self.stream, self.clock = comm, every, stream or sys.stdout, clock
         #: steps done before a resume (the runner sets it), so the last line counts them all
         self.earlier_steps = 0
+        self._path_start: tuple[float, float] | None = None  # (clock, fraction) at step one
 
     def step(self, driver: Driver, record: Record) -> None:
-        """Print ``record.line()`` every ``every`` steps."""
+        """Print ``record.line()`` every ``every`` steps, with the time left on a path."""
+        left = self._time_left(driver)
         if self.every and record.step % self.every == 0:
-            print0(self.comm, record.line(), file=self.stream)
+            print0(self.comm, record.line() + left, file=self.stream)
+
+    def _time_left(self, driver: Driver) -> str:
+        """``"  (α = 1 in ~3 min)"``, or ``""`` without a path or a pace yet."""
+        progress = getattr(driver, "path_progress", None)
+        done = progress() if progress is not None else None
+        if done is None:
+            return ""
+        fraction, end = done
+        now = self.clock()
+        if self._path_start is None:
+            self._path_start = (now, fraction)
+            return ""
+        start, first = self._path_start
+        if not first < fraction < 1.0 or now <= start:
+            return ""
+        seconds = (now - start) * (1.0 - fraction) / (fraction - first)
+        return f"  ({end} in ~{duration(seconds)})"
 
     def finish(self, driver: Driver, result: RunResult) -> None:
         """Print how the run ended, and the steps at which the energy went up (if any)."""
@@ -227,6 +259,15 @@ class ProgressPrinter:
                 f"dgplate: warning: the energy increased at step(s) {increases[:10]}",
                 file=self.stream,
             )
+
+
+def duration(seconds: float) -> str:
+    """A rounded duration for people: ``45 s``, ``12 min``, ``3.5 h``."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 90 * 60:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
 
 
 def write_history(comm: MPI.Comm, path: Path, rows: Sequence[Mapping[str, Any]]) -> None:

@@ -236,6 +236,15 @@ class ContinuationFlow:
         """True once the last stage has converged."""
         return self.stage >= self.schedule.stages
 
+    def path_progress(self) -> tuple[float, str] | None:
+        """The part of the α path done (stages ended, up to the last stage's start) and its end.
+
+        The progress printer estimates from it when α = 1 is reached; the last stage (until
+        the flow converges) is not part of the estimate. None: a single stage.
+        """
+        last = self.schedule.stages - 1
+        return (min(self.stage / last, 1.0), "α = 1") if last > 0 else None
+
     def forward(self, info: StepInfo) -> None:
         """Report a flow step with its α; end the stage when it is done.
 
