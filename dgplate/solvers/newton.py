@@ -396,6 +396,10 @@ class Continuation:
         """Load steps of the schedule not solved yet."""
         return len(self.schedule) - self.step_count
 
+    def path_progress(self) -> tuple[float, str]:
+        """The part of the schedule solved and its end, for the progress lines' estimate."""
+        return self.step_count / len(self.schedule), f"load factor {self.schedule[-1]:g}"
+
     def run(self, max_steps: int | None = None) -> RunResult:
         """Solve the rest of the schedule, at most ``max_steps`` load steps (None: all).
 
