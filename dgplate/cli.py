@@ -145,9 +145,8 @@ def _check(problem: Problem, args: argparse.Namespace, comm: MPI.Comm) -> int:
         resume = report["resume_step"]
         after = f", resumes after step {resume}" if resume is not None else ""
         print(
-            f"dgplate: {report['problem']}: valid: model {report['model']}, "
-            f"{report['cells']:,} cells, {report['dofs']:,} dofs on {report['ranks']} rank(s)"
-            f"{after}, output → {report['output']}",
+            f"dgplate: {report['problem']}: valid: {report['setting']}{after}, "
+            f"output → {report['output']}",
             flush=True,
         )
     return 0

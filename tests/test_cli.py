@@ -86,6 +86,7 @@ def test_check_validates_without_writing(tmp_path, capsys, monkeypatch):
     assert report["resume_step"] is None and report["warnings"] == [] and not out.exists()
     result = dgplate.run(dgplate.load_problem(VERTICAL, short), out=out)
     assert (report["dofs"], report["cells"]) == (result["dofs"], 16)
+    assert f"vertical_load: {report['setting']}, output → {out}" in capsys.readouterr().out
     view = result._repr_html_()  # a notebook's view: the figures and final.png
     assert (
         result.folder == out.absolute()

@@ -286,8 +286,9 @@ def check(
     the start's checks (an obstacle the start penetrates, a self-intersecting start) are all
     built and checked, so every ``InputError`` that :func:`run` would raise is raised here:
     the check for a cluster job before it queues. Returns what the run would be: problem,
-    model, cells, dofs, ranks, the output folder, the step a resume starts from (None) and
-    the warnings ``run`` would print. Collective on ``comm``.
+    model, cells, dofs, ranks (and ``setting``, the three in words, as ``run`` prints them),
+    the output folder, the step a resume starts from (None) and the warnings ``run`` would
+    print. Collective on ``comm``.
 
     Args: those of :func:`run`; nothing is written, so ``force`` only accepts a user's folder
     and ``resume`` checks the checkpoint there.
@@ -295,11 +296,11 @@ def check(
     target, start, tagged, model = _set_up(problem, out, comm, force, resume)
     driver = model.driver(problem.flow, [], initial)
     _start(driver, start, target)
-    tdim = tagged.mesh.topology.dim
     report = {
         "problem": problem.name,
         "model": problem.model.name,
-        "cells": int(tagged.mesh.topology.index_map(tdim).size_global),
+        "setting": _setting(problem, tagged, driver),
+        "cells": _cells(tagged),
         "dofs": _dofs(driver),
         "ranks": comm.size,
         "output": str(target.absolute()),
@@ -378,8 +379,8 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
     resumed = f", resumed at step {driver.step_count}" if start is not None else ""
     print0(
         comm,
-        f"dgplate: {problem.name}: model {problem.model.name}, {_dofs(driver)} dofs on "
-        f"{comm.size} rank(s){resumed}, output → {out.target}",
+        f"dgplate: {problem.name}: {_setting(problem, tagged, driver)}{resumed}, "
+        f"output → {out.target}",
     )
     checkpoints = Checkpoints(
         out.checkpoint_dir, driver.checkpoint_every, checkpoint.fingerprint(problem.raw), earlier
@@ -419,6 +420,18 @@ def _shown(value: Any) -> str:
 
 def _dofs(driver: Driver) -> int:
     return int(driver.summary().get("dofs", 0))
+
+
+def _cells(tagged: TaggedMesh) -> int:
+    return int(tagged.mesh.topology.index_map(tagged.mesh.topology.dim).size_global)
+
+
+def _setting(problem: Problem, tagged: TaggedMesh, driver: Driver) -> str:
+    """``model kirchhoff, 256 cells, 7,680 dofs on 2 rank(s)``: what a run solves, and where."""
+    return (
+        f"model {problem.model.name}, {_cells(tagged):,} cells, {_dofs(driver):,} dofs on "
+        f"{tagged.comm.size} rank(s)"
+    )
 
 
 def _area(tagged: TaggedMesh) -> float:
