@@ -61,7 +61,7 @@ def test_cli_end_to_end(tmp_path):
     )
     assert proc.returncode == 0, proc.stderr
     assert "step    13" in proc.stdout and "converged" in proc.stdout
-    for name in ("summary.json", "history.csv", "final.png", "deformation.bp"):
+    for name in ("summary.json", "history.csv", "history.png", "final.png", "deformation.bp"):
         assert (out / name).exists(), name
     summary = json.loads((out / "summary.json").read_text())
     assert SUMMARY_KEYS <= set(summary)
@@ -179,3 +179,25 @@ def test_progress_printer_estimates_the_time_left():
         "line",
     ]
     assert [duration(s) for s in (45, 720, 12600)] == ["45 s", "12 min", "3.5 h"]
+
+
+def test_history_chart_draws_what_the_rows_hold(tmp_path):
+    """One panel per quantity with finite values (NaN, bools and zeros on log scales left
+    out); nothing to draw: no file."""
+    from PIL import Image
+
+    from dgplate.io.history_chart import plot_history
+
+    rows = [
+        {"step": n, "energy": 1.0 / n, "rate": 10.0**-n, "stationarity": float("nan"),
+         "defect": 0.0 if n == 1 else 1e-3 * n, "alpha": min(1.0, 0.25 * n), "hold": False}
+        for n in range(1, 6)
+    ]  # fmt: skip
+    assert plot_history(rows, tmp_path / "h.png", "title", tol=1e-4)
+    width, height = Image.open(tmp_path / "h.png").size
+    assert (width, height) == (640, 680)  # three panels: 100 dpi × (2.0 + 1.6 × 3) in
+    only_energy = [{"step": n, "energy": float(n)} for n in range(1, 4)]
+    assert plot_history(only_energy, tmp_path / "e.png")
+    assert Image.open(tmp_path / "e.png").size[1] == 360  # one panel
+    assert not plot_history([{"step": 1, "seconds": 0.1}], tmp_path / "none.png")
+    assert not (tmp_path / "none.png").exists()

@@ -187,6 +187,23 @@ def _publish(tmp: str, path: Path) -> None:
     os.replace(tmp, path)
 
 
+def save_figure(fig: Any, path: str | Path, dpi: int = 110) -> None:
+    """Write a matplotlib figure to the PNG ``path`` atomically, then close it."""
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=dpi, format="png")
+        _publish(tmp, path)
+    finally:
+        plt.close(fig)
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
 def render_png(
     grid: pyvista.UnstructuredGrid | None,
     path: str | Path,
@@ -362,13 +379,7 @@ def plot_curve(u: dolfinx.fem.Function[np.float64], path: str | Path, title: str
     ax.set(zlim=centre[2] + [-radius, radius], xlabel="x", ylabel="y", zlabel="z")
     ax.set_box_aspect((1, 1, 1))
     ax.set_title(title, fontsize=9)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
-    os.close(fd)
-    fig.savefig(tmp, dpi=120)
-    plt.close(fig)
-    _publish(tmp, path)
+    save_figure(fig, path, dpi=120)
 
 
 def frames_to_gif(
@@ -479,17 +490,7 @@ def montage(
     fig.tight_layout(rect=(0, room, 1, 1))
     if note:
         fig.text(0.5, 0.01, note, ha="center", va="bottom", fontsize=9)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=110, format="png")
-        _publish(tmp, path)
-    finally:
-        plt.close(fig)
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    save_figure(fig, path, dpi=110)
 
 
 __all__ = [
@@ -499,6 +500,7 @@ __all__ = [
     "offscreen_png",
     "plot_deformation",
     "render_png",
+    "save_figure",
     "start_offscreen",
     "surface_grid",
 ]

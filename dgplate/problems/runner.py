@@ -26,6 +26,7 @@ import ufl
 from dgplate import compat, interrupt, mpi
 from dgplate.errors import InputError
 from dgplate.io import checkpoint
+from dgplate.io.history_chart import plot_history
 from dgplate.io.output import (
     CHECKPOINT,
     OutputDir,
@@ -404,6 +405,11 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
     write_history(comm, out.path / "history.csv", checkpoints.history)
     if problem.output.png:
         _picture(problem, model, driver, summary, out.path / "final.png")
+        if comm.rank == 0:
+            flow = problem.flow
+            plot_history(
+                checkpoints.history, out.path / "history.png", problem.name, flow.tol, flow.stop
+            )
     summary["wall_time_s"] = time.perf_counter() - wall0
     summary["peak_memory_mb"] = mpi.peak_memory_mb(comm)
     write_json(comm, out.path / "summary.json", summary)

@@ -68,7 +68,7 @@ class OutputSpec:
     dir: str = option("", "output directory (default out/<problem name>); --out overrides it")
     vtx: bool = option(True, "write a VTX time series (ParaView) of the deformation")
     every: int = option(1, "write the time series every n steps (the final state always)")
-    png: bool = option(True, "render final.png off-screen")
+    png: bool = option(True, "render final.png off-screen, and history.png (the run step by step)")
     color_by: str = option("curvature", "colour of final.png: 'curvature' (|D²y|) or 'defect'")
     progress: int = option(1, "print progress every n steps on rank 0 (0: quiet)")
     frames_every: int = option(
