@@ -13,8 +13,8 @@ Summaries are over the whole crease: min, max and the length-weighted mean (weig
 reference facet lengths, i.e. the chords between the facet's vertices), and the length of C,
 ∫_C ds in the reference configuration (on curved cells their curved facets, not the chords),
 reduced over the communicator, so every rank gets the same numbers and they do not depend on
-the number of ranks. The crease lines in deformed coordinates (``polylines``) are gathered to rank 0 for
-pictures (``plot_deformation(..., lines=...)``).
+the number of ranks. The crease lines in deformed coordinates (``polylines``) are gathered to
+rank 0 for pictures (``plot_deformation(..., lines=...)``).
 
 Works for vector deformations y ∈ [DG_k]³ and for scalar deflections w (surface (x₁, x₂, w)),
 on triangles and quadrilaterals. Every function here is collective on the mesh communicator.
