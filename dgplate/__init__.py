@@ -11,6 +11,7 @@ The Python API in two calls::
 ``run`` does what ``dgplate run`` does: it validates, writes the same outputs and returns a
 :class:`~dgplate.problems.runner.Result`. ``check(problem)`` does what ``dgplate check`` does:
 it validates everything ``run`` would (output folder, mesh, model, start) without solving.
+``load_result(folder)`` reads a finished run back (summary, history, final state).
 """
 
 from typing import TYPE_CHECKING, Any
@@ -20,6 +21,7 @@ from mpi4py import MPI  # noqa: F401  (MPI must be initialised before dolfinx is
 from dgplate.errors import DgplateError, InputError, SolverError, UnsupportedVersionError
 
 if TYPE_CHECKING:
+    from dgplate.problems.results import load_result
     from dgplate.problems.runner import Result, check, run
     from dgplate.problems.specs import Problem, load_problem, problem_from_dict
 
@@ -32,6 +34,7 @@ _LAZY = {
     "run": "dgplate.problems.runner",
     "check": "dgplate.problems.runner",
     "Result": "dgplate.problems.runner",
+    "load_result": "dgplate.problems.results",
 }
 
 
@@ -54,6 +57,7 @@ __all__ = [
     "__version__",
     "check",
     "load_problem",
+    "load_result",
     "problem_from_dict",
     "run",
 ]

@@ -2,6 +2,8 @@
 
 ``dgplate check`` takes the same arguments and validates everything ``run`` would (the output
 folder, the mesh, the model, the start) without solving or writing: 0 valid, 2 bad input.
+``dgplate show OUT [OUT ...]`` prints finished or running runs from their output folders: one
+run in detail, several as a table.
 
 Exit codes: 0 success; 1 the solve did not converge, or failed (outputs are written, with the
 reason); 2 bad input (a one-line message on stderr, nothing written); 130 and 143 the run was
@@ -61,6 +63,11 @@ def _parser() -> argparse.ArgumentParser:
             metavar="KEY=VALUE",
             help="override a problem-file key, e.g. --set mesh.cells=[32,32] --set flow.tau=0.1",
         )
+    show = sub.add_parser(
+        "show",
+        help="print runs from their output folders: one in detail, several as a table",
+    )
+    show.add_argument("folders", nargs="+", metavar="OUT", help="dgplate output folders")
     schema = sub.add_parser("schema", help="print every problem-file key with its default")
     schema.add_argument(
         "--model", default="kirchhoff", help="the model whose [model] keys to print"
@@ -106,6 +113,8 @@ def main(argv: list[str] | None = None) -> int:
 def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
     if args.command == "schema":
         return _schema(args.model)
+    if args.command == "show":
+        return _show(args.folders, comm)
     from dgplate.problems.runner import run
     from dgplate.problems.specs import load_problem
 
@@ -149,6 +158,25 @@ def _check(problem: Problem, args: argparse.Namespace, comm: MPI.Comm) -> int:
             f"output → {report['output']}",
             flush=True,
         )
+    return 0
+
+
+def _show(folders: list[str], comm: MPI.Comm) -> int:
+    """``dgplate show``: the runs' summaries, read on rank 0 (files only, nothing built)."""
+    from dgplate.io.records import details, read_summary, table
+
+    report: str | InputError | None = None
+    if comm.rank == 0:
+        try:
+            summaries = [read_summary(folder) for folder in folders]
+            report = details(summaries[0]) if len(summaries) == 1 else table(summaries)
+        except InputError as err:
+            report = err
+    report = comm.bcast(report, root=0)
+    if isinstance(report, InputError):
+        raise report
+    if comm.rank == 0:
+        print(report, flush=True)
     return 0
 
 

@@ -156,14 +156,22 @@ def save(
     os.replace(tmp, directory / STATE_FILE)
 
 
-def load(directory: Path, comm: MPI.Comm, expected_fingerprint: str | None = None) -> Checkpoint:
-    """Read the checkpoint (rank 0 reads, every rank gets it); refuse another problem's."""
+def load(
+    directory: Path,
+    comm: MPI.Comm,
+    expected_fingerprint: str | None = None,
+    purpose: str = "--resume",
+) -> Checkpoint:
+    """Read the checkpoint (rank 0 reads, every rank gets it); refuse another problem's.
+
+    ``purpose`` begins the error messages: what the checkpoint was read for.
+    """
     data, message = None, None
     if comm.rank == 0:
         try:
             data = _read(directory / STATE_FILE)
         except (OSError, ValueError, KeyError) as err:
-            message = f"--resume: cannot read the checkpoint in {directory}: {err}"
+            message = f"{purpose}: cannot read the checkpoint in {directory}: {err}"
     data, message = comm.bcast((data, message), root=0)
     if message:
         raise InputError(message)
@@ -171,7 +179,7 @@ def load(directory: Path, comm: MPI.Comm, expected_fingerprint: str | None = Non
     found = data.state.get("fingerprint")
     if expected_fingerprint is not None and found != expected_fingerprint:
         raise InputError(
-            f"--resume: the checkpoint in {directory} belongs to another problem "
+            f"{purpose}: the checkpoint in {directory} belongs to another problem "
             "(the problem file or --set values differ from the run that wrote it; only "
             "[output], flow.max_steps and flow.checkpoint_every may change)"
         )

@@ -1,0 +1,202 @@
+"""Read a run's output folder back: its summary, its history, and a table of several runs.
+
+This is what ``dgplate show`` prints and what :func:`dgplate.load_result` reads. It reads
+files only (no mesh, no solver), so a glance at many finished or still running runs, e.g.
+``dgplate show out/*`` after a parameter study on a cluster, takes a moment. A folder dgplate did not write
+is refused with a one-line ``InputError``; a folder of a run that is still going (or was
+killed before it wrote its summary) is read from its checkpoint.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dgplate.errors import InputError, read_user_text
+from dgplate.io.output import CHECKPOINT, MARKER, duration, is_dgplate_output
+
+SUMMARY = "summary.json"
+HISTORY = "history.csv"
+
+#: The columns of ``dgplate show``'s table: (title, summary key, format).
+COLUMNS: tuple[tuple[str, str, str], ...] = (
+    ("problem", "problem", "s"),
+    ("model", "model", "s"),
+    ("cells", "cells", ","),
+    ("dofs", "dofs", ","),
+    ("ranks", "ranks", "d"),
+    ("steps", "steps", "d"),
+    ("status", "status", "s"),
+    ("E_h", "energy", ".6e"),
+    ("D_h", "isometry_defect", ".3e"),
+    ("wall", "wall_time_s", "duration"),
+)
+
+
+def read_summary(folder: str | Path) -> dict[str, Any]:
+    """The run's ``summary.json``, with ``status`` and ``folder`` added.
+
+    ``status`` is ``converged``, ``not converged`` or ``interrupted``; a run that has written
+    a checkpoint but no summary yet (running, or killed) gives the checkpoint's step and last
+    history row, with ``status = "checkpoint only"``. Raises ``InputError`` (naming the folder)
+    for a folder dgplate did not write or that holds neither.
+    """
+    path = Path(folder)
+    if not path.is_dir():
+        raise InputError(f"{path}: no such output folder")
+    if not is_dgplate_output(path):
+        raise InputError(f"{path} is not a dgplate output folder (it has no {MARKER})")
+    summary_file = path / SUMMARY
+    summary: dict[str, Any]
+    if summary_file.is_file():
+        try:
+            data = json.loads(read_user_text(summary_file, "summary"))
+        except json.JSONDecodeError as err:
+            raise InputError(f"{summary_file}: not valid JSON: {err}") from None
+        if not isinstance(data, dict):
+            raise InputError(f"{summary_file}: not a dgplate summary")
+        summary = data
+        summary["status"] = _status(summary)
+    else:
+        summary = _from_checkpoint(path)
+    summary["folder"] = str(path)
+    return summary
+
+
+def _status(summary: dict[str, Any]) -> str:
+    if summary.get("interrupted"):
+        return "interrupted"
+    return "converged" if summary.get("converged") else "not converged"
+
+
+def checkpoint_state(folder: Path) -> dict[str, Any]:
+    """The JSON state of the checkpoint in ``folder`` (step, history, fingerprint, …)."""
+    file = folder / CHECKPOINT / "state.npz"
+    if not file.is_file():
+        raise InputError(f"{folder} holds neither {SUMMARY} nor a checkpoint")
+    try:
+        with np.load(file) as npz:
+            state = json.loads(bytes(npz["__state__"]).decode())
+    except (OSError, ValueError, KeyError) as err:
+        raise InputError(f"cannot read the checkpoint in {folder}: {err}") from None
+    if not isinstance(state, dict):
+        raise InputError(f"the checkpoint in {folder} is not a dgplate checkpoint")
+    return state
+
+
+def _from_checkpoint(folder: Path) -> dict[str, Any]:
+    """What a summary would say, from the checkpoint of a run without one (yet)."""
+    state = checkpoint_state(folder)
+    history = state.get("history") or [{}]
+    last = history[-1]
+    return {
+        "steps": state.get("step"),
+        "status": "checkpoint only",
+        "energy": last.get("energy"),
+        "isometry_defect": last.get("defect"),
+    }
+
+
+def read_history(folder: str | Path) -> list[dict[str, Any]]:
+    """The rows of ``history.csv`` as dicts of numbers (empty cells are None).
+
+    A run without a history file yet gives the history its checkpoint holds, or [].
+    """
+    path = Path(folder)
+    file = path / HISTORY
+    if not file.is_file():
+        try:
+            return list(checkpoint_state(path).get("history", []))
+        except InputError:
+            return []
+    reader = csv.DictReader(io.StringIO(read_user_text(file, "history")))
+    return [{key: _number(value) for key, value in row.items()} for row in reader]
+
+
+def _number(text: str | None) -> Any:
+    """A CSV cell as the value it was written from: int, float, bool, None or text."""
+    if text is None or text == "":
+        return None
+    if text in ("True", "False"):
+        return text == "True"
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+def _cell(value: Any, form: str) -> str:
+    if value is None:
+        return "—"
+    if form == "duration":
+        return duration(float(value))
+    if isinstance(value, bool) or not isinstance(value, int | float) or form == "s":
+        return str(value)
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    return format(value, form)
+
+
+def table(summaries: Sequence[dict[str, Any]]) -> str:
+    """The runs as a plain-text table, one row each: folder, problem, …, E_h, D_h, wall time.
+
+    Columns that no run has (D_h of FvK runs, say) are left out.
+    """
+    columns = [("folder", "folder", "s")]
+    columns += [c for c in COLUMNS if any(s.get(c[1]) is not None for s in summaries)]
+    rows = [[title for title, _, _ in columns]]
+    rows += [[_cell(s.get(key), form) for _, key, form in columns] for s in summaries]
+    widths = [max(len(row[i]) for row in rows) for i in range(len(columns))]
+    numeric = [form not in ("s",) for _, _, form in columns]
+    lines = []
+    for row in rows:
+        cells = [
+            text.rjust(width) if right else text.ljust(width)
+            for text, width, right in zip(row, widths, numeric, strict=True)
+        ]
+        lines.append("  ".join(cells).rstrip())
+    return "\n".join(lines)
+
+
+def details(summary: dict[str, Any]) -> str:
+    """One run in words: what it solved, how it ended, and every figure of its summary."""
+    head = f"{summary['folder']}: {summary.get('problem', '?')} ({summary.get('model', '?')})"
+    if summary.get("cells") is not None:
+        head += f", {summary['cells']:,} cells"
+    if summary.get("dofs") is not None:
+        head += f", {summary['dofs']:,} dofs"
+    if summary.get("ranks") is not None:
+        head += f" on {summary['ranks']} rank(s)"
+    status = summary["status"]
+    reason = summary.get("reason")
+    steps = summary.get("steps")
+    if status == "checkpoint only":
+        ending = f"no {SUMMARY} yet (running, or stopped without one): checkpoint at step {steps}"
+    else:
+        ending = f"{status} after {steps} steps"
+    if summary.get("wall_time_s") is not None:
+        ending += f" in {duration(float(summary['wall_time_s']))}"
+    lines = [head, f"  {ending}" + (f": {reason}" if reason else "")]
+    skip = {"folder", "status", "reason", "problem", "model", "cells", "dofs", "ranks", "steps"}
+    skip |= {"input", "converged", "interrupted", "wall_time_s"}
+    scalars = {
+        key: value
+        for key, value in summary.items()
+        if key not in skip and (value is None or isinstance(value, str | int | float))
+    }
+    width = max((len(key) for key in scalars), default=0)
+    for key, value in scalars.items():
+        shown = f"{value:.10g}" if isinstance(value, float) else str(value)
+        lines.append(f"  {key.ljust(width)}  {shown}")
+    return "\n".join(lines)

@@ -1,0 +1,73 @@
+"""A finished run read back from its output folder, as the :class:`Result` ``run`` returned.
+
+``dgplate.load_result("out/box")`` reads ``summary.json`` and ``history.csv`` and, with
+``state=True`` (the default), rebuilds the problem's mesh and model from the input recorded
+in the summary and restores the final state from the checkpoint: ``result.shape`` is then the
+final deformation on this process's ranks, whatever number of ranks the run had. The run
+on a cluster, the look at it in a notebook.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from mpi4py import MPI
+
+from dgplate.errors import InputError
+from dgplate.io import checkpoint
+from dgplate.io.output import CHECKPOINT
+from dgplate.io.records import read_history, read_summary
+from dgplate.problems.registry import MODELS
+from dgplate.problems.runner import Result, build_mesh
+from dgplate.problems.specs import problem_from_dict
+
+
+def load_result(folder: str | Path, comm: MPI.Comm = MPI.COMM_WORLD, state: bool = True) -> Result:
+    """The :class:`Result` of the run whose outputs are in ``folder``.
+
+    Args:
+        folder: a dgplate output folder (``run``'s ``out``).
+        comm: the ranks to hold the final state (collective on it when ``state``).
+        state: rebuild the mesh and the model and restore the final state from the
+            checkpoint (``shape``, ``fields``); False reads the files only.
+
+    Raises ``InputError`` for a folder dgplate did not write, a run without a summary, or,
+    with ``state``, a mesh file that cannot be found from here or a checkpoint of another
+    problem.
+    """
+    path = Path(folder)
+    summary = comm.bcast(_read_or_error(path, comm), root=0)
+    if isinstance(summary, InputError):
+        raise summary
+    history = read_history(path) if comm.rank == 0 else []
+    history = comm.bcast(history, root=0)
+    result = Result(summary, history=history, folder=path.absolute())
+    if not state:
+        return result
+    if summary["status"] == "checkpoint only" or "input" not in summary:
+        raise InputError(
+            f"{path}: the run has not written its summary (still running, or killed); "
+            "load_result(..., state=False) reads its checkpoint's history"
+        )
+    problem = problem_from_dict(summary["input"], summary["problem"])
+    fingerprint = checkpoint.fingerprint(problem.raw)
+    found = checkpoint.load(path / CHECKPOINT, comm, fingerprint, purpose="load_result")
+    entry = MODELS[problem.model.name]
+    tagged = entry.mesh(problem.model, comm) if entry.mesh else build_mesh(problem.mesh, comm)
+    model = entry.build(problem.model, tagged)
+    driver = model.driver(problem.flow, [], None)
+    found.restore(driver.checkpoint_fields())
+    driver.restore_state(found.state["driver"])
+    result.shape, result.fields = driver.shape, driver.checkpoint_fields()
+    driver.destroy()
+    return result
+
+
+def _read_or_error(path: Path, comm: MPI.Comm) -> dict[str, object] | InputError | None:
+    """The summary on rank 0 (the error, to raise on every rank); None elsewhere."""
+    if comm.rank != 0:
+        return None
+    try:
+        return read_summary(path)
+    except InputError as err:
+        return err

@@ -1,0 +1,125 @@
+"""Runs read back from their output folders: ``dgplate show`` and ``dgplate.load_result``."""
+
+import json
+import math
+import shutil
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+import dgplate
+from dgplate.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+VERTICAL = ROOT / "demos" / "problems" / "vertical_load.toml"
+QUIET = {"mesh.cells": [4, 4], "output.progress": 0, "output.png": False, "output.vtx": False}
+
+
+def _same(a, b) -> bool:
+    """Equal values, NaN equal to NaN (history rows hold NaN for quantities not computed)."""
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    return a == b
+
+
+def test_load_result_gives_back_the_run(tmp_path):
+    """The summary, every history row and the final state, exactly as `run` returned them."""
+    ran = dgplate.run(dgplate.load_problem(VERTICAL, QUIET), out=tmp_path / "o")
+    back = dgplate.load_result(tmp_path / "o")
+    assert back.folder == ran.folder
+    assert back["status"] == "converged" and back["steps"] == ran["steps"] > 1
+    for key in ("energy", "isometry_defect", "dofs", "bbox", "reason"):
+        assert back[key] == ran[key], key
+    assert len(back.history) == len(ran.history) == ran["steps"]
+    for row, original in zip(back.history, ran.history, strict=True):
+        assert row.keys() == original.keys()
+        assert all(_same(row[k], original[k]) for k in row), (row, original)
+    assert back.shape is not None and np.array_equal(back.shape.x.array, ran.shape.x.array)
+    assert set(back.fields) == set(ran.fields)
+    files = dgplate.load_result(tmp_path / "o", state=False)
+    assert files.shape is None and files["energy"] == ran["energy"]
+
+
+def test_show_one_run_and_a_table(tmp_path, capsys):
+    """One folder in words, several as a table with one row each; nothing is written."""
+    short = dgplate.load_problem(VERTICAL, {**QUIET, "flow.max_steps": 2})
+    done = dgplate.run(dgplate.load_problem(VERTICAL, QUIET), out=tmp_path / "a")
+    stopped = dgplate.run(short, out=tmp_path / "b")
+    capsys.readouterr()
+    before = sorted((p, p.stat().st_mtime_ns) for p in tmp_path.rglob("*"))
+    assert main(["show", str(tmp_path / "a")]) == 0
+    text = capsys.readouterr().out
+    assert text.startswith(f"{tmp_path / 'a'}: vertical_load (kirchhoff), 16 cells, 480 dofs")
+    assert f"converged after {done['steps']} steps" in text
+    assert f"energy {done['energy']:.10g}" in " ".join(text.split())
+    assert main(["show", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
+    header, first, second = capsys.readouterr().out.strip().splitlines()
+    assert (
+        header.split() == "folder problem model cells dofs ranks steps status E_h D_h wall".split()
+    )
+    assert f"{done['energy']:.6e}" in first and " converged " in first
+    assert f"{stopped['energy']:.6e}" in second and "not converged" in second
+    assert sorted((p, p.stat().st_mtime_ns) for p in tmp_path.rglob("*")) == before
+
+
+def test_show_a_run_without_summary_reads_its_checkpoint(tmp_path, capsys):
+    """A run still going (or killed) has a checkpoint but no summary.json yet."""
+    ran = dgplate.run(dgplate.load_problem(VERTICAL, QUIET), out=tmp_path / "o")
+    (tmp_path / "o" / "summary.json").unlink()
+    (tmp_path / "o" / "history.csv").unlink()
+    assert main(["show", str(tmp_path / "o")]) == 0
+    assert f"checkpoint at step {ran['steps']}" in capsys.readouterr().out
+    partial = dgplate.load_result(tmp_path / "o", state=False)
+    assert partial["status"] == "checkpoint only" and partial["energy"] == ran["energy"]
+    assert len(partial.history) == ran["steps"]
+    with pytest.raises(dgplate.InputError, match="has not written its summary"):
+        dgplate.load_result(tmp_path / "o")
+
+
+def test_show_refuses_a_folder_dgplate_did_not_write(tmp_path, capsys):
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "summary.json").write_text(json.dumps({"energy": 1.0}))
+    assert main(["show", str(mine)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{mine} is not a dgplate output folder" in err
+    assert main(["show", str(tmp_path / "missing")]) == 2
+    assert "no such output folder" in capsys.readouterr().err
+    assert [p.name for p in mine.iterdir()] == ["summary.json"]
+
+
+def test_load_result_refuses_a_changed_checkpoint(tmp_path):
+    """A checkpoint of another problem than the summary's is named, not silently restored."""
+    dgplate.run(dgplate.load_problem(VERTICAL, QUIET), out=tmp_path / "a")
+    other = {**QUIET, "flow.tau": 0.5}
+    dgplate.run(dgplate.load_problem(VERTICAL, other), out=tmp_path / "b")
+    shutil.rmtree(tmp_path / "a" / "checkpoint")
+    shutil.copytree(tmp_path / "b" / "checkpoint", tmp_path / "a" / "checkpoint")
+    with pytest.raises(dgplate.InputError, match=r"load_result: the checkpoint .* another problem"):
+        dgplate.load_result(tmp_path / "a")
+
+
+@pytest.mark.mpi
+def test_load_result_on_other_ranks(tmp_path):
+    """A run on one rank read back on every rank of the job: the same deformation."""
+    import dolfinx.fem
+    import ufl
+
+    comm = MPI.COMM_WORLD
+    out = Path(comm.bcast(str(tmp_path / "serial"), root=0))
+    norm = None
+    if comm.rank == 0:
+        ran = dgplate.run(dgplate.load_problem(VERTICAL, QUIET), out=out, comm=MPI.COMM_SELF)
+        y = ran.shape
+        norm = dolfinx.fem.assemble_scalar(dolfinx.fem.form(ufl.inner(y, y) * ufl.dx))
+    norm = comm.bcast(norm, root=0)
+    back = dgplate.load_result(out, comm=comm)
+    y = back.shape
+    local = dolfinx.fem.assemble_scalar(dolfinx.fem.form(ufl.inner(y, y) * ufl.dx))
+    assert comm.allreduce(local) == pytest.approx(norm, rel=1e-13)
+    from dgplate.io.output import bounding_box
+
+    assert bounding_box(y) == back["bbox"]
