@@ -91,7 +91,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "energy": summary["energy"],
         "isometry_defect": summary["isometry_defect"],
         "peak_memory_mb": summary["peak_memory_mb"],
-        "wall_s_last_session": summary["wall_time_s"],
+        "wall_s_since_resume": summary["wall_time_s"],
         "published": BNN_TABLE1.get(args.cells),  # none beyond 128²
     }
     if comm.rank == 0:

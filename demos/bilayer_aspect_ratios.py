@@ -11,7 +11,7 @@
 #
 # A bilayer is two thin sheets glued together; when one expands relative to the other (heat,
 # swelling, an electric stimulus) the plate wants to bend. Its reduced model (Bartels, Bonito
-# and Nochetto, seed 001) minimises
+# and Nochetto; [N15]) minimises
 #
 # $$E[y] = \tfrac12 \int_\omega |I\!I(y) - Z|^2 \quad\text{subject to}\quad
 #   \nabla y^T \nabla y = I_2 ,$$
@@ -23,7 +23,7 @@
 # radius $1/a$, at the energy $\tfrac12 a^2 |\omega|$.
 #
 # Clamping one side of the rectangle fixes the rolling axis parallel to that side. How far the
-# free part rolls is set by $a$ times its length: $aL$ radians, i.e. $aL/2\pi$ turns. The seed's
+# free part rolls is set by $a$ times its length: $aL$ radians, i.e. $aL/2\pi$ turns. The published
 # grid is the aspect ratios (length/clamped side) 0.5, 1, 7/4 and 10/4 times $a = 1, 2, 5$;
 # this demo runs its corner 0.5, 1 × $a$ = 1, 2 by default (`--ratios`, `--curvatures` choose
 # others; `--paper` runs the whole grid on a finer mesh).
@@ -46,7 +46,7 @@
 # τ = 0.05/(aW) (the isometry defect D_h grows with τ·aW).
 #
 # Run: `python demos/bilayer_aspect_ratios.py` (4 small runs), `--ratios 0.5 1 1.75 2.5
-# --curvatures 1 2 5` for the seed's grid (several minutes), `--paper` for that grid on 16 cells
+# --curvatures 1 2 5` for the published grid (several minutes), `--paper` for that grid on 16 cells
 # per unit length with a tighter tolerance (long), `--figure PATH` for the combined image.
 
 # %%
@@ -61,7 +61,9 @@ from dgplate.io.plotting import montage
 PROBLEM = Path(__file__).parent / "problems" / "bilayer_aspect_ratios.toml"
 RATIOS, CURVATURES = (0.5, 1.0, 1.75, 2.5), (1.0, 2.0, 5.0)
 
-parser = demo.parser("bilayer_aspect_ratios", "aspect ratio × Z = aI", "the seed's grid, 16/unit")
+parser = demo.parser(
+    "bilayer_aspect_ratios", "aspect ratio × Z = aI", "the published grid, 16/unit"
+)
 parser.add_argument("--ratios", type=float, nargs="+", help="length / W (default 0.5 1)")
 parser.add_argument("--curvatures", type=float, nargs="+", help="a in Z = aI (default 1 2)")
 parser.add_argument("--width", type=float, default=1.0, help="clamped side W (default 1)")
@@ -133,7 +135,7 @@ for (ratio, a), (s, ideal, _) in sorted(results.items(), key=lambda kv: (kv[0][1
 # %% [markdown]
 # ## Combined image
 #
-# As in the seed's figure: the aspect ratio grows along a row, the spontaneous curvature from
+# As in the published figure: the aspect ratio grows along a row, the spontaneous curvature from
 # the bottom row ($a = 1$) to the top.
 
 # %%

@@ -11,7 +11,7 @@
 #
 # The rectangle $\omega = (-3, 3) \times (-2, 2)$ is clamped on two perpendicular segments that
 # meet at its lower-left corner, $\Gamma_D = \{-3\} \times (-2, 0) \cup (-3, 0) \times \{-2\}$
-# (seed 001). Its spontaneous curvature grows across the plate,
+# ([N15]). Its spontaneous curvature grows across the plate,
 #
 # $$Z(x) = \alpha(x_1)\, I, \qquad \alpha(x_1) = \frac{x_1 + 3}{6} \in [0, 1],$$
 #

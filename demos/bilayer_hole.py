@@ -10,7 +10,7 @@
 # # A bilayer plate with a hole
 #
 # A rectangle of aspect ratio 10/4 with a circular hole in its middle is clamped on its short
-# side $x_1 = 0$ and given the isotropic spontaneous curvature $Z = 2I$ (seed 001). The energy
+# side $x_1 = 0$ and given the isotropic spontaneous curvature $Z = 2I$ ([N15]). The energy
 #
 # $$E[y] = \tfrac12 \int_\omega |I\!I(y) - Z|^2, \qquad \nabla y^T \nabla y = I_2 ,$$
 #
@@ -22,13 +22,13 @@
 # where a non-cylindrical start (the flow begins flat and bends in both directions at first)
 # relaxes.
 #
-# Size and cost. The seed's 10 × 4 plate with a hole of radius 1 rolls 20 radians (three turns):
+# Size and cost. The published 10 × 4 plate with a hole of radius 1 rolls 20 radians (three turns):
 # thousands of small steps on a fine mesh (`--paper`; long). By default the demo runs the plate
 # of `demos/problems/bilayer_hole.toml`, 2.5 × 1 with a hole of radius 1/4, with $Z = I$ (2.5
 # radians of roll; by scaling, the same shape as $Z = 2I$ on a plate half as large) on a coarse
 # mesh (h = 0.25, 76 quadrilaterals) with τ = 0.1: about a hundred steps.
 #
-# Run: `python demos/bilayer_hole.py` (seconds), `--paper` for the seed's plate (long).
+# Run: `python demos/bilayer_hole.py` (seconds), `--paper` for the published plate (long).
 # Output: `out/bilayer_hole/` (VTX, final.png, summary.json).
 
 # %%

@@ -9,7 +9,7 @@
 # %% [markdown]
 # # An I-shaped bilayer plate
 #
-# An I-shaped plate in a 4 × 4 box (aspect ratio 1, seed 001) — two flanges 1 wide joined by a
+# An I-shaped plate in a 4 × 4 box (aspect ratio 1, [N15]) — two flanges 1 wide joined by a
 # web 1.5 wide — is clamped along the bottom of its lower flange and given $Z = I$. The
 # minimiser of
 #
@@ -22,7 +22,7 @@
 #
 # For $Z = aI$ that cylinder is not the only shape of density $\tfrac12 a^2$: rolling about any
 # other axis costs the same, and only the clamp picks the axis — near the clamp. The flow starts
-# flat and first bends the plate in all directions at once. With `--paper` (the seed's I,
+# flat and first bends the plate in all directions at once. With `--paper` (the published I,
 # h = 0.125) the whole I ends on the one cylinder, 2 % above $\tfrac12|\omega|$. On a coarse
 # mesh (h = 0.25, the problem file's) the upper flange, 4 long, 1 wide and held by the web
 # alone, gets trapped wrapped around the *other* axis (along its own short direction), 6 %
@@ -32,7 +32,7 @@
 # web 0.75 wide: 2 radians of roll) on the coarse mesh h = 0.25 with τ = 0.05; it rolls onto
 # the one cylinder in about two hundred steps.
 #
-# Run: `python demos/bilayer_i_shape.py` (seconds), `--paper` for the seed's I on h = 0.125
+# Run: `python demos/bilayer_i_shape.py` (seconds), `--paper` for the published I on h = 0.125
 # (about ten minutes). Output: `out/bilayer_i_shape/` (VTX, final.png, summary.json).
 
 # %%
@@ -42,7 +42,7 @@ import dgplate
 from dgplate import demo
 
 PROBLEM = Path(__file__).parent / "problems" / "bilayer_i_shape.toml"
-args = demo.arguments("bilayer_i_shape", "an I-shaped bilayer plate", "the seed's I, h = 0.125")
+args = demo.arguments("bilayer_i_shape", "an I-shaped bilayer plate", "the published I, h = 0.125")
 
 # %%
 if args.paper:

@@ -10,7 +10,7 @@
 # # A partially clamped bilayer plate
 #
 # The long plate $\omega = (-2, 2) \times (0, 10)$ is clamped only on the middle half of its
-# short side, $\Gamma_D = (-1, 1) \times \{0\}$, and given $Z = I$ (seed 001):
+# short side, $\Gamma_D = (-1, 1) \times \{0\}$, and given $Z = I$ ([N15]):
 #
 # $$E[y] = \tfrac12 \int_\omega |I\!I(y) - Z|^2, \qquad \nabla y^T \nabla y = I_2 ,
 #   \qquad y = x,\ \nabla y = [I_2; 0] \text{ on } \Gamma_D .$$
@@ -28,7 +28,7 @@
 # file `demos/problems/bilayer_partial_clamp.toml` has the plate scaled by 1/2 (five radians,
 # 900 steps); by default the demo scales it by 1/4 — $(-\tfrac12, \tfrac12) \times (0, 2.5)$
 # clamped on $(-\tfrac14, \tfrac14) \times \{0\}$, 2.5 radians of roll — on 4 × 10 Q2 cells with
-# τ = 0.05. `--paper` runs the seed's plate (h = 0.25, τ = 0.01; long).
+# τ = 0.05. `--paper` runs the published plate (h = 0.25, τ = 0.01; long).
 #
 # Run: `python demos/bilayer_partial_clamp.py` (seconds), `--paper` (long).
 # Output: `out/bilayer_partial_clamp/` (VTX, final.png, summary.json).
@@ -41,7 +41,7 @@ from dgplate import demo
 
 PROBLEM = Path(__file__).parent / "problems" / "bilayer_partial_clamp.toml"
 args = demo.arguments(
-    "bilayer_partial_clamp", "a partially clamped bilayer plate", "the seed's plate, h = 0.25"
+    "bilayer_partial_clamp", "a partially clamped bilayer plate", "the published plate, h = 0.25"
 )
 
 # %%

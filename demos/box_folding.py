@@ -8,7 +8,7 @@
 # %% [markdown]
 # # A self-folding box: a heat-driven thermal bilayer
 #
-# Seed 001 ("Thermal Actuation", "Self-Assembling Composite-Material Box"; Bartels, Bonito,
+# [N15] ("Thermal Actuation", "Self-Assembling Composite-Material Box"; Bartels, Bonito,
 # Muliana, Nochetto): six unit panels in a cross-shaped net are joined by thin *bilayer
 # hinges*. A bilayer is two bonded layers that expand differently when heated: the mismatch of
 # thermal strains cannot be relieved in the plane, so the plate bends. In the thin-plate limit
@@ -26,7 +26,7 @@
 # from the base and the lid over the top, and the net closes to a box.
 #
 # The temperature solves the heat equation θ_t − κΔθ = s on the flat net (insulated edges)
-# with the seed's κ = 5 and a heater under the base: s = 5 there until t = 28.2, then −5.
+# with the published κ = 5 and a heater under the base: s = 5 there until t = 28.2, then −5.
 # Heat spreads over the net within a fraction of a time unit, so all hinges see nearly the
 # same temperature (21.0–21.3 at the switch); θ rises linearly, peaks at the switch and falls
 # again: the box folds shut and opens again. The coupling is quasi-static: after each heat
@@ -37,7 +37,7 @@
 # Everything is in the problem file `demos/problems/box_folding.toml` (model `thermal`), so
 # `dgplate run demos/problems/box_folding.toml` computes the same box. The choices it makes:
 #
-# * **α.** With the seed's literal Z = −θ a hinge would reach c ≈ 21 and fold by 159°. A 90°
+# * **α.** With the published literal Z = −θ a hinge would reach c ≈ 21 and fold by 159°. A 90°
 #   fold needs α_cw = 12/θ̄ with θ̄ the hinges' mean temperature at the switch; a discrete
 #   hinge (m cells across) folds a little less than c·w (an O(h) error where the curvature
 #   jumps at its edges), so `alpha = "calibrate"` relaxes one hinge strip of the same cells at
@@ -55,7 +55,7 @@
 # Run: `python demos/box_folding.py` (2 × 2 cells per panel, 2 across a hinge, Δt = 7.05;
 # about 10 s) or `mpirun -n 2 python demos/box_folding.py`; `dgplate run
 # demos/problems/box_folding.toml` runs the problem file's 4 × 4 cells (about 5 min), and
-# `--paper` the published resolution (8 × 8 cells, 8 across, the seed's Δt = 0.1; hours). `--out DIR` chooses the
+# `--paper` the published resolution (8 × 8 cells, 8 across, the published Δt = 0.1; hours). `--out DIR` chooses the
 # output folder, `--force` writes into a folder of other files, `--resume` continues an
 # interrupted run from its checkpoint.
 
@@ -70,7 +70,7 @@ from dgplate import demo
 PROBLEM = Path(__file__).resolve().parent / "problems" / "box_folding.toml"
 # The default is small (2 × 2 cells per panel, 8 heat steps, about 10 s): it folds and opens
 # the box and checks it. The problem file itself (4 × 4, 24 heat steps, about 5 min) gives
-# the numbers of docs/box.md; --paper the seed's resolution (hours).
+# the numbers of docs/box.md; --paper the published resolution (hours).
 SMALL = {
     "mesh.parameters.n": 2,
     "mesh.parameters.m": 2,
@@ -86,7 +86,7 @@ PAPER = {
     "model.hold_steps": 2000,
     "output.frames_every": 20,
 }
-args = demo.arguments("box_folding", "Self-folding box driven by heat (seed 001).")
+args = demo.arguments("box_folding", "Self-folding box driven by heat ([N15]).")
 say = demo.say
 
 

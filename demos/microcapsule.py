@@ -8,11 +8,11 @@
 # %% [markdown]
 # # A self-folding microcapsule
 #
-# Seed 001, "Encapsulation with Self-Folding Microcapsules" (after Stoychev, Puretskiy and
+# [N15], "Encapsulation with Self-Folding Microcapsules" (after Stoychev, Puretskiy and
 # Ionov, Soft Matter 2011): a star-shaped polymer bilayer — a centre unit square with four
 # trapezoidal flaps (base 1, top 3/5, height 1) — curls up when it swells, and the flaps wrap
 # over the centre to enclose a cargo. The whole film is one bilayer with rigidity μ = 1 and
-# the seed's spontaneous curvature Z = 12 I: a free strip would roll to radius 1/12, so each
+# the published spontaneous curvature Z = 12 I: a free strip would roll to radius 1/12, so each
 # flap of length 1 turns by about 12 rad, almost two turns.
 #
 # The plate minimises E[y] = ½∫μ|II(y) − Z|² over isometries of the flat star. It is the
@@ -40,7 +40,7 @@ PROBLEM = Path(__file__).resolve().parent / "problems" / "microcapsule.toml"
 # small by default (4 cells per flap side, 4 heat steps, about 15 s); the problem file has 8,
 # --paper 16
 SMALL = {"mesh.parameters.n": 4, "model.heat_step": 0.25, "model.hold_steps": 100}
-args = demo.arguments("microcapsule", "Self-folding microcapsule (seed 001).", "n = 16")
+args = demo.arguments("microcapsule", "Self-folding microcapsule ([N15]).", "n = 16")
 say = demo.say
 
 

@@ -1,5 +1,5 @@
-// The net of a self-folding box (seed 001, "Self-Assembling Composite-Material Box"):
-// six unit squares in a cross, joined by hinge strips of width w (π/24 in the seed).
+// The net of a self-folding box ([N15], "Self-Assembling Composite-Material Box"):
+// six unit squares in a cross, joined by hinge strips of width w (π/24 in [N15]).
 //
 //                 +-----+
 //                 | lid |        y = 2+2w .. 3+2w   (free edge "lid_edge" at y = 3+2w)

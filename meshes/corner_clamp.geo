@@ -1,5 +1,5 @@
 // Rectangle clamped at a corner: omega = (-Lx/2, Lx/2) x (-Ly/2, Ly/2), clamped on the lower
-// half of the left side and the left half of the bottom side, i.e. (seed 001, Lx = 6, Ly = 4)
+// half of the left side and the left half of the bottom side, i.e. ([N15], Lx = 6, Ly = 4)
 // Gamma_D = {-3} x (-2, 0)  u  (-3, 0) x {-2}.
 // Facet groups: clamped (the two segments) and boundary (the rest); cell group: plate.
 // quads = 1 (default): structured quadrilaterals (four transfinite blocks), quads = 0:

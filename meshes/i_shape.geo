@@ -1,4 +1,4 @@
-// I-shaped plate in the box [0, W] x [0, H] (aspect ratio H/W, seed 001: 1): a bottom and a top
+// I-shaped plate in the box [0, W] x [0, H] (aspect ratio H/W, [N15]: 1): a bottom and a top
 // flange of thickness t across the full width, joined by a centred web of width w.
 //
 //   +---------------+  y = H

@@ -1,5 +1,5 @@
 // Partially clamped long plate: omega = (-W/2, W/2) x (0, L), clamped only on the middle part
-// (-c/2, c/2) x {0} of the bottom side (seed 001: W = 4, L = 10, c = 2).
+// (-c/2, c/2) x {0} of the bottom side ([N15]: W = 4, L = 10, c = 2).
 // Facet groups: clamped (the middle of the bottom side) and boundary (every other side);
 // cell group: plate. quads = 1 (default): structured quadrilaterals (three transfinite strips),
 // quads = 0: unstructured triangles of size h.

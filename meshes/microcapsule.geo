@@ -1,4 +1,4 @@
-// Self-folding microcapsule (seed 001, "Encapsulation with Self-Folding Microcapsules"):
+// Self-folding microcapsule ([N15], "Encapsulation with Self-Folding Microcapsules"):
 // a centre unit square with four trapezoidal flaps, base 1 (the square's side), top 3/5,
 // height 1. Structured mesh, n cells along every side (quads = 1: quadrilaterals).
 //

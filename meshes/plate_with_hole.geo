@@ -1,5 +1,5 @@
 // Rectangle [0, Lx] x [0, Ly] with a circular hole of radius R centred at (cx, cy) (default:
-// the centre of the plate). Seed 001: aspect ratio Lx/Ly = 10/4, clamped on the short side x = 0.
+// the centre of the plate). [N15]: aspect ratio Lx/Ly = 10/4, clamped on the short side x = 0.
 // Facet groups: clamped (the side x = 0), boundary (the other three sides) and hole;
 // cell group: plate. quads = 1 (default): unstructured quadrilaterals (gmsh's frontal-Delaunay
 // for quads + recombination), quads = 0: triangles. h is the target size, hole_h the size on

@@ -213,7 +213,7 @@ def test_rod_load_is_the_derivative_of_the_rod_energy(ends):
     check_load_is_derivative(term, u, direction, comm)
 
 
-def test_the_twisted_circle_problem_file_starts_the_seed_experiment(tmp_path):
+def test_the_twisted_circle_problem_file_starts_the_published_experiment(tmp_path):
     """demos/problems/rod_twisted_circle.toml: 20 steps of τ = h = 1/50 lower the energy."""
     problem = dgplate.load_problem(
         PROBLEMS / "rod_twisted_circle.toml", overrides={**QUIET, "flow.max_steps": 20}
