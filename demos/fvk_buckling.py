@@ -33,15 +33,14 @@
 
 # %%
 import argparse
-import json
 from dataclasses import replace
-from pathlib import Path
 
 from mpi4py import MPI
 
 import numpy as np
 
 from dgplate import demo
+from dgplate.io.output import write_json
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk import FvKSpec, build_fvk
 
@@ -49,7 +48,8 @@ parser = demo.parser("fvk_buckling", "FvK: buckling of a compressed plate", "24 
 parser.add_argument("--fine", dest="paper", action="store_true", help=argparse.SUPPRESS)
 args = demo.parse(parser)
 comm = MPI.COMM_WORLD
-out = Path(args.out)
+folder = demo.output_folder(args, comm)  # checked now; the results appear at the end
+out = folder.path
 cells, steps = (24, 60) if args.paper else (12, 30)
 E, NU, T, a = 1.0, 0.3, 0.01, 1.0
 D = E * T**3 / (12 * (1 - NU**2))
@@ -150,8 +150,6 @@ if comm.rank == 0:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out.mkdir(parents=True, exist_ok=True)
-
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
     ax.plot(shortening, w_t, "-o", ms=3, label="dgplate FvK (1 % imperfection)")
     ax.axvline(1.0, color="k", ls="--", lw=1, label="Δ_cr (Kirchhoff, k = 4)")
@@ -177,8 +175,11 @@ if comm.rank == 0:
         "shortening_perfect_plate": factors.tolist(),
         "ranks": comm.size,
     }
-    (out / "summary.json").write_text(json.dumps(report, indent=2) + "\n")
-    print(f"wrote {out}/buckling.png, summary.json and run/ (VTX, PNG)")
+    write_json(comm, out / "summary.json", report)
+    print(f"wrote {args.out}/buckling.png, summary.json and run/ (VTX, PNG)")
+
+folder.commit()
+demo.copy_figure(args.out, args.figure, "buckling.png")
 
 # %% [markdown]
 # ## Check

@@ -61,9 +61,6 @@
 # `--paper`: h = 0.1 instead of 0.2. `benchmarks/fvk_cone.py` runs it on three meshes.
 
 # %%
-import json
-from pathlib import Path
-
 from mpi4py import MPI
 
 import dolfinx.fem
@@ -72,6 +69,7 @@ import numpy as np
 from dgplate import demo
 from dgplate.dg.forms import PENALTY_LENGTHS
 from dgplate.errors import SolverError
+from dgplate.io.output import write_json
 from dgplate.measure.wrinkles import line_values
 from dgplate.mesh.tagged import load_geo
 from dgplate.models.fvk import FvKSpec, build_fvk
@@ -99,7 +97,8 @@ parser.add_argument(
 )
 args = demo.parse(parser)
 comm = MPI.COMM_WORLD
-out = Path(args.out)
+folder = demo.output_folder(args, comm)  # checked now; the results appear at the end
+out = folder.path
 h = args.h or (0.1 if args.paper else 0.2)
 ALPHA, T, R_TIP, SECTORS = 0.1, 0.02, 0.15, 16  # cone slope, thickness, punch radius, N
 DEPTH = 0.06  # δ at load factor 1
@@ -334,7 +333,6 @@ if comm.rank == 0:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out.mkdir(parents=True, exist_ok=True)
     panels = 2 if after is None else 3
     fig, ax = plt.subplots(1, panels, figsize=(4.4 * panels, 3.8))
     symmetric_path = sorted(path[: len(symmetric)], key=lambda p: p["indentation"])
@@ -376,8 +374,11 @@ if comm.rank == 0:
         "perturbations": summary["perturbations"],
         "ranks": comm.size,
     }
-    (out / "summary.json").write_text(json.dumps(report, indent=2) + "\n")
-    print(f"wrote {out}/cone.png, summary.json, before/ (and after/ with --push): VTX, PNG")
+    write_json(comm, out / "summary.json", report)
+    print(f"wrote {args.out}/cone.png, summary.json, before/ (and after/ with --push): VTX, PNG")
+
+folder.commit()
+demo.copy_figure(args.out, args.figure, "cone.png")
 
 # %% [markdown]
 # ## Check

@@ -30,14 +30,13 @@
 
 # %%
 import argparse
-import json
-from pathlib import Path
 
 from mpi4py import MPI
 
 import numpy as np
 
 from dgplate import demo
+from dgplate.io.output import write_json
 from dgplate.mesh.tagged import load_geo
 from dgplate.models.fvk import FvKSpec, build_fvk
 from dgplate.reference.fvk import strip_centre_deflection
@@ -46,7 +45,8 @@ parser = demo.parser("fvk_crease", "FvK: a plate with a crease", "h = 0.05")
 parser.add_argument("--fine", dest="paper", action="store_true", help=argparse.SUPPRESS)
 args = demo.parse(parser)
 comm = MPI.COMM_WORLD
-out = Path(args.out)
+folder = demo.output_folder(args, comm)  # checked now; the results appear at the end
+out = folder.path
 h = 0.05 if args.paper else 0.1
 E, T, L, WIDTH = 1.0, 0.02, 2.0, 0.5
 D = E * T**3 / 12  # ν = 0
@@ -105,8 +105,6 @@ if comm.rank == 0:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out.mkdir(parents=True, exist_ok=True)
-
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
     load = np.array(factors) * q_max * L**4 / (E * T**4)
     for name, style in (("creased", "C0"), ("plain", "C1")):
@@ -120,8 +118,11 @@ if comm.rank == 0:
     ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(out / "crease.png", dpi=150)
-    (out / "summary.json").write_text(json.dumps({"h": h, **results}, indent=2) + "\n")
-    print(f"wrote {out}/crease.png, summary.json and creased/, plain/ (VTX, PNG)")
+    write_json(comm, out / "summary.json", {"h": h, **results})
+    print(f"wrote {args.out}/crease.png, summary.json and creased/, plain/ (VTX, PNG)")
+
+folder.commit()
+demo.copy_figure(args.out, args.figure, "crease.png")
 
 # %% [markdown]
 # ## Checks

@@ -35,15 +35,14 @@
 
 # %%
 import argparse
-import json
 import time
-from pathlib import Path
 
 from mpi4py import MPI
 
 import numpy as np
 
 from dgplate import demo
+from dgplate.io.output import write_json
 from dgplate.mesh.tagged import RECTANGLE_SIDES, rectangle
 from dgplate.models.fvk import FvKSpec, build_fvk
 from dgplate.reference import fvk as ref
@@ -59,7 +58,8 @@ parser.add_argument("--fine", dest="paper", action="store_true", help=argparse.S
 parser.add_argument("--cells", type=int, help="cells per side for the large-deflection run")
 args = demo.parse(parser)
 comm = MPI.COMM_WORLD
-out = Path(args.out)
+folder = demo.output_folder(args, comm)  # checked now; the results appear at the end
+out = folder.path
 levels = [8, 16, 32] if args.paper else [8, 16]
 cells = args.cells or (32 if args.paper else 16)
 E, NU, T = 1.0, ref.LEVY_NU, 0.01
@@ -88,7 +88,7 @@ def solve(tagged, spec, out=None):
 # %% [markdown]
 # ## 1. Linear limit and convergence under refinement
 #
-# A load q = 10⁻⁴ D/a⁴ gives w_c ≤ 4·10⁻⁵ t: membrane effects are of relative size (w/t)² ≈ 10⁻⁹.
+# A load q = 10⁻⁴ D/a⁴ gives w_c ≈ 4·10⁻⁵ t: membrane effects are of relative size (w/t)² ≈ 10⁻⁹.
 # The centre value is the mean of w over the cells that meet at the centre (w is discontinuous).
 
 # %%
@@ -156,8 +156,6 @@ if comm.rank == 0:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out.mkdir(parents=True, exist_ok=True)
-
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
     q_line = np.linspace(0, 402, 50)
     ax.plot(q_line, LINEAR["clamped"][1] * 12 * (1 - NU**2) * q_line, "k--", lw=1,
@@ -194,8 +192,11 @@ if comm.rank == 0:
         "snes_iterations": summary["snes_iterations"],
         "ranks": comm.size,
     }
-    (out / "summary.json").write_text(json.dumps(report, indent=2) + "\n")
-    say(f"wrote {out}/load_deflection.png, tables.md, summary.json and levy/ (VTX, PNG)")
+    write_json(comm, out / "summary.json", report)
+    say(f"wrote {args.out}/load_deflection.png, tables.md, summary.json and levy/ (VTX, PNG)")
+
+folder.commit()
+demo.copy_figure(args.out, args.figure, "load_deflection.png")
 
 # %% [markdown]
 # ## Checks

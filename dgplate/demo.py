@@ -19,7 +19,8 @@ test suite can run every demo), ``--out DIR``, ``--force``, ``--resume`` and ``-
 line on rank 0 either way. Pictures beyond each run's final.png are drawn with the public
 functions of :mod:`dgplate.io.plotting` (``plot_deformation``, ``render_png``, ``montage``,
 ``frames_to_gif``; ``start_offscreen`` before a pyvista plotter of one's own). All functions
-here are collective only where they say so.
+here are collective only where they say so. Bad input (an output folder of a user's files, a
+wrong override) ends a demo with one line on stderr, as it ends ``dgplate run``.
 """
 
 from __future__ import annotations
@@ -27,17 +28,47 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import os
 import shutil
+import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from types import TracebackType
 from typing import Any
 
 from mpi4py import MPI
 
 import numpy as np
 
+from dgplate.errors import InputError
+from dgplate.io.output import OutputDir
 from dgplate.problems.runner import run as _run
 from dgplate.problems.specs import Problem
+
+
+def _one_line_input_errors(
+    kind: type[BaseException], error: BaseException, trace: TracebackType | None
+) -> None:
+    """``sys.excepthook`` of a demo: bad input is one line on rank 0 and exit code 2.
+
+    The ranks end together as the CLI's do (:func:`dgplate.cli.end_together`), then at once
+    (``os._exit``: a hook cannot set the exit code otherwise). Other errors keep their traceback.
+    """
+    if not issubclass(kind, InputError):
+        _previous_hook(kind, error, trace)
+        return
+    from dgplate.cli import end_together
+
+    code = end_together(MPI.COMM_WORLD, 2, f"{Path(sys.argv[0]).name}: error: {error}")
+    sys.stdout.flush()
+    if not MPI.Is_finalized():
+        MPI.Finalize()
+    os._exit(code)
+
+
+_previous_hook = sys.excepthook
+sys.excepthook = _one_line_input_errors
+
 
 __all__ = [
     "arguments",
@@ -48,6 +79,7 @@ __all__ = [
     "check_rolled",
     "copy_figure",
     "describe_cylinder",
+    "output_folder",
     "parse",
     "parser",
     "report",
@@ -363,6 +395,17 @@ def copy_figure(
     if figure and comm.rank == 0:
         Path(figure).parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(Path(out) / name, figure)
+
+
+def output_folder(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> OutputDir:
+    """The ``--out`` folder of a demo that writes its results itself. Collective.
+
+    Checked now, before anything is computed, as a run's is: a folder of a user's files is
+    refused without ``--force``, and none of its files is ever deleted. The demo writes into
+    ``.path`` (a staging folder) and calls ``commit()`` at the end, so that the results appear
+    together, ``summary.json`` last.
+    """
+    return OutputDir(comm, Path(args.out), force=args.force)
 
 
 def save_shape(driver: Any, out: str | Path, title: str = "") -> None:

@@ -100,6 +100,19 @@ def test_demo_runs_and_checks_its_results(demo, ranks, tmp_path):
         assert any(out.rglob(pattern)), f"{demo.name} wrote no {pattern} in {out}:\n{tail}"
 
 
+@pytest.mark.parametrize("name", ["vertical_load", "fvk_crease"])
+def test_demo_refuses_a_users_folder_in_one_line(name, tmp_path):
+    """A demo run by dgplate.run and one that writes its own results: exit 2, one line, the
+    user's folder as it was, before anything is solved."""
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("user data")
+    done = run_demo(ROOT / "demos" / f"{name}.py", mine, ranks=1, timeout=300)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.count("\n") == 1 and f"{name}.py: error: --out {mine}" in done.stderr
+    assert [p.name for p in mine.iterdir()] == ["notes.txt"]
+
+
 # -- the helpers of dgplate.demo ------------------------------------------------------------
 def test_checks_print_one_line_and_raise_outside_the_tolerance(capsys):
     from dgplate import demo
