@@ -25,7 +25,7 @@
 # The discretisation is the symmetric interior-penalty dG method with Q2 elements
 # (γ₀ = 5000, γ₁ = 1100), and the minimiser is found by the discrete H² gradient flow with
 # the linearised isometry constraint and τ = h, the cell diameter (see the README,
-# "Mathematics").
+# "Mathematics in one page").
 #
 # Run: `python demos/vertical_load.py` (16×16, seconds), `--cells 32`, or `--paper` for the
 # published rows 16², 32², 64² side by side (minutes); `--triangles` for P2 triangles (no
