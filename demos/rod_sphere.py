@@ -65,8 +65,11 @@ shape = summary["shape"]
 # By default (64 cells, 300 steps): see the lines printed below and docs/rods.md. The demo
 # asserts that the energy fell at every step, that no node lies farther from the centre than
 # R + 1 % (the penalty's penetration), that the rod is in contact (confinement energy > 0),
-# that its length stays within 1 % of L, and that its bending energy stays above the free
-# circle's $\frac{c_b}{2}(2\pi)^2/L$ (Fenchel), which the confinement forbids.
+# and that its length stays within 1 % of L. Every closed rod bends at least as much as the
+# free circle, $\frac{c_b}{2}(2\pi)^2/L$ (Fenchel); what the confinement costs is the excess:
+# the bending energy is 1.598 times the circle's by default (1.603 with `--paper`), and the
+# demo asserts a ratio in [1.5, 1.7] (about ±6 %). A rod that escaped the sphere would relax
+# towards the circle (ratio 1); the start's whole energy is 2.5 times the circle's.
 #
 # **The shape.** `dgplate.measure.rod_shapes.classify` reads the final nodes as a μ-circle or
 # a μ-ν-clew (Bartels and Weyer; docs/rods.md, "Rods in a sphere"): μ is the winding number
@@ -74,7 +77,8 @@ shape = summary["shape"]
 # rod, and a circle has a curvature that varies by less than 10 %. The saddle squeezed into a
 # sphere 8.7 % too small becomes a **1-2 clew** lying on the sphere: one turn about its axis,
 # four curvature maxima (at the saddle's two peaks and two valleys), every node within 1 % of
-# the sphere. The demo asserts both and adds the classification to summary.json (`shape`).
+# the sphere (measured 0.76 % by default, 0.75 % with `--paper`). The demo asserts both and
+# adds the classification to summary.json (`shape`).
 
 # %%
 circle = 0.5 * (2 * 3.141592653589793) ** 2 / LENGTH
@@ -93,8 +97,10 @@ demo.check("the energy fell at every step", summary["energy_increases"] == [])
 demo.check_between("max |u| / R", summary["max_distance_to_center"] / RADIUS, high=1.01)
 demo.check_between("confinement energy", summary["energy_confinement"], low=1e-8)
 demo.check_close("length", summary["length"], LENGTH, rel=0.01, source="inextensible")
-demo.check_between("bending energy / free circle's", summary["energy_bending"] / circle, low=1.0)
+demo.check_between("bending energy / free circle's", summary["energy_bending"] / circle, 1.5, 1.7,
+                   source="measured 1.598; 1.603 with --paper")  # fmt: skip
 demo.check(
     "the final shape is a 1-2 clew (one turn, four curvature maxima)", shape["label"] == "1-2 clew"
 )
-demo.check_between("max ||u| − R| / R", shape["sphere_distance"], high=0.05)
+demo.check_between("max ||u| − R| / R", shape["sphere_distance"], high=0.01,
+                   source="on the sphere; measured 0.0076")  # fmt: skip

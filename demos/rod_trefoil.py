@@ -55,7 +55,7 @@ from dgplate.models.rod import RodStart
 PROBLEM = Path(__file__).parent / "problems" / "rod_trefoil.toml"
 LENGTH, C_B = 1.0, 1.0
 LIMIT = 0.5 * C_B * (4.0 * math.pi) ** 2 / LENGTH  # the doubly covered circle
-args = demo.arguments("rod_trefoil", "The elastic trefoil", "64 cells, ρ down to 0.001")
+args = demo.arguments("rod_trefoil", "The elastic trefoil", "96 cells, ρ down to 0.001")
 
 
 def start_bending(samples: int = 20000) -> float:
@@ -105,9 +105,11 @@ for rho in STAGES:
 # non-neighbouring points over the whole stage and the wall time. It asserts: the energy fell
 # at every step of every stage; the least distance stayed above a quarter of the cell length
 # (the strands kept apart: 0.024 at 32 cells, h = 0.031, by default) and the
-# writhe never jumped (a crossing changes it by ±2); the final bending energy lies between the
-# doubly covered circle's $(c_b/2)(4\pi)^2/L = 78.96$ and the start's; it fell from stage to
-# stage.
+# writhe never jumped (a crossing changes it by ±2); the bending energy fell from stage to
+# stage; and the final bending energy lies above the doubly covered circle's
+# $(c_b/2)(4\pi)^2/L = 78.96$ (Fáry–Milnor) and within 10 % of it by default (measured
+# 1.060 times it after ρ = 0.01; 1.177 after the first stage, 1.43 at the start), within 3 %
+# with `--paper` (measured 1.022 after ρ = 0.001).
 
 # %%
 bending0 = start_bending()
@@ -128,10 +130,11 @@ jumps = [
 cell_length = problem.model.length / problem.model.cells
 demo.check_between("least distance of non-neighbouring points", least, low=0.25 * cell_length)
 demo.check_between("largest change of the writhe in one step", max(jumps), high=0.5)
-demo.check_between("final bending energy", final["energy_bending"], low=LIMIT, high=bending0)
 bendings = [result["energy_bending"] for _, result, _ in rows]
 demo.check("the bending energy fell from stage to stage", bendings == sorted(bendings)[::-1])
-demo.say(f"final bending energy / the doubly covered circle's: {bendings[-1] / LIMIT:.4f}")
+demo.check_between("final bending energy / the doubly covered circle's",
+                   final["energy_bending"] / LIMIT, 1.0, 1.03 if args.paper else 1.10,
+                   source="measured 1.022 with --paper" if args.paper else "measured 1.060")  # fmt: skip
 
 # %% [markdown]
 # The pictures show the rod as a tube with a red stripe along the director $b$: every stage's

@@ -80,7 +80,10 @@ demo.copy_figure(args.out, args.figure)
 # The self-avoidance energy, tiny on the open arc, grows by orders of magnitude once the
 # free end lies over the clamped part.
 #
-# Measured by default (24×2 cells, 1968 dofs): see docs/self_avoidance.md.
+# Measured by default (24×2 cells, 1968 dofs): see docs/self_avoidance.md. The demo asserts
+# that no step raised the energy, that the least distance stayed ≥ 10⁻³ and fell to at most
+# 0.8 of its start (measured 0.354 → 0.160, 0.45 of it), and that the run stopped by its
+# tolerance, not its budget.
 
 # %%
 distances = demo.check_self_avoiding(
@@ -88,3 +91,4 @@ distances = demo.check_self_avoiding(
 )
 demo.check_between("least distance against its start", min(distances) / distances[0], high=0.8,
                    source="the free end came round to the clamped part")  # fmt: skip
+demo.check("the flow stopped by its tolerance, not by the step budget", result["converged"])
