@@ -3,7 +3,7 @@
 ``dgplate check`` takes the same arguments and validates everything ``run`` would (the output
 folder, the mesh, the model, the start) without solving or writing: 0 valid, 2 bad input.
 ``dgplate show OUT [OUT ...]`` prints finished or running runs from their output folders: one
-run in detail, several as a table.
+run in detail, several as a table (a demo's folder of several runs stands for them).
 
 Exit codes: 0 success; 1 the solve did not converge, or failed (outputs are written, with the
 reason); 2 bad input (a one-line message on stderr, nothing written); 130 and 143 the run was
@@ -163,12 +163,12 @@ def _check(problem: Problem, args: argparse.Namespace, comm: MPI.Comm) -> int:
 
 def _show(folders: list[str], comm: MPI.Comm) -> int:
     """``dgplate show``: the runs' summaries, read on rank 0 (files only, nothing built)."""
-    from dgplate.io.records import details, read_summary, table
+    from dgplate.io.records import details, read_summary, runs_in, table
 
     report: str | InputError | None = None
     if comm.rank == 0:
         try:
-            summaries = [read_summary(folder) for folder in folders]
+            summaries = [read_summary(folder) for folder in runs_in(folders)]
             report = details(summaries[0]) if len(summaries) == 1 else table(summaries)
         except InputError as err:
             report = err

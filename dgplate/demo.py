@@ -170,6 +170,8 @@ def run(
         InputError: The output folder is not dgplate's (without ``--force``), or with
             ``--resume`` holds the checkpoint of another problem.
     """
+    if subfolder:
+        _claim_folder(Path(args.out), args.force, comm)
     out = Path(args.out).joinpath(*subfolder)
     if getattr(args, "no_frames", False):
         problem = dataclasses.replace(
@@ -185,6 +187,24 @@ def run(
                 return summary
         resume = state is not None
     return _run(problem, out=out, comm=comm, force=args.force, resume=resume, **options)
+
+
+def _claim_folder(folder: Path, force: bool, comm: MPI.Comm) -> None:
+    """Take ``folder``, which holds a demo's several runs and its own pictures. Collective.
+
+    It is refused as a run's output folder is, when it holds a user's files (unless
+    ``force``), and otherwise marked as dgplate's (listing no file, so that no later run
+    deletes anything in it): the runs go into its subfolders, and the demo's pictures there
+    replace only those of an earlier run of the demo.
+    """
+    from dgplate.io.output import is_dgplate_output, write_marker
+
+    OutputDir.check(comm, folder, force)
+    if comm.rank == 0:
+        folder.mkdir(parents=True, exist_ok=True)
+        if not is_dgplate_output(folder) and not any(folder.iterdir()):
+            write_marker(folder, [])
+    comm.barrier()
 
 
 def _checkpoint_state(problem: Problem, out: Path, comm: MPI.Comm) -> dict[str, Any] | None:

@@ -100,10 +100,10 @@ def test_demo_runs_and_checks_its_results(demo, ranks, tmp_path):
         assert any(out.rglob(pattern)), f"{demo.name} wrote no {pattern} in {out}:\n{tail}"
 
 
-@pytest.mark.parametrize("name", ["vertical_load", "fvk_crease"])
+@pytest.mark.parametrize("name", ["vertical_load", "straight_fold", "fvk_crease"])
 def test_demo_refuses_a_users_folder_in_one_line(name, tmp_path):
-    """A demo run by dgplate.run and one that writes its own results: exit 2, one line, the
-    user's folder as it was, before anything is solved."""
+    """A demo of one run, one of several runs in subfolders and one that writes its own
+    results: exit 2, one line, the user's folder as it was, before anything is solved."""
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "notes.txt").write_text("user data")

@@ -65,6 +65,19 @@ def test_show_one_run_and_a_table(tmp_path, capsys):
     assert sorted((p, p.stat().st_mtime_ns) for p in tmp_path.rglob("*")) == before
 
 
+def test_show_a_folder_of_runs_shows_each(tmp_path, capsys):
+    """A demo's folder holds its runs in subfolders: `show` lists them."""
+    from dgplate import demo
+
+    args = demo.arguments("vertical_load", argv=["--out", str(tmp_path / "demo")])
+    for name in ("b", "a"):
+        demo.run(dgplate.load_problem(VERTICAL, QUIET), args, name)
+    capsys.readouterr()
+    assert main(["show", str(tmp_path / "demo")]) == 0
+    rows = capsys.readouterr().out.strip().splitlines()[1:]
+    assert [row.split()[0] for row in rows] == [str(tmp_path / "demo" / n) for n in ("a", "b")]
+
+
 def test_show_a_run_without_summary_reads_its_checkpoint(tmp_path, capsys):
     """A run still going (or killed) has a checkpoint but no summary.json yet."""
     ran = dgplate.run(dgplate.load_problem(VERTICAL, QUIET), out=tmp_path / "o")

@@ -95,6 +95,14 @@ def target_problem(target: Path, force: bool = False, resume: bool = False) -> s
     return None
 
 
+def write_marker(folder: Path, files: list[str]) -> None:
+    """Mark ``folder`` as dgplate's, listing the ``files`` a later run may replace (rank 0)."""
+    record = {"written_by": "dgplate", "files": sorted(files)}
+    tmp = folder / f"{MARKER}.tmp"
+    tmp.write_text(json.dumps(record, indent=1) + "\n")
+    os.replace(tmp, folder / MARKER)
+
+
 class OutputDir:
     """An output folder whose results appear together, at ``commit()``.
 
@@ -133,10 +141,7 @@ class OutputDir:
         _decide(comm, lambda: target_problem(Path(target).absolute(), force, resume))
 
     def _write_marker(self, files: list[str]) -> None:
-        record = {"written_by": "dgplate", "files": sorted(files)}
-        tmp = self.target / f"{MARKER}.tmp"
-        tmp.write_text(json.dumps(record, indent=1) + "\n")
-        os.replace(tmp, self.target / MARKER)
+        write_marker(self.target, files)
 
     def _previous_files(self) -> list[str]:
         try:

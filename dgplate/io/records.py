@@ -70,6 +70,22 @@ def read_summary(folder: str | Path) -> dict[str, Any]:
     return summary
 
 
+def runs_in(folders: Sequence[str | Path]) -> list[Path]:
+    """The run folders among ``folders``, in the order given.
+
+    A folder of several runs (a demo's, its runs in subfolders) stands for those runs, in
+    name order.
+    """
+    found: list[Path] = []
+    for folder in map(Path, folders):
+        own = (folder / SUMMARY).is_file() or (folder / CHECKPOINT / "state.npz").is_file()
+        inner = (
+            sorted(p for p in folder.iterdir() if is_dgplate_output(p)) if folder.is_dir() else []
+        )
+        found += inner if inner and not own else [folder]
+    return found
+
+
 def _status(summary: dict[str, Any]) -> str:
     if summary.get("interrupted"):
         return "interrupted"
