@@ -86,8 +86,9 @@ demo.copy_figure(args.out, args.figure)
 #
 # The demo asserts these statements: the flow converged with a decreasing energy; the annulus
 # left the plane (a height of at least 0.1, a twelfth of its radius); the fold angle spreads over
-# at least 20° and stays below the two cones' 2 atan t; E_h lies between half the flat
-# annulus's ½∫|Z|² and that energy.
+# at least 0.3 of its mean (0.67 measured; 0.44 with `--t 1.5`); the largest fold angle is at most half the two cones' 2 atan t (measured 0.47
+# of it at h = 0.2, 0.42 at h = 0.1); E_h lies between half the flat annulus's ½∫|Z|² and that
+# energy.
 
 # %%
 fold = summary["fold_angle_deg"]
@@ -107,7 +108,10 @@ demo.say(
 demo.check("the flow converged and E_h decreased at every step",
            summary["converged"] and not summary["energy_increases"])  # fmt: skip
 demo.check_between("height", hi[2] - lo[2], low=0.1, source="the annulus leaves the plane")
-demo.check_between("fold angle spread", fold["max"] - fold["min"], low=20.0,
-                   source="the fold angle varies along C")  # fmt: skip
-demo.check_between("largest fold angle", fold["max"], high=cones, source="two cones: 2 atan t")
+# measured spread / mean: 0.67 at t = 3 (h = 0.2), 0.44 at t = 1.5 (22.0°–34.8°, mean 29.5°)
+demo.check_between("fold angle spread / mean", (fold["max"] - fold["min"]) / fold["mean"],
+                   low=0.3, source="the fold angle varies along C")  # fmt: skip
+# measured at t = 3: 66.6° (h = 0.2), 60.0° (h = 0.1), against cones / 2 = 71.6°
+demo.check_between("largest fold angle", fold["max"], high=cones / 2,
+                   source="half the two cones' 2 atan t")  # fmt: skip
 demo.check_between("E_h", summary["energy"], 0.5 * flat, flat, source="the flat annulus: ½∫|Z|²")

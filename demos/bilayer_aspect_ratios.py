@@ -161,17 +161,29 @@ montage(
 # $a \le 2$; fitted radii 8–15 % too large, at most 0.69 $a h$; every axis parallel to the
 # clamped side. The demo asserts, for every run with $a \le 2$: the flow converged with a
 # decreasing energy, E_h within 5 % of E*, the axis within 5° of $x_2$ and a radius between
-# $1/a$ and $(1 + 0.75\,a h)/a$. The runs with $a = 5$ are shown, not checked (the trap above).
+# $1/a$ and $(1 + 0.75\,a h)/a$. For $a > 2$ with ratios up to 2 (E_h measured 1.14–1.18 E*
+# for $a = 5$): the flow converged with a decreasing energy, E_h between 0.95 E* and 1.2 E*
+# and the axis within 5° of $x_2$. Longer plates with $a > 2$ are shown, not checked (the trap
+# above: 1.30 E*); a run of only those says so.
 
 # %%
+checked = 0
 for (ratio, a), (s, ideal, h) in sorted(results.items()):
-    if a > 2:
-        continue
     case, fit = f"ratio {label(ratio)}, a = {a:g}", s["cylinder_fit"]
+    if a > 2 and ratio > 2:
+        demo.say(f"{case}: shown, not checked (the coarse flow may be trapped)")
+        continue
+    checked += 1
     demo.check(f"{case}: the flow converged and E_h decreased at every step",
                s["converged"] and not s["energy_increases"])  # fmt: skip
-    demo.check_close(f"{case}: E_h", s["energy"], ideal, rel=0.05, source="E* = ½a²|ω|")
     demo.check_between(f"{case}: angle of the axis to x₂ (°)", demo.axis_angle(fit, (0, 1, 0)),
                        high=5.0, source="the clamped side's direction")  # fmt: skip
+    if a > 2:  # measured at a = 5, 6 cells per unit: 1.155, 1.175, 1.138 E* (ratios 1/2, 1, 7/4)
+        demo.check_between(f"{case}: E_h", s["energy"], 0.95 * ideal, 1.2 * ideal,
+                           source="0.95 to 1.2 E*, E* = ½a²|ω|")  # fmt: skip
+        continue
+    demo.check_close(f"{case}: E_h", s["energy"], ideal, rel=0.05, source="E* = ½a²|ω|")
     demo.check_between(f"{case}: fitted radius", fit["radius"], 1 / a, (1 + 0.75 * a * h) / a,
                        source="1/a, first order in h")  # fmt: skip
+if not checked:
+    demo.say("WARNING: no check applies to these runs (a > 2 on plates longer than 2 W)")

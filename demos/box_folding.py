@@ -107,10 +107,10 @@ if result.get("interrupted"):  # SIGINT/SIGTERM: outputs and a checkpoint were k
 # %% [markdown]
 # ## What to look at
 #
-# At the switch, relaxed at the peak temperature, all five hinges stand at 90° within about
-# a degree (the lid's hinge, farthest from the heater and coolest, folds least) and the lid's
-# edge lies within a few hundredths of its place in the ideal box: the box is closed. After
-# cooling the net is flat again (angles within a degree of 0). `history.csv` holds the angles
+# At the switch, relaxed at the peak temperature, all five hinges stand near 90° (the lid's
+# hinge, farthest from the heater and coolest, folds least) and the lid's edge lies within a
+# few hundredths of its place in the ideal box: the box is closed. After cooling the net is
+# flat again (angles within about a degree of 0). `history.csv` holds the angles
 # at every heat step: they follow the temperature a few degrees behind on the way up and on
 # the way down.
 
@@ -138,13 +138,22 @@ say(
 # ## Checks
 #
 # The demo checks its own result: every hinge within 5° of 90° at the switch (the tolerance
-# of the single-hinge test), the closure gap below 0.1 (0.078 at the small default, 0.017 with
-# the problem file's 4 × 4 cells per panel: it shrinks with the mesh), the net flat again after
-# cooling, and the isometry constraint kept.
+# of the single-hinge test; measured 87.3°–89.0° at the small default), the closure gap below
+# 0.1 (0.078 at the small default, 0.017 with the problem file's 4 × 4 cells per panel: it
+# shrinks with the mesh), the net flat again after cooling (every angle within 2° of 0;
+# measured at most 1.01°), both holds converged, no flow step raised the energy, and the
+# isometry constraint kept (D_h measured 3e−14).
 
 # %%
-assert all(abs(angle - 90.0) < 5.0 for angle in closed.values()), closed
-assert result["closure_gap_at_switch"] < 0.1, result["closure_gap_at_switch"]
-assert all(abs(angle) < 5.0 for angle in opened.values()), opened
-assert result["isometry_defect"] < 1e-6 and math.isfinite(result["energy"])
+demo.check("both holds converged and no flow step raised the energy",
+           result["converged_at_switch"] and result["converged"]
+           and not result["energy_increases"])  # fmt: skip
+for name, angle in closed.items():
+    demo.check_close(f"{name} at the switch (°)", angle, 90.0, abs=5.0, source="a right angle")
+demo.check_between("closure gap at the switch", result["closure_gap_at_switch"], high=0.1,
+                   source="the box is closed")  # fmt: skip
+for name, angle in opened.items():
+    demo.check_close(f"{name} after cooling (°)", angle, 0.0, abs=2.0, source="flat again")
+demo.check_between("D_h", result["isometry_defect"], high=1e-6)
+demo.check("E_h is finite", math.isfinite(result["energy"]))
 say(f"box closed and opened again → {args.out}")

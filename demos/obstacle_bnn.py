@@ -65,7 +65,7 @@ demo.copy_figure(args.out, args.figure)
 # ## Our figures beside the published ones
 #
 # The penetration is max(y₃ − 0.2)₊ over the plate; the contact force (1/ε)∫(y₃ − 0.2)₊ is
-# the total reaction of the ceiling (at most ∫f = 4: the clamp carries the rest).
+# the total reaction of the ceiling (about 1.4 of ∫f = 4: the clamp carries the rest).
 
 # %%
 epsilon = problem.model.obstacle["epsilon"]
@@ -77,13 +77,18 @@ demo.say(f"{'contact area':>18} {s['contact_area']:>10.4f}")
 demo.say(f"{'contact cells':>18} {s['contact_cells']:>10d}")
 demo.say(f"{'contact force':>18} {s['contact_force']:>10.4f}")
 
+demo.check("the flow reached its stopping rule", s["converged"])
 demo.check("the energy decreased at every step", not s["energy_increases"])
 demo.check("the plate touches the ceiling", s["contact_cells"] > 0)
-demo.check_between("contact force", s["contact_force"], 0.0, 4.0, source="at most ∫f = 4")
-# a penetration of a few % of the gap at most: the penalty holds the plate back
-demo.check_between("penetration", s["max_penetration"], 0.0, 0.02)
+# Measured contact force: 1.4445 by default, 1.415 with --paper (docs/obstacle.md: 1.40–1.49
+# over all runs, of ∫f = 4); ± 2 % around the run's own value.
+force = 1.415 if args.paper else 1.4445
+demo.check_close("contact force", s["contact_force"], force, rel=0.02, source="measured")
+# The penetration is of the size ε·|f| = ε where the ceiling carries a pressure, larger at the
+# edge of the contact zone; measured 4.3ε by default, 6.6ε with --paper (7.4ε on 8 × 8).
+demo.check_between("penetration / ε", s["max_penetration"] / epsilon, 1.0, 10.0,
+                   source="ε|f| to 10ε|f|")  # fmt: skip
 if args.paper:  # measured: D_h 0.81×, penetration 1.00× the published values (docs/obstacle.md)
-    demo.check("the flow reached its stopping rule", s["converged"])
     for key in ("isometry_defect", "penetration"):
         published = BNN_OBSTACLE[key]
         value = s["max_penetration" if key == "penetration" else key]
