@@ -17,6 +17,7 @@ import argparse
 import sys
 import time
 import traceback
+from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 from mpi4py import MPI
@@ -162,22 +163,42 @@ def _check(problem: Problem, args: argparse.Namespace, comm: MPI.Comm) -> int:
 
 
 def _show(folders: list[str], comm: MPI.Comm) -> int:
-    """``dgplate show``: the runs' summaries, read on rank 0 (files only, nothing built)."""
+    """``dgplate show``: the runs' summaries, read on rank 0 (files only, nothing built).
+
+    One folder that cannot be read is bad input (exit 2); in a table it is a row that says
+    why, so that one broken folder among many does not hide the others.
+    """
     from dgplate.io.records import details, read_summary, runs_in, table
 
     report: str | InputError | None = None
     if comm.rank == 0:
         try:
-            summaries = [read_summary(folder) for folder in runs_in(folders)]
-            report = details(summaries[0]) if len(summaries) == 1 else table(summaries)
+            runs = runs_in(folders)
+            if len(runs) == 1:
+                report = details(read_summary(runs[0]))
+            else:
+                report = table([_summary_or_error(run) for run in runs])
         except InputError as err:
             report = err
+        except Exception as err:  # e.g. no permission: one line, on every rank
+            report = InputError(f"{type(err).__name__}: {err}")
     report = comm.bcast(report, root=0)
     if isinstance(report, InputError):
         raise report
     if comm.rank == 0:
         print(report, flush=True)
     return 0
+
+
+def _summary_or_error(folder: Path) -> dict[str, object]:
+    """The run's summary, or a row whose status says why it cannot be read."""
+    from dgplate.io.records import read_summary
+
+    try:
+        return read_summary(folder)
+    except Exception as err:
+        message = str(err).removeprefix(f"{folder}: ").removeprefix(f"{folder} ")
+        return {"folder": str(folder), "status": f"error: {message}"}
 
 
 def _drop_solver_options() -> None:

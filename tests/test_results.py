@@ -2,6 +2,7 @@
 
 import json
 import math
+import os
 import shutil
 from pathlib import Path
 
@@ -16,6 +17,12 @@ from dgplate.cli import main
 ROOT = Path(__file__).resolve().parent.parent
 VERTICAL = ROOT / "demos" / "problems" / "vertical_load.toml"
 QUIET = {"mesh.cells": [4, 4], "output.progress": 0, "output.png": False, "output.vtx": False}
+
+
+def _older_than_summary(folder: Path) -> None:
+    """Date the checkpoint before the summary, as at the end of a run."""
+    written = (folder / "summary.json").stat().st_mtime
+    os.utime(folder / "checkpoint" / "state.npz", (written - 10, written - 10))
 
 
 def _same(a, b) -> bool:
@@ -88,7 +95,7 @@ def test_show_a_run_without_summary_reads_its_checkpoint(tmp_path, capsys):
     partial = dgplate.load_result(tmp_path / "o", state=False)
     assert partial["status"] == "checkpoint only" and partial["energy"] == ran["energy"]
     assert len(partial.history) == ran["steps"]
-    with pytest.raises(dgplate.InputError, match="has not written its summary"):
+    with pytest.raises(dgplate.InputError, match="has no summary for its last checkpoint"):
         dgplate.load_result(tmp_path / "o")
 
 
@@ -111,6 +118,7 @@ def test_load_result_refuses_a_changed_checkpoint(tmp_path):
     dgplate.run(dgplate.load_problem(VERTICAL, other), out=tmp_path / "b")
     shutil.rmtree(tmp_path / "a" / "checkpoint")
     shutil.copytree(tmp_path / "b" / "checkpoint", tmp_path / "a" / "checkpoint")
+    _older_than_summary(tmp_path / "a")
     with pytest.raises(dgplate.InputError, match=r"load_result: the checkpoint .* another problem"):
         dgplate.load_result(tmp_path / "a")
 
@@ -136,3 +144,42 @@ def test_load_result_on_other_ranks(tmp_path):
     from dgplate.io.output import bounding_box
 
     assert bounding_box(y) == back["bbox"]
+
+
+def test_show_a_resumed_run_reads_its_newer_checkpoint(tmp_path, capsys):
+    """A run resumed after its summary (and still going, or killed) is read from the
+    checkpoint, which is newer; its final state is not paired with the old summary."""
+    short = dgplate.load_problem(VERTICAL, {**QUIET, "flow.max_steps": 2})
+    dgplate.run(short, out=tmp_path / "o")
+    written = (tmp_path / "o" / "summary.json").stat().st_mtime
+    os.utime(tmp_path / "o" / "checkpoint" / "state.npz", (written + 10, written + 10))
+    capsys.readouterr()
+    assert main(["show", str(tmp_path / "o")]) == 0
+    assert "resumed after its summary.json (step 2)" in capsys.readouterr().out
+    assert dgplate.load_result(tmp_path / "o", state=False)["status"] == "resumed"
+    with pytest.raises(dgplate.InputError, match="has no summary for its last checkpoint"):
+        dgplate.load_result(tmp_path / "o")
+
+
+def test_show_a_table_of_mixed_folders(tmp_path, capsys):
+    """Every folder is a row, the unreadable ones saying why: a finished run, a demo's own
+    summary (no convergence flag), a run not yet checkpointed, a broken summary, a user's
+    folder. One broken folder alone is bad input."""
+    dgplate.run(dgplate.load_problem(VERTICAL, QUIET), out=tmp_path / "run")
+    for name, text in (("study", '{"levy_max_error": 0.01}'), ("started", None), ("bad", "[1]")):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / ".dgplate-output").write_text('{"files": []}')
+        if text is not None:
+            (tmp_path / name / "summary.json").write_text(text)
+    (tmp_path / "mine").mkdir()
+    names = ["run", "study", "started", "bad", "mine"]
+    capsys.readouterr()
+    assert main(["show", *(str(tmp_path / n) for n in names)]) == 0
+    rows = dict(line.split(maxsplit=1) for line in capsys.readouterr().out.splitlines()[1:])
+    status = {Path(folder).name: row for folder, row in rows.items()}
+    assert "converged" in status["run"] and "finished" in status["study"]
+    assert "started" in status["started"] and "error: " in status["bad"]
+    assert "error: is not a dgplate output folder" in status["mine"]
+    assert main(["show", str(tmp_path / "bad")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "not a dgplate summary" in err

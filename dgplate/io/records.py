@@ -13,6 +13,7 @@ import csv
 import io
 import json
 import math
+import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -20,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from dgplate.errors import InputError, read_user_text
+from dgplate.io.checkpoint import STATE_FILE
 from dgplate.io.output import CHECKPOINT, MARKER, duration, is_dgplate_output
 
 SUMMARY = "summary.json"
@@ -43,18 +45,23 @@ COLUMNS: tuple[tuple[str, str, str], ...] = (
 def read_summary(folder: str | Path) -> dict[str, Any]:
     """The run's ``summary.json``, with ``status`` and ``folder`` added.
 
-    ``status`` is ``converged``, ``not converged`` or ``interrupted``; a run that has written
-    a checkpoint but no summary yet (running, or killed) gives the checkpoint's step and last
-    history row, with ``status = "checkpoint only"``. Raises ``InputError`` (naming the folder)
-    for a folder dgplate did not write or that holds neither.
+    ``status`` is ``converged``, ``not converged`` or ``interrupted`` (``finished`` for a
+    demo's own summary, which has no such flag). A run without a summary, or resumed since
+    it wrote one, is read from its checkpoint: the step, E_h and D_h of its last record,
+    with ``status`` ``checkpoint only`` or ``resumed`` (``stale = True``: the summary's
+    figures are older than the checkpoint's). A run that has not written a checkpoint yet
+    is ``started``. Raises ``InputError`` (naming the folder) for a folder dgplate did not
+    write.
     """
     path = Path(folder)
-    if not path.is_dir():
+    if not path.exists():
         raise InputError(f"{path}: no such output folder")
+    if not path.is_dir():
+        raise InputError(f"{path} is a file, not an output folder")
     if not is_dgplate_output(path):
         raise InputError(f"{path} is not a dgplate output folder (it has no {MARKER})")
-    summary_file = path / SUMMARY
-    summary: dict[str, Any]
+    summary_file, state_file = path / SUMMARY, path / CHECKPOINT / STATE_FILE
+    summary: dict[str, Any] = {}
     if summary_file.is_file():
         try:
             data = json.loads(read_user_text(summary_file, "summary"))
@@ -64,57 +71,78 @@ def read_summary(folder: str | Path) -> dict[str, Any]:
             raise InputError(f"{summary_file}: not a dgplate summary")
         summary = data
         summary["status"] = _status(summary)
+        if state_file.is_file() and state_file.stat().st_mtime > summary_file.stat().st_mtime:
+            summary["summary_steps"] = summary.get("steps")
+            summary |= _from_checkpoint(path, "resumed")  # written after the summary
+            summary["stale"] = True
+    elif state_file.is_file():
+        summary = _from_checkpoint(path, "checkpoint only")
     else:
-        summary = _from_checkpoint(path)
+        summary["status"] = "started"
     summary["folder"] = str(path)
     return summary
 
 
-def runs_in(folders: Sequence[str | Path]) -> list[Path]:
+def runs_in(folders: Sequence[str | Path], depth: int = 3) -> list[Path]:
     """The run folders among ``folders``, in the order given.
 
-    A folder of several runs (a demo's, its runs in subfolders) stands for those runs, in
-    name order.
+    A folder that holds runs in its subfolders (a demo's, a parameter study's ``out/``)
+    stands for them, in name order, down to ``depth`` levels; a folder with no run in it
+    stands for itself (``read_summary`` then says what it is).
     """
     found: list[Path] = []
     for folder in map(Path, folders):
-        own = (folder / SUMMARY).is_file() or (folder / CHECKPOINT / "state.npz").is_file()
-        inner = (
-            sorted(p for p in folder.iterdir() if is_dgplate_output(p)) if folder.is_dir() else []
-        )
-        found += inner if inner and not own else [folder]
+        found += _runs_below(folder, depth) or [folder]
     return found
+
+
+def _runs_below(folder: Path, depth: int) -> list[Path]:
+    """The run folders at or below ``folder`` ([] for none)."""
+    if not folder.is_dir() or folder.name == CHECKPOINT or folder.name.startswith("."):
+        return []
+    if (folder / SUMMARY).is_file() or (folder / CHECKPOINT / STATE_FILE).is_file():
+        return [folder]
+    inner: list[Path] = []
+    if depth > 0:
+        try:
+            children = sorted(p for p in folder.iterdir() if p.is_dir())
+        except OSError:
+            children = []
+        inner = [run for child in children for run in _runs_below(child, depth - 1)]
+    return inner or ([folder] if is_dgplate_output(folder) else [])
 
 
 def _status(summary: dict[str, Any]) -> str:
     if summary.get("interrupted"):
         return "interrupted"
-    return "converged" if summary.get("converged") else "not converged"
+    if "converged" not in summary:
+        return "finished"
+    return "converged" if summary["converged"] else "not converged"
 
 
 def checkpoint_state(folder: Path) -> dict[str, Any]:
     """The JSON state of the checkpoint in ``folder`` (step, history, fingerprint, …)."""
-    file = folder / CHECKPOINT / "state.npz"
+    file = folder / CHECKPOINT / STATE_FILE
     if not file.is_file():
         raise InputError(f"{folder} holds neither {SUMMARY} nor a checkpoint")
     try:
         with np.load(file) as npz:
             state = json.loads(bytes(npz["__state__"]).decode())
-    except (OSError, ValueError, KeyError) as err:
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
         raise InputError(f"cannot read the checkpoint in {folder}: {err}") from None
     if not isinstance(state, dict):
         raise InputError(f"the checkpoint in {folder} is not a dgplate checkpoint")
     return state
 
 
-def _from_checkpoint(folder: Path) -> dict[str, Any]:
-    """What a summary would say, from the checkpoint of a run without one (yet)."""
+def _from_checkpoint(folder: Path, status: str) -> dict[str, Any]:
+    """What a summary would say, from the checkpoint of a run without a current one."""
     state = checkpoint_state(folder)
     history = state.get("history") or [{}]
-    last = history[-1]
+    last = history[-1] if isinstance(history[-1], dict) else {}
     return {
         "steps": state.get("step"),
-        "status": "checkpoint only",
+        "status": status,
         "energy": last.get("energy"),
         "isometry_defect": last.get("defect"),
     }
@@ -161,7 +189,10 @@ def _cell(value: Any, form: str) -> str:
         return str(value)
     if isinstance(value, float) and not math.isfinite(value):
         return str(value)
-    return format(value, form)
+    try:
+        return format(value, form)
+    except ValueError:  # e.g. a float where an int was expected
+        return str(value)
 
 
 def table(summaries: Sequence[dict[str, Any]]) -> str:
@@ -172,7 +203,7 @@ def table(summaries: Sequence[dict[str, Any]]) -> str:
     columns = [("folder", "folder", "s")]
     columns += [c for c in COLUMNS if any(s.get(c[1]) is not None for s in summaries)]
     rows = [[title for title, _, _ in columns]]
-    rows += [[_cell(s.get(key), form) for _, key, form in columns] for s in summaries]
+    rows += [[_cell(_shown(s, key), form) for _, key, form in columns] for s in summaries]
     widths = [max(len(row[i]) for row in rows) for i in range(len(columns))]
     numeric = [form not in ("s",) for _, _, form in columns]
     lines = []
@@ -185,27 +216,39 @@ def table(summaries: Sequence[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+def _shown(summary: dict[str, Any], key: str) -> Any:
+    """A summary's value for the table; a resumed run's wall time is not yet known."""
+    return None if key == "wall_time_s" and summary.get("stale") else summary.get(key)
+
+
 def details(summary: dict[str, Any]) -> str:
     """One run in words: what it solved, how it ended, and every figure of its summary."""
     head = f"{summary['folder']}: {summary.get('problem', '?')} ({summary.get('model', '?')})"
-    if summary.get("cells") is not None:
-        head += f", {summary['cells']:,} cells"
-    if summary.get("dofs") is not None:
-        head += f", {summary['dofs']:,} dofs"
-    if summary.get("ranks") is not None:
-        head += f" on {summary['ranks']} rank(s)"
-    status = summary["status"]
-    reason = summary.get("reason")
-    steps = summary.get("steps")
-    if status == "checkpoint only":
-        ending = f"no {SUMMARY} yet (running, or stopped without one): checkpoint at step {steps}"
+    for key, text in (
+        ("cells", ", {:,} cells"),
+        ("dofs", ", {:,} dofs"),
+        ("ranks", " on {} rank(s)"),
+    ):
+        if isinstance(summary.get(key), int):
+            head += text.format(summary[key])
+    status, steps = summary.get("status", "?"), summary.get("steps")
+    if status == "started":
+        ending = f"started: no {SUMMARY} and no checkpoint yet"
+    elif status == "checkpoint only":
+        ending = f"no {SUMMARY} yet (running, or stopped): checkpoint at step {steps}"
+    elif status == "resumed":
+        ending = (
+            f"resumed after its {SUMMARY} (step {summary.get('summary_steps')}), running or "
+            f"stopped: checkpoint at step {steps}"
+        )
     else:
-        ending = f"{status} after {steps} steps"
-    if summary.get("wall_time_s") is not None:
+        ending = status + (f" after {steps} steps" if steps is not None else "")
+    if isinstance(summary.get("wall_time_s"), int | float) and not summary.get("stale"):
         ending += f" in {duration(float(summary['wall_time_s']))}"
+    reason = summary.get("reason") if not summary.get("stale") else None
     lines = [head, f"  {ending}" + (f": {reason}" if reason else "")]
     skip = {"folder", "status", "reason", "problem", "model", "cells", "dofs", "ranks", "steps"}
-    skip |= {"input", "converged", "interrupted", "wall_time_s"}
+    skip |= {"input", "converged", "interrupted", "wall_time_s", "stale", "summary_steps"}
     scalars = {
         key: value
         for key, value in summary.items()

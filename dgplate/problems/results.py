@@ -10,6 +10,7 @@ on a cluster, the look at it in a notebook.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 from mpi4py import MPI
 
@@ -31,23 +32,23 @@ def load_result(folder: str | Path, comm: MPI.Comm = MPI.COMM_WORLD, state: bool
         state: rebuild the mesh and the model and restore the final state from the
             checkpoint (``shape``, ``fields``); False reads the files only.
 
-    Raises ``InputError`` for a folder dgplate did not write, a run without a summary, or,
-    with ``state``, a mesh file that cannot be found from here or a checkpoint of another
-    problem.
+    Raises ``InputError`` for a folder dgplate did not write or that cannot be read; with
+    ``state`` also for a run whose summary is missing or older than its checkpoint (still
+    running, or killed: ``state=False`` reads what it has), a mesh file that cannot be found
+    from here, or a checkpoint of another problem.
     """
     path = Path(folder)
-    summary = comm.bcast(_read_or_error(path, comm), root=0)
-    if isinstance(summary, InputError):
-        raise summary
-    history = read_history(path) if comm.rank == 0 else []
-    history = comm.bcast(history, root=0)
+    read = comm.bcast(_read_or_error(path, comm), root=0)
+    if isinstance(read, InputError):
+        raise read
+    summary, history = read
     result = Result(summary, history=history, folder=path.absolute())
     if not state:
         return result
-    if summary["status"] == "checkpoint only" or "input" not in summary:
+    if "input" not in summary or summary.get("stale"):
         raise InputError(
-            f"{path}: the run has not written its summary (still running, or killed); "
-            "load_result(..., state=False) reads its checkpoint's history"
+            f"{path}: the run has no summary for its last checkpoint (still running, or "
+            "killed); load_result(..., state=False) reads what it has"
         )
     problem = problem_from_dict(summary["input"], summary["problem"])
     fingerprint = checkpoint.fingerprint(problem.raw)
@@ -63,11 +64,19 @@ def load_result(folder: str | Path, comm: MPI.Comm = MPI.COMM_WORLD, state: bool
     return result
 
 
-def _read_or_error(path: Path, comm: MPI.Comm) -> dict[str, object] | InputError | None:
-    """The summary on rank 0 (the error, to raise on every rank); None elsewhere."""
+def _read_or_error(
+    path: Path, comm: MPI.Comm
+) -> tuple[dict[str, Any], list[dict[str, Any]]] | InputError | None:
+    """Summary and history, read on rank 0; None elsewhere.
+
+    Any error comes back as an ``InputError`` to raise on every rank, so that no rank waits
+    in a collective for one that failed.
+    """
     if comm.rank != 0:
         return None
     try:
-        return read_summary(path)
+        return read_summary(path), read_history(path)
     except InputError as err:
         return err
+    except Exception as err:  # a damaged file: one line, on every rank
+        return InputError(f"{path}: cannot read the run: {type(err).__name__}: {err}")
