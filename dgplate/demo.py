@@ -49,25 +49,40 @@ from dgplate.problems.specs import Problem
 def _one_line_input_errors(
     kind: type[BaseException], error: BaseException, trace: TracebackType | None
 ) -> None:
-    """``sys.excepthook`` of a demo: bad input is one line on rank 0 and exit code 2.
+    """``sys.excepthook`` of a demo script: bad input is one line on rank 0 and exit code 2.
 
-    The ranks end together as the CLI's do (:func:`dgplate.cli.end_together`), then at once
-    (``os._exit``: a hook cannot set the exit code otherwise). Other errors keep their traceback.
+    The ranks end together as the CLI's do (:func:`dgplate.cli.end_together`, on a
+    communicator of its own), then at once (``os._exit``: a hook cannot set the exit code
+    otherwise). Other errors, and every error in an interactive session, keep Python's
+    handling.
     """
-    if not issubclass(kind, InputError):
-        _previous_hook(kind, error, trace)
+    if not issubclass(kind, InputError) or _ERRORS is None or _interactive():
+        sys.__excepthook__(kind, error, trace)
         return
     from dgplate.cli import end_together
 
-    code = end_together(MPI.COMM_WORLD, 2, f"{Path(sys.argv[0]).name}: error: {error}")
+    code = end_together(_ERRORS, 2, f"{Path(sys.argv[0]).name}: error: {error}")
     sys.stdout.flush()
     if not MPI.Is_finalized():
         MPI.Finalize()
     os._exit(code)
 
 
-_previous_hook = sys.excepthook
-sys.excepthook = _one_line_input_errors
+def _interactive() -> bool:
+    """A prompt that an error must not end: ``python -i``, the REPL, IPython, Jupyter."""
+    return hasattr(sys, "ps1") or bool(sys.flags.inspect) or "IPython" in sys.modules
+
+
+_ERRORS: MPI.Comm | None = None
+"""The communicator the ranks of a demo script agree on an error with (set by :func:`parse`)."""
+
+
+def _install_error_hook() -> None:
+    """Make bad input one line for a demo run as a script (collective, once)."""
+    global _ERRORS
+    if _ERRORS is None and not _interactive():
+        _ERRORS = MPI.COMM_WORLD.Dup() if MPI.COMM_WORLD.size > 1 else MPI.COMM_WORLD
+        sys.excepthook = _one_line_input_errors
 
 
 __all__ = [
@@ -126,8 +141,12 @@ def parser(
 
 
 def parse(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> argparse.Namespace:
-    """Parse the command line, ignoring what the parser does not know (Jupyter's arguments)."""
+    """Parse the command line, ignoring what the parser does not know (Jupyter's arguments).
+
+    Collective: a demo run as a script then ends on bad input with one line and exit code 2.
+    """
     args, _ = parser.parse_known_args(argv)
+    _install_error_hook()
     return args
 
 
@@ -193,12 +212,18 @@ def _claim_folder(folder: Path, force: bool, comm: MPI.Comm) -> None:
     """Take ``folder``, which holds a demo's several runs and its own pictures. Collective.
 
     It is refused as a run's output folder is, when it holds a user's files (unless
-    ``force``), and otherwise marked as dgplate's (listing no file, so that no later run
+    ``force``; a folder whose subfolders are all dgplate's is an earlier run of the demo),
+    and otherwise marked as dgplate's (listing no file, so that no later run
     deletes anything in it): the runs go into its subfolders, and the demo's pictures there
     replace only those of an earlier run of the demo.
     """
     from dgplate.io.output import is_dgplate_output, write_marker
 
+    if comm.rank == 0 and folder.is_dir() and not is_dgplate_output(folder):
+        runs = [p for p in folder.iterdir() if p.is_dir()]
+        if runs and all(is_dgplate_output(p) for p in runs):  # an earlier run of the demo
+            write_marker(folder, [])
+    comm.barrier()
     OutputDir.check(comm, folder, force)
     if comm.rank == 0:
         folder.mkdir(parents=True, exist_ok=True)
