@@ -74,6 +74,8 @@ def main() -> None:
     )
     args = parser.parse_args()
     if args.table1:
+        if unknown := sorted(set(args.table1) - set(BNN_TABLE1)):
+            parser.error(f"--table1: Table 1 has no plate of {unknown} cells per side")
         _write(table1(args.table1, args.out), args.json)
         return
     overrides = {

@@ -179,8 +179,13 @@ for (ratio, a), (s, ideal, h) in sorted(results.items()):
     demo.check_between(f"{case}: angle of the axis to x₂ (°)", demo.axis_angle(fit, (0, 1, 0)),
                        high=5.0, source="the clamped side's direction")  # fmt: skip
     if a > 2:  # measured at a = 5, 6 cells per unit: 1.155, 1.175, 1.138 E* (ratios 1/2, 1, 7/4)
-        demo.check_between(f"{case}: E_h", s["energy"], 0.95 * ideal, 1.2 * ideal,
-                           source="0.95 to 1.2 E*, E* = ½a²|ω|")  # fmt: skip
+        if args.width == 1.0 and per_unit == 6:
+            demo.check_between(f"{case}: E_h", s["energy"], 0.95 * ideal, 1.2 * ideal,
+                               source="0.95 to 1.2 E*, E* = ½a²|ω|")  # fmt: skip
+        else:
+            demo.say(
+                f"{case}: E_h = {s['energy'] / ideal:.3f} E* (bounds measured at W = 1, 6/unit)"
+            )
         continue
     demo.check_close(f"{case}: E_h", s["energy"], ideal, rel=0.05, source="E* = ½a²|ω|")
     demo.check_between(f"{case}: fitted radius", fit["radius"], 1 / a, (1 + 0.75 * a * h) / a,

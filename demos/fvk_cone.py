@@ -386,19 +386,23 @@ demo.copy_figure(args.out, args.figure, "cone.png")
 #
 # The symmetric path is symmetric to round-off (spread below 10⁻⁸ δ; 10⁻¹³ measured) up to the
 # onset, and the cone loses its symmetry: the lowest eigenvalue crosses zero at δ_c, which
-# converges under refinement to about 0.0337 (0.03699 on h = 0.15, 0.03378 on h = 0.07,
-# 0.03368 on h = 0.05; docs/fvk_experiments.md). The demo asserts the crossing, within 12 % of
-# 0.0337 on the default mesh and 2 % with `--paper` (a mesh-convergence check against our
-# finest mesh: the onset is not published). After a push
+# converges under refinement to about 0.0337 (0.03699 on h = 0.15, 0.03478 on h = 0.1,
+# 0.03378 on h = 0.07, 0.03368 on h = 0.05; docs/fvk_experiments.md). The demo asserts the
+# crossing, within 12 % of 0.0337 on the default mesh (2 % with `--paper`, h = 0.07): a
+# mesh-convergence check against our finest mesh, since the onset is not published. Coarser
+# meshes and `--penalty-length diameter` are reported, not checked. After a push
 # (`--push`) the state is stable (after `--leave`: stable to the driver's tolerance, λ₁ ≥ −10⁻³
 # × the path's eigenvalue scale), clearly non-symmetric (spread above 1 % of δ) and of lower
 # energy than the symmetric state at the same indentation.
 
 # %%
 demo.check_between("largest spread on the symmetric path / δ", max(symmetric), 0.0, 1e-8)
-demo.check("the lowest eigenvalue crosses zero on the path (the onset)", onset is not None)
-demo.check_close("onset δ_c", onset or float("nan"), 0.0337, rel=0.02 if args.paper else 0.12,
-                 source="h = 0.05, docs/fvk_experiments.md")  # fmt: skip
+if args.penalty_length == "facet_normal" and h <= 0.15:  # where the onset was measured
+    demo.check("the lowest eigenvalue crosses zero on the path (the onset)", onset is not None)
+    demo.check_close("onset δ_c", onset or float("nan"), 0.0337, rel=0.02 if h <= 0.07 else 0.12,
+                     source="h = 0.05, docs/fvk_experiments.md")  # fmt: skip
+else:
+    demo.say(f"onset not checked: measured with facet_normal lengths on h ≤ 0.15 only (h = {h})")
 if args.push or args.leave:
     demo.check("the push past the onset reached a state", pushed is not None)
 if pushed is not None and symmetric_energy is not None:

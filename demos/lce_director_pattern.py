@@ -69,8 +69,8 @@ demo.copy_figure(args.out, args.figure)
 # $\frac12\gamma^2|\omega| = 4$, D_h = 3.6·10⁻¹⁵, 81 steps; mean II₁₂ = −0.77 on the left half
 # and +0.87 on the right (the join and the free ends unwind part of each half). With `--paper`
 # (32 × 4): E_h = 0.410 = 0.102 of it (docs/lce.md). The one helix, θ = π/4 everywhere
-# (`--set 'model.theta="pi/4"'`), ends at E_h = 0.023 = 0.006 of it at 16 × 2: the rest is
-# what the join costs.
+# (`dgplate run demos/problems/lce_perversion.toml --set 'model.theta="pi/4"'`), ends at
+# E_h = 0.023 = 0.006 of it at 16 × 2: the rest is what the join costs.
 #
 # The demo asserts: converged, the energy fell at every step, D_h ≤ 10⁻⁸, E_h between 0.075
 # and 0.16 of the flat energy (the frustration: twelve times the helix's 0.006, and most of
