@@ -26,7 +26,7 @@
 # from the base and the lid over the top, and the net closes to a box.
 #
 # The temperature solves the heat equation θ_t − κΔθ = s on the flat net (insulated edges)
-# with the published κ = 5 and a heater under the base: s = 5 there until t = 28.2, then −5.
+# with [N15]'s κ = 5 and a heater under the base: s = 5 there until t = 28.2, then −5.
 # Heat spreads over the net within a fraction of a time unit, so all hinges see nearly the
 # same temperature (21.0–21.3 at the switch); θ rises linearly, peaks at the switch and falls
 # again: the box folds shut and opens again. The coupling is quasi-static: after each heat
@@ -37,7 +37,7 @@
 # Everything is in the problem file `demos/problems/box_folding.toml` (model `thermal`), so
 # `dgplate run demos/problems/box_folding.toml` computes the same box. The choices it makes:
 #
-# * **α.** With the published literal Z = −θ a hinge would reach c ≈ 21 and fold by 159°. A 90°
+# * **α.** With [N15]'s literal Z = −θ a hinge would reach c ≈ 21 and fold by 159°. A 90°
 #   fold needs α_cw = 12/θ̄ with θ̄ the hinges' mean temperature at the switch; a discrete
 #   hinge (m cells across) folds a little less than c·w (an O(h) error where the curvature
 #   jumps at its edges), so `alpha = "calibrate"` relaxes one hinge strip of the same cells at
@@ -55,7 +55,7 @@
 # Run: `python demos/box_folding.py` (2 × 2 cells per panel, 2 across a hinge, Δt = 7.05;
 # about 10 s) or `mpirun -n 2 python demos/box_folding.py`; `dgplate run
 # demos/problems/box_folding.toml` runs the problem file's 4 × 4 cells (about 5 min), and
-# `--paper` the published resolution (8 × 8 cells, 8 across, the published Δt = 0.1; hours). `--out DIR` chooses the
+# `--paper` the published resolution (8 × 8 cells, 8 across, [N15]'s Δt = 0.1; hours). `--out DIR` chooses the
 # output folder, `--force` writes into a folder of other files, `--resume` continues an
 # interrupted run from its checkpoint.
 

@@ -12,7 +12,7 @@
 # Ionov, Soft Matter 2011): a star-shaped polymer bilayer — a centre unit square with four
 # trapezoidal flaps (base 1, top 3/5, height 1) — curls up when it swells, and the flaps wrap
 # over the centre to enclose a cargo. The whole film is one bilayer with rigidity μ = 1 and
-# the published spontaneous curvature Z = 12 I: a free strip would roll to radius 1/12, so each
+# [N15]'s spontaneous curvature Z = 12 I: a free strip would roll to radius 1/12, so each
 # flap of length 1 turns by about 12 rad, almost two turns.
 #
 # The plate minimises E[y] = ½∫μ|II(y) − Z|² over isometries of the flat star. It is the

@@ -22,7 +22,7 @@
 #    r = \frac{|y(\tilde x) - y(x)|^2}{2 |\nu(x) \cdot (y(\tilde x) - y(x))|}, $$
 #
 # self-avoiding for $q > 4$, the free end slides over the part near the clamp, and the strip
-# closes into an O with a spiral overlap (the published "bilayer O-shaped plate"). TP is
+# closes into an O with a spiral overlap ([BL]'s "bilayer O-shaped plate"). TP is
 # evaluated explicitly at every step (a load vector; the step matrix does not change) by a
 # cluster tree, and after each step the least distance of points of non-neighbouring cells is
 # measured: a step that brings parts closer than half their distance before, or that raises

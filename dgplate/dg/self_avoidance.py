@@ -53,7 +53,7 @@ DEFAULTS: dict[str, float] = {
     "max_redo": 8,
     "approach": 0.5,
 }
-#: The defaults of a curve's table: the published ρ = 0.1 of the twisted-circle experiment, an
+#: The defaults of a curve's table: [BL]'s ρ = 0.1 of the twisted-circle experiment, an
 #: exponent q = 3 > 2 (self-avoiding for curves) and exact sums (a rod has few points).
 CURVE_DEFAULTS: dict[str, float] = {**DEFAULTS, "rho": 0.1, "q": 3.0, "theta": 0.0}
 
