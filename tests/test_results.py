@@ -144,6 +144,8 @@ def test_load_result_on_other_ranks(tmp_path):
     from dgplate.io.output import bounding_box
 
     assert bounding_box(y) == back["bbox"]
+    assert main(["show", str(out)]) == 0  # rank 0 reads, every rank returns
+    assert main(["show", str(out / "missing")]) == 2
 
 
 def test_show_a_resumed_run_reads_its_newer_checkpoint(tmp_path, capsys):
