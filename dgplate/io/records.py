@@ -2,8 +2,8 @@
 
 This is what ``dgplate show`` prints and what :func:`dgplate.load_result` reads. It reads
 files only (no mesh, no solver), so a glance at many finished or still running runs, e.g.
-``dgplate show out/*`` after a parameter study on a cluster, takes a moment. A folder dgplate did not write
-is refused with a one-line ``InputError``; a folder of a run that is still going (or was
+``dgplate show out`` after a parameter study on a cluster, takes a moment. A folder dgplate
+did not write is refused with a one-line ``InputError``; a run that is still going (or was
 killed before it wrote its summary) is read from its checkpoint.
 """
 
