@@ -186,13 +186,18 @@ def load(
     return data
 
 
+def read_state(path: Path) -> Any:
+    """The JSON state of the checkpoint in the .npz file ``path``, without its tables."""
+    with np.load(path) as npz:
+        return json.loads(bytes(npz[_STATE_KEY]).decode())
+
+
 def _read(path: Path) -> Checkpoint:
     """The checkpoint in the .npz file ``path`` (on one rank)."""
     with np.load(path) as npz:
-        state = json.loads(bytes(npz[_STATE_KEY]).decode())
         names = {key: _field_name(key) for key in npz.files}
         tables = {name: npz[key] for key, name in names.items() if name is not None}
-    return Checkpoint(tables, state)
+    return Checkpoint(tables, read_state(path))
 
 
 def _plain(value: object) -> object:

@@ -18,10 +18,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from dgplate.errors import InputError, read_user_text
-from dgplate.io.checkpoint import STATE_FILE
+from dgplate.io.checkpoint import STATE_FILE, read_state
 from dgplate.io.output import CHECKPOINT, MARKER, duration, is_dgplate_output
 
 SUMMARY = "summary.json"
@@ -126,8 +124,7 @@ def checkpoint_state(folder: Path) -> dict[str, Any]:
     if not file.is_file():
         raise InputError(f"{folder} holds neither {SUMMARY} nor a checkpoint")
     try:
-        with np.load(file) as npz:
-            state = json.loads(bytes(npz["__state__"]).decode())
+        state = read_state(file)
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
         raise InputError(f"cannot read the checkpoint in {folder}: {err}") from None
     if not isinstance(state, dict):

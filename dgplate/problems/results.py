@@ -18,8 +18,7 @@ from dgplate.errors import InputError
 from dgplate.io import checkpoint
 from dgplate.io.output import CHECKPOINT
 from dgplate.io.records import read_history, read_summary
-from dgplate.problems.registry import MODELS
-from dgplate.problems.runner import Result, build_mesh
+from dgplate.problems.runner import Result, build_model
 from dgplate.problems.specs import problem_from_dict
 
 
@@ -53,9 +52,7 @@ def load_result(folder: str | Path, comm: MPI.Comm = MPI.COMM_WORLD, state: bool
     problem = problem_from_dict(summary["input"], summary["problem"])
     fingerprint = checkpoint.fingerprint(problem.raw)
     found = checkpoint.load(path / CHECKPOINT, comm, fingerprint, purpose="load_result")
-    entry = MODELS[problem.model.name]
-    tagged = entry.mesh(problem.model, comm) if entry.mesh else build_mesh(problem.mesh, comm)
-    model = entry.build(problem.model, tagged)
+    _, model = build_model(problem, comm)
     driver = model.driver(problem.flow, [], None)
     found.restore(driver.checkpoint_fields())
     driver.restore_state(found.state["driver"])

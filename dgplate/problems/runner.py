@@ -319,10 +319,15 @@ def _set_up(
     target = Path(out or problem.output.dir or f"out/{problem.name}")
     OutputDir.check(comm, target, force, resume)
     start = _resume_point(problem, target, comm) if resume else None
+    return (target, start, *build_model(problem, comm))
+
+
+def build_model(problem: Problem, comm: MPI.Comm) -> tuple[TaggedMesh, Model]:
+    """The problem's mesh and model on ``comm`` (collective)."""
     entry = MODELS[problem.model.name]
     own = entry.mesh  # a model with its own mesh (a rod) has no [mesh]
     tagged = own(problem.model, comm) if own else build_mesh(problem.mesh, comm)
-    return target, start, tagged, entry.build(problem.model, tagged)
+    return tagged, entry.build(problem.model, tagged)
 
 
 def _start(
