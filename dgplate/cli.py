@@ -191,14 +191,13 @@ def _show(folders: list[str], comm: MPI.Comm) -> int:
 
 
 def _summary_or_error(folder: Path) -> dict[str, object]:
-    """The run's summary, or a row whose status says why it cannot be read."""
+    """The run's summary, or a row whose ``error`` says why it cannot be read."""
     from dgplate.io.records import read_summary
 
     try:
         return read_summary(folder)
     except Exception as err:
-        message = str(err).removeprefix(f"{folder}: ").removeprefix(f"{folder} ")
-        return {"folder": str(folder), "status": f"error: {message}"}
+        return {"folder": str(folder), "error": str(err)}
 
 
 def _drop_solver_options() -> None:

@@ -177,11 +177,15 @@ def test_show_a_table_of_mixed_folders(tmp_path, capsys):
     names = ["run", "study", "started", "bad", "mine"]
     capsys.readouterr()
     assert main(["show", *(str(tmp_path / n) for n in names)]) == 0
-    rows = dict(line.split(maxsplit=1) for line in capsys.readouterr().out.splitlines()[1:])
+    lines = capsys.readouterr().out.splitlines()
+    rows = dict(line.split(maxsplit=1) for line in lines[1:6])
     status = {Path(folder).name: row for folder, row in rows.items()}
     assert "converged" in status["run"] and "finished" in status["study"]
-    assert "started" in status["started"] and "error: " in status["bad"]
-    assert "error: is not a dgplate output folder" in status["mine"]
+    assert "started" in status["started"]
+    assert "unreadable [1]" in status["bad"] and "unreadable [2]" in status["mine"]
+    assert lines[6] == f"[1] {tmp_path / 'bad' / 'summary.json'}: not a dgplate summary"
+    assert lines[7].startswith(f"[2] {tmp_path / 'mine'} is not a dgplate output folder")
+    assert len(lines) == 8
     assert main(["show", str(tmp_path / "bad")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "not a dgplate summary" in err

@@ -23,15 +23,17 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from mpi4py import MPI
 
 import numpy as np
 import numpy.typing as npt
 
-from dgplate.compat import Function, FunctionSpace
 from dgplate.errors import InputError
+
+if TYPE_CHECKING:
+    from dgplate.compat import Function, FunctionSpace
 
 STATE_FILE = "state.npz"
 #: In the .npz file: the driver's JSON state, and the table of each function by name.

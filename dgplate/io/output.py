@@ -19,16 +19,18 @@ import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 from mpi4py import MPI
 
 import numpy as np
 
 from dgplate import mpi
-from dgplate.compat import Function
 from dgplate.errors import InputError
-from dgplate.solvers.driver import Driver, Record, RunResult
+
+if TYPE_CHECKING:
+    from dgplate.compat import Function
+    from dgplate.solvers.driver import Driver, Record, RunResult
 
 
 def print0(comm: MPI.Comm, *args: object, file: TextIO | None = None) -> None:

@@ -195,8 +195,15 @@ def _cell(value: Any, form: str) -> str:
 def table(summaries: Sequence[dict[str, Any]]) -> str:
     """The runs as a plain-text table, one row each: folder, problem, …, E_h, D_h, wall time.
 
-    Columns that no run has (D_h of FvK runs, say) are left out.
+    Columns that no run has (D_h of FvK runs, say) are left out. A folder that could not be
+    read (its ``error`` says why) is a row with status ``unreadable [k]`` and its reason in
+    note k below the table, so that a long message does not widen the table.
     """
+    errors = [s for s in summaries if s.get("error")]
+    notes = {id(s): k for k, s in enumerate(errors, start=1)}
+    summaries = [
+        s | {"status": f"unreadable [{notes[id(s)]}]"} if id(s) in notes else s for s in summaries
+    ]
     columns = [("folder", "folder", "s")]
     columns += [c for c in COLUMNS if any(s.get(c[1]) is not None for s in summaries)]
     rows = [[title for title, _, _ in columns]]
@@ -210,6 +217,9 @@ def table(summaries: Sequence[dict[str, Any]]) -> str:
             for text, width, right in zip(row, widths, numeric, strict=True)
         ]
         lines.append("  ".join(cells).rstrip())
+    for k, summary in enumerate(errors, start=1):
+        error, folder = str(summary["error"]), str(summary["folder"])
+        lines.append(f"[{k}] " + (error if error.startswith(folder) else f"{folder}: {error}"))
     return "\n".join(lines)
 
 
