@@ -62,9 +62,14 @@ def check_rigid_flap(result) -> None:
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("model", [{}, {"model.name": "bilayer", "model.Z": 0.0}])
+@pytest.mark.parametrize(
+    "model",
+    [{}, {"model.name": "bilayer", "model.Z": 0.0}, {"model.name": "lce", "model.gamma": 0.0}],
+    ids=["kirchhoff", "bilayer", "lce"],
+)
 def test_rigid_motion_of_the_data_gives_a_rigid_plate(tmp_path, comm, model):
-    """Kirchhoff, and a bilayer without spontaneous curvature: the same rigid flap."""
+    """Kirchhoff, and a bilayer or LCE plate without spontaneous curvature: the same rigid
+    flap."""
     result = dgplate.run(flap(**model), out=out_dir(tmp_path, comm), comm=comm)
     check_rigid_flap(result)
     # α along the path: every step reports its α, the stages in order, each ending converged

@@ -140,8 +140,14 @@ def bnn_small(obstacle: dict, max_steps: int, **flow) -> dgplate.Problem:
     )
 
 
-def test_bilayer_rolls_against_a_plane(tmp_path):
-    """A bilayer that would roll up (Z = I) stopped by a tilted plane: contact, no increase."""
+@pytest.mark.parametrize(
+    "curvature",
+    [{"name": "bilayer", "Z": 1.0}, {"name": "lce", "director": "splay", "gamma": -1.0}],
+    ids=["bilayer", "lce"],
+)
+def test_bilayer_rolls_against_a_plane(tmp_path, curvature):
+    """A bilayer that would roll up (Z = I), or an LCE plate (splay, A = diag(1, 0)), stopped
+    by a tilted plane: contact, no increase."""
     problem = dgplate.problem_from_dict(
         {
             "mesh": {
@@ -150,9 +156,8 @@ def test_bilayer_rolls_against_a_plane(tmp_path):
                 "cell_type": "quadrilateral",
             },
             "model": {
-                "name": "bilayer",
+                **curvature,
                 "clamped": ["left"],
-                "Z": 1.0,
                 "obstacle": {
                     "type": "plane",
                     "normal": [-0.005, 0.0, -1.0],

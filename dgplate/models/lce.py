@@ -32,9 +32,10 @@ from dgplate.dg.energy import Energy
 from dgplate.dg.forms import facet_sets, integral
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
-from dgplate.models.base import PlateModel, clamped_data, piecewise_constant
+from dgplate.models.base import PlateModel, clamped_data, continuation_path, piecewise_constant
 from dgplate.models.bilayer import bilayer_energy
 from dgplate.models.kirchhoff import KirchhoffSpec
+from dgplate.models.obstacle import with_obstacle
 from dgplate.models.self_avoidance import with_self_avoidance
 from dgplate.schema import option
 
@@ -81,14 +82,19 @@ class LCESpec(KirchhoffSpec):
 
 
 def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
-    """Facet sets, the energy (the bilayer energy with Z = A) and the figures of an LCE plate."""
+    """Facet sets, the energy (the bilayer energy with Z = A) and the figures of an LCE plate.
+
+    Moving clamped data (``continuation``), an ``obstacle`` and self-avoidance act as on the
+    Kirchhoff plate and the bilayer.
+    """
     from dgplate.measure.analysis import curvature_summary
 
     mesh = tagged.mesh
     facets = facet_sets(tagged, spec.clamped, spec.crease, spec.penalty_length)
     load = values.vector(spec.load, mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
-    g, Phi = clamped_data(spec.boundary_data, mesh)
+    path = continuation_path(spec.schedule, mesh)
+    g, Phi = clamped_data(spec.boundary_data, mesh, alpha=path.alpha if path else None)
     theta = values.array(spec.theta, mesh, "model.theta")
     second = values.constant(mesh, DIRECTORS[spec.director])
     gamma = values.constant(mesh, spec.gamma)
@@ -104,5 +110,13 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
         density = 0.5 * mu * (gamma * second) ** 2
         return {"lower_bound": integral(dolfinx.fem.form(density * facets.dx), mesh.comm)}
 
-    plate = PlateModel(facets, spec.degree, energy_fn, measures=[curvature_summary, lower_bound])
-    return with_self_avoidance(plate, spec.self_avoidance_params)
+    plate = PlateModel(
+        facets,
+        spec.degree,
+        energy_fn,
+        measures=[curvature_summary, lower_bound],
+        continuation=path,
+    )
+    return with_self_avoidance(
+        with_obstacle(plate, spec.obstacle_params, g), spec.self_avoidance_params
+    )
