@@ -88,7 +88,8 @@ class FlowSpec:
     tol: float = option(1e-6, "stop when the stopping test (flow.stop) falls below tol")
     max_steps: int = option(1000, "step budget; reaching it is reported as not converged")
     l2_metric: bool | str = option(
-        "auto", "add the L² product to the metric; 'auto': when nothing is clamped"
+        "auto",
+        "add the L² product to the metric; 'auto': when nothing is clamped or the plate has creases",
     )
     solver: dict[str, OptionValue] = option(
         {},
