@@ -8,8 +8,11 @@ that lists the names the mesh does have.
 
 from __future__ import annotations
 
+import contextlib
 import re
-from collections.abc import Callable, Mapping, Sequence
+import signal
+import threading
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
@@ -235,25 +238,47 @@ def load_geo(
     import gmsh
 
     error, groups = None, None
-    if comm.rank == 0:
-        gmsh.initialize(["dgplate"], readConfigFiles=False)
-        gmsh.option.setNumber("General.Terminal", 0)
-        error, groups = _generate(gmsh, path, parameters, recombine, gmsh_options or {})
-    error = comm.bcast(error, root=0)
-    if error is not None:
+    with signal_handlers_kept():
         if comm.rank == 0:
-            gmsh.finalize()
-        raise InputError(error)
-    try:
-        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(
-            gmsh.model if comm.rank == 0 else None, comm, 0, gdim=2
-        )
-    finally:
-        if comm.rank == 0:
-            gmsh.finalize()
+            gmsh.initialize(["dgplate"], readConfigFiles=False)
+            gmsh.option.setNumber("General.Terminal", 0)
+            error, groups = _generate(gmsh, path, parameters, recombine, gmsh_options or {})
+        error = comm.bcast(error, root=0)
+        if error is not None:
+            if comm.rank == 0:
+                gmsh.finalize()
+            raise InputError(error)
+        try:
+            mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(
+                gmsh.model if comm.rank == 0 else None, comm, 0, gdim=2
+            )
+        finally:
+            if comm.rank == 0:
+                gmsh.finalize()
     groups = comm.bcast(groups, root=0)
     mesh.topology.create_connectivity(1, 2)
     return TaggedMesh(mesh, cell_tags, facet_tags, groups, source=path.name)
+
+
+@contextlib.contextmanager
+def signal_handlers_kept() -> Iterator[None]:
+    """Put back the SIGINT and SIGTERM handlers on leaving, whatever the block did to them.
+
+    ``gmsh.initialize`` resets SIGINT (in Python) and SIGTERM (in C++) to the default action,
+    which ends the process at once, and ``gmsh.finalize`` does not restore them: without this
+    a run on a gmsh mesh would lose the clean stop of :class:`dgplate.interrupt.StopOnSignal`
+    (outputs, checkpoint, exit 130/143). Handlers can only be set in the main thread.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    saved = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in saved.items():
+            if handler is not None:
+                signal.signal(sig, handler)
 
 
 def _check_parameters(path: Path, parameters: Mapping[str, float]) -> None:
