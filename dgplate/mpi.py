@@ -8,6 +8,7 @@ rank of ``comm`` must call them, and every rank gets the same result.
 from __future__ import annotations
 
 import resource
+import time
 
 from mpi4py import MPI
 
@@ -74,3 +75,21 @@ def bounding_box(
 
 
 bounds = bounding_box  # the name the FvK probes use
+
+
+def all_arrive(comm: MPI.Comm, seconds: float) -> bool:
+    """True when every rank of ``comm`` calls this within ``seconds``; False otherwise.
+
+    For an error path: after an exception, a collective clean-up (closing a file) is safe
+    only when every rank has the error. ``comm`` should be a communicator used for nothing
+    else (a ``Dup``): when some rank never arrives, the barrier stays pending on it.
+    """
+    if comm.size == 1:
+        return True
+    request = comm.Ibarrier()
+    deadline = time.monotonic() + seconds
+    while not request.Test():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.01)
+    return True

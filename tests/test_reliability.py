@@ -196,6 +196,18 @@ def test_sigterm_keeps_outputs_and_exits_143(ranks, mesh, tmp_path):
     assert not list(out.glob(".staging-*"))
 
 
+def test_a_failing_solver_ends_with_exit_1_and_no_abort(tmp_path):
+    """A PETSc error inside the flow (not a SolverError) with VTX output open: the files are
+    closed before the staged outputs go, so the process ends with 1, not with ADIOS2's abort
+    at exit (134)."""
+    out = tmp_path / "run"
+    solver = ["--set", 'flow.solver={ksp_type="cg"}']  # cg refuses the right preconditioning
+    done = dgplate("run", str(VERTICAL), "--out", str(out), "--set", "mesh.cells=[4,4]", *solver)
+    assert done.returncode == 1, done.stderr
+    assert "KSP cg does not support" in done.stderr and "ADIOS2" not in done.stderr
+    assert not list(out.glob(".staging-*"))
+
+
 # -- kill -9 and resume ---------------------------------------------------------------------
 KILL_AT_STEP = textwrap.dedent(
     """

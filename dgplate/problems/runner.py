@@ -97,6 +97,11 @@ def build_mesh(spec: MeshSpec, comm: MPI.Comm) -> TaggedMesh:
     return load_geo(comm, spec.file, spec.parameters, recombine=spec.recombine)
 
 
+#: How long the ranks of a run that failed wait for each other before the clean-up that
+#: needs them all (closing the VTX files, removing the staged outputs).
+ERROR_AGREE_SECONDS = 5.0
+
+
 class SeriesWriter:
     """VTX time series of ``driver.shape``, every ``every`` steps and at the end."""
 
@@ -116,6 +121,10 @@ class SeriesWriter:
         """Write the final state (unless just written) and close the file."""
         if result.steps % self.every:
             self.writer.write(driver.time)
+        self.close()
+
+    def close(self) -> None:
+        """Close the file (collective); the states written so far stay readable."""
         self.writer.close()
 
 
@@ -397,11 +406,7 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
             SeriesWriter(driver, out.path / "deformation.bp", problem.output.every)
         )
     frames = _frames(job, model, driver, out)
-    try:
-        result = driver.run()
-    except BaseException:
-        out.discard()  # the checkpoints stay
-        raise
+    result = _run_or_clean_up(driver, out)
     if frames is not None:
         frames.gif(out.path / f"{problem.name}.gif")
     checkpoints.save(driver, finished=result.converged)
@@ -422,6 +427,26 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
     return Result(
         summary, driver.shape, driver.checkpoint_fields(), checkpoints.history, out.target
     )
+
+
+def _run_or_clean_up(driver: Driver, out: OutputDir) -> Any:
+    """``driver.run()``; on an error, the staged outputs go (the checkpoints stay).
+
+    The VTX files must be closed before their folder goes (ADIOS2 would abort the process at
+    exit). Closing is collective, so it happens only when every rank has the error.
+    """
+    agree = driver.comm.Dup()  # for the error path only: no collective of the run matches it
+    try:
+        result = driver.run()
+    except BaseException:
+        if mpi.all_arrive(agree, ERROR_AGREE_SECONDS):
+            for observer in driver.observers:
+                if isinstance(observer, SeriesWriter):
+                    observer.close()
+            out.discard()
+        raise
+    agree.Free()
+    return result
 
 
 def _shown(value: Any) -> str:
