@@ -132,6 +132,39 @@ def test_resume_needs_a_checkpoint_of_the_same_problem(tmp_path, capsys):
     assert not [key for key in PETSc.Options().getAll() if key.startswith("dgplate_")]
 
 
+def test_force_keeps_a_users_files_that_outputs_would_replace(tmp_path, capsys):
+    """A user's final.png, summary.json and frames/ where dgplate writes its own: renamed
+    ``<name>.kept-1`` with a warning, never deleted."""
+    out = tmp_path / "mine"
+    (out / "frames").mkdir(parents=True)
+    (out / "frames" / "holiday.png").write_text("a picture")
+    (out / "final.png").write_text("my figure")
+    (out / "summary.json").write_text('{"mine": 1}')
+    frames = ["--set", "output.frames_every=2", "--set", "output.png=true"]
+    assert main(["run", str(VERTICAL), "--out", str(out), "--force", *SMALL, *frames]) == 0
+    assert "kept as final.png.kept-1" in capsys.readouterr().err
+    assert (out / "frames.kept-1" / "holiday.png").read_text() == "a picture"
+    assert (out / "final.png.kept-1").read_text() == "my figure"
+    assert (out / "summary.json.kept-1").read_text() == '{"mine": 1}'
+    assert summary_of(out)["converged"] and (out / "frames" / "frame_000000.png").is_file()
+
+
+def test_a_users_file_in_an_output_folder_of_dgplate_survives(tmp_path):
+    """A file put into dgplate's frames/ keeps the folder: not replaced, not removed."""
+    out = tmp_path / "run"
+    frames = ["--set", "output.frames_every=2", "--set", "output.png=true"]
+    assert main(["run", str(VERTICAL), "--out", str(out), *SMALL, *frames]) == 0
+    (out / "frames" / "sketch.txt").write_text("notes")
+    assert main(["run", str(VERTICAL), "--out", str(out), *SMALL]) == 0  # no frames now
+    assert (out / "frames" / "sketch.txt").read_text() == "notes"
+    assert main(["run", str(VERTICAL), "--out", str(out), *SMALL, *frames]) == 0
+    assert (out / "frames.kept-1" / "sketch.txt").read_text() == "notes"
+    assert (out / "frames" / "frame_000000.png").is_file()
+    # frames/ written by this run holds only dgplate's files: the next run replaces it
+    assert main(["run", str(VERTICAL), "--out", str(out), *SMALL, *frames]) == 0
+    assert not (out / "frames.kept-2").exists()
+
+
 @pytest.mark.spawns_mpirun
 @pytest.mark.skipif(_mpirun() is None, reason="no mpirun")
 @pytest.mark.parametrize("where", ["file", "users folder"])

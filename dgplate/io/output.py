@@ -97,9 +97,15 @@ def target_problem(target: Path, force: bool = False, resume: bool = False) -> s
     return None
 
 
-def write_marker(folder: Path, files: list[str]) -> None:
-    """Mark ``folder`` as dgplate's, listing the ``files`` a later run may replace (rank 0)."""
-    record = {"written_by": "dgplate", "files": sorted(files)}
+def write_marker(
+    folder: Path, files: list[str], inside: dict[str, list[str]] | None = None
+) -> None:
+    """Mark ``folder`` as dgplate's, listing the ``files`` a later run may replace (rank 0).
+
+    ``inside``: for each of those that is a folder, the files in it (relative paths) that
+    dgplate wrote; a later run replaces such a folder only if it holds nothing else.
+    """
+    record = {"written_by": "dgplate", "files": sorted(files), "inside": inside or {}}
     tmp = folder / f"{MARKER}.tmp"
     tmp.write_text(json.dumps(record, indent=1) + "\n")
     os.replace(tmp, folder / MARKER)
@@ -142,26 +148,41 @@ class OutputDir:
         """Raise ``InputError`` (on every rank) if ``target`` may not receive outputs."""
         _decide(comm, lambda: target_problem(Path(target).absolute(), force, resume))
 
-    def _write_marker(self, files: list[str]) -> None:
-        write_marker(self.target, files)
+    def _write_marker(self, files: list[str], inside: dict[str, list[str]] | None = None) -> None:
+        write_marker(self.target, files, inside)
 
-    def _previous_files(self) -> list[str]:
+    def _previous(self) -> tuple[list[str], dict[str, list[str]]]:
+        """The names the marker lists as dgplate's, and the files in those that are folders."""
         try:
-            return list(json.loads((self.target / MARKER).read_text()).get("files", []))
-        except (OSError, ValueError, AttributeError):
-            return []
+            record = json.loads((self.target / MARKER).read_text())
+            return list(record.get("files", [])), dict(record.get("inside", {}))
+        except (OSError, ValueError, AttributeError, TypeError):
+            return [], {}
 
     def commit(self) -> Path:
-        """Move the staged results into the folder (collective); returns the folder."""
+        """Move the staged results into the folder (collective); returns the folder.
+
+        What an earlier dgplate run wrote is replaced or removed. Anything else in the way —
+        a user's file where an output goes, or a folder of dgplate's into which a user has
+        put files — is renamed ``<name>.kept-<k>`` (with a warning), never deleted.
+        """
         self.comm.barrier()
         if self.comm.rank == 0:
             new = sorted(p.name for p in self.path.iterdir())
-            for name in sorted(set(self._previous_files()) - set(new) - {CHECKPOINT}):
-                _remove(self.target / name)  # an earlier run's output that this one replaces
+            previous, inside = self._previous()
+            ours = {name for name in previous if not _foreign_files(self.target / name, inside)}
+            for name in sorted(set(previous) - set(new) - {CHECKPOINT}):
+                if name in ours:  # an earlier run's output that this one does not replace
+                    _remove(self.target / name)
             for name in sorted(new, key=lambda n: n == "summary.json"):
-                _remove(self.target / name)
-                os.replace(self.path / name, self.target / name)
-            self._write_marker([*new, CHECKPOINT])
+                dest = self.target / name
+                if name in ours:
+                    _remove(dest)
+                elif dest.exists() or dest.is_symlink():
+                    _keep_aside(dest)
+                os.replace(self.path / name, dest)
+            written = {n: _files_in(self.target / n) for n in new if (self.target / n).is_dir()}
+            self._write_marker([*new, CHECKPOINT], written)
             self.path.rmdir()
         self.comm.barrier()
         return self.target
@@ -175,6 +196,36 @@ class OutputDir:
         """
         if self.comm.rank == 0:
             shutil.rmtree(self.path, ignore_errors=True)
+
+
+def _files_in(folder: Path) -> list[str]:
+    """The files below ``folder``, as sorted paths relative to it."""
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if not p.is_dir())
+
+
+def _foreign_files(path: Path, inside: dict[str, list[str]]) -> list[str]:
+    """Files in the folder ``path`` that the marker does not list as dgplate's ([]: none).
+
+    A folder that an older marker did not describe counts as dgplate's entirely.
+    """
+    if not path.is_dir() or path.is_symlink() or path.name not in inside:
+        return []
+    known = set(inside[path.name])
+    return [name for name in _files_in(path) if name not in known]
+
+
+def _keep_aside(path: Path) -> None:
+    """Rename a user's ``path`` that an output would replace to ``<name>.kept-<k>``."""
+    k = 1
+    while (aside := path.with_name(f"{path.name}.kept-{k}")).exists():
+        k += 1
+    os.replace(path, aside)
+    print(
+        f"dgplate: warning: {path} was not written by dgplate (or holds files it did not "
+        f"write): kept as {aside.name}",
+        file=sys.stderr,
+        flush=True,
+    )
 
 
 def _remove(path: Path) -> None:
