@@ -200,10 +200,12 @@ def run(
     if args.resume:
         state = _checkpoint_state(problem, out, comm)
         if state is not None and state.get("finished"):
-            summary = comm.bcast(_read_summary(out) if comm.rank == 0 else None, root=0)
-            if summary is not None:
-                say(f"{out}: finished earlier, its summary.json is reused", comm=comm)
-                return summary
+            done = comm.bcast((out / "summary.json").is_file() if comm.rank == 0 else None)
+            if done:  # else it was stopped while writing its outputs: the resume writes them
+                from dgplate.problems.results import load_result
+
+                say(f"{out}: finished earlier, its results are reused", comm=comm)
+                return load_result(out, comm)
         resume = state is not None
     return _run(problem, out=out, comm=comm, force=args.force, resume=resume, **options)
 
@@ -245,16 +247,6 @@ def _checkpoint_state(problem: Problem, out: Path, comm: MPI.Comm) -> dict[str, 
     if not exists:
         return None
     return checkpoint.load(folder, comm, checkpoint.fingerprint(problem.raw)).state
-
-
-def _read_summary(out: Path) -> dict[str, Any] | None:
-    import json
-
-    try:
-        summary: dict[str, Any] = json.loads((out / "summary.json").read_text())
-    except (OSError, ValueError):
-        return None
-    return summary
 
 
 def say(*text: Any, comm: MPI.Comm = MPI.COMM_WORLD) -> None:

@@ -163,7 +163,15 @@ def test_demo_run_resumes_each_run_where_it_stopped(tmp_path):
     problem = dgplate.load_problem(problem_file, small)
     resumed = demo.run(problem, args, "a")  # from the checkpoint at step 3
     assert resumed["converged"] and resumed["steps"] > 3
-    again = demo.run(problem, args, "a")  # finished: its summary, not a second run
+    again = demo.run(problem, args, "a")  # finished: its results, not a second run
     assert again["steps"] == resumed["steps"] and again["energy"] == resumed["energy"]
+    assert len(again.history) == again["steps"] and again.shape is not None  # a Result
+    # stopped after it converged, before its outputs were in place: the resume writes them
+    (tmp_path / "a" / "summary.json").unlink()
+    (tmp_path / "a" / "history.csv").unlink()
+    written = demo.run(problem, args, "a")
+    assert written["converged"] and written["steps"] == resumed["steps"]
+    assert written["energy"] == resumed["energy"] and len(written.history) == written["steps"]
+    assert (tmp_path / "a" / "history.csv").is_file()
     fresh = demo.run(problem, args, "b")  # nothing to resume yet: it starts
     assert fresh["steps"] == resumed["steps"]

@@ -230,22 +230,28 @@ class Checkpoints:
     def finish(self, driver: Driver, result: Any) -> None:
         """Nothing: the runner saves the final checkpoint once the outcome is known."""
 
-    def save(self, driver: Driver, finished: bool = False) -> None:
-        """Write the checkpoint now (collective)."""
+    def save(self, driver: Driver, finished: bool = False, reason: str = "") -> None:
+        """Write the checkpoint now (collective); ``finished``: the run converged (``reason``)."""
         state = {
             "fingerprint": self.fingerprint,
             "step": driver.step_count,
             "driver": driver.checkpoint_state(),
             "history": self.history,
             "finished": finished,
+            "reason": reason,
         }
         checkpoint.save(self.directory, driver.comm, driver.checkpoint_fields(), state)
 
 
 def _resume_point(problem: Problem, target: Path, comm: MPI.Comm) -> checkpoint.Checkpoint:
-    """The checkpoint to continue from; refuses another problem's or a finished run's."""
+    """The checkpoint to continue from; refuses another problem's or a finished run's.
+
+    A run that converged but was stopped before its outputs were in place (no summary.json
+    yet) is resumed: it takes no step and writes its outputs.
+    """
     found = checkpoint.load(target / CHECKPOINT, comm, checkpoint.fingerprint(problem.raw))
-    if found.state.get("finished"):
+    summary = comm.bcast((target / "summary.json").is_file() if comm.rank == 0 else None)
+    if found.state.get("finished") and summary:
         raise InputError(
             f"--resume: the run in {target} converged at step {found.state['step']}; "
             "nothing to resume"
@@ -347,13 +353,24 @@ def _start(
         return []
     start.restore(driver.checkpoint_fields())
     driver.restore_state(start.state["driver"])
-    if driver.remaining_steps() <= 0:
+    if driver.remaining_steps() <= 0 and not start.state.get("finished"):
         driver.destroy()  # collective, and safe: every rank restored the same state
         raise InputError(
             f"--resume: the run in {target} spent its step budget already "
             f"({driver.step_count} steps); raise flow.max_steps to continue it"
         )
     return list(start.state["history"])
+
+
+@dataclass
+class _Finished:
+    """How a resumed run ends that had converged before it was stopped: with no step."""
+
+    reason: str
+    converged: bool = True
+    steps: int = 0
+    history: list[Any] = field(default_factory=list)
+    interrupted: int = 0
 
 
 @dataclass
@@ -406,10 +423,15 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
             SeriesWriter(driver, out.path / "deformation.bp", problem.output.every)
         )
     frames = _frames(job, model, driver, out)
-    result = _run_or_clean_up(driver, out)
+    if start is not None and start.state.get("finished"):
+        result: Any = _Finished(start.state.get("reason") or "converged before the resume")
+        for observer in driver.observers:
+            observer.finish(driver, result)
+    else:
+        result = _run_or_clean_up(driver, out)
     if frames is not None:
         frames.gif(out.path / f"{problem.name}.gif")
-    checkpoints.save(driver, finished=result.converged)
+    checkpoints.save(driver, finished=result.converged, reason=result.reason)
     summary = _summary(problem, tagged, model, driver, result, len(checkpoints.history))
     advice.warn(comm, advice.after_run(problem, driver, summary, _area(tagged)))
     write_history(comm, out.path / "history.csv", checkpoints.history)
