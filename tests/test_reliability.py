@@ -165,6 +165,21 @@ def test_a_users_file_in_an_output_folder_of_dgplate_survives(tmp_path):
     assert not (out / "frames.kept-2").exists()
 
 
+def test_resume_refuses_a_checkpoint_of_an_edited_mesh_file(tmp_path, capsys):
+    """The fingerprint covers the .geo file's text: a checkpoint of the old mesh is not
+    loaded onto the new one."""
+    geo = tmp_path / "square.geo"
+    geo.write_text((ROOT / "meshes" / "rectangle.geo").read_text())
+    problem, out = _on_gmsh_mesh(tmp_path, str(geo)), tmp_path / "run"
+    budget = ["--set", "flow.max_steps=2", "--set", "flow.checkpoint_every=1"]
+    assert main(["run", str(problem), "--out", str(out), *SMALL[2:], *budget]) == 1
+    geo.write_text(geo.read_text().replace("Lx = {4.0", "Lx = {2.0"))
+    more = ["--set", "flow.max_steps=4", "--resume"]
+    capsys.readouterr()
+    assert main(["run", str(problem), "--out", str(out), *SMALL[2:], *budget[2:], *more]) == 2
+    assert "belongs to another problem" in capsys.readouterr().err
+
+
 @pytest.mark.spawns_mpirun
 @pytest.mark.skipif(_mpirun() is None, reason="no mpirun")
 @pytest.mark.parametrize("where", ["file", "users folder"])
@@ -183,10 +198,10 @@ def test_output_refusals_do_not_hang_under_mpirun(where, tmp_path):
 
 
 # -- interrupts -----------------------------------------------------------------------------
-def _on_gmsh_mesh(folder: Path) -> Path:
+def _on_gmsh_mesh(folder: Path, geo: str = "rectangle.geo") -> Path:
     """The vertical-load problem on an unstructured gmsh mesh of the same square."""
     text = VERTICAL.read_text()
-    mesh = '[mesh]\ntype = "gmsh"\nfile = "rectangle.geo"\nparameters = { h = 1.0 }\n\n'
+    mesh = f'[mesh]\ntype = "gmsh"\nfile = "{geo}"\nparameters = {{ h = 1.0 }}\n\n'
     problem = folder / "vertical_load_gmsh.toml"
     problem.write_text(text[: text.index("[mesh]")] + mesh + text[text.index("[model]") :])
     return problem

@@ -249,7 +249,7 @@ def _resume_point(problem: Problem, target: Path, comm: MPI.Comm) -> checkpoint.
     A run that converged but was stopped before its outputs were in place (no summary.json
     yet) is resumed: it takes no step and writes its outputs.
     """
-    found = checkpoint.load(target / CHECKPOINT, comm, checkpoint.fingerprint(problem.raw))
+    found = checkpoint.load(target / CHECKPOINT, comm, problem.fingerprint())
     summary = comm.bcast((target / "summary.json").is_file() if comm.rank == 0 else None)
     if found.state.get("finished") and summary:
         raise InputError(
@@ -415,7 +415,7 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
         f"output → {out.target}",
     )
     checkpoints = Checkpoints(
-        out.checkpoint_dir, driver.checkpoint_every, checkpoint.fingerprint(problem.raw), earlier
+        out.checkpoint_dir, driver.checkpoint_every, problem.fingerprint(), earlier
     )
     driver.observers.append(checkpoints)
     if problem.output.vtx:

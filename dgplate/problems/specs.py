@@ -100,6 +100,24 @@ class Problem:
     output: OutputSpec
     raw: dict[str, Any]  # the validated input, overrides applied (recorded in summary.json)
 
+    def fingerprint(self) -> str:
+        """The hash that ties a checkpoint to this problem (:func:`dgplate.io.checkpoint.fingerprint`).
+
+        With a gmsh mesh it covers the .geo file's text too: an edited file is another mesh,
+        whose cells a checkpoint of the old one does not describe.
+        """
+        import hashlib
+
+        from dgplate.io.checkpoint import fingerprint
+
+        data = dict(self.raw)
+        if self.mesh.type == "gmsh" and "mesh" in data:
+            from dgplate.mesh.tagged import resolve_geo
+
+            text = resolve_geo(self.mesh.file).read_bytes()
+            data["mesh_file_sha256"] = hashlib.sha256(text).hexdigest()
+        return fingerprint(data)
+
 
 _KEY = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
 _BARE = re.compile(r"^[A-Za-z_][A-Za-z0-9_./+-]*$")
