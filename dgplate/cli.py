@@ -14,11 +14,13 @@ Under MPI an error on some ranks ends all of them within seconds (:func:`end_tog
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
 import time
 import traceback
 from pathlib import Path
-from typing import TYPE_CHECKING, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 from mpi4py import MPI
 
@@ -32,10 +34,21 @@ AGREE_SECONDS = 10.0
 """How long ranks that failed wait for the others before aborting the whole job."""
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, printing usage, help and errors on rank 0 only (not once per rank)."""
+
+    def _print_message(self, message: str, file: Any = None) -> None:
+        if MPI.COMM_WORLD.rank == 0:
+            super()._print_message(message, file)
+
+
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    from dgplate import __version__
+
+    parser = _Parser(
         prog="dgplate", description="Large bending deformations of thin plates (IP-dG, DOLFINx)."
     )
+    parser.add_argument("--version", action="version", version=f"dgplate {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="solve a problem file and write its outputs")
     check = sub.add_parser(
@@ -98,6 +111,9 @@ def main(argv: list[str] | None = None) -> int:
     errors = comm.Dup() if comm.size > 1 else comm
     try:
         return _command(args, comm)
+    except BrokenPipeError:  # the reader of our output went away (`dgplate show … | head`)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no error at exit
+        return 1
     except (InputError, UnsupportedVersionError) as err:
         _drop_solver_options()
         return end_together(errors, 2, f"dgplate: error: {err}")
@@ -246,11 +262,11 @@ def _schema(model: str) -> int:
     from dgplate.schema import describe
 
     if model not in MODELS:
-        print(
-            f"dgplate: error: unknown model {model!r} (known: {', '.join(MODELS)})", file=sys.stderr
-        )
-        return 2
+        raise InputError(f"--model: unknown model {model!r} (known: {', '.join(MODELS)})")
     if MPI.COMM_WORLD.rank == 0:
+        # PETSc (imported with the models) catches SIGPIPE and aborts: `dgplate schema | head`
+        # should end quietly, with Python's BrokenPipeError (see main)
+        signal.signal(signal.SIGPIPE, signal.SIG_IGN)
         skip = MODELS[model].ignored_keys
         print("\n\n".join(describe(spec, sec, skip(sec)) for sec, spec in sections(model)))
     return 0

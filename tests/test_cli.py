@@ -201,3 +201,32 @@ def test_history_chart_draws_what_the_rows_hold(tmp_path):
     assert Image.open(tmp_path / "e.png").size[1] == 360  # one panel
     assert not plot_history([{"step": 1, "seconds": 0.1}], tmp_path / "none.png")
     assert not (tmp_path / "none.png").exists()
+
+
+def test_version_and_schema(capsys):
+    """--version; a model that ignores a whole section (FvK's [flow]) does not list it; an
+    unknown model is one line with exit 2."""
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out == f"dgplate {dgplate.__version__}\n"
+    assert main(["schema", "--model", "fvk"]) == 0
+    sections = [line for line in capsys.readouterr().out.splitlines() if line.startswith("[")]
+    assert sections == ["[mesh]", "[model]", "[output]"]
+    assert main(["schema", "--model", "nosuch"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--model: unknown model 'nosuch'" in err
+
+
+def test_output_into_a_closed_pipe_ends_quietly(tmp_path):
+    """`dgplate show … | head`: the reader has gone; no traceback, exit 1."""
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / ".dgplate-output").write_text('{"files": []}')
+    (run / "summary.json").write_text(json.dumps({"converged": True, "note": "x" * 200_000}))
+    process = subprocess.Popen(
+        [sys.executable, "-m", "dgplate", "show", str(run)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    process.stdout.close()  # before it writes: its output goes nowhere
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 1 and err == b"", err

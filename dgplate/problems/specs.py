@@ -223,4 +223,6 @@ def sections(model: str) -> list[tuple[str, type]]:
 
     entry = MODELS[model]
     mesh = [] if entry.mesh else [("mesh", MeshSpec)]  # a rod builds its own mesh
-    return [*mesh, ("model", entry.spec), ("flow", FlowSpec), ("output", OutputSpec)]
+    every = [*mesh, ("model", entry.spec), ("flow", FlowSpec), ("output", OutputSpec)]
+    # a section the model ignores as a whole (FvK's [flow]) is not part of its files
+    return [(name, spec) for name, spec in every if "" not in entry.ignored_keys(name)]
