@@ -165,6 +165,26 @@ def test_a_users_file_in_an_output_folder_of_dgplate_survives(tmp_path):
     assert not (out / "frames.kept-2").exists()
 
 
+def test_a_resumed_run_reports_totals_over_all_its_runs(tmp_path, capsys):
+    """After --resume, summary.json counts factorisations, steps and wall time over the whole
+    run (the resumed part apart), and the step budget is the flow.max_steps that was set."""
+    out, never = tmp_path / "run", ["--set", "flow.tol=1e-30", "--set", "flow.checkpoint_every=1"]
+    assert (
+        main(["run", str(VERTICAL), "--out", str(out), *SMALL, *never, "--set", "flow.max_steps=3"])
+        == 1
+    )
+    first = summary_of(out)
+    more = ["--set", "flow.max_steps=6", "--resume"]
+    assert main(["run", str(VERTICAL), "--out", str(out), *SMALL, *never, *more]) == 1
+    assert "step budget of 6 steps spent" in capsys.readouterr().err
+    whole = summary_of(out)
+    assert whole["steps"] == 6 and whole["reason"].startswith("step budget of 6 steps spent")
+    assert whole["factorisations"] >= first["factorisations"] + 1  # the resumed run's own
+    assert whole["step_solves"] > first["step_solves"]
+    assert whole["wall_time_s"] > first["wall_time_s"] >= 0
+    assert 0 < whole["wall_time_since_resume_s"] < whole["wall_time_s"]
+
+
 def test_resume_refuses_a_checkpoint_of_an_edited_mesh_file(tmp_path, capsys):
     """The fingerprint covers the .geo file's text: a checkpoint of the old mesh is not
     loaded onto the new one."""

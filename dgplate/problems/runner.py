@@ -216,10 +216,21 @@ class Checkpoints:
     """
 
     def __init__(
-        self, directory: Path, every: int, fingerprint: str, earlier: list[dict[str, Any]]
+        self,
+        directory: Path,
+        every: int,
+        fingerprint: str,
+        earlier: list[dict[str, Any]],
+        wall: tuple[float, float] = (0.0, 0.0),
     ):
         self.directory, self.every, self.fingerprint = directory, every, fingerprint
         self.history: list[dict[str, Any]] = list(earlier)
+        # (wall time of the runs this one resumes, perf_counter at this run's start)
+        self.earlier_wall, self.wall0 = wall
+
+    def wall_time(self) -> float:
+        """Seconds of wall time over this run and those it resumes."""
+        return self.earlier_wall + time.perf_counter() - self.wall0
 
     def step(self, driver: Driver, record: Any) -> None:
         """Keep the record; save every ``every`` steps."""
@@ -239,6 +250,7 @@ class Checkpoints:
             "history": self.history,
             "finished": finished,
             "reason": reason,
+            "wall_time_s": self.wall_time(),
         }
         checkpoint.save(self.directory, driver.comm, driver.checkpoint_fields(), state)
 
@@ -414,8 +426,13 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
         f"dgplate: {problem.name}: {_setting(problem, tagged, driver)}{resumed}, "
         f"output → {out.target}",
     )
+    earlier_wall = float(start.state.get("wall_time_s", 0.0)) if start is not None else 0.0
     checkpoints = Checkpoints(
-        out.checkpoint_dir, driver.checkpoint_every, problem.fingerprint(), earlier
+        out.checkpoint_dir,
+        driver.checkpoint_every,
+        problem.fingerprint(),
+        earlier,
+        (earlier_wall, wall0),
     )
     driver.observers.append(checkpoints)
     if problem.output.vtx:
@@ -423,12 +440,7 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
             SeriesWriter(driver, out.path / "deformation.bp", problem.output.every)
         )
     frames = _frames(job, model, driver, out)
-    if start is not None and start.state.get("finished"):
-        result: Any = _Finished(start.state.get("reason") or "converged before the resume")
-        for observer in driver.observers:
-            observer.finish(driver, result)
-    else:
-        result = _run_or_clean_up(driver, out)
+    result = _run_or_clean_up(driver, out, start)
     if frames is not None:
         frames.gif(out.path / f"{problem.name}.gif")
     checkpoints.save(driver, finished=result.converged, reason=result.reason)
@@ -442,7 +454,9 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
             plot_history(
                 checkpoints.history, out.path / "history.png", problem.name, flow.tol, flow.stop
             )
-    summary["wall_time_s"] = time.perf_counter() - wall0
+    summary["wall_time_s"] = checkpoints.wall_time()
+    if start is not None:
+        summary["wall_time_since_resume_s"] = time.perf_counter() - wall0
     summary["peak_memory_mb"] = mpi.peak_memory_mb(comm)
     write_json(comm, out.path / "summary.json", summary)
     out.commit()
@@ -451,12 +465,18 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
     )
 
 
-def _run_or_clean_up(driver: Driver, out: OutputDir) -> Any:
+def _run_or_clean_up(driver: Driver, out: OutputDir, start: checkpoint.Checkpoint | None) -> Any:
     """``driver.run()``; on an error, the staged outputs go (the checkpoints stay).
 
     The VTX files must be closed before their folder goes (ADIOS2 would abort the process at
-    exit). Closing is collective, so it happens only when every rank has the error.
+    exit). Closing is collective, so it happens only when every rank has the error. A run
+    resumed from a finished checkpoint takes no step: it only writes its outputs.
     """
+    if start is not None and start.state.get("finished"):
+        finished = _Finished(start.state.get("reason") or "converged before the resume")
+        for observer in driver.observers:
+            observer.finish(driver, finished)
+        return finished
     agree = driver.comm.Dup()  # for the error path only: no collective of the run matches it
     try:
         result = driver.run()

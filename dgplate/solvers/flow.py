@@ -339,6 +339,8 @@ class GradientFlow(EnergyFlow):
         self.newton_rejections = 0  # SQP steps redone as plain steps
         self.step_solves = 0  # solves with a step (or SQP) matrix: steps, redone steps, corrections
         self.active_set_changes = 0  # changes of an active set (each reassembles A_const)
+        # factorisations of the runs this one resumes (the solvers count their own)
+        self._earlier_factorisations = {"step": 0, "newton": 0}
         self.active_set_redos = 0  # steps redone because a point entered an active set
         self._build_forms()
         self._E_form = dolfinx.fem.form(self.energy.total)
@@ -837,7 +839,20 @@ class GradientFlow(EnergyFlow):
             "newton_steps": self.newton_steps,
             "newton_rejections": self.newton_rejections,
             "step_solves": self.step_solves,
+            "active_set_changes": self.active_set_changes,
+            "active_set_redos": self.active_set_redos,
+            "factorisations": self._factorisations(),
+            "newton_factorisations": self._newton_factorisations(),
         }
+
+    def _factorisations(self) -> int | None:
+        """Factorisations of the step solver over all runs (None: it does not count them)."""
+        own = getattr(self.solver, "factorisations", None)
+        return None if own is None else own + self._earlier_factorisations["step"]
+
+    def _newton_factorisations(self) -> int:
+        """Factorisations of the SQP matrices over all runs."""
+        return int(self._newton.factorisations) + self._earlier_factorisations["newton"]
 
     @property
     def checkpoint_every(self) -> int:
@@ -866,10 +881,10 @@ class GradientFlow(EnergyFlow):
             "refactorisations": self.refactorisations,
             "active_set_changes": self.active_set_changes,
             "active_set_redos": self.active_set_redos,
-            "factorisations": getattr(self.solver, "factorisations", None),
+            "factorisations": self._factorisations(),
             "newton_steps": self.newton_steps,
             "newton_rejections": self.newton_rejections,
-            "newton_factorisations": self._newton.factorisations,
+            "newton_factorisations": self._newton_factorisations(),
             "step_solves": self.step_solves,
         }
 
@@ -886,6 +901,12 @@ class GradientFlow(EnergyFlow):
         self.newton_steps = int(state.get("newton_steps", 0))
         self.newton_rejections = int(state.get("newton_rejections", 0))
         self.step_solves = int(state.get("step_solves", 0))
+        self.active_set_changes = int(state.get("active_set_changes", 0))
+        self.active_set_redos = int(state.get("active_set_redos", 0))
+        self._earlier_factorisations = {
+            "step": int(state.get("factorisations") or 0),
+            "newton": int(state.get("newton_factorisations") or 0),
+        }
 
     def undo(self) -> None:
         """Take back the last step (used when it produced a non-finite state)."""
@@ -901,9 +922,11 @@ class GradientFlow(EnergyFlow):
         test = (
             "‖P DE_h[yⁿ]‖_*'" if self.settings.stop == "stationarity" else "(E_h[yⁿ⁻¹] − E_h[yⁿ])/τ"
         )
+        # the budget as the user set it (flow.max_steps counts the steps of resumed runs too)
+        total = max_steps or self.settings.max_steps
         converged, reason = (
             False,
-            f"step budget of {budget} steps spent before {test} < {self.settings.tol:g}",
+            f"step budget of {total} steps spent before {test} < {self.settings.tol:g}",
         )
         signum = 0
         for _ in range(budget):

@@ -453,7 +453,8 @@ class RodFlow(EnergyFlow):
             outcome = self._stop(info)
             if outcome is not None:
                 break
-        outcome = outcome or (False, f"step budget of {budget} steps spent", 0)
+        total = max_steps or self.settings.max_steps  # as set: resumed runs' steps count too
+        outcome = outcome or (False, f"step budget of {total} steps spent", 0)
         defect = max(self.defects().values())
         result = FlowResult.of(outcome, history, increases, self.evaluate_energy(), defect)
         for obs in self.observers:
