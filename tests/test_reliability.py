@@ -89,6 +89,24 @@ def test_out_as_a_file_is_refused(where, tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["results"]
 
 
+def test_out_that_cannot_be_made_is_one_line(tmp_path, capsys):
+    """A link to nowhere, or a user's file named checkpoint (with --force): exit 2 before
+    anything is written, no traceback."""
+    link = tmp_path / "link"
+    link.symlink_to(tmp_path / "nowhere")
+    assert main(["run", str(VERTICAL), "--out", str(link), *SMALL]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "which does not exist" in err, err
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "checkpoint").write_text("my notes")
+    assert main(["run", str(VERTICAL), "--out", str(mine), "--force", *SMALL]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "keeps its checkpoints in that name" in err, err
+    assert [p.name for p in mine.iterdir()] == ["checkpoint"]
+    assert (mine / "checkpoint").read_text() == "my notes"
+
+
 def test_force_adds_to_a_users_folder_and_deletes_nothing(tmp_path):
     out = tmp_path / "mine"
     out.mkdir()

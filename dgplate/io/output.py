@@ -74,8 +74,9 @@ def target_problem(target: Path, force: bool = False, resume: bool = False) -> s
     holds a user's files and is refused unless ``force`` (dgplate then adds its files and
     deletes none of the others); a file is always refused. ``resume`` needs a checkpoint.
     """
-    if target.exists() and not target.is_dir():
-        return f"--out {target} is a file, not a directory"
+    unusable = _not_a_folder(target)
+    if unusable:
+        return unusable
     if resume:
         if not is_dgplate_output(target):
             return f"--resume: {target} is not a dgplate output directory"
@@ -94,6 +95,18 @@ def target_problem(target: Path, force: bool = False, resume: bool = False) -> s
         return f"--out {target}: {parent} is a file, not a directory"
     if not os.access(parent, os.W_OK | os.X_OK):
         return f"--out {target}: no permission to write in {parent}"
+    return None
+
+
+def _not_a_folder(target: Path) -> str | None:
+    """Why ``target`` (or its ``checkpoint``) cannot be a folder: a file, a broken link."""
+    if target.is_symlink() and not target.exists():
+        return f"--out {target} is a link to {os.readlink(target)}, which does not exist"
+    if target.exists() and not target.is_dir():
+        return f"--out {target} is a file, not a directory"
+    kept = target / CHECKPOINT
+    if (kept.exists() or kept.is_symlink()) and not kept.is_dir():
+        return f"--out {target}: {kept} is a file; dgplate keeps its checkpoints in that name"
     return None
 
 
@@ -129,19 +142,27 @@ class OutputDir:
     ) -> None:
         self.comm, self.target = comm, Path(target).absolute()
         self.check(comm, self.target, force, resume)
-        staging = None
-        if comm.rank == 0:
-            self.target.mkdir(parents=True, exist_ok=True)
-            if is_dgplate_output(self.target):
-                for stale in self.target.glob(f"{_STAGING}*"):  # left by a killed run of ours
-                    shutil.rmtree(stale, ignore_errors=True)
-            else:
-                self._write_marker([])
-            staging = tempfile.mkdtemp(prefix=_STAGING, dir=self.target)
-            os.chmod(staging, 0o755)  # mkdtemp makes it private; outputs are for everyone
-            (self.target / CHECKPOINT).mkdir(exist_ok=True)
-        self.path = Path(comm.bcast(staging, root=0))
+        staging: list[str] = []
+        _decide(comm, lambda: self._create(staging))
+        self.path = Path(comm.bcast(staging[0] if staging else None, root=0))
         self.checkpoint_dir = self.target / CHECKPOINT
+
+    def _create(self, staging: list[str]) -> None:
+        """Make the folder, its checkpoint folder, the marker and the staging folder (rank 0).
+
+        The marker comes after what can fail (a folder that cannot be made, e.g. no space or
+        no permission): a folder of a user's refused that way is not left marked as dgplate's.
+        """
+        self.target.mkdir(parents=True, exist_ok=True)
+        (self.target / CHECKPOINT).mkdir(exist_ok=True)
+        staging.append(tempfile.mkdtemp(prefix=_STAGING, dir=self.target))
+        os.chmod(staging[0], 0o755)  # mkdtemp makes it private; outputs are for everyone
+        if is_dgplate_output(self.target):
+            for stale in self.target.glob(f"{_STAGING}*"):  # left by a killed run of ours
+                if stale.name != Path(staging[0]).name:
+                    shutil.rmtree(stale, ignore_errors=True)
+        else:
+            self._write_marker([])
 
     @staticmethod
     def check(comm: MPI.Comm, target: Path, force: bool = False, resume: bool = False) -> None:
