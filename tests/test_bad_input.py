@@ -27,6 +27,7 @@ VERTICAL = PROBLEMS / "vertical_load.toml"
 BILAYER = PROBLEMS / "bilayer_cylinder.toml"
 FVK = PROBLEMS / "fvk_square.toml"
 
+THERMAL = b'[model]\nname = "thermal"\n'
 SMALL = ("mesh.cells=[4,4]", "output.png=false", "output.vtx=false", "output.progress=0")
 MISSING, DIRECTORY = "<missing file>", "<directory>"
 
@@ -57,7 +58,9 @@ BAD_INPUT = {
     "missing mesh file": Case(
         ("mesh.type=gmsh", "mesh.file='nosuch.geo'"), "mesh file not found: nosuch.geo"
     ),
-    "unknown group": Case(("model.clamped=['left','botom']",), "unknown facet group 'botom'"),
+    "unknown group": Case(
+        ("model.clamped=['left','botom']",), "error: model.clamped: unknown facet group 'botom'"
+    ),
     "empty clamped set": Case(
         ("model.clamped=[]", "flow.l2_metric=false"),
         "model.clamped is empty but flow.l2_metric = false",
@@ -78,7 +81,9 @@ BAD_INPUT = {
     ),
     "crease on boundary": Case(("model.crease=['top']",), "crease group 'top' contains"),
     "mu not positive": Case(("model.mu=0",), "model.mu must be > 0"),
-    "unknown mu region": Case(("model.mu={hinge=1.0}",), "unknown cell group 'hinge'"),
+    "unknown mu region": Case(
+        ("model.mu={hinge=1.0}",), "error: model.mu: unknown cell group 'hinge'"
+    ),
     "unknown step solver": Case(("flow.linear_solver='cg'",), "flow.linear_solver must be"),
     "refactor_its zero": Case(("flow.refactor_its=0",), "flow.refactor_its must be"),
     # a warning (τ ≫ h, nothing to solve) never comes before the error
@@ -86,7 +91,8 @@ BAD_INPUT = {
         ("flow.tau=1e300", "flow.linear_solver='cg'"), "flow.linear_solver must be"
     ),
     "no load and an unknown group": Case(
-        ("model.load=[0,0,0]", "model.clamped=['left','botom']"), "unknown facet group 'botom'"
+        ("model.load=[0,0,0]", "model.clamped=['left','botom']"),
+        "error: model.clamped: unknown facet group 'botom'",
     ),
     "load not a list": Case(("model.load={a=1}",), "model.load must be list"),
     "load entry a boolean": Case(
@@ -98,6 +104,40 @@ BAD_INPUT = {
     ),
     "solver option table": Case(
         ("flow.solver={ksp_type={a=1}}",), "flow.solver.ksp_type must be a string, a number"
+    ),
+    # -- group names the mesh does not have: the message begins with the key ------------------------
+    "unknown crease group": Case(
+        ("model.crease=['middle']",), "error: model.crease: unknown facet group 'middle'"
+    ),
+    "unknown Z group": Case(
+        ("model.Z={nogroup=1.0}",), "error: model.Z: unknown cell group 'nogroup'", BILAYER
+    ),
+    "fvk unknown indenter": Case(
+        ("model.indenter='tip'",), "error: model.indenter: unknown cell group 'tip'", FVK
+    ),
+    "fvk unknown clamped group": Case(
+        ("model.clamped=['lfet']",), "error: model.clamped: unknown facet group 'lfet'", FVK
+    ),
+    "thermal unknown anchor": Case(
+        ("model.anchor='nope'",), "error: model.anchor: unknown cell group 'nope'", THERMAL
+    ),
+    "thermal unknown source region": Case(
+        ("model.source_regions=['nope']",),
+        "error: model.source_regions: unknown cell group 'nope'",
+        THERMAL,
+    ),
+    "thermal unknown hinge": Case(
+        ("model.hinges={h=['plate','plate']}",),
+        "error: model.hinges: unknown cell group 'h'",
+        THERMAL,
+    ),
+    "thermal unknown hinge panel": Case(
+        ("model.hinges={plate=['plate','nope']}",),
+        "error: model.hinges.plate: unknown cell group 'nope'",
+        THERMAL,
+    ),
+    "thermal unknown clamped group": Case(
+        ("model.clamped=['lfet']",), "error: model.clamped: unknown facet group 'lfet'", THERMAL
     ),
     # -- non-finite numbers ---------------------------------------------------------------------
     "load inf": Case(("model.load=[0,0,inf]",), "model.load[2] must be a finite number, got inf"),

@@ -263,8 +263,9 @@ def facet_sets(
 ) -> FacetSets:
     """Classify the facets of ``tagged`` by the named clamped and crease groups.
 
-    Clamped groups must lie on the boundary, crease groups in the interior: anything else is an
-    ``InputError`` naming the group. ``penalty_length`` chooses h_e (:class:`FacetSets`).
+    Clamped groups must lie on the boundary, crease groups in the interior: anything else, or
+    a name the mesh has no group of, is an ``InputError`` naming the group (and the key,
+    ``model.clamped`` or ``model.crease``). ``penalty_length`` chooses h_e (:class:`FacetSets`).
     Collective on the mesh communicator.
     """
     mesh = tagged.mesh
@@ -297,7 +298,7 @@ def _mark_groups(
     num_owned = tagged.mesh.topology.index_map(tagged.mesh.topology.dim - 1).size_local
     total = 0
     for name in names:
-        facets = tagged.facets(name)
+        facets = tagged.facets(name, f"model.{what}")
         wrong = facets[boundary[facets] != on_boundary]
         local = [np.count_nonzero(wrong < num_owned), np.count_nonzero(facets < num_owned)]
         wrong_owned, owned = mpi.allreduce_array(tagged.comm, local).astype(int)

@@ -55,26 +55,32 @@ class TaggedMesh:
         """The names of the groups of dimension ``dim`` (2: cells, 1: facets), sorted."""
         return sorted(name for name, (d, _) in self.groups.items() if d == dim)
 
-    def tag(self, name: str, dim: int) -> int:
-        """The integer tag of the physical group ``name`` of dimension ``dim``."""
+    def tag(self, name: str, dim: int, key: str | None = None) -> int:
+        """The integer tag of the physical group ``name`` of dimension ``dim``.
+
+        An unknown name is an InputError that lists the groups the mesh has; ``key``, the
+        problem-file entry that named the group (``model.clamped``), begins its message.
+        """
         entry = self.groups.get(name)
         if entry is None or entry[0] != dim:
             kind = "cell" if dim == self.mesh.topology.dim else "facet"
             available = ", ".join(self.names(dim)) or "none"
+            where = f"{key}: " if key else ""
             raise InputError(
-                f"unknown {kind} group '{name}' in mesh {self.source} (available: {available})"
+                f"{where}unknown {kind} group '{name}' in mesh {self.source} "
+                f"(available: {available})"
             )
         return entry[1]
 
-    def facets(self, name: str) -> Indices:
-        """Local indices of the facets in group ``name`` (owned and ghost)."""
-        tag = self.tag(name, self.mesh.topology.dim - 1)
+    def facets(self, name: str, key: str | None = None) -> Indices:
+        """Local indices of the facets in group ``name`` (owned and ghost); ``key``: :meth:`tag`."""
+        tag = self.tag(name, self.mesh.topology.dim - 1, key)
         assert self.facet_tags is not None
         return self.facet_tags.find(tag)
 
-    def cells(self, name: str) -> Indices:
-        """Local indices of the cells in group ``name`` (owned and ghost)."""
-        tag = self.tag(name, self.mesh.topology.dim)
+    def cells(self, name: str, key: str | None = None) -> Indices:
+        """Local indices of the cells in group ``name`` (owned and ghost); ``key``: :meth:`tag`."""
+        tag = self.tag(name, self.mesh.topology.dim, key)
         assert self.cell_tags is not None
         return self.cell_tags.find(tag)
 
@@ -90,7 +96,7 @@ class TaggedMesh:
         A number stands for all entries of a ``shape``d value. Cells of no listed group get
         ``default``; without a default every owned cell must be covered, or an InputError
         says how many are not (``key`` names the problem-file entry). An unknown group name
-        raises an InputError that names it. Collective.
+        raises an InputError that begins with ``key`` and names the group. Collective.
         """
         mesh = self.mesh
         space = dolfinx.fem.functionspace(mesh, ("DG", 0, shape) if shape else ("DG", 0))
@@ -102,7 +108,7 @@ class TaggedMesh:
         cell_map = mesh.topology.index_map(mesh.topology.dim)
         covered = np.zeros(cell_map.size_local + cell_map.num_ghosts, dtype=bool)
         for group, value in values.items():
-            cells = self.cells(group)
+            cells = self.cells(group, key)
             row = np.broadcast_to(np.ravel(np.asarray(value, dtype=float)), (size,))
             blocks[space.dofmap.list[cells].reshape(-1)] = row
             covered[cells] = True

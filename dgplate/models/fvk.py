@@ -625,10 +625,7 @@ def _formula_bc(
 def _check_group_names(spec: FvKSpec, tagged: TaggedMesh) -> None:
     for key in ("clamped", "simply_supported", "crease", "membrane"):
         for group in getattr(spec, key):
-            try:
-                tagged.facets(group)
-            except InputError as err:
-                raise InputError(f"model.{key}: {err}") from None
+            tagged.facets(group, f"model.{key}")
 
 
 def _probe(spec: FvKSpec, mesh: dolfinx.mesh.Mesh[np.float64]) -> PointProbe:

@@ -106,7 +106,7 @@ def anchor_energy(y: Any, tagged: TaggedMesh, region: str, stiffness: float) -> 
     mesh = tagged.mesh
     # an indicator field rather than dx(tag): DOLFINx 0.9 wants one subdomain_data per
     # integral type in a form, and the bending energy's dx carries none
-    indicator = tagged.group_function({region: 1.0}, default=0.0, key="anchor")
+    indicator = tagged.group_function({region: 1.0}, default=0.0, key="model.anchor")
     g, _ = flat_identity(mesh)
     k = constant(mesh, stiffness)
     form: ufl.Form = 0.5 * k * indicator * ufl.inner(y - g, y - g) * ufl.dx(domain=mesh)
@@ -723,15 +723,19 @@ def _check_groups(spec: ThermalSpec, tagged: TaggedMesh) -> None:
     does not).
     """
     tdim = tagged.mesh.topology.dim
-    cells = list(spec.source_regions) + list(spec.hinges) + list(spec.edges.values())
-    cells += [face for faces in spec.hinges.values() for face in faces]
-    cells += [spec.anchor] if spec.anchor else []
-    cells += [spec.closure["panel"]] if spec.closure else []
-    facets_ = list(spec.edges) + ([spec.closure["edge"]] if spec.closure else [])
-    for name in cells:
-        tagged.tag(name, tdim)
-    for name in facets_:
-        tagged.tag(name, tdim - 1)
+    # (problem-file key, group name): the key begins the error message
+    cells = [("model.source_regions", name) for name in spec.source_regions]
+    cells += [("model.hinges", name) for name in spec.hinges]
+    cells += [(f"model.hinges.{h}", face) for h, faces in spec.hinges.items() for face in faces]
+    cells += [(f"model.edges.{edge}", panel) for edge, panel in spec.edges.items()]
+    cells += [("model.anchor", spec.anchor)] if spec.anchor else []
+    cells += [("model.closure.panel", spec.closure["panel"])] if spec.closure else []
+    facets_ = [("model.edges", name) for name in spec.edges]
+    facets_ += [("model.closure.edge", spec.closure["edge"])] if spec.closure else []
+    for key, name in cells:
+        tagged.tag(name, tdim, key)
+    for key, name in facets_:
+        tagged.tag(name, tdim - 1, key)
 
 
 def build_thermal(spec: ThermalSpec, tagged: TaggedMesh) -> ThermalModel:
