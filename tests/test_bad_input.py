@@ -139,6 +139,43 @@ BAD_INPUT = {
     "thermal unknown clamped group": Case(
         ("model.clamped=['lfet']",), "error: model.clamped: unknown facet group 'lfet'", THERMAL
     ),
+    # -- PETSc options that PETSc refuses (the factor package only at a factorisation) ----------
+    "unknown pc type": Case(
+        ("flow.solver={pc_type='nonexistent'}",),
+        "flow.solver: PETSc refused the options: Unable to find requested PC type nonexistent",
+    ),
+    "unknown ksp type": Case(
+        ("flow.solver={ksp_type='nonexistent'}",),
+        "flow.solver: PETSc refused the options: Unable to find requested KSP type nonexistent",
+    ),
+    "unknown factor package": Case(
+        ("flow.solver={pc_factor_mat_solver_type='nosuchpkg'}",),
+        "flow.solver: PETSc refused the options: Could not locate solver type nosuchpkg",
+    ),
+    "unknown factor package, direct solver": Case(
+        ("flow.linear_solver='direct'", "flow.solver={pc_factor_mat_solver_type='nosuchpkg'}"),
+        "flow.solver: PETSc refused the options: Could not locate solver type nosuchpkg",
+    ),
+    "factor package without ILU": Case(
+        ("flow.solver={pc_type='ilu'}",),
+        "flow.solver: PETSc refused the options: MatSolverType mumps does not support "
+        "factorization type ILU",
+    ),
+    "fvk unknown snes type": Case(
+        ("model.snes={snes_type='bogus'}",),
+        "model.snes: PETSc refused the options: Unable to find requested SNES type bogus",
+        FVK,
+    ),
+    "fvk unknown pc type": Case(
+        ("model.snes={pc_type='bogus'}",),
+        "model.snes: PETSc refused the options: Unable to find requested PC type bogus",
+        FVK,
+    ),
+    "fvk unknown factor package": Case(
+        ("model.snes={pc_factor_mat_solver_type='nosuchpkg'}",),
+        "model.snes: PETSc refused the options: Could not locate solver type nosuchpkg",
+        FVK,
+    ),
     # -- non-finite numbers ---------------------------------------------------------------------
     "load inf": Case(("model.load=[0,0,inf]",), "model.load[2] must be a finite number, got inf"),
     "load nan": Case(("model.load=[0,0,nan]",), "model.load[2] must be a finite number, got nan"),
@@ -236,6 +273,8 @@ MPI_CASES = [
     "fvk with flow keys",
     "problem file not UTF-8",
     "problem file is a directory",
+    "unknown factor package",
+    "fvk unknown snes type",
 ]
 
 
@@ -341,6 +380,23 @@ def test_bad_input_in_parallel_in_process(name, inputs, tmp_path, capsys):
         assert err == ""
     comm.barrier()
     assert not out.exists()
+
+
+def test_refused_petsc_options_are_not_reported_unused(inputs, tmp_path):
+    """PETSc lists the options never read when it ends: none follow the one-line error."""
+    case = BAD_INPUT["unknown pc type"]
+    paths = [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(paths)}
+    proc = subprocess.run(
+        [sys.executable, "-m", "dgplate", *command(case, VERTICAL, tmp_path / "out", "check")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=env,
+    )
+    assert proc.returncode == 2, proc.stderr
+    assert_one_error(proc.stderr, case.expected)
+    assert "WARNING" not in proc.stdout + proc.stderr, proc.stdout + proc.stderr
 
 
 # -- warnings: accepted but pointless input --------------------------------------------------------

@@ -15,6 +15,7 @@ from __future__ import annotations
 import itertools
 import logging
 import math
+import re
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -71,19 +72,83 @@ def make_ksp(
     options: Options | None = None,
     prefix: str | None = None,
     defaults: Options = DIRECT_MUMPS,
+    key: str = "flow.solver",
 ) -> PETSc.KSP:
-    """A KSP on ``A`` configured from ``defaults`` updated by ``options``."""
+    """A KSP on ``A`` configured from ``defaults`` updated by ``options``.
+
+    Options that PETSc refuses (an unknown ``ksp_type`` or ``pc_type``, a factor package it
+    does not have for A) are an InputError naming ``key``, the problem-file key of ``options``;
+    the KSP and its options are then gone.
+    """
     prefix = prefix or f"dgplate_{next(_counter)}_"
     opts = PETSc.Options()
-    for key, value in with_defaults(defaults, options).items():
-        opts.setValue(f"{prefix}{key}", value)
+    merged = with_defaults(defaults, options)
+    for name, value in merged.items():
+        opts.setValue(f"{prefix}{name}", value)
     ksp = PETSc.KSP().create(comm)  # type: ignore[arg-type]  # an mpi4py comm is taken
     ksp.setOptionsPrefix(prefix)
     ksp.setOperators(A)
-    ksp.setFromOptions()
+    try:
+        ksp.setFromOptions()
+        check_factor_package(ksp.getPC(), A)
+    except PETSc.Error as err:
+        ksp.destroy()
+        for name in merged:
+            opts.delValue(f"{prefix}{name}")
+        raise refused(key, err) from None
     # The options stay in the database: the factorisation reads its MUMPS options only at the
     # first solve. The prefix is unique, so they cannot leak into another solver.
     return ksp
+
+
+#: PC types that factorise the matrix with a package (``pc_factor_mat_solver_type``).
+FACTOR_PCS = ("lu", "cholesky", "ilu", "icc")
+
+
+def check_factor_package(pc: PETSc.PC, A: PETSc.Mat) -> None:
+    """Raise PETSc's error now if ``pc`` (set up from its options) cannot factorise ``A``.
+
+    PETSc looks the factor package up only at the first factorisation, when a run has begun
+    writing: an unknown ``pc_factor_mat_solver_type``, or one without this factorisation or
+    this matrix type (e.g. ``petsc`` LU of a parallel matrix, ``mumps`` ILU). The look-up alone
+    (MatGetFactor on ``A`` in a throwaway PC: an empty factor matrix, no analysis) costs
+    nothing and leaves ``pc`` as it was. Collective.
+    """
+    kind = pc.getType()
+    if kind not in FACTOR_PCS:
+        return
+    probe = PETSc.PC().create(pc.getComm())
+    try:
+        probe.setOperators(A, A)
+        probe.setType(kind)
+        package = pc.getFactorSolverType()
+        if package:
+            probe.setFactorSolverType(package)
+        probe.setFactorSetUpSolverType()
+    finally:
+        probe.destroy()
+
+
+_FRAME = re.compile(r"\w+\(\) at \S+:\d+$")
+
+
+def petsc_reason(err: PETSc.Error) -> str:
+    """PETSc's own message of ``err`` in one short line.
+
+    The error's text is its code, then PETSc's stack (``[0] KSPSetFromOptions() at file:line``
+    lines) and message lines; the last message line is the specific one (``Unable to find
+    requested PC type foo``), of which the first sentence is kept.
+    """
+    lines = [re.sub(r"^\[\d+\]\s*", "", line).strip() for line in str(err).splitlines()[1:]]
+    messages = [line for line in lines if line and not _FRAME.search(line)]
+    if not messages:
+        return f"PETSc error code {getattr(err, 'ierr', '?')}"
+    return messages[-1].split(". ")[0].rstrip(".")
+
+
+def refused(key: str, err: PETSc.Error) -> InputError:
+    """The InputError for PETSc options under ``key`` that PETSc refused with ``err``."""
+    return InputError(f"{key}: PETSc refused the options: {petsc_reason(err)}")
 
 
 def destroy_ksp(ksp: PETSc.KSP) -> None:
@@ -311,13 +376,17 @@ class LaggedStepSolver:
             factor = {k: v for k, v in merged.items() if not k.startswith("ksp_")}
             self.P = _permuted_copy(K, self.numbering)
             self.ksp = make_ksp(comm, K, krylov, prefix, defaults={})
-            self.factor_ksp = make_ksp(
-                comm,
-                self.P,
-                {**factor, "ksp_type": "preonly"},
-                f"{self.ksp.getOptionsPrefix()}factor_",
-                defaults={},
-            )
+            try:
+                self.factor_ksp = make_ksp(
+                    comm,
+                    self.P,
+                    {**factor, "ksp_type": "preonly"},
+                    f"{self.ksp.getOptionsPrefix()}factor_",
+                    defaults={},
+                )
+            except InputError:
+                destroy_ksp(self.ksp)
+                raise
             pc = self.ksp.getPC()
             pc.setType(PETSc.PC.Type.PYTHON)
             pc.setPythonContext(PermutedFactors(self.factor_ksp, K, self.numbering))

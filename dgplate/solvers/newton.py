@@ -244,7 +244,9 @@ class Continuation:
         schedule: the load factors to solve at, in order; consecutive ones must differ.
         prefix: the PETSc options prefix, e.g. ``"dgplate_fvk_"`` (so ``-dgplate_fvk_snes_monitor``
             works); one live driver per prefix.
-        options: PETSc options (SNES, KSP, PC) over :data:`NEWTON_DEFAULTS`.
+        options: PETSc options (SNES, KSP, PC) over :data:`NEWTON_DEFAULTS`; options that PETSc
+            refuses (an unknown type, a factor package it lacks) are an InputError naming
+            ``options_key``, their problem-file key.
         bc_values: ``(constant, value)`` pairs of Dirichlet data at full load: the driver sets
             ``constant.value = load factor × value`` whenever the load factor changes.
         secant: start each step from the secant extrapolation of the two previous states;
@@ -283,6 +285,7 @@ class Continuation:
         checkpoint_every: int = 1,
         stability: Stability | None = None,
         relaxation: Relaxation | None = None,
+        options_key: str = "model.snes",
     ) -> None:
         self.schedule = _checked_schedule(schedule, float(load_factor.value))
         if prefix in _LIVE_PREFIXES:
@@ -328,6 +331,7 @@ class Continuation:
         self._record = record_type([*names, LOWEST] if stability else names)
         self._prefix = prefix
         self._options = {**NEWTON_DEFAULTS, **(options or {})}
+        self._options_key = options_key
         self._setup_snes()
         self._live = True
         _LIVE_PREFIXES.add(prefix)
@@ -345,7 +349,16 @@ class Continuation:
         snes.setFunction(self._assemble_residual, self._b)
         snes.setJacobian(self._assemble_jacobian, self._A)
         snes.setMonitor(self._monitor)
-        snes.setFromOptions()
+        try:
+            snes.setFromOptions()
+            linear.check_factor_package(snes.getKSP().getPC(), self._A)
+        except PETSc.Error as err:
+            # no driver: its PETSc objects and options go (another driver may take the prefix)
+            for obj in (snes, self._A, self._b, self._x):
+                obj.destroy()
+            for key in self._options:
+                opts.delValue(f"{self._prefix}{key}")
+            raise linear.refused(self._options_key, err) from None
 
     def _monitor(self, _snes: PETSc.SNES, _it: int, norm: float) -> None:
         self._norms.append(float(norm))
