@@ -399,6 +399,54 @@ def test_refused_petsc_options_are_not_reported_unused(inputs, tmp_path):
     assert "WARNING" not in proc.stdout + proc.stderr, proc.stdout + proc.stderr
 
 
+# -- a damaged checkpoint ----------------------------------------------------------------------------
+BUDGET = ("flow.tol=1e-12", "flow.checkpoint_every=1")
+
+
+@pytest.fixture(scope="module")
+def spent_run(tmp_path_factory) -> Path:
+    """The output folder of a run that spent its budget of 2 steps (a checkpoint to resume)."""
+    comm = MPI.COMM_WORLD
+    folder = Path(comm.bcast(str(tmp_path_factory.mktemp("spent") / "out"), root=0))
+    sets = [arg for value in (*SMALL, *BUDGET, "flow.max_steps=2") for arg in ("--set", value)]
+    assert main(["run", str(VERTICAL), "--out", str(folder), *sets]) == 1
+    return folder
+
+
+def _damage(data: bytes, how: str) -> bytes:
+    if how == "truncated":
+        return data[:300]
+    if how == "empty":
+        return b""
+    flipped = bytearray(data)  # a byte of the state's JSON: the CRC no longer matches
+    flipped[200] ^= 0xFF
+    return bytes(flipped)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("verb", ["run", "check"])
+@pytest.mark.parametrize("how", ["truncated", "empty", "flipped byte"])
+def test_damaged_checkpoint_is_one_line(spent_run, how, verb, tmp_path, capsys):
+    """--resume from a damaged state.npz: one line naming the file, exit 2 on every rank."""
+    comm = MPI.COMM_WORLD
+    out = Path(comm.bcast(str(tmp_path / "out"), root=0))
+    state = out / "checkpoint" / "state.npz"
+    if comm.rank == 0:
+        shutil.copytree(spent_run, out)
+        state.write_bytes(_damage(state.read_bytes(), how))
+    before = comm.bcast(sorted((p.name, p.stat().st_mtime_ns) for p in out.rglob("*")))
+    sets = [arg for value in (*SMALL, *BUDGET, "flow.max_steps=4") for arg in ("--set", value)]
+    code = main([verb, str(VERTICAL), "--out", str(out), "--resume", *sets])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    if comm.rank == 0:
+        assert_one_error(err, f"--resume: the checkpoint {state} is damaged")
+    else:
+        assert err == ""
+    comm.barrier()
+    assert sorted((p.name, p.stat().st_mtime_ns) for p in out.rglob("*")) == before
+
+
 # -- warnings: accepted but pointless input --------------------------------------------------------
 def run_warned(tmp_path, capsys, problem: Path, *sets: str, base=SMALL) -> tuple[int, list[str]]:
     """Run in-process; the exit code and the warning lines (each one line)."""

@@ -166,14 +166,22 @@ def load(
 ) -> Checkpoint:
     """Read the checkpoint (rank 0 reads, every rank gets it); refuse another problem's.
 
-    ``purpose`` begins the error messages: what the checkpoint was read for.
+    ``purpose`` begins the error messages: what the checkpoint was read for. A file that
+    cannot be read, or is damaged (truncated, overwritten, not a dgplate checkpoint), is an
+    InputError naming it on every rank: rank 0 alone reads, so no error may stay there.
     """
     data, message = None, None
     if comm.rank == 0:
+        file = directory / STATE_FILE
         try:
-            data = _read(directory / STATE_FILE)
-        except (OSError, ValueError, KeyError) as err:
-            message = f"{purpose}: cannot read the checkpoint in {directory}: {err}"
+            data = _read(file)
+        except OSError as err:  # missing, unreadable: the file is not at fault
+            message = f"{purpose}: cannot read the checkpoint {file}: {err.strerror or err}"
+        except Exception as err:  # anything np.load, zipfile or json raise on bad bytes
+            message = (
+                f"{purpose}: the checkpoint {file} is damaged (truncated or not written by "
+                f"dgplate): {type(err).__name__}: {err}"
+            )
     data, message = comm.bcast((data, message), root=0)
     if message:
         raise InputError(message)
@@ -195,11 +203,21 @@ def read_state(path: Path) -> Any:
 
 
 def _read(path: Path) -> Checkpoint:
-    """The checkpoint in the .npz file ``path`` (on one rank)."""
+    """The checkpoint in the .npz file ``path`` (on one rank).
+
+    Raises what NumPy, zipfile and json raise on a damaged file, and ValueError where what
+    they read is not a checkpoint's content.
+    """
     with np.load(path) as npz:
         names = {key: _field_name(key) for key in npz.files}
         tables = {name: npz[key] for key, name in names.items() if name is not None}
-    return Checkpoint(tables, read_state(path))
+    state = read_state(path)
+    if not isinstance(state, dict):
+        raise ValueError(f"its state is a JSON {type(state).__name__}, not an object")
+    for name, table in tables.items():
+        if table.ndim != 2 or table.dtype.kind not in "fc":
+            raise ValueError(f"field {name!r} is not a table of numbers ({table.shape})")
+    return Checkpoint(tables, state)
 
 
 def _plain(value: object) -> object:
