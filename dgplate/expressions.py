@@ -168,11 +168,25 @@ def evaluate(text: str, points: Array, key: str, names: Names | None = None) -> 
     for name, value in (names or {}).items():
         if isinstance(value, np.ndarray) or is_number(value):
             numeric[name] = value
-        else:
+        elif uses(text, name):
             return None
     coords = (points[:, 0], points[:, 1])
     with np.errstate(all="ignore"):
         return np.asarray(_Builder(key, text, coords, numeric, numeric=True).build())
+
+
+def uses(text: str, name: str) -> bool:
+    """True when the formula ``text`` uses the symbol ``name`` (False when it does not parse)."""
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except (SyntaxError, ValueError, RecursionError, MemoryError):
+        return False
+    return any(isinstance(node, ast.Name) and node.id == name for node in ast.walk(tree))
+
+
+def check_finite_on_mesh(text: str, mesh: Mesh, key: str, names: Names | None = None) -> None:
+    """InputError (on every rank) when the formula is not finite at a sample point (collective)."""
+    _check_finite_on_mesh(text, mesh, key, names)
 
 
 def sample_points(mesh: Mesh) -> Array:

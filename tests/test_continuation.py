@@ -190,6 +190,32 @@ def test_bad_input_names_the_key(model, message):
         dgplate.problem_from_dict(data, "bad")
 
 
+@pytest.mark.parametrize(
+    "model, message",
+    [
+        (
+            {"boundary_data": {"g": ["x", "y", "sqrt(-1-x)"]}},
+            r"model\.boundary_data\.g\[2\]: formula 'sqrt\(-1-x\)' is not finite on the plate",
+        ),
+        (
+            {"boundary_data": {"g": ["x", "y", "alpha*sqrt(0.7-alpha)"]}},
+            r"model\.boundary_data\.g\[2\]: formula .* is not finite.* \(at α = 0\.75\)$",
+        ),
+        (
+            {"boundary_data": {"g": ["x", "y", "0.5"]}, "obstacle": {"type": "below", "psi": 0.3}},
+            r"model\.obstacle: the clamped data .* penetrate the obstacle .* \(at α = 0\.75\)$",
+        ),
+    ],
+)
+def test_data_along_the_path_are_checked_before_the_run(tmp_path, model, message):
+    """The clamped data at every α of the schedule (0.25, …, 1): finite formulas, and outside
+    the obstacle (z = 0.5α reaches the ceiling 0.3 at α = 0.75)."""
+    problem = flap(**{f"model.{key}": value for key, value in model.items()})
+    with pytest.raises(dgplate.InputError, match=message):
+        dgplate.check(problem, out=tmp_path / "o")
+    assert not (tmp_path / "o").exists()
+
+
 def test_bad_schedule_exits_2_with_one_line(tmp_path):
     problem = tmp_path / "bad.toml"
     problem.write_text(

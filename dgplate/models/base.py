@@ -11,15 +11,15 @@ the flow) implement :class:`Model` themselves.
 
 from __future__ import annotations
 
-import ast
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+import numpy as np
 import ufl
 from ufl.core.expr import Expr
 
-from dgplate import values
+from dgplate import expressions, values
 from dgplate.compat import Array, Constant, Function, Mesh
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets
@@ -179,28 +179,59 @@ def mentions(value: object, name: str) -> bool:
         return any(mentions(v, name) for v in value.values())
     if isinstance(value, list | tuple):
         return any(mentions(v, name) for v in value)
-    if not isinstance(value, str):
-        return False
+    return isinstance(value, str) and expressions.uses(value, name)
+
+
+def along_path(path: DataPath | None, check: Callable[[], None], samples: int = 100) -> None:
+    """Run ``check`` (which raises ``InputError``) at the values of α the path will take.
+
+    At most ``samples`` of them, evenly spread, and always α = 1; the error says at which α.
+    α is put back to its first value. Collective when ``check`` is.
+    """
+    if path is None:
+        check()
+        return
+    stages = path.schedule.stages
+    picked = sorted({round(i * (stages - 1) / max(samples - 1, 1)) for i in range(samples)})
     try:
-        tree = ast.parse(value.strip(), mode="eval")
-    except (SyntaxError, ValueError, RecursionError, MemoryError):
-        return False
-    return any(isinstance(node, ast.Name) and node.id == name for node in ast.walk(tree))
+        for stage in picked if stages > samples else range(stages):
+            path.alpha.value = np.asarray(path.schedule.alpha(stage))
+            try:
+                check()
+            except InputError as err:
+                raise InputError(f"{err} (at α = {path.schedule.alpha(stage):g})") from None
+    finally:
+        path.alpha.value = np.asarray(path.schedule.alpha(0))
+
+
+def _check_path_formulas(value: dict[str, Any], mesh: Mesh, key: str, path: DataPath) -> None:
+    """Formulas in α of the clamped data must be finite on the plate all along the path."""
+    texts = [(f"{key}.g[{i}]", t) for i, t in enumerate(value["g"]) if isinstance(t, str)]
+    for i, row in enumerate(value.get("Phi") or []):
+        texts += [(f"{key}.Phi[{i}][{j}]", t) for j, t in enumerate(row) if isinstance(t, str)]
+
+    def check() -> None:
+        alpha = {"alpha": float(path.alpha.value)}
+        for where, text in texts:
+            if expressions.uses(text, "alpha"):
+                expressions.check_finite_on_mesh(text, mesh, where, alpha)
+
+    along_path(path, check)
 
 
 def clamped_data(
     value: object,
     mesh: Mesh,
     key: str = "model.boundary_data",
-    alpha: Constant | None = None,
+    path: DataPath | None = None,
 ) -> tuple[Expr, Expr]:
     """Nitsche data (g, Φ) on clamped facets from a problem file.
 
     ``"flat"``: g = (x, y, 0), Φ = [I₂; 0]. A table ``{g = [3 formulas], Phi = [[2], [2], [2]]}``
     gives any data, e.g. a folded sheet; Φ defaults to ∇g. Numbers in the table are Constants
-    (:mod:`dgplate.values`). With the Constant ``alpha`` the data follow a path
-    (docs/continuation.md): formulas that use ``alpha`` are the path themselves; otherwise the
-    path is (1 − α)·id + α·g, and Φ likewise (1 − α)·[I₂; 0] + α·Φ.
+    (:mod:`dgplate.values`). With a ``path`` the data follow it (docs/continuation.md):
+    formulas that use ``alpha`` are the path themselves (they must be finite for every α of
+    the schedule); otherwise the path is (1 − α)·id + α·g, and Φ likewise (1 − α)·[I₂; 0] + α·Φ.
     """
     if value == "flat":
         return flat_identity(mesh)
@@ -208,6 +239,7 @@ def clamped_data(
         raise InputError(
             f"{key} must be 'flat' or a table {{g = [..3..], Phi = [[..2..] x3]}}, got {value!r}"
         )
+    alpha = path.alpha if path is not None else None
     names = {"alpha": alpha} if alpha is not None else None
     g = values.vector(value["g"], mesh, f"{key}.g", 3, names)
     if "Phi" not in value:
@@ -219,9 +251,11 @@ def clamped_data(
         matrix = values.array(rows, mesh, f"{key}.Phi", names)
         assert not isinstance(matrix, float)  # a matrix gives a tensor
         Phi = matrix
+    if path is not None and mentions(value, "alpha"):
+        _check_path_formulas(value, mesh, key, path)
     if alpha is None or mentions(value, "alpha"):
         return g, Phi
     identity, gradient = flat_identity(mesh)
-    path: Expr = (1 - alpha) * identity + alpha * g
-    path_gradient: Expr = (1 - alpha) * gradient + alpha * Phi
-    return path, path_gradient
+    moving: Expr = (1 - alpha) * identity + alpha * g
+    moving_gradient: Expr = (1 - alpha) * gradient + alpha * Phi
+    return moving, moving_gradient

@@ -184,7 +184,7 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     Z = spontaneous_curvature(spec.Z, tagged)
     path = continuation_path(spec.schedule, tagged.mesh)
-    g, Phi = clamped_data(spec.boundary_data, tagged.mesh, alpha=path.alpha if path else None)
+    g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path)
     penalty = spec.penalty_params
     degree = 3 * spec.degree + 2
 
@@ -195,5 +195,5 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
         facets, spec.degree, energy_fn, measures=[curvature_summary], continuation=path
     )
     return with_self_avoidance(
-        with_obstacle(plate, spec.obstacle_params, g), spec.self_avoidance_params
+        with_obstacle(plate, spec.obstacle_params, g, path), spec.self_avoidance_params
     )

@@ -156,7 +156,7 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     load = values.vector(spec.load, tagged.mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     path = continuation_path(spec.schedule, tagged.mesh)
-    g, Phi = clamped_data(spec.boundary_data, tagged.mesh, alpha=path.alpha if path else None)
+    g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path)
     penalty = spec.penalty_params
 
     def energy_fn(y: Function) -> Energy:
@@ -164,7 +164,7 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
 
     plate = PlateModel(facets, spec.degree, energy_fn, continuation=path)
     return with_self_avoidance(
-        with_obstacle(plate, spec.obstacle_params, g), spec.self_avoidance_params
+        with_obstacle(plate, spec.obstacle_params, g, path), spec.self_avoidance_params
     )
 
 

@@ -94,7 +94,7 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
     load = values.vector(spec.load, mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     path = continuation_path(spec.schedule, mesh)
-    g, Phi = clamped_data(spec.boundary_data, mesh, alpha=path.alpha if path else None)
+    g, Phi = clamped_data(spec.boundary_data, mesh, path=path)
     theta = values.array(spec.theta, mesh, "model.theta")
     second = values.constant(mesh, DIRECTORS[spec.director])
     gamma = values.constant(mesh, spec.gamma)
@@ -118,5 +118,5 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
         continuation=path,
     )
     return with_self_avoidance(
-        with_obstacle(plate, spec.obstacle_params, g), spec.self_avoidance_params
+        with_obstacle(plate, spec.obstacle_params, g, path), spec.self_avoidance_params
     )

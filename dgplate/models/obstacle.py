@@ -16,18 +16,21 @@ from dgplate.compat import Function
 from dgplate.dg.energy import Energy
 from dgplate.dg.obstacle import Obstacle
 from dgplate.measure.contact import Contact
-from dgplate.models.base import PlateModel
+from dgplate.models.base import DataPath, PlateModel, along_path
 
 
-def with_obstacle(model: PlateModel, obstacle: Obstacle | None, g: Expr) -> PlateModel:
+def with_obstacle(
+    model: PlateModel, obstacle: Obstacle | None, g: Expr, path: DataPath | None = None
+) -> PlateModel:
     """``model`` with the obstacle's penalty and contact figures; unchanged without one.
 
-    ``g``: the clamped data, which must not penetrate the obstacle (an ``InputError``).
+    ``g``: the clamped data, which must not penetrate the obstacle (an ``InputError``), at
+    any α of the ``path`` they follow.
     """
     if obstacle is None:
         return model
     contact = Contact(obstacle, model.facets, model.degree)
-    contact.check_clamped(g)
+    along_path(path, lambda: contact.check_clamped(g))
     plate_energy = model.energy
 
     def energy(y: Function) -> Energy:
