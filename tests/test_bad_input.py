@@ -14,7 +14,7 @@ from mpi4py import MPI
 
 import pytest
 
-from dgplate import expressions
+from dgplate import check, expressions, load_problem
 from dgplate.cli import main
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import rectangle
@@ -589,3 +589,21 @@ def test_check_formulas_without_a_mesh():
     expressions.check([0, "0.1*sin(pi*x)", "where(x < 0.5, 1, -1)"], "model.load")
     with pytest.raises(InputError, match=r"model\.Z\[0\]\[1\]: formula '1/0' divides by zero"):
         expressions.check([[1, "1/0"], [0, 1]], "model.Z")
+
+
+@pytest.mark.mpi
+def test_fewer_cells_than_ranks_is_bad_input(comm, tmp_path):
+    """A rank without a cell is refused before anything is written (it crashed the run)."""
+    if comm.size == 1:
+        pytest.skip("needs 2 ranks")
+    problem = load_problem(VERTICAL, {"mesh.cells": [1, 1]})
+    with pytest.raises(InputError, match=r"mesh: 1 cell\(s\) for \d+ ranks"):
+        check(problem, comm=comm)
+
+
+def test_a_mesh_file_that_makes_no_cells_is_bad_input():
+    problem = problem_from_dict(
+        {"mesh": {"type": "gmsh", "file": "rectangle.geo", "parameters": {"Lx": 0}}}, "empty"
+    )
+    with pytest.raises(InputError, match=r"gmsh made no cells from rectangle\.geo"):
+        check(problem)

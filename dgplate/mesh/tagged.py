@@ -323,4 +323,14 @@ def _generate(
         return f"gmsh failed on {path.name}: {exc}", None
     if not any(dim == 2 for dim, _ in groups.values()):
         return f"{path.name} defines no Physical Surface: name the plate's cell regions", groups
+    surfaces = [tag for dim, tag in groups.values() if dim == 2]
+    cells = sum(
+        len(tags)
+        for surface in surfaces
+        for entity in gmsh.model.getEntitiesForPhysicalGroup(2, surface)
+        for tags in gmsh.model.mesh.getElements(2, entity)[1]
+    )
+    if cells == 0:
+        given = f" with {dict(parameters)}" if parameters else ""
+        return f"gmsh made no cells from {path.name}{given}: check its geometry", groups
     return None, groups

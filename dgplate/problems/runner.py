@@ -354,6 +354,12 @@ def build_model(problem: Problem, comm: MPI.Comm) -> tuple[TaggedMesh, Model]:
     entry = MODELS[problem.model.name]
     own = entry.mesh  # a model with its own mesh (a rod) has no [mesh]
     tagged = own(problem.model, comm) if own else build_mesh(problem.mesh, comm)
+    cells = _cells(tagged)
+    if cells < comm.size:
+        raise InputError(
+            f"mesh: {cells} cell(s) for {comm.size} ranks: every rank needs a cell; refine "
+            "the mesh or run on fewer ranks"
+        )
     return tagged, entry.build(problem.model, tagged)
 
 
