@@ -607,3 +607,16 @@ def test_a_mesh_file_that_makes_no_cells_is_bad_input():
     )
     with pytest.raises(InputError, match=r"gmsh made no cells from rectangle\.geo"):
         check(problem)
+
+
+def test_python_api_type_errors_are_input_errors(tmp_path):
+    """The API's wrong types say what was expected; a single --set text and tuples work."""
+    with pytest.raises(InputError, match="a problem is a dict of sections, got NoneType"):
+        problem_from_dict(None, "x")
+    with pytest.raises(InputError, match=r"must be a dgplate\.Problem .* got str"):
+        check(str(VERTICAL))
+    problem = load_problem(VERTICAL, "mesh.cells=[4, 4]")
+    assert problem.mesh.cells == [4, 4]
+    assert load_problem(VERTICAL, {"mesh.cells": (4, 4)}).mesh.cells == [4, 4]
+    with pytest.raises(InputError, match="out must be a folder path, got int 123"):
+        check(problem, out=123)

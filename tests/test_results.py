@@ -83,6 +83,9 @@ def test_show_a_folder_of_runs_shows_each(tmp_path, capsys):
     assert main(["show", str(tmp_path / "demo")]) == 0
     rows = capsys.readouterr().out.strip().splitlines()[1:]
     assert [row.split()[0] for row in rows] == [str(tmp_path / "demo" / n) for n in ("a", "b")]
+    # load_result wants one run, and says which the folder holds
+    with pytest.raises(dgplate.InputError, match=r"demo holds several runs \(a, b\); load one"):
+        dgplate.load_result(tmp_path / "demo", state=False)
 
 
 def test_show_a_run_without_summary_reads_its_checkpoint(tmp_path, capsys):

@@ -17,7 +17,7 @@ from mpi4py import MPI
 from dgplate.errors import InputError
 from dgplate.io import checkpoint
 from dgplate.io.output import CHECKPOINT
-from dgplate.io.records import read_history, read_summary
+from dgplate.io.records import read_history, read_summary, runs_in
 from dgplate.problems.runner import Result, build_model
 from dgplate.problems.specs import problem_from_dict
 
@@ -72,7 +72,13 @@ def _read_or_error(
     if comm.rank != 0:
         return None
     try:
-        return read_summary(path), read_history(path)
+        summary = read_summary(path)
+        inner = [run for run in runs_in([path]) if run != path]
+        if summary["status"] == "started" and inner:  # a demo's or a study's folder
+            names = ", ".join(str(run.relative_to(path)) for run in inner[:5])
+            more = f" and {len(inner) - 5} more" if len(inner) > 5 else ""
+            return InputError(f"{path} holds several runs ({names}{more}); load one of them")
+        return summary, read_history(path)
     except InputError as err:
         return err
     except Exception as err:  # a damaged file: one line, on every rank

@@ -10,6 +10,7 @@ VTX series and the checkpoints; at the end one writer commits ``history.csv``, t
 
 from __future__ import annotations
 
+import os
 import shutil
 import time
 from collections.abc import Callable
@@ -343,6 +344,13 @@ def _set_up(
     problem: Problem, out: str | Path | None, comm: MPI.Comm, force: bool, resume: bool
 ) -> tuple[Path, checkpoint.Checkpoint | None, TaggedMesh, Model]:
     """The output folder (checked), the checkpoint to resume from, the mesh and the model."""
+    if not isinstance(problem, Problem):
+        raise InputError(
+            "the problem must be a dgplate.Problem (dgplate.load_problem(path) reads a file), "
+            f"got {type(problem).__name__}"
+        )
+    if out is not None and not isinstance(out, str | os.PathLike):
+        raise InputError(f"out must be a folder path, got {type(out).__name__} {out!r}")
     target = Path(out or problem.output.dir or f"out/{problem.name}")
     OutputDir.check(comm, target, force, resume)
     start = _resume_point(problem, target, comm) if resume else None

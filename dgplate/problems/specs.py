@@ -151,8 +151,10 @@ def apply_overrides(data: dict[str, Any], overrides: Overrides) -> dict[str, Any
     Set dotted keys of ``data``: ``["flow.tau=0.1"]`` (``--set`` texts, values in TOML) or
     ``{"flow.tau": 0.1, "mesh.cells": [32, 32]}`` (Python values).
     """
+    if isinstance(overrides, str):  # one --set text
+        overrides = [overrides]
     if isinstance(overrides, Mapping):
-        items = [(_dotted(key), value) for key, value in overrides.items()]
+        items = [(_dotted(key), _plain(value)) for key, value in overrides.items()]
     else:
         items = [parse_override(text) for text in overrides]
     for path, value in items:
@@ -164,6 +166,15 @@ def apply_overrides(data: dict[str, Any], overrides: Overrides) -> dict[str, Any
             node = child
         node[path[-1]] = value
     return data
+
+
+def _plain(value: Any) -> Any:
+    """A Python value as TOML would give it: tuples as lists (``(32, 32)`` for cells)."""
+    if isinstance(value, tuple | list):
+        return [_plain(v) for v in value]
+    if isinstance(value, Mapping):
+        return {k: _plain(v) for k, v in value.items()}
+    return value
 
 
 def _dotted(key: Any) -> list[str]:
@@ -189,6 +200,9 @@ def load_problem(path: str | Path, overrides: Overrides = ()) -> Problem:
 def problem_from_dict(data: dict[str, Any], name: str, overrides: Overrides = ()) -> Problem:
     """Validate a problem given as a dict (the Python API's entry point)."""
     import copy
+
+    if not isinstance(data, Mapping):
+        raise InputError(f"a problem is a dict of sections, got {type(data).__name__}")
 
     from dgplate.problems.registry import MODELS, model_spec
 
