@@ -440,8 +440,15 @@ def output_folder(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> 
     Checked now, before anything is computed, as a run's is: a folder of a user's files is
     refused without ``--force``, and none of its files is ever deleted. The demo writes into
     ``.path`` (a staging folder) and calls ``commit()`` at the end, so that the results appear
-    together, ``summary.json`` last.
+    together, ``summary.json`` last. Such a demo keeps no checkpoints: ``--resume`` starts
+    it afresh, with a warning.
     """
+    if getattr(args, "resume", False) and comm.rank == 0:
+        print(
+            "dgplate: warning: --resume: this demo keeps no checkpoints; it runs from the start",
+            file=sys.stderr,
+            flush=True,
+        )
     return OutputDir(comm, Path(args.out), force=args.force)
 
 

@@ -175,3 +175,12 @@ def test_demo_run_resumes_each_run_where_it_stopped(tmp_path):
     assert (tmp_path / "a" / "history.csv").is_file()
     fresh = demo.run(problem, args, "b")  # nothing to resume yet: it starts
     assert fresh["steps"] == resumed["steps"]
+
+
+def test_a_demo_without_checkpoints_says_that_resume_starts_afresh(tmp_path, capsys):
+    from dgplate import demo
+
+    args = demo.arguments("fvk_square", argv=["--out", str(tmp_path / "o"), "--resume"])
+    folder = demo.output_folder(args)
+    assert "keeps no checkpoints; it runs from the start" in capsys.readouterr().err
+    folder.discard()
