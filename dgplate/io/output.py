@@ -249,6 +249,11 @@ def _keep_aside(path: Path) -> None:
     )
 
 
+def _count(n: int, noun: str) -> str:
+    """``1 step``, ``2 steps``."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
+
+
 def _remove(path: Path) -> None:
     """Remove a file, a link or a folder with its contents."""
     if path.is_dir() and not path.is_symlink():
@@ -327,9 +332,10 @@ class ProgressPrinter:
     def finish(self, driver: Driver, result: RunResult) -> None:
         """Print how the run ended, and the steps at which the energy went up (if any)."""
         status = "converged" if result.converged else "NOT converged"
-        steps = f"{result.steps} steps"
+        steps = _count(result.steps, "step")
         if self.earlier_steps:
-            steps = f"{self.earlier_steps + result.steps} steps ({result.steps} since the resume)"
+            whole = _count(self.earlier_steps + result.steps, "step")
+            steps = f"{whole} ({result.steps} since the resume)"
         print0(self.comm, f"{status} after {steps}: {result.reason}", file=self.stream)
         increases = getattr(result, "energy_increases", None)
         if increases:

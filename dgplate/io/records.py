@@ -249,7 +249,8 @@ def details(summary: dict[str, Any]) -> str:
             f"stopped: checkpoint at step {steps}"
         )
     else:
-        ending = status + (f" after {steps} steps" if steps is not None else "")
+        plural = "" if steps == 1 else "s"
+        ending = status + (f" after {steps} step{plural}" if steps is not None else "")
     if isinstance(summary.get("wall_time_s"), int | float) and not summary.get("stale"):
         ending += f" in {duration(float(summary['wall_time_s']))}"
     reason = summary.get("reason") if not summary.get("stale") else None

@@ -70,7 +70,9 @@ class OutputSpec:
     every: int = option(1, "write the time series every n steps (the final state always)")
     png: bool = option(True, "render final.png off-screen, and history.png (the run step by step)")
     color_by: str = option("curvature", "colour of final.png: 'curvature' (|D²y|) or 'defect'")
-    progress: int = option(1, "print progress every n steps on rank 0 (0: quiet)")
+    progress: int = option(
+        1, "print progress every n steps on rank 0 (0: only the line that says what is solved)"
+    )
     frames_every: int = option(
         0,
         "render a picture of the shape (as final.png) at the start, every n steps and at the end into frames/, and assemble them into <name>.gif (0: none)",

@@ -263,8 +263,13 @@ class StepInfo:
         return (
             f"step {self.step:5d}  t = {self.time:9.4f}  τ = {self.tau:.3e}  "
             f"E_h = {self.energy:+.6e}  D_h = {self.defect:.3e}  "
-            f"ΔE/τ = {self.rate:.2e}  {self.seconds:.2f} s/step"
+            f"ΔE/τ = {self.rate:.2e}  {per_step(self.seconds)}"
         )
+
+
+def per_step(seconds: float) -> str:
+    """The time of a step for a progress line: ``1.23 s/step``, or ``4.2 ms/step``."""
+    return f"{seconds:.2f} s/step" if seconds >= 0.1 else f"{1e3 * seconds:.2g} ms/step"
 
 
 @dataclass

@@ -55,7 +55,7 @@ from dgplate.dg.forms import integral
 from dgplate.errors import SolverError
 from dgplate.solvers import linear as solvers
 from dgplate.solvers.driver import EnergyFlow, Observer
-from dgplate.solvers.flow import FlowResult, FlowSpec
+from dgplate.solvers.flow import FlowResult, FlowSpec, per_step
 
 __all__ = [
     "RodFlow",
@@ -119,7 +119,7 @@ class RodStep:
         return (
             f"step {self.step:5d}  t = {self.time:9.4f}  τ = {self.tau:.3e}  "
             f"E_h = {self.energy:+.6e}  defect = {self.defect:.3e}  "
-            f"ΔE/τ = {self.rate:.2e}  {self.seconds:.2f} s/step"
+            f"ΔE/τ = {self.rate:.2e}  {per_step(self.seconds)}"
         )
 
 
