@@ -86,7 +86,10 @@ PAPER = {
     "model.hold_steps": 2000,
     "output.frames_every": 20,
 }
-args = demo.arguments("box_folding", "Self-folding box driven by heat ([N15]).")
+args = demo.arguments(
+    "box_folding",
+    "Self-folding box driven by heat (Bartels, Bonito, Nochetto: the thermally actuated box).",
+)
 say = demo.say
 
 
