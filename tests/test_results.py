@@ -94,7 +94,9 @@ def test_show_a_run_without_summary_reads_its_checkpoint(tmp_path, capsys):
     (tmp_path / "o" / "summary.json").unlink()
     (tmp_path / "o" / "history.csv").unlink()
     assert main(["show", str(tmp_path / "o")]) == 0
-    assert f"checkpoint at step {ran['steps']}" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert f"checkpoint at step {ran['steps']}" in text
+    assert "vertical_load (kirchhoff), 16 cells, 480 dofs on 1 rank(s)" in text  # its label
     partial = dgplate.load_result(tmp_path / "o", state=False)
     assert partial["status"] == "checkpoint only" and partial["energy"] == ran["energy"]
     assert len(partial.history) == ran["steps"]

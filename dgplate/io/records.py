@@ -137,7 +137,10 @@ def _from_checkpoint(folder: Path, status: str) -> dict[str, Any]:
     state = checkpoint_state(folder)
     history = state.get("history") or [{}]
     last = history[-1] if isinstance(history[-1], dict) else {}
+    label = state.get("label")
+    label = label if isinstance(label, dict) else {}
     return {
+        **label,  # problem, model, cells, dofs, ranks
         "steps": state.get("step"),
         "status": status,
         "energy": last.get("energy"),

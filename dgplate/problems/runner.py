@@ -228,6 +228,8 @@ class Checkpoints:
         self.history: list[dict[str, Any]] = list(earlier)
         # (wall time of the runs this one resumes, perf_counter at this run's start)
         self.earlier_wall, self.wall0 = wall
+        #: what ``dgplate show`` prints of a run that has a checkpoint but no summary yet
+        self.label: dict[str, Any] = {}
 
     def wall_time(self) -> float:
         """Seconds of wall time over this run and those it resumes."""
@@ -252,6 +254,7 @@ class Checkpoints:
             "finished": finished,
             "reason": reason,
             "wall_time_s": self.wall_time(),
+            "label": self.label,
         }
         checkpoint.save(self.directory, driver.comm, driver.checkpoint_fields(), state)
 
@@ -448,6 +451,13 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
         earlier,
         (earlier_wall, wall0),
     )
+    checkpoints.label = {
+        "problem": problem.name,
+        "model": problem.model.name,
+        "cells": _cells(tagged),
+        "dofs": _dofs(driver),
+        "ranks": comm.size,
+    }
     driver.observers.append(checkpoints)
     if problem.output.vtx:
         driver.observers.append(
