@@ -48,6 +48,9 @@ def test_load_result_gives_back_the_run(tmp_path):
     assert set(back.fields) == set(ran.fields)
     files = dgplate.load_result(tmp_path / "o", state=False)
     assert files.shape is None and files["energy"] == ran["energy"]
+    shown = repr(back)  # one line, not the whole summary and history
+    assert shown.startswith(f"Result(vertical_load (kirchhoff), converged, steps={ran['steps']}")
+    assert "\n" not in shown and len(shown) < 200
 
 
 def test_show_one_run_and_a_table(tmp_path, capsys):

@@ -47,6 +47,10 @@ from dgplate.solvers.driver import Driver
 Initial = Callable[[np.ndarray], np.ndarray]
 
 
+#: The summary's figures in a :class:`Result`'s one-line ``repr``.
+_REPR_KEYS = ("steps", "energy", "isometry_defect")
+
+
 @dataclass
 class Result:
     """What :func:`run` returns: the summary (also ``summary.json``) and the final state.
@@ -89,6 +93,16 @@ class Result:
     def get(self, key: str, default: Any = None) -> Any:
         """``summary.get(key, default)``."""
         return self.summary.get(key, default)
+
+    def __repr__(self) -> str:
+        """One line: the run, how it ended, E_h and D_h (the summary has everything)."""
+        s = self.summary
+        shown = [f"{s.get('problem', '?')} ({s.get('model', '?')})"]
+        if "converged" in s:
+            shown.append("converged" if s["converged"] else "not converged")
+        shown += [f"{key}={_shown(s[key])}" for key in _REPR_KEYS if key in s]
+        folder = f", folder={str(self.folder)!r}" if self.folder is not None else ""
+        return f"Result({', '.join(shown)}{folder})"
 
 
 def build_mesh(spec: MeshSpec, comm: MPI.Comm) -> TaggedMesh:
