@@ -246,7 +246,7 @@ def _checkpoint_state(problem: Problem, out: Path, comm: MPI.Comm) -> dict[str, 
     exists = comm.bcast((folder / checkpoint.STATE_FILE).is_file() if comm.rank == 0 else None)
     if not exists:
         return None
-    return checkpoint.load(folder, comm, problem.fingerprint()).state
+    return checkpoint.load(folder, comm, problem.identity()).state
 
 
 def say(*text: Any, comm: MPI.Comm = MPI.COMM_WORLD) -> None:

@@ -338,9 +338,13 @@ def test_checkpoint_continues_the_schedule(tmp_path):
         expected = [record.w_center for record in driver.history], driver.energy_value()
     with newton(tagged, **SMALL) as (_, driver):
         driver.run(max_steps=2)
-        state = {"fingerprint": "x", "driver": driver.checkpoint_state()}
+        problem = {"model": {"name": "fvk"}}
+        state = {
+            "fingerprint": checkpoint.fingerprint(problem),
+            "driver": driver.checkpoint_state(),
+        }
         checkpoint.save(folder, comm, driver.checkpoint_fields(), state)
-    found = checkpoint.load(folder, comm, "x")
+    found = checkpoint.load(folder, comm, problem)
     with newton(tagged, **SMALL) as (_, driver):
         found.restore(driver.checkpoint_fields())
         driver.restore_state(found.state["driver"])

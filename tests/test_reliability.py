@@ -143,6 +143,7 @@ def test_resume_needs_a_checkpoint_of_the_same_problem(tmp_path, capsys):
     assert main(["run", str(VERTICAL), "--out", str(out), "--resume", *SMALL, *other]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "belongs to another problem" in err, err
+    assert "model.load (checkpoint: [0.0, 0.0, 0.025], now: [0, 0, 0.05])" in err, err
     assert main(["run", str(VERTICAL), "--out", str(out), "--resume", *SMALL, *budget]) == 2
     assert "raise flow.max_steps" in capsys.readouterr().err
     # the driver was built before the budget was found spent: its solver options are gone,

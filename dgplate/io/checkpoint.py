@@ -51,19 +51,39 @@ def _field_name(key: str) -> str | None:
     return key.removeprefix(_FIELD_PREFIX) if key.startswith(_FIELD_PREFIX) else None
 
 
-def fingerprint(data: Mapping[str, Any]) -> str:
-    """A hash of the problem's validated input without [output] and the step budget keys.
+def identity(data: Mapping[str, Any]) -> dict[str, Any]:
+    """The part of a problem's validated input that decides its states step by step.
 
-    Two problems with the same fingerprint compute the same states step by step: a resumed
-    run may change where and how often it writes, or extend its budget, nothing else.
+    Everything but [output] and the step budget keys: a resumed run may change where and how
+    often it writes, or extend its budget, nothing else.
     """
     relevant = {k: v for k, v in data.items() if k != "output"}
     flow = dict(relevant.get("flow", {}))
     for key in ("max_steps", "checkpoint_every"):
         flow.pop(key, None)
     relevant["flow"] = flow
-    text = json.dumps(relevant, sort_keys=True, default=str)
+    return relevant
+
+
+def fingerprint(data: Mapping[str, Any]) -> str:
+    """A hash of :func:`identity`: two problems with the same one compute the same states."""
+    text = json.dumps(identity(data), sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def differences(old: Any, new: Any, prefix: str = "") -> list[str]:
+    """The dotted keys at which two problem inputs differ, with both values."""
+    if isinstance(old, Mapping) and isinstance(new, Mapping):
+        found: list[str] = []
+        for key in sorted(set(old) | set(new)):
+            missing = "(not set)"
+            a, b = old.get(key, missing), new.get(key, missing)
+            found += differences(a, b, f"{prefix}.{key}" if prefix else str(key))
+        return found
+    same = json.dumps(old, sort_keys=True, default=str) == json.dumps(
+        new, sort_keys=True, default=str
+    )
+    return [] if same else [f"{prefix} (checkpoint: {old!r}, now: {new!r})"]
 
 
 def _cell_layout(
@@ -161,7 +181,7 @@ def save(
 def load(
     directory: Path,
     comm: MPI.Comm,
-    expected_fingerprint: str | None = None,
+    expected: Mapping[str, Any] | None = None,
     purpose: str = "--resume",
 ) -> Checkpoint:
     """Read the checkpoint (rank 0 reads, every rank gets it); refuse another problem's.
@@ -187,11 +207,13 @@ def load(
         raise InputError(message)
     assert isinstance(data, Checkpoint)
     found = data.state.get("fingerprint")
-    if expected_fingerprint is not None and found != expected_fingerprint:
+    if expected is not None and found != fingerprint(expected):
+        written = data.state.get("input")
+        changed = differences(written, identity(expected)) if written is not None else []
+        which = f": {'; '.join(changed[:3])}" if changed else ""
         raise InputError(
-            f"{purpose}: the checkpoint in {directory} belongs to another problem "
-            "(the problem file or --set values differ from the run that wrote it; only "
-            "[output], flow.max_steps and flow.checkpoint_every may change)"
+            f"{purpose}: the checkpoint in {directory} belongs to another problem{which} "
+            "(only [output], flow.max_steps and flow.checkpoint_every may change)"
         )
     return data
 

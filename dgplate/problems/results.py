@@ -50,8 +50,7 @@ def load_result(folder: str | Path, comm: MPI.Comm = MPI.COMM_WORLD, state: bool
             "killed); load_result(..., state=False) reads what it has"
         )
     problem = problem_from_dict(summary["input"], summary["problem"])
-    fingerprint = problem.fingerprint()
-    found = checkpoint.load(path / CHECKPOINT, comm, fingerprint, purpose="load_result")
+    found = checkpoint.load(path / CHECKPOINT, comm, problem.identity(), purpose="load_result")
     _, model = build_model(problem, comm)
     driver = model.driver(problem.flow, [], None)
     found.restore(driver.checkpoint_fields())

@@ -225,7 +225,7 @@ def history_row(record: Any) -> dict[str, Any]:
 class Checkpoints:
     """Checkpoints of a driver every ``every`` steps (0: none on the way) and on ``save()``.
 
-    The state holds the problem's fingerprint and the whole history so far (from the
+    The state holds the problem's input and fingerprint and the whole history so far (from the
     checkpoint a run resumed from, and this run's steps), so that a resumed run reports
     every step.
     """
@@ -234,11 +234,11 @@ class Checkpoints:
         self,
         directory: Path,
         every: int,
-        fingerprint: str,
+        problem: dict[str, Any],
         earlier: list[dict[str, Any]],
         wall: tuple[float, float] = (0.0, 0.0),
     ):
-        self.directory, self.every, self.fingerprint = directory, every, fingerprint
+        self.directory, self.every, self.problem = directory, every, problem
         self.history: list[dict[str, Any]] = list(earlier)
         # (wall time of the runs this one resumes, perf_counter at this run's start)
         self.earlier_wall, self.wall0 = wall
@@ -261,7 +261,8 @@ class Checkpoints:
     def save(self, driver: Driver, finished: bool = False, reason: str = "") -> None:
         """Write the checkpoint now (collective); ``finished``: the run converged (``reason``)."""
         state = {
-            "fingerprint": self.fingerprint,
+            "fingerprint": checkpoint.fingerprint(self.problem),
+            "input": self.problem,
             "step": driver.step_count,
             "driver": driver.checkpoint_state(),
             "history": self.history,
@@ -279,7 +280,7 @@ def _resume_point(problem: Problem, target: Path, comm: MPI.Comm) -> checkpoint.
     A run that converged but was stopped before its outputs were in place (no summary.json
     yet) is resumed: it takes no step and writes its outputs.
     """
-    found = checkpoint.load(target / CHECKPOINT, comm, problem.fingerprint())
+    found = checkpoint.load(target / CHECKPOINT, comm, problem.identity())
     summary = comm.bcast((target / "summary.json").is_file() if comm.rank == 0 else None)
     if found.state.get("finished") and summary:
         raise InputError(
@@ -461,7 +462,7 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
     checkpoints = Checkpoints(
         out.checkpoint_dir,
         driver.checkpoint_every,
-        problem.fingerprint(),
+        problem.identity(),
         earlier,
         (earlier_wall, wall0),
     )

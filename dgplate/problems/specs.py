@@ -102,15 +102,15 @@ class Problem:
     output: OutputSpec
     raw: dict[str, Any]  # the validated input, overrides applied (recorded in summary.json)
 
-    def fingerprint(self) -> str:
-        """The hash that ties a checkpoint to this problem (:func:`dgplate.io.checkpoint.fingerprint`).
+    def identity(self) -> dict[str, Any]:
+        """What ties a checkpoint to this problem (:func:`dgplate.io.checkpoint.identity`).
 
-        With a gmsh mesh it covers the .geo file's text too: an edited file is another mesh,
-        whose cells a checkpoint of the old one does not describe.
+        With a gmsh mesh it covers the .geo file's text too (its SHA-256): an edited file is
+        another mesh, whose cells a checkpoint of the old one does not describe.
         """
         import hashlib
 
-        from dgplate.io.checkpoint import fingerprint
+        from dgplate.io.checkpoint import identity
 
         data = dict(self.raw)
         if self.mesh.type == "gmsh" and "mesh" in data:
@@ -118,7 +118,13 @@ class Problem:
 
             text = resolve_geo(self.mesh.file).read_bytes()
             data["mesh_file_sha256"] = hashlib.sha256(text).hexdigest()
-        return fingerprint(data)
+        return identity(data)
+
+    def fingerprint(self) -> str:
+        """The hash of :meth:`identity` that a checkpoint holds."""
+        from dgplate.io.checkpoint import fingerprint
+
+        return fingerprint(self.identity())
 
 
 _KEY = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
