@@ -129,9 +129,12 @@ def test_bad_self_avoidance_is_one_line_naming_the_key(table, message):
         dgplate.problem_from_dict(strip_problem(**table), "bad")
 
 
-def test_q_at_most_four_warns_that_it_is_not_self_avoiding():
-    with pytest.warns(UserWarning, match="q = 4.0 <= 4"):
-        dgplate.problem_from_dict(strip_problem(q=4.0), "weak")
+def test_q_at_most_four_warns_that_it_is_not_self_avoiding(tmp_path):
+    """A dgplate warning line before the run (not a Python warning at validation)."""
+    report = dgplate.check(dgplate.problem_from_dict(strip_problem(q=4.0), "weak"), tmp_path / "o")
+    assert any("model.self_avoidance.q = 4 <= 4" in w for w in report["warnings"])
+    report = dgplate.check(dgplate.problem_from_dict(strip_problem(), "strong"), tmp_path / "o")
+    assert not any("self_avoidance" in w for w in report["warnings"])
 
 
 def test_a_self_intersecting_start_is_refused(tmp_path):

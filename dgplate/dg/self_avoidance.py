@@ -24,7 +24,6 @@ A rod (:class:`CurveTangentPoint`) is the same with the unit tangent t = u′/|u
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -99,7 +98,11 @@ class SelfAvoidance:
 
     @staticmethod
     def _check(values: dict[str, Any], key: str, curve: bool = False) -> None:
-        """Ranges of the keys; q ≤ 4 is accepted with a warning (not self-avoiding) for surfaces."""
+        """Ranges of the keys; q ≤ 4 is accepted for surfaces.
+
+        A warning before the run says that such a q is not self-avoiding
+        (:func:`dgplate.problems.advice.before_run`).
+        """
         if values["rho"] < 0:
             raise InputError(f"{key}.rho must be >= 0, got {values['rho']}")
         if curve and values["q"] <= 2:
@@ -107,12 +110,6 @@ class SelfAvoidance:
         if values["q"] <= 2:
             raise InputError(
                 f"{key}.q must be > 2 (and > 4 to avoid self-contact), got {values['q']}"
-            )
-        if values["q"] <= 4 and not curve:
-            warnings.warn(
-                f"{key}.q = {values['q']} <= 4: the tangent-point energy is then finite on "
-                "self-intersecting surfaces and does not keep the plate from passing through itself",
-                stacklevel=2,
             )
         if not 0 <= values["theta"] < 2:
             raise InputError(f"{key}.theta must be in [0, 2), got {values['theta']}")

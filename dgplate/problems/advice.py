@@ -63,9 +63,21 @@ def before_run(
     warning never precedes an input error): nothing to solve, τ far from h.
     """
     messages = [nothing_to_solve(problem, tagged.mesh, starts_flat=initial is None)]
+    messages.append(weak_self_avoidance(problem))
     if problem.flow.tau != "h":
         messages.append(tau_scale(float(problem.flow.tau), max_cell_diameter(tagged.mesh)))
     return [m for m in messages if m]
+
+
+def weak_self_avoidance(problem: Problem) -> str | None:
+    """A warning when a plate's tangent-point exponent q ≤ 4 does not keep it from crossing."""
+    params = getattr(problem.model, "self_avoidance_params", None)
+    if params is None or problem.model.name == "rod" or params.q > 4:
+        return None
+    return (
+        f"model.self_avoidance.q = {params.q:g} <= 4: the tangent-point energy is then finite "
+        "on self-intersecting surfaces and does not keep the plate from passing through itself"
+    )
 
 
 def nothing_to_solve(problem: Problem, mesh: Mesh, starts_flat: bool = True) -> str | None:
