@@ -50,6 +50,9 @@ BAD_INPUT = {
     # -- keys, types and ranges -----------------------------------------------------------------
     "unknown key": Case(("flow.tua=0.1",), "unknown key flow.tua"),
     "wrong type": Case(("mesh.cells='many'",), "mesh.cells must be list"),
+    "gmsh key on a rectangle": Case(
+        ("mesh.file='rectangle.geo'",), "mesh.file has no effect with mesh.type = 'rectangle'"
+    ),
     "tau zero": Case(("flow.tau=0",), "flow.tau must be > 0"),
     "frames negative": Case(("output.frames_every=-1",), "output.frames_every must be >= 0"),
     "tau negative": Case(("flow.tau=-0.5",), "flow.tau must be > 0"),

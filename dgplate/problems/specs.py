@@ -40,6 +40,13 @@ class MeshSpec:
             raise InputError(f"mesh.type must be 'rectangle' or 'gmsh', got {self.type!r}")
         if self.type == "gmsh" and not self.file:
             raise InputError("mesh.file is required when mesh.type = 'gmsh'")
+        gmsh_only = {"file": self.file, "parameters": self.parameters, "recombine": self.recombine}
+        unused = [key for key, value in gmsh_only.items() if value and self.type == "rectangle"]
+        if unused:
+            raise InputError(
+                f"mesh.{unused[0]} has no effect with mesh.type = 'rectangle' (a gmsh key); "
+                "remove it, or set mesh.type = 'gmsh'"
+            )
         if self.type == "rectangle":
             c = self.cells
             if len(c) != 2 or not all(
