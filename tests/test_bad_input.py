@@ -623,3 +623,17 @@ def test_python_api_type_errors_are_input_errors(tmp_path):
     assert load_problem(VERTICAL, {"mesh.cells": (4, 4)}).mesh.cells == [4, 4]
     with pytest.raises(InputError, match="out must be a folder path, got int 123"):
         check(problem, out=123)
+
+
+def test_a_self_intersecting_boundary_ends_at_once(tmp_path):
+    """gmsh alone splits such a boundary's edges for minutes; dgplate stops it: no cells."""
+    geo = tmp_path / "bowtie.geo"
+    geo.write_text(
+        "Point(1) = {0, 0, 0, 0.2}; Point(2) = {1, 1, 0, 0.2};\n"
+        "Point(3) = {1, 0, 0, 0.2}; Point(4) = {0, 1, 0, 0.2};\n"
+        "Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 4}; Line(4) = {4, 1};\n"
+        'Curve Loop(1) = {1, 2, 3, 4}; Plane Surface(1) = {1}; Physical Surface("plate") = {1};\n'
+    )
+    problem = problem_from_dict({"mesh": {"type": "gmsh", "file": str(geo)}}, "bowtie")
+    with pytest.raises(InputError, match=r"gmsh made no cells from bowtie\.geo"):
+        check(problem)

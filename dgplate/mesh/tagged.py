@@ -248,6 +248,9 @@ def load_geo(
         if comm.rank == 0:
             gmsh.initialize(["dgplate"], readConfigFiles=False)
             gmsh.option.setNumber("General.Terminal", 0)
+            # gmsh's default of 10 retries of the boundary recovery splits the edges of a
+            # self-intersecting boundary for many minutes; 5 ends such a file at once (no cells)
+            gmsh.option.setNumber("Mesh.MaxRetries", MAX_RETRIES)
             error, groups = _generate(gmsh, path, parameters, recombine, gmsh_options or {})
         error = comm.bcast(error, root=0)
         if error is not None:
@@ -264,6 +267,10 @@ def load_geo(
     groups = comm.bcast(groups, root=0)
     mesh.topology.create_connectivity(1, 2)
     return TaggedMesh(mesh, cell_tags, facet_tags, groups, source=path.name)
+
+
+#: gmsh's ``Mesh.MaxRetries`` (:func:`load_geo`'s ``gmsh_options`` may set another).
+MAX_RETRIES = 5
 
 
 @contextlib.contextmanager
