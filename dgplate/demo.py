@@ -147,6 +147,10 @@ def parse(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) ->
     """
     args, _ = parser.parse_known_args(argv)
     _install_error_hook()
+    for name, value in vars(args).items():  # NaN and inf would reach the formulas unnamed
+        numbers = value if isinstance(value, list) else [value]
+        if any(isinstance(v, float) and not math.isfinite(v) for v in numbers):
+            raise InputError(f"--{name.replace('_', '-')} must be a finite number, got {value}")
     return args
 
 

@@ -184,3 +184,19 @@ def test_a_demo_without_checkpoints_says_that_resume_starts_afresh(tmp_path, cap
     folder = demo.output_folder(args)
     assert "keeps no checkpoints; it runs from the start" in capsys.readouterr().err
     folder.discard()
+
+
+def test_a_demo_refuses_a_number_that_is_not_finite():
+    import argparse
+
+    from dgplate import demo
+    from dgplate.errors import InputError
+
+    parser = demo.parser("straight_fold")
+    parser.add_argument("--angle", type=float, default=60.0)
+    parser.add_argument("--ratios", type=float, nargs="+")
+    with pytest.raises(InputError, match="--angle must be a finite number, got nan"):
+        demo.parse(parser, ["--angle", "nan"])
+    with pytest.raises(InputError, match="--ratios must be a finite number"):
+        demo.parse(parser, ["--ratios", "1", "inf"])
+    assert isinstance(demo.parse(parser, ["--angle", "45"]), argparse.Namespace)
