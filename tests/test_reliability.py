@@ -9,6 +9,7 @@ uninterrupted run's final state, on the same and on another number of ranks.
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import signal
@@ -166,6 +167,28 @@ def test_force_keeps_a_users_files_that_outputs_would_replace(tmp_path, capsys):
     assert (out / "final.png.kept-1").read_text() == "my figure"
     assert (out / "summary.json.kept-1").read_text() == '{"mine": 1}'
     assert summary_of(out)["converged"] and (out / "frames" / "frame_000000.png").is_file()
+
+
+def test_a_users_folder_in_place_of_an_output_file_survives(tmp_path):
+    """history.csv replaced by a user's folder of that name; frames/ by a user's file: both
+    kept aside, not deleted. A marker of an older dgplate (no 'inside') still works."""
+    out = tmp_path / "run"
+    frames = ["--set", "output.frames_every=2", "--set", "output.png=true"]
+    assert main(["run", str(VERTICAL), "--out", str(out), *SMALL, *frames]) == 0
+    (out / "history.csv").unlink()
+    (out / "history.csv").mkdir()
+    (out / "history.csv" / "analysis.ipynb").write_text("{}")
+    shutil.rmtree(out / "frames")
+    (out / "frames").write_text("my list of frames")
+    assert main(["run", str(VERTICAL), "--out", str(out), *SMALL, *frames]) == 0
+    assert (out / "history.csv.kept-1" / "analysis.ipynb").read_text() == "{}"
+    assert (out / "frames.kept-1").read_text() == "my list of frames"
+    assert (out / "history.csv").is_file() and (out / "frames").is_dir()
+    marker = out / ".dgplate-output"
+    old = json.loads(marker.read_text())
+    marker.write_text(json.dumps({"files": old["files"]}))  # as an older dgplate wrote it
+    assert main(["run", str(VERTICAL), "--out", str(out), *SMALL]) == 0
+    assert not (out / "frames").exists() and (out / "history.csv.kept-1").is_dir()
 
 
 def test_a_users_file_in_an_output_folder_of_dgplate_survives(tmp_path):

@@ -172,11 +172,15 @@ class OutputDir:
     def _write_marker(self, files: list[str], inside: dict[str, list[str]] | None = None) -> None:
         write_marker(self.target, files, inside)
 
-    def _previous(self) -> tuple[list[str], dict[str, list[str]]]:
-        """The names the marker lists as dgplate's, and the files in those that are folders."""
+    def _previous(self) -> tuple[list[str], dict[str, list[str]] | None]:
+        """The names the marker lists as dgplate's, and the files in those that are folders.
+
+        None for the second: a marker of an older dgplate, which did not describe folders.
+        """
         try:
             record = json.loads((self.target / MARKER).read_text())
-            return list(record.get("files", [])), dict(record.get("inside", {}))
+            inside = record.get("inside")
+            return list(record.get("files", [])), None if inside is None else dict(inside)
         except (OSError, ValueError, AttributeError, TypeError):
             return [], {}
 
@@ -191,7 +195,7 @@ class OutputDir:
         if self.comm.rank == 0:
             new = sorted(p.name for p in self.path.iterdir())
             previous, inside = self._previous()
-            ours = {name for name in previous if not _foreign_files(self.target / name, inside)}
+            ours = {name for name in previous if _still_ours(self.target / name, inside)}
             for name in sorted(set(previous) - set(new) - {CHECKPOINT}):
                 if name in ours:  # an earlier run's output that this one does not replace
                     _remove(self.target / name)
@@ -220,25 +224,32 @@ class OutputDir:
 
 
 def _files_in(folder: Path) -> list[str]:
-    """The files below ``folder``, as sorted paths relative to it."""
-    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if not p.is_dir())
+    """Everything below ``folder`` (files, folders, links), as sorted relative paths."""
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*"))
 
 
-def _foreign_files(path: Path, inside: dict[str, list[str]]) -> list[str]:
-    """Files in the folder ``path`` that the marker does not list as dgplate's ([]: none).
+def _still_ours(path: Path, inside: dict[str, list[str]] | None) -> bool:
+    """Whether ``path``, listed in the marker, still holds only what dgplate wrote there.
 
-    A folder that an older marker did not describe counts as dgplate's entirely.
+    A name dgplate wrote as a file must still be a file (not a user's folder put in its
+    place), a folder must still be a folder holding no file the marker does not list.
+    ``inside`` None (an older marker, which did not describe folders): the name counts as
+    dgplate's as it is.
     """
-    if not path.is_dir() or path.is_symlink() or path.name not in inside:
-        return []
+    if inside is None or not (path.exists() or path.is_symlink()):
+        return True
+    if path.name not in inside:  # written as a file
+        return not path.is_dir() or path.is_symlink()
+    if not path.is_dir() or path.is_symlink():
+        return False
     known = set(inside[path.name])
-    return [name for name in _files_in(path) if name not in known]
+    return all(name in known for name in _files_in(path))
 
 
 def _keep_aside(path: Path) -> None:
     """Rename a user's ``path`` that an output would replace to ``<name>.kept-<k>``."""
     k = 1
-    while (aside := path.with_name(f"{path.name}.kept-{k}")).exists():
+    while (aside := path.with_name(f"{path.name}.kept-{k}")).exists() or aside.is_symlink():
         k += 1
     os.replace(path, aside)
     print(
