@@ -176,8 +176,9 @@ def run(
     Collective.
 
     With ``--resume``, a run that has a checkpoint in its folder continues from it, one that
-    finished there returns its summary.json (a dict) without running again, and one that has
-    not started yet starts: a demo of several runs can be resumed wherever it was stopped.
+    finished there returns its :class:`~dgplate.problems.runner.Result` read back
+    (:func:`dgplate.load_result`) without running again, and one that has not started yet
+    starts: a demo of several runs can be resumed wherever it was stopped.
 
     Args:
         problem: A validated problem (:func:`dgplate.load_problem`).
@@ -204,7 +205,9 @@ def run(
     if args.resume:
         state = _checkpoint_state(problem, out, comm)
         if state is not None and state.get("finished"):
-            done = comm.bcast((out / "summary.json").is_file() if comm.rank == 0 else None)
+            from dgplate.io.records import summary_is_current
+
+            done = comm.bcast(summary_is_current(out) if comm.rank == 0 else None)
             if done:  # else it was stopped while writing its outputs: the resume writes them
                 from dgplate.problems.results import load_result
 

@@ -25,6 +25,7 @@ import pytest
 from conftest import summary_of
 from petsc4py import PETSc
 
+from dgplate import load_problem as dgplate_problem
 from dgplate.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -225,6 +226,44 @@ def test_a_resumed_run_reports_totals_over_all_its_runs(tmp_path, capsys):
     assert whole["step_solves"] > first["step_solves"]
     assert whole["wall_time_s"] > first["wall_time_s"] >= 0
     assert 0 < whole["wall_time_since_resume_s"] < whole["wall_time_s"]
+
+
+def test_a_later_run_stopped_before_its_outputs_is_finished_by_resume(tmp_path):
+    """Run A converged and wrote its outputs; run B (another load) converged and was stopped
+    before writing them: A's summary is older than B's checkpoint, so --resume writes B's."""
+    out = tmp_path / "run"
+    assert main(["run", str(VERTICAL), "--out", str(out), *SMALL]) == 0
+    other = ["--set", "model.load=[0,0,0.05]"]
+    assert main(["run", str(VERTICAL), "--out", str(out), *SMALL, *other]) == 0
+    b = summary_of(out)
+    # as if A's summary were still there, older than B's checkpoint: B stopped before writing
+    (out / "summary.json").write_text(json.dumps({"converged": True, "steps": 1}))
+    os.utime(out / "summary.json", (1e9, 1e9))
+    assert main(["run", str(VERTICAL), "--out", str(out), *SMALL, *other, "--resume"]) == 0
+    assert summary_of(out)["energy"] == b["energy"] and summary_of(out)["steps"] == b["steps"]
+
+
+def test_a_checkpoint_of_an_older_dgplate_resumes(tmp_path):
+    """Checkpoints written before the mesh file's hash was part of the fingerprint (and
+    without the problem's input in their state) still resume on a gmsh mesh."""
+    from dgplate.io import checkpoint
+
+    problem, out = _on_gmsh_mesh(tmp_path), tmp_path / "run"
+    budget = ["--set", "flow.max_steps=2", "--set", "flow.checkpoint_every=1"]
+    assert main(["run", str(problem), "--out", str(out), *SMALL[2:], *budget]) == 1
+    file = out / "checkpoint" / "state.npz"
+    with np.load(file) as npz:
+        arrays = dict(npz)
+    state = json.loads(bytes(arrays["__state__"]).decode())
+    loaded = dgplate_problem(problem)
+    older = {k: v for k, v in loaded.identity().items() if k != checkpoint.MESH_FILE_HASH}
+    state["fingerprint"] = checkpoint.fingerprint(older)
+    del state["input"]
+    arrays["__state__"] = np.frombuffer(json.dumps(state).encode(), dtype=np.uint8)
+    np.savez(file, **arrays)
+    more = ["--set", "flow.max_steps=4", "--resume"]
+    assert main(["run", str(problem), "--out", str(out), *SMALL[2:], *budget[2:], *more]) == 1
+    assert summary_of(out)["steps"] == 4
 
 
 def test_resume_refuses_a_checkpoint_of_an_edited_mesh_file(tmp_path, capsys):

@@ -69,7 +69,7 @@ def read_summary(folder: str | Path) -> dict[str, Any]:
             raise InputError(f"{summary_file}: not a dgplate summary")
         summary = data
         summary["status"] = _status(summary)
-        if state_file.is_file() and state_file.stat().st_mtime > summary_file.stat().st_mtime:
+        if not summary_is_current(path):
             summary["summary_steps"] = summary.get("steps")
             summary |= _from_checkpoint(path, "resumed")  # written after the summary
             summary["stale"] = True
@@ -79,6 +79,18 @@ def read_summary(folder: str | Path) -> dict[str, Any]:
         summary["status"] = "started"
     summary["folder"] = str(path)
     return summary
+
+
+def summary_is_current(folder: Path) -> bool:
+    """Whether ``folder``'s summary.json describes its last checkpoint (one rank's view).
+
+    It must exist and not be older than the checkpoint: a run resumed since, or a later run
+    stopped before it wrote its outputs, leaves an older summary beside a newer checkpoint.
+    """
+    summary_file, state_file = folder / SUMMARY, folder / CHECKPOINT / STATE_FILE
+    if not summary_file.is_file():
+        return False
+    return not state_file.is_file() or state_file.stat().st_mtime <= summary_file.stat().st_mtime
 
 
 def runs_in(folders: Sequence[str | Path], depth: int = 3) -> list[Path]:

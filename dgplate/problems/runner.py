@@ -37,6 +37,7 @@ from dgplate.io.output import (
     write_history,
     write_json,
 )
+from dgplate.io.records import summary_is_current
 from dgplate.mesh.tagged import TaggedMesh, load_geo, rectangle
 from dgplate.models.base import Model
 from dgplate.problems import advice
@@ -281,8 +282,8 @@ def _resume_point(problem: Problem, target: Path, comm: MPI.Comm) -> checkpoint.
     yet) is resumed: it takes no step and writes its outputs.
     """
     found = checkpoint.load(target / CHECKPOINT, comm, problem.identity())
-    summary = comm.bcast((target / "summary.json").is_file() if comm.rank == 0 else None)
-    if found.state.get("finished") and summary:
+    written = comm.bcast(summary_is_current(target) if comm.rank == 0 else None)
+    if found.state.get("finished") and written:
         raise InputError(
             f"--resume: the run in {target} converged at step {found.state['step']}; "
             "nothing to resume"

@@ -117,21 +117,15 @@ class Problem:
         """
         import hashlib
 
-        from dgplate.io.checkpoint import identity
+        from dgplate.io.checkpoint import MESH_FILE_HASH, identity
 
         data = dict(self.raw)
         if self.mesh.type == "gmsh" and "mesh" in data:
             from dgplate.mesh.tagged import resolve_geo
 
             text = resolve_geo(self.mesh.file).read_bytes()
-            data["mesh_file_sha256"] = hashlib.sha256(text).hexdigest()
+            data[MESH_FILE_HASH] = hashlib.sha256(text).hexdigest()
         return identity(data)
-
-    def fingerprint(self) -> str:
-        """The hash of :meth:`identity` that a checkpoint holds."""
-        from dgplate.io.checkpoint import fingerprint
-
-        return fingerprint(self.identity())
 
 
 _KEY = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
