@@ -17,14 +17,13 @@ import argparse
 import os
 import signal
 import sys
-import time
 import traceback
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
 from mpi4py import MPI
 
-from dgplate import interrupt
+from dgplate import interrupt, mpi
 from dgplate.errors import InputError, UnsupportedVersionError
 
 if TYPE_CHECKING:
@@ -113,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
         return _command(args, comm)
     except BrokenPipeError:  # the reader of our output went away (`dgplate show … | head`)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no error at exit
-        return 1
+        return end_together(errors, 1, "")
     except (InputError, UnsupportedVersionError) as err:
         _drop_solver_options()
         return end_together(errors, 2, f"dgplate: error: {err}")
@@ -229,7 +228,7 @@ def _drop_solver_options() -> None:
 
 
 def end_together(comm: MPI.Comm, code: int, message: str) -> int:
-    """End a failed command on every rank with ``code``, printing ``message`` once.
+    """End a failed command on every rank with ``code``, printing ``message`` once ('': none).
 
     Rank 0 prints first: under ``python -m mpi4py`` the first rank that exits non-zero
     aborts the job. When every rank failed (bad input is detected on all of them), they then
@@ -238,17 +237,12 @@ def end_together(comm: MPI.Comm, code: int, message: str) -> int:
     failed ranks then abort the whole job with ``code`` (printing the message if rank 0 could
     not), instead of leaving it to hang until a cluster's time limit.
     """
-    if comm.rank == 0:
+    if comm.rank == 0 and message:
         print(message, file=sys.stderr, flush=True)
-    if comm.size > 1:
-        request = comm.Ibarrier()
-        deadline = time.monotonic() + AGREE_SECONDS
-        while not request.Test():
-            if time.monotonic() > deadline:
-                if comm.rank != 0:
-                    print(f"{message} (rank {comm.rank})", file=sys.stderr, flush=True)
-                comm.Abort(code)
-            time.sleep(0.01)
+    if not mpi.arrive_within(comm, AGREE_SECONDS):
+        if comm.rank != 0 and message:
+            print(f"{message} (rank {comm.rank})", file=sys.stderr, flush=True)
+        comm.Abort(code)
     return code
 
 
@@ -266,9 +260,12 @@ def _schema(model: str) -> int:
     if MPI.COMM_WORLD.rank == 0:
         # PETSc (imported with the models) catches SIGPIPE and aborts: `dgplate schema | head`
         # should end quietly, with Python's BrokenPipeError (see main)
-        signal.signal(signal.SIGPIPE, signal.SIG_IGN)
-        skip = MODELS[model].ignored_keys
-        print("\n\n".join(describe(spec, sec, skip(sec)) for sec, spec in sections(model)))
+        previous = signal.signal(signal.SIGPIPE, signal.SIG_IGN)
+        try:
+            skip = MODELS[model].ignored_keys
+            print("\n\n".join(describe(spec, sec, skip(sec)) for sec, spec in sections(model)))
+        finally:
+            signal.signal(signal.SIGPIPE, previous)
     return 0
 
 

@@ -77,12 +77,12 @@ def bounding_box(
 bounds = bounding_box  # the name the FvK probes use
 
 
-def all_arrive(comm: MPI.Comm, seconds: float) -> bool:
-    """True when every rank of ``comm`` calls this within ``seconds``; False otherwise.
+def arrive_within(comm: MPI.Comm, seconds: float) -> bool:
+    """True when every rank of ``comm`` reaches this within ``seconds`` of this rank.
 
-    For an error path: after an exception, a collective clean-up (closing a file) is safe
-    only when every rank has the error. ``comm`` should be a communicator used for nothing
-    else (a ``Dup``): when some rank never arrives, the barrier stays pending on it.
+    One non-blocking barrier: near the deadline ranks may disagree (one gives up while
+    another still sees the barrier complete). ``comm`` should be used for nothing else (a
+    ``Dup``): when some rank never arrives, the barrier stays pending on it.
     """
     if comm.size == 1:
         return True
@@ -93,3 +93,15 @@ def all_arrive(comm: MPI.Comm, seconds: float) -> bool:
             return False
         time.sleep(0.01)
     return True
+
+
+def all_arrive(comm: MPI.Comm, seconds: float) -> bool:
+    """Whether every rank of ``comm`` calls this, each waiting at most about ``seconds``.
+
+    For an error path: a collective clean-up (closing a file) is safe only when every rank
+    has the error. Two barriers make the ranks agree: one that gave up in the first never
+    enters the second, so the others give up there too; and since every rank enters the
+    second within moments of the first's completion, none gives up there alone. ``comm``
+    as for :func:`arrive_within`.
+    """
+    return arrive_within(comm, seconds) and arrive_within(comm, seconds)

@@ -539,3 +539,19 @@ def test_error_on_one_rank_ends_every_rank(tmp_path):
     assert done.returncode == 1, done.stderr
     assert "RuntimeError: a failure on rank 1 only (rank 1)" in done.stderr
     assert not (out / "summary.json").exists()
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("late", [0.0, 0.5])
+def test_ranks_agree_whether_every_rank_arrived(comm, late):
+    """The error path's agreement (mpi.all_arrive): a rank 0.5 s late for a 0.3 s wait makes
+    every rank answer False, not the early ones False and the late one True."""
+    import time
+
+    from dgplate import mpi
+
+    agree = comm.Dup()
+    if comm.rank == comm.size - 1:
+        time.sleep(late)
+    outcomes = comm.allgather(mpi.all_arrive(agree, 0.3))
+    assert outcomes == [late == 0.0 or comm.size == 1] * comm.size

@@ -475,12 +475,16 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
         "ranks": comm.size,
     }
     driver.observers.append(checkpoints)
-    if problem.output.vtx:
-        driver.observers.append(
-            SeriesWriter(driver, out.path / "deformation.bp", problem.output.every)
-        )
-    frames = _frames(job, model, driver, out)
-    result = _run_or_clean_up(driver, out, start)
+
+    def writers() -> FrameWriter | None:
+        """The VTX series and the frames (both write their first state at once)."""
+        if problem.output.vtx:
+            driver.observers.append(
+                SeriesWriter(driver, out.path / "deformation.bp", problem.output.every)
+            )
+        return _frames(job, model, driver, out)
+
+    result, frames = _run_or_clean_up(driver, out, start, writers)
     if frames is not None:
         frames.gif(out.path / f"{problem.name}.gif")
     checkpoints.save(driver, finished=result.converged, reason=result.reason)
@@ -505,30 +509,38 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
     )
 
 
-def _run_or_clean_up(driver: Driver, out: OutputDir, start: checkpoint.Checkpoint | None) -> Any:
-    """``driver.run()``; on an error, the staged outputs go (the checkpoints stay).
+def _run_or_clean_up(
+    driver: Driver,
+    out: OutputDir,
+    start: checkpoint.Checkpoint | None,
+    writers: Callable[[], FrameWriter | None],
+) -> tuple[Any, FrameWriter | None]:
+    """Open the ``writers``, then ``driver.run()``: the outcome and the frame writer.
 
-    The VTX files must be closed before their folder goes (ADIOS2 would abort the process at
-    exit). Closing is collective, so it happens only when every rank has the error. A run
-    resumed from a finished checkpoint takes no step: it only writes its outputs.
+    On an error the staged outputs go (the checkpoints stay). The VTX files must be closed
+    before their folder goes (ADIOS2 would abort the process at exit); closing is collective,
+    so it happens only when every rank has the error (else the job is ending anyway, and the
+    next run into the folder removes the staging folder). A run resumed from a finished
+    checkpoint takes no step: it only writes its outputs.
     """
-    if start is not None and start.state.get("finished"):
-        finished = _Finished(start.state.get("reason") or "converged before the resume")
-        for observer in driver.observers:
-            observer.finish(driver, finished)
-        return finished
     agree = driver.comm.Dup()  # for the error path only: no collective of the run matches it
     try:
-        result = driver.run()
+        frames = writers()
+        if start is not None and start.state.get("finished"):
+            result: Any = _Finished(start.state.get("reason") or "converged before the resume")
+            for observer in driver.observers:
+                observer.finish(driver, result)
+        else:
+            result = driver.run()
     except BaseException:
         if mpi.all_arrive(agree, ERROR_AGREE_SECONDS):
             for observer in driver.observers:
                 if isinstance(observer, SeriesWriter):
                     observer.close()
             out.discard()
-        raise
+        raise  # ``agree`` is not freed: freeing is collective, and this rank is failing
     agree.Free()
-    return result
+    return result, frames
 
 
 def _shown(value: Any) -> str:
