@@ -120,7 +120,7 @@ def formula(text: str, mesh: Mesh, key: str, names: Names | None = None) -> floa
 
     A constant formula such as ``"2*pi"`` is folded to a float.
     """
-    _check_finite_on_mesh(text, mesh, key, names)
+    check_finite_on_mesh(text, mesh, key, names)
     x = compat.spatial_coordinate(mesh)
     builder = _Builder(key, text, (x[0], x[1]), names or {}, numeric=False)
     try:
@@ -184,11 +184,6 @@ def uses(text: str, name: str) -> bool:
     return any(isinstance(node, ast.Name) and node.id == name for node in ast.walk(tree))
 
 
-def check_finite_on_mesh(text: str, mesh: Mesh, key: str, names: Names | None = None) -> None:
-    """InputError (on every rank) when the formula is not finite at a sample point (collective)."""
-    _check_finite_on_mesh(text, mesh, key, names)
-
-
 def sample_points(mesh: Mesh) -> Array:
     """This rank's geometry nodes and cell midpoints (ghosts included), shape (n, 2)."""
     x = mesh.geometry.x
@@ -214,7 +209,7 @@ def _values_at(value: object, points: Array, key: str) -> Array | None:
     return None if values is None else np.broadcast_to(values, len(points))
 
 
-def _check_finite_on_mesh(text: str, mesh: Mesh, key: str, names: Names | None) -> None:
+def check_finite_on_mesh(text: str, mesh: Mesh, key: str, names: Names | None = None) -> None:
     """InputError (on every rank) when the formula is not finite at some sample point."""
     points = sample_points(mesh)
     values = evaluate(text, points, key, names)

@@ -260,7 +260,7 @@ def _keep_aside(path: Path) -> None:
     )
 
 
-def _count(n: int, noun: str) -> str:
+def count_of(n: int, noun: str) -> str:
     """``1 step``, ``2 steps``."""
     return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
@@ -343,9 +343,9 @@ class ProgressPrinter:
     def finish(self, driver: Driver, result: RunResult) -> None:
         """Print how the run ended, and the steps at which the energy went up (if any)."""
         status = "converged" if result.converged else "NOT converged"
-        steps = _count(result.steps, "step")
+        steps = count_of(result.steps, "step")
         if self.earlier_steps:
-            whole = _count(self.earlier_steps + result.steps, "step")
+            whole = count_of(self.earlier_steps + result.steps, "step")
             steps = f"{whole} ({result.steps} since the resume)"
         print0(self.comm, f"{status} after {steps}: {result.reason}", file=self.stream)
         increases = getattr(result, "energy_increases", None)

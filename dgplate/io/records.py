@@ -20,7 +20,7 @@ from typing import Any
 
 from dgplate.errors import InputError, read_user_text
 from dgplate.io.checkpoint import STATE_FILE, read_state
-from dgplate.io.output import CHECKPOINT, MARKER, duration, is_dgplate_output
+from dgplate.io.output import CHECKPOINT, MARKER, count_of, duration, is_dgplate_output
 
 SUMMARY = "summary.json"
 HISTORY = "history.csv"
@@ -264,8 +264,7 @@ def details(summary: dict[str, Any]) -> str:
             f"stopped: checkpoint at step {steps}"
         )
     else:
-        plural = "" if steps == 1 else "s"
-        ending = status + (f" after {steps} step{plural}" if steps is not None else "")
+        ending = status + (f" after {count_of(steps, 'step')}" if isinstance(steps, int) else "")
     if isinstance(summary.get("wall_time_s"), int | float) and not summary.get("stale"):
         ending += f" in {duration(float(summary['wall_time_s']))}"
     reason = summary.get("reason") if not summary.get("stale") else None

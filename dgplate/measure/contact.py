@@ -17,6 +17,7 @@ Sample points are the nodes of a DG space of degree :data:`SAMPLE_DEGREE` on eac
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -70,26 +71,36 @@ class Contact:
     def __init__(self, obstacle: Obstacle, facets: FacetSets, degree: int) -> None:
         self.obstacle, self.facets, self.degree = obstacle, facets, degree
 
-    def check_clamped(self, g: Expr, key: str = "model.obstacle") -> None:
-        """The clamped data g must not penetrate the obstacle (at the clamped vertices)."""
+    def clamped_check(self, g: Expr, key: str = "model.obstacle") -> Callable[[], None]:
+        """A check that the clamped data g do not penetrate the obstacle, compiled once.
+
+        It looks at the clamped vertices; run it for each α of a continuation path.
+        Collective, like the check it returns.
+        """
         if not self.facets.has_clamped:
-            return
+            return lambda: None
         mesh = self.facets.mesh
         space = dolfinx.fem.functionspace(mesh, ("Lagrange", 1))
         compiled: compat.Expression = dolfinx.fem.Expression(
             self.obstacle.distance(g, mesh, key), compat.interpolation_points(space.element)
         )
         field: Function = dolfinx.fem.Function(space)
-        field.interpolate(compiled)
         dofs = dolfinx.fem.locate_dofs_topological(
             space, mesh.topology.dim - 1, self.facets.tags.find(CLAMPED)
         )
         owned = dofs[dofs < space.dofmap.index_map.size_local]
-        depth = mpi.global_max(mesh.comm, float(np.max(-field.x.array.real[owned], initial=0.0)))
-        if depth > TOLERANCE:
-            raise InputError(
-                f"{key}: the clamped data model.boundary_data penetrate the obstacle by {depth:.3g}"
-            )
+
+        def check() -> None:
+            field.interpolate(compiled)
+            local = float(np.max(-field.x.array.real[owned], initial=0.0))
+            depth = mpi.global_max(mesh.comm, local)
+            if depth > TOLERANCE:
+                raise InputError(
+                    f"{key}: the clamped data model.boundary_data penetrate the obstacle by "
+                    f"{depth:.3g}"
+                )
+
+        return check
 
     def check_start(self, y: Function, key: str = "model.obstacle") -> None:
         """The start y⁰ must not penetrate the obstacle (an infeasible start)."""

@@ -30,7 +30,7 @@ def with_obstacle(
     if obstacle is None:
         return model
     contact = Contact(obstacle, model.facets, model.degree)
-    along_path(path, lambda: contact.check_clamped(g))
+    along_path(path, contact.clamped_check(g))
     plate_energy = model.energy
 
     def energy(y: Function) -> Energy:

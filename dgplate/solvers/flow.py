@@ -269,7 +269,7 @@ class StepInfo:
 
 def per_step(seconds: float) -> str:
     """The time of a step for a progress line: ``1.23 s/step``, or ``4.2 ms/step``."""
-    return f"{seconds:.2f} s/step" if seconds >= 0.1 else f"{1e3 * seconds:.2g} ms/step"
+    return f"{seconds:.2f} s/step" if seconds >= 0.1 else f"{1e3 * seconds:.3g} ms/step"
 
 
 @dataclass
