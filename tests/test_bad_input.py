@@ -608,7 +608,8 @@ def test_a_mesh_file_that_makes_no_cells_is_bad_input():
     problem = problem_from_dict(
         {"mesh": {"type": "gmsh", "file": "rectangle.geo", "parameters": {"Lx": 0}}}, "empty"
     )
-    with pytest.raises(InputError, match=r"gmsh made no cells from rectangle\.geo"):
+    # gmsh 4.15 makes an empty mesh, Debian 13's 4.13 stops with its own error
+    with pytest.raises(InputError, match=r"gmsh (made no cells from|failed on) rectangle\.geo"):
         check(problem)
 
 
@@ -635,5 +636,5 @@ def test_a_self_intersecting_boundary_ends_at_once(tmp_path):
         'Curve Loop(1) = {1, 2, 3, 4}; Plane Surface(1) = {1}; Physical Surface("plate") = {1};\n'
     )
     problem = problem_from_dict({"mesh": {"type": "gmsh", "file": str(geo)}}, "bowtie")
-    with pytest.raises(InputError, match=r"gmsh made no cells from bowtie\.geo"):
+    with pytest.raises(InputError, match=r"gmsh (made no cells from|failed on) bowtie\.geo"):
         check(problem)
