@@ -628,6 +628,10 @@ def test_python_api_type_errors_are_input_errors(tmp_path):
 
 def test_a_self_intersecting_boundary_ends_at_once(tmp_path):
     """gmsh alone splits such a boundary's edges for minutes; dgplate stops it: no cells."""
+    import gmsh
+
+    if tuple(int(part) for part in gmsh.__version__.split(".")[:2]) < (4, 15):
+        pytest.skip("gmsh < 4.15 (Debian 13 has 4.13) loops whatever Mesh.MaxRetries says")
     geo = tmp_path / "bowtie.geo"
     geo.write_text(
         "Point(1) = {0, 0, 0, 0.2}; Point(2) = {1, 1, 0, 0.2};\n"

@@ -250,6 +250,7 @@ def load_geo(
             gmsh.option.setNumber("General.Terminal", 0)
             # gmsh's default of 10 retries of the boundary recovery splits the edges of a
             # self-intersecting boundary for many minutes; 5 ends such a file at once (no cells)
+            # with gmsh 4.15 (4.13, Debian 13's, goes on whatever the option says)
             gmsh.option.setNumber("Mesh.MaxRetries", MAX_RETRIES)
             error, groups = _generate(gmsh, path, parameters, recombine, gmsh_options or {})
         error = comm.bcast(error, root=0)
