@@ -238,13 +238,15 @@ class Checkpoints:
         problem: dict[str, Any],
         earlier: list[dict[str, Any]],
         wall: tuple[float, float] = (0.0, 0.0),
+        label: dict[str, Any] | None = None,
     ):
         self.directory, self.every, self.problem = directory, every, problem
+        self.fingerprint = checkpoint.fingerprint(problem)
         self.history: list[dict[str, Any]] = list(earlier)
         # (wall time of the runs this one resumes, perf_counter at this run's start)
         self.earlier_wall, self.wall0 = wall
         #: what ``dgplate show`` prints of a run that has a checkpoint but no summary yet
-        self.label: dict[str, Any] = {}
+        self.label = label or {}
 
     def wall_time(self) -> float:
         """Seconds of wall time over this run and those it resumes."""
@@ -262,7 +264,7 @@ class Checkpoints:
     def save(self, driver: Driver, finished: bool = False, reason: str = "") -> None:
         """Write the checkpoint now (collective); ``finished``: the run converged (``reason``)."""
         state = {
-            "fingerprint": checkpoint.fingerprint(self.problem),
+            "fingerprint": self.fingerprint,
             "input": self.problem,
             "step": driver.step_count,
             "driver": driver.checkpoint_state(),
@@ -466,14 +468,14 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
         problem.identity(),
         earlier,
         (earlier_wall, wall0),
+        label={
+            "problem": problem.name,
+            "model": problem.model.name,
+            "cells": _cells(tagged),
+            "dofs": _dofs(driver),
+            "ranks": comm.size,
+        },
     )
-    checkpoints.label = {
-        "problem": problem.name,
-        "model": problem.model.name,
-        "cells": _cells(tagged),
-        "dofs": _dofs(driver),
-        "ranks": comm.size,
-    }
     driver.observers.append(checkpoints)
 
     def writers() -> FrameWriter | None:
