@@ -133,8 +133,8 @@ for label, angles in (("at the switch", closed), (f"at t = {result['time']:.1f}"
 say(
     f"closure gap at the switch {result['closure_gap_at_switch']:.4f}; energy "
     f"{result['energy_at_switch']:.3f} at the switch, {result['energy']:.4f} at the end; "
-    f"D_h = {result['isometry_defect']:.1e}; {result['steps']} flow steps, "
-    f"{result['heat_steps']} heat steps"
+    f"D_h = {result['isometry_defect']:.1e}; {result['flow_steps']} flow steps, "
+    f"{result['heat_steps']} heat steps, {result['holds']} holds"
 )
 
 # %% [markdown]

@@ -205,7 +205,8 @@ def test_holds_observers_summary_and_figures():
     assert result.converged is all(r.flow_converged for r in driver.records if r.hold)
     summary = driver.summary()
     assert summary["heat_steps"] == 3 and summary["holds"] == 2
-    assert summary["steps"] == sum(r.flow_steps for r in driver.records)
+    assert summary["flow_steps"] == sum(r.flow_steps for r in driver.records)
+    assert "steps" not in summary  # the runner's: the driver's steps (heat steps and holds)
     figures = model.figures(driver)
     assert (
         figures["hinge_angles_deg_at_switch"]["hinge"] == driver.records[2].figures["angle_hinge"]

@@ -34,6 +34,7 @@ from dgplate.io.output import (
     ProgressPrinter,
     bounding_box,
     print0,
+    printing_ends_on_closed_pipe,
     write_history,
     write_json,
 )
@@ -317,7 +318,7 @@ def run(
     outputs, with ``converged = false`` and the reason, and a checkpoint.
     """
     wall0 = time.perf_counter()
-    with interrupt.StopOnSignal():
+    with interrupt.StopOnSignal(), printing_ends_on_closed_pipe():
         target, start, tagged, model = _set_up(problem, out, comm, force, resume)
         return _solve(_Job(problem, tagged, target, initial, force, start, wall0), model)
 
@@ -435,9 +436,8 @@ class _Job:
 
 def _solve(job: _Job, model: Model) -> Result:
     comm = job.tagged.comm
-    progress = job.problem.output.progress
-    observers = [ProgressPrinter(comm, progress)] if progress else []
-    driver = model.driver(job.problem.flow, observers, job.initial)
+    printer = ProgressPrinter(comm, job.problem.output.progress, start=job.wall0)
+    driver = model.driver(job.problem.flow, [printer], job.initial)
     # no destroy() on an error: it is collective, and the error may have hit one rank only
     result = _run_driver(job, model, driver)
     driver.destroy()
