@@ -171,6 +171,8 @@ class ThermalBilayer:
         self.step_count = 0
         self.holds_done = 0
         self.last_result: FlowResult | None = None
+        #: the shape (the values of y) at the end of each hold of this run, by its record
+        self.held: dict[int, np.ndarray] = {}
 
     # -- the runner's view ------------------------------------------------------------------
     @property
@@ -308,6 +310,7 @@ class ThermalBilayer:
             self.step_count = steps_before
             return None
         self.holds_done += 1
+        self.held[record.step] = self.y.x.array.copy()
         return record
 
     def _failure(self, record: HeatStepRecord) -> str | None:
