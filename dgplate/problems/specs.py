@@ -79,7 +79,7 @@ class OutputSpec:
     color_by: str = option("curvature", "colour of final.png: 'curvature' (|D²y|) or 'defect'")
     progress: int | str = option(
         "auto",
-        "progress lines on rank 0, each with the time elapsed and an estimate of the time left: 'auto' (the first step, then at most one line a second and every 10 steps, and the last step), n (every n-th step) or 0 (none); the final converged / NOT converged line is always printed",
+        "progress lines on rank 0, each with the time elapsed and an estimate of the time left: 'auto' (the first step, then a line once both a second and 10 steps have passed since the last, and the last step), n (every n-th step) or 0 (none); the final converged / NOT converged line is always printed",
     )
     frames_every: int = option(
         0,
