@@ -84,7 +84,7 @@ say(
     f"κ₁ mean {curvatures['kappa1_mean']:.2f}, κ₂ mean {curvatures['kappa2_mean']:.2f} "
     f"(Z = 12); tips {height:+.3f} above the centre, {distance:.3f} from its midpoint "
     f"(1.5 flat)\nE_h = {result['energy']:.3f}, D_h = {result['isometry_defect']:.1e}, "
-    f"{result['steps']} flow steps → {args.out}"
+    f"{result['flow_steps']} flow steps → {args.out}"
 )
 
 # %% [markdown]

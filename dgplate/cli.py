@@ -14,7 +14,6 @@ Under MPI an error on some ranks ends all of them within seconds (:func:`end_tog
 from __future__ import annotations
 
 import argparse
-import os
 import signal
 import sys
 import traceback
@@ -25,6 +24,7 @@ from mpi4py import MPI
 
 from dgplate import interrupt, mpi
 from dgplate.errors import InputError, UnsupportedVersionError
+from dgplate.io.output import silence
 
 if TYPE_CHECKING:
     from dgplate.problems.specs import Problem
@@ -111,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return _command(args, comm)
     except BrokenPipeError:  # the reader of our output went away (`dgplate show … | head`)
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no error at exit
+        silence(sys.stdout)  # no error at exit
         return end_together(errors, 1, "")
     except (InputError, UnsupportedVersionError) as err:
         _drop_solver_options()

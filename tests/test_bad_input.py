@@ -55,6 +55,12 @@ BAD_INPUT = {
     ),
     "tau zero": Case(("flow.tau=0",), "flow.tau must be > 0"),
     "frames negative": Case(("output.frames_every=-1",), "output.frames_every must be >= 0"),
+    "progress negative": Case(
+        ("output.progress=-1",), "output.progress must be 'auto' or an integer >= 0, got -1"
+    ),
+    "progress word": Case(
+        ("output.progress='often'",), "output.progress must be 'auto' or an integer >= 0"
+    ),
     "tau negative": Case(("flow.tau=-0.5",), "flow.tau must be > 0"),
     "tau word": Case(("flow.tau=big",), "flow.tau must be a number > 0 or 'h'"),
     "degree 1": Case(("model.degree=1",), "model.degree must be >= 2"),

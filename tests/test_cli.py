@@ -27,10 +27,17 @@ def test_existing_output_left_untouched_on_bad_input(tmp_path, capsys):
 
 
 def test_not_converged_exits_1_and_keeps_outputs(tmp_path, capsys):
+    """... and ``output.progress = 0`` still prints how the run ended."""
     out = tmp_path / "out"
-    code = main(["run", str(VERTICAL), "--out", str(out), *SMALL, "--set", "flow.max_steps=2"])
+    quiet = ["--set", "flow.max_steps=2", "--set", "output.progress=0"]
+    code = main(["run", str(VERTICAL), "--out", str(out), *SMALL, *quiet])
     assert code == 1
-    assert "did not converge" in capsys.readouterr().err
+    printed = capsys.readouterr()
+    assert "did not converge" in printed.err
+    assert printed.out.splitlines()[1:] == [
+        "NOT converged after 2 steps: step budget of 2 steps spent before "
+        "(E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < 1e-06"
+    ]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["converged"] is False and summary["steps"] == 2
     assert "step budget" in summary["reason"]
@@ -155,30 +162,106 @@ class _PathDriver:
         return self.fraction, "α = 1"
 
 
-def test_progress_printer_estimates_the_time_left():
-    """From the pace after the first step: 0.2 of the path per 10 s, so 0.4 left is 20 s."""
+def _printed(every, driver, records, ticks, result=None):
+    """The lines a ProgressPrinter prints for ``records`` at the clock's ``ticks``."""
     import io
-    from types import SimpleNamespace
 
     from mpi4py import MPI
 
-    from dgplate.io.output import ProgressPrinter, duration
+    from dgplate.io.output import ProgressPrinter
 
-    ticks = iter([100.0, 110.0, 120.0, 130.0, 140.0])
+    clock = iter(ticks)
     stream = io.StringIO()
-    printer = ProgressPrinter(MPI.COMM_SELF, 1, stream, clock=lambda: next(ticks))
-    driver = _PathDriver()
-    for step in range(1, 6):
-        driver.fraction = 0.2 * step
-        printer.step(driver, SimpleNamespace(step=step, line=lambda: "line"))
-    assert stream.getvalue().splitlines() == [
-        "line",
-        "line  (α = 1 in ~30 s)",
-        "line  (α = 1 in ~20 s)",
-        "line  (α = 1 in ~10 s)",
-        "line",
+    printer = ProgressPrinter(MPI.COMM_SELF, every, stream, clock=lambda: next(clock), start=0.0)
+    for record in records:
+        if hasattr(driver, "fraction"):
+            driver.fraction = 0.2 * record.step
+        printer.step(driver, record)
+    if result is not None:
+        printer.finish(driver, result)
+    return stream.getvalue().splitlines()
+
+
+def _record(step, rate=float("nan")):
+    from types import SimpleNamespace
+
+    return SimpleNamespace(step=step, rate=rate, line=lambda: f"line {step}")
+
+
+def test_progress_printer_estimates_the_time_left():
+    """From the pace after the first step: 0.2 of the path per 10 s, so 0.4 left is 20 s;
+    every line has the time since the run's start."""
+    from dgplate.io.output import duration
+
+    records = [_record(step) for step in range(1, 6)]
+    lines = _printed(1, _PathDriver(), records, [10.0, 20.0, 30.0, 40.0, 50.0])
+    assert lines == [
+        "line 1  (10 s)",
+        "line 2  (20 s; α = 1 in ~30 s)",
+        "line 3  (30 s; α = 1 in ~20 s)",
+        "line 4  (40 s; α = 1 in ~10 s)",
+        "line 5  (50 s)",
     ]
-    assert [duration(s) for s in (45, 720, 12600)] == ["45 s", "12 min", "3.5 h"]
+    assert [duration(s) for s in (4.24, 45, 720, 12600)] == ["4.2 s", "45 s", "12 min", "3.5 h"]
+
+
+def test_progress_printer_estimates_from_the_decay_of_the_stopping_test():
+    """A flow whose ΔE/τ falls tenfold a step, 1 s a step: from 1e-6 to below tol = 1e-9
+    takes 3 more steps; the first step (compiling) is left out of the pace. When the step
+    budget ends first, the line says so."""
+    from types import SimpleNamespace
+
+    records = [_record(step, 10.0 ** (-step)) for step in range(1, 8)]
+    ticks = [10.0, 11.0, 12.0, 13.0, 14.0, 15.0, 16.0]
+    flow = SimpleNamespace(settings=SimpleNamespace(tol=1e-9, stop="rate", max_steps=100))
+    lines = _printed(1, flow, records, ticks)
+    assert lines[:5] == [f"line {n}  ({ticks[n - 1]:.0f} s)" for n in range(1, 6)]
+    assert lines[5] == "line 6  (15 s; ΔE/τ < 1e-09 in ~3 steps, ~3.0 s)"
+    assert lines[6] == "line 7  (16 s; ΔE/τ < 1e-09 in ~2 steps, ~2.0 s)"
+    flow.settings.max_steps = 7  # one step left at step 6
+    lines = _printed(1, flow, records[:6], ticks)
+    assert lines[5] == "line 6  (15 s; step budget spent in ~1 steps, ~1.0 s)"
+
+
+def test_progress_printer_auto_prints_a_line_a_second_and_every_ten_steps():
+    """``auto``: the first step, then a line when both 1 s and 10 steps have passed since
+    the last, the last step's line and the final one. Steps of 0.05 s: every 20th step;
+    steps of 1 s: every 10th."""
+    from dgplate.io.output import AUTO_STEPS
+    from dgplate.solvers.driver import RunOutcome
+
+    records = [_record(step) for step in range(1, 46)]
+    done = RunOutcome(True, "tol reached", 45, records)
+    fast = _printed("auto", object(), records, [0.05 * n for n in range(46)], done)
+    assert [line.split("  ")[0] for line in fast] == [
+        "line 1", "line 21", "line 41", "line 45", "converged after 45 steps: tol reached"
+    ]  # fmt: skip
+    slow = _printed("auto", object(), records, [float(n) for n in range(46)], done)
+    assert [line.split("  ")[0] for line in slow][1:4] == ["line 11", "line 21", "line 31"]
+    assert AUTO_STEPS == 10
+
+
+def test_progress_printer_every_n_and_none_end_with_the_final_line():
+    """``progress = 3``: steps 3, 6, 9 and the final line; ``progress = 0``: the final line
+    alone. A thermal driver's counts are named as in summary.json."""
+    from dgplate.solvers.driver import RunOutcome
+
+    records = [_record(step) for step in range(1, 11)]
+    done = RunOutcome(False, "step budget of 10 steps spent", 10, records)
+    three = _printed(3, object(), records, [float(n) for n in range(11)], done)
+    assert [line.split("  ")[0] for line in three] == [
+        "line 3", "line 6", "line 9", "NOT converged after 10 steps: step budget of 10 steps spent"
+    ]  # fmt: skip
+
+    class Thermal:
+        def step_counts(self):
+            return {"heat_steps": 8, "holds": 2, "flow_steps": 428}
+
+    none = _printed(0, Thermal(), records, [float(n) for n in range(11)], done)
+    assert none == [
+        "NOT converged after 10 steps [8 heat steps, 2 holds, 428 flow steps]: "
+        "step budget of 10 steps spent"
+    ]
 
 
 def test_history_chart_draws_what_the_rows_hold(tmp_path):
@@ -230,3 +313,28 @@ def test_output_into_a_closed_pipe_ends_quietly(tmp_path):
     process.stdout.close()  # before it writes: its output goes nowhere
     _, err = process.communicate(timeout=60)
     assert process.returncode == 1 and err == b"", err
+
+
+def test_a_closed_pipe_ends_only_the_printing(tmp_path):
+    """`dgplate run … | head -1`: the reader goes after the first line; the run goes on,
+    writes its whole output folder (no staging folder left) and exits 0, without PETSc's
+    crash report."""
+    out = tmp_path / "out"
+    errors = tmp_path / "stderr"
+    every_step = ["--set", "output.progress=1"]
+    with open(errors, "w") as err:
+        process = subprocess.Popen(
+            [sys.executable, "-m", "dgplate", "run", str(VERTICAL), "--out", str(out), *SMALL,
+             *every_step],
+            stdout=subprocess.PIPE,
+            stderr=err,
+        )  # fmt: skip
+        assert process.stdout.readline().startswith(b"dgplate: vertical_load:")
+        process.stdout.close()  # the reader has gone: the step lines meet a closed pipe
+        assert process.wait(timeout=600) == 0, errors.read_text()
+    assert errors.read_text() == ""
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["converged"] and summary["steps"] > 1
+    assert sorted(p.name for p in out.iterdir()) == [
+        ".dgplate-output", "checkpoint", "history.csv", "summary.json"
+    ]  # fmt: skip

@@ -197,6 +197,7 @@ def test_holds_observers_summary_and_figures():
     driver.observers.append(recorder)
     result = driver.run(max_steps=3)  # heat, heat, hold at the switch
     assert not result.converged and "budget" in result.reason and result.steps == 3
+    held = driver.y.x.array.copy()
     assert [r.hold for r in recorder.records] == [False, False, True]
     assert driver.flow.tau == 0.05  # the hold's τ is put back
     result = driver.run()
@@ -205,7 +206,8 @@ def test_holds_observers_summary_and_figures():
     assert result.converged is all(r.flow_converged for r in driver.records if r.hold)
     summary = driver.summary()
     assert summary["heat_steps"] == 3 and summary["holds"] == 2
-    assert summary["steps"] == sum(r.flow_steps for r in driver.records)
+    assert summary["flow_steps"] == sum(r.flow_steps for r in driver.records)
+    assert "steps" not in summary  # the runner's: the driver's steps (heat steps and holds)
     figures = model.figures(driver)
     assert (
         figures["hinge_angles_deg_at_switch"]["hinge"] == driver.records[2].figures["angle_hinge"]
@@ -214,6 +216,11 @@ def test_holds_observers_summary_and_figures():
     anchor = driver.records[-1].figures["anchor_energy"]  # the last record's, in summary.json
     assert figures["anchor_energy_final"] == pytest.approx(anchor) and anchor > 0
     assert "energy_at_switch" in figures
+    # the shape at the switch's hold, for at_switch.png (final.png: the end, unfolded)
+    shapes = model.held_shapes(driver)
+    assert list(shapes) == ["at_switch"] and np.array_equal(shapes["at_switch"][0], held)
+    assert shapes["at_switch"][1].startswith("held at t = 2:")
+    assert not np.array_equal(driver.y.x.array, held)
     assert "hold" in driver.records[2].line()
     driver.destroy()
 

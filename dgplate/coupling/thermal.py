@@ -171,6 +171,8 @@ class ThermalBilayer:
         self.step_count = 0
         self.holds_done = 0
         self.last_result: FlowResult | None = None
+        #: the shape (the values of y) at the end of each hold of this run, by its record
+        self.held: dict[int, np.ndarray] = {}
 
     # -- the runner's view ------------------------------------------------------------------
     @property
@@ -308,6 +310,7 @@ class ThermalBilayer:
             self.step_count = steps_before
             return None
         self.holds_done += 1
+        self.held[record.step] = self.y.x.array.copy()
         return record
 
     def _failure(self, record: HeatStepRecord) -> str | None:
@@ -390,13 +393,24 @@ class ThermalBilayer:
         self.records = [HeatStepRecord(**r) for r in state["records"]]
 
     # -- results ----------------------------------------------------------------------------
-    def summary(self) -> dict[str, Any]:
-        """Numbers for ``summary.json``: dofs, flow and heat steps, time, energy, defect."""
+    def step_counts(self) -> dict[str, int]:
+        """What the driver's steps were made of: heat steps, holds and the flow steps of all.
+
+        The runner's ``steps`` counts the driver's steps (heat steps and holds, the rows of
+        ``history.csv``); these counts appear under the same names in ``summary.json`` and
+        in the last progress line.
+        """
         return {
-            "dofs": self.flow.num_dofs,
-            "steps": self.flow.step_count,
             "heat_steps": self.heat.steps,
             "holds": self.holds_done,
+            "flow_steps": self.flow.step_count,
+        }
+
+    def summary(self) -> dict[str, Any]:
+        """Numbers for ``summary.json``: dofs, step counts, time, energy, defect."""
+        return {
+            "dofs": self.flow.num_dofs,
+            **self.step_counts(),
             "time": self.heat.time,
             "tau": self.flow.tau,
             "energy": self.flow.evaluate_energy(),

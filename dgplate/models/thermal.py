@@ -694,6 +694,22 @@ class ThermalModel:
             out.update(self.tangent_point(driver.y))
         return out
 
+    def held_shapes(self, driver: ThermalBilayer) -> dict[str, tuple[np.ndarray, str]]:
+        """The shapes at the holds before the end, for pictures besides final.png.
+
+        ``at_<label>`` (``at_switch`` for the source's one switch: the closed box) → (the
+        values of y, a title). Only the holds of this run: a run resumed after a hold has
+        not got its shape.
+        """
+        end = self.spec.end_time
+        shapes = {}
+        for record in driver.records:
+            values = driver.held.get(record.step)
+            if values is not None and not math.isclose(record.time, end, rel_tol=1e-12):
+                title = f"held at t = {record.time:g}: E_h = {record.energy:.4e}"
+                shapes[f"at_{self._hold_label(record.time)}"] = (values, title)
+        return shapes
+
     def lines(self, driver: ThermalBilayer) -> list[np.ndarray]:
         """The deformed closure edge and tracked edges, on rank 0 ([] elsewhere)."""
         groups = ([self.spec.closure["edge"]] if self.spec.closure else []) + list(self.spec.edges)

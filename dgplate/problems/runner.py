@@ -34,6 +34,7 @@ from dgplate.io.output import (
     ProgressPrinter,
     bounding_box,
     print0,
+    printing_ends_on_closed_pipe,
     write_history,
     write_json,
 )
@@ -317,7 +318,7 @@ def run(
     outputs, with ``converged = false`` and the reason, and a checkpoint.
     """
     wall0 = time.perf_counter()
-    with interrupt.StopOnSignal():
+    with interrupt.StopOnSignal(), printing_ends_on_closed_pipe():
         target, start, tagged, model = _set_up(problem, out, comm, force, resume)
         return _solve(_Job(problem, tagged, target, initial, force, start, wall0), model)
 
@@ -435,9 +436,8 @@ class _Job:
 
 def _solve(job: _Job, model: Model) -> Result:
     comm = job.tagged.comm
-    progress = job.problem.output.progress
-    observers = [ProgressPrinter(comm, progress)] if progress else []
-    driver = model.driver(job.problem.flow, observers, job.initial)
+    printer = ProgressPrinter(comm, job.problem.output.progress, start=job.wall0)
+    driver = model.driver(job.problem.flow, [printer], job.initial)
     # no destroy() on an error: it is collective, and the error may have hit one rank only
     result = _run_driver(job, model, driver)
     driver.destroy()
@@ -495,6 +495,7 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
     write_history(comm, out.path / "history.csv", checkpoints.history)
     if problem.output.png:
         _picture(problem, model, driver, summary, out.path / "final.png")
+        _held_pictures(problem, model, driver, out.path)
         if comm.rank == 0:
             flow = problem.flow
             plot_history(
@@ -606,6 +607,24 @@ def _picture(
     if isinstance(defect, float):
         title += f", D_h = {defect:.2e}"
     _draw(problem, model, driver, path, title)
+
+
+def _held_pictures(problem: Problem, model: Model, driver: Driver, folder: Path) -> None:
+    """``<name>.png`` of the shapes a model keeps besides the final one (collective).
+
+    A thermal model's ``held_shapes``: the box closed at the switch (``at_switch.png``),
+    where final.png shows it open again after cooling. Each is drawn as final.png is, from
+    the driver's shape set to it for the picture and put back afterwards.
+    """
+    held = getattr(model, "held_shapes", None)
+    shapes = held(driver) if held is not None else {}
+    if not shapes:
+        return
+    final = driver.shape.x.array.copy()
+    for name, (values, title) in shapes.items():
+        driver.shape.x.array[:] = values
+        _draw(problem, model, driver, folder / f"{name}.png", f"{problem.name}, {title}")
+    driver.shape.x.array[:] = final
 
 
 def _draw(

@@ -77,8 +77,9 @@ class OutputSpec:
     every: int = option(1, "write the time series every n steps (the final state always)")
     png: bool = option(True, "render final.png off-screen, and history.png (the run step by step)")
     color_by: str = option("curvature", "colour of final.png: 'curvature' (|D²y|) or 'defect'")
-    progress: int = option(
-        1, "print progress every n steps on rank 0 (0: only the line that says what is solved)"
+    progress: int | str = option(
+        "auto",
+        "progress lines on rank 0, each with the time elapsed and an estimate of the time left: 'auto' (the first step, then a line once both a second and 10 steps have passed since the last, and the last step), n (every n-th step) or 0 (none); the final converged / NOT converged line is always printed",
     )
     frames_every: int = option(
         0,
@@ -92,8 +93,10 @@ class OutputSpec:
             raise InputError(
                 f"output.color_by must be 'curvature' or 'defect', got {self.color_by!r}"
             )
-        if self.progress < 0:
-            raise InputError(f"output.progress must be >= 0, got {self.progress}")
+        if self.progress != "auto" and (isinstance(self.progress, str) or self.progress < 0):
+            raise InputError(
+                f"output.progress must be 'auto' or an integer >= 0, got {self.progress!r}"
+            )
         if self.frames_every < 0:
             raise InputError(f"output.frames_every must be >= 0, got {self.frames_every}")
 
