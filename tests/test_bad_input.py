@@ -637,13 +637,6 @@ def test_initial_flat_and_bad_initials(tmp_path):
         check(problem, out=out, initial="round")
     with pytest.raises(InputError, match=r"initial must be a function x ↦ y\(x\).* got int 3"):
         check(problem, out=out, initial=3)
-    arc = load_problem(
-        VERTICAL, {"mesh.cells": [4, 4], "model.start": {"type": "arc", "radius": 2}}
-    )
-    with pytest.raises(
-        InputError, match=r"the start is given twice: by model\.start and by initial"
-    ):
-        check(arc, out=out, initial=lambda x: x)
 
 
 # -- the advice functions themselves ---------------------------------------------------------------

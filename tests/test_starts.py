@@ -46,6 +46,16 @@ def test_flat_is_the_default_start(comm):
     assert resolve(problem.model, {"type": "flat"}, tagged.mesh) is None
 
 
+def test_initial_takes_precedence_over_model_start(comm):
+    tagged = rectangle(comm, [[0.0, 0.0], [1.0, 1.0]], [2, 2])
+    path = Path(__file__).parents[1] / "demos" / "problems" / "self_avoiding_strip.toml"
+    spec = load_problem(path).model
+    assert spec.start_params.kind == "arc"
+    assert resolve(spec, "flat", tagged.mesh) is None
+    own = resolve(spec, None, tagged.mesh)
+    assert own is not None and np.array_equal(own(POINTS)[2], 1.0 - np.cos(POINTS[0]))
+
+
 @pytest.mark.parametrize(
     ("table", "message"),
     [

@@ -12,8 +12,8 @@ A start is a deformation y⁰: ω → ℝ³ from which the flow begins, a functi
   that match its clamp;
 - ``{type = "formula", g = [3 numbers or formulas in x, y]}``: y⁰ = g.
 
-:func:`resolve` picks the start of a run from ``model.start`` and the ``initial`` of
-:func:`dgplate.run`, which takes a function, one of these tables, or ``"flat"``.
+:func:`resolve` picks the start of a run: the ``initial`` of :func:`dgplate.run` (a function,
+one of these tables, or ``"flat"``) if given, else ``model.start``.
 """
 
 from __future__ import annotations
@@ -138,6 +138,8 @@ class Start:
 def resolve(spec: Any, initial: object, mesh: Mesh) -> Initial | None:
     """The start of a run: ``initial`` (of :func:`dgplate.run`), else ``model.start``.
 
+    ``initial`` takes precedence over ``model.start`` as ``--out`` does over ``output.dir``.
+
     Args:
         spec: the problem's [model] spec (its ``start_params``, if it has a ``start`` key).
         initial: None, a function x ↦ y(x), ``"flat"`` or a start table as ``model.start``.
@@ -149,8 +151,6 @@ def resolve(spec: Any, initial: object, mesh: Mesh) -> Initial | None:
     given: Start | None = getattr(spec, "start_params", None)
     if initial is None:
         return given.function(mesh) if given is not None else None
-    if given is not None and given.kind != "flat":
-        raise InputError("the start is given twice: by model.start and by initial; keep one")
     if isinstance(initial, str | dict):
         if spec.name == "rod":
             raise InputError(

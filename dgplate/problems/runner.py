@@ -309,7 +309,8 @@ def run(
         out: the output folder (default: ``output.dir``, else ``out/<problem name>``).
         comm: the communicator of the ranks that solve it.
         initial: x ↦ y(x), a start other than the flat plate (e.g. an exact fold), or
-            ``"flat"`` or a start table as ``model.start`` (:mod:`dgplate.models.starts`).
+            ``"flat"`` or a start table as ``model.start`` (:mod:`dgplate.models.starts`);
+            it takes precedence over ``model.start``.
         force: write into a folder of a user's files (deleting none of them).
         resume: continue from the checkpoint in the output folder, on any number of ranks.
 
