@@ -58,13 +58,6 @@ SMALLER: dict[str, tuple[str, ...]] = {
     "vertical_load": ("mesh.cells=[4,4]",),
 }
 
-#: Files that do not converge from any start a problem file can give yet: their demos start
-#: them from Python. The compressed strip's clamps start 70 % closer than its length (the
-#: continuation moves them on from there); from the flat start `dgplate run` spent its 200
-#: steps at α = 1 (measured: exit 1). Its demo starts it on the clamped elastica, which no
-#: model.start type describes yet.
-PYTHON_START = {"self_avoiding_compressed_strip": "demos/self_avoiding_compressed_strip.py"}
-
 #: Files whose budgets are documented to end unconverged (the test fails if one converges:
 #: then remove it here). rod_sphere: ΔE/τ = 0.044 after its 300 steps (docs/rods.md, "Rods in
 #: a sphere"; the demo's figures are those of step 300). microcapsule: the final hold does not
@@ -80,14 +73,12 @@ FILES = sorted(path.stem for path in PROBLEMS.glob("*.toml"))
 
 def test_every_file_is_listed_or_run_at_its_own_size():
     """A new problem file is run too: at its own size unless :data:`SMALLER` names it."""
-    assert set(SMALLER) | set(PYTHON_START) | set(UNCONVERGED) <= set(FILES)
+    assert set(SMALLER) | set(UNCONVERGED) <= set(FILES)
     assert len(FILES) >= 30
 
 
 @pytest.mark.parametrize("name", FILES)
 def test_problem_file_converges(name, tmp_path, capsys, request):
-    if name in PYTHON_START:
-        pytest.skip(f"needs the start of {PYTHON_START[name]}")
     if name in UNCONVERGED:
         request.applymarker(pytest.mark.xfail(reason=UNCONVERGED[name], strict=True))
     sets = [arg for value in (*QUIET, *SMALLER.get(name, ())) for arg in ("--set", value)]

@@ -30,6 +30,21 @@ def test_arc_along_y_shifted_and_bent_down():
     assert y[2].max() <= 0.0  # R < 0 bends down
 
 
+def test_elastica_is_the_compressed_strips_start():
+    """{type = 'elastica'}: the clamped ends at x₁ = a + Δ/2 and a + L − Δ/2, flat there, an
+    isometry (arc length kept), and the midpoint height of the closed form."""
+    from dgplate.reference.elastica import clamped_elastica
+
+    start = Start.from_table({"type": "elastica", "length": 4.0, "shortening": 2.8, "at": -2.0})
+    x1 = np.linspace(-2.0, 2.0, 4001)
+    y = start.function(None)(np.vstack([x1, np.full_like(x1, 0.5), np.zeros_like(x1)]))
+    assert np.allclose(y[0, [0, -1]], [-0.6, 0.6], atol=1e-9)
+    assert np.allclose(y[2, [0, -1]], 0.0, atol=1e-9) and np.all(y[1] == 0.5)
+    length = np.sum(np.hypot(np.diff(y[0]), np.diff(y[2])))
+    assert abs(length - 4.0) < 1e-5
+    assert abs(y[2, 2000] - clamped_elastica(4.0, 2.8)["height"]) < 1e-6
+
+
 def test_formula_start_on_a_mesh(comm):
     tagged = rectangle(comm, [[0.0, 0.0], [1.0, 1.0]], [2, 2])
     start = Start.from_table({"type": "formula", "g": ["x", "2*y", 0.5]})
@@ -64,6 +79,10 @@ def test_initial_takes_precedence_over_model_start(comm):
         ({"type": "arc", "radius": 1.0, "along": "z"}, r"model\.start\.along must be 'x' or 'y'"),
         ({"type": "arc", "radius": 1.0, "at": "x"}, r"model\.start\.at must be a number"),
         ({"type": "flat", "radius": 1.0}, r"unknown key model\.start\.radius for type 'flat'"),
+        (
+            {"type": "elastica", "length": 4.0, "shortening": 4.0},
+            r"model\.start: the shortening must lie in \(0, length\)",
+        ),
     ],
 )
 def test_bad_start_tables(table, message):

@@ -10,7 +10,11 @@ A start is a deformation y⁰: ω → ℝ³ from which the flow begins, a functi
   y⁰ = (a + R sin((x₁ − a)/R), x₂, R(1 − cos((x₁ − a)/R))), an isometry; R < 0 bends down,
   ``along = "y"`` rolls along x₂ instead. A plate clamped flat on x₁ = a starts from data
   that match its clamp;
-- ``{type = "formula", g = [3 numbers or formulas in x, y]}``: y⁰ = g.
+- ``{type = "formula", g = [3 numbers or formulas in x, y]}``: y⁰ = g;
+- ``{type = "elastica", length = L, shortening = Δ, at = a}``: the strip a < x₁ < a + L,
+  clamped flat at both ends, on Euler's clamped–clamped elastica with its ends pushed
+  together by Δ (:func:`dgplate.reference.elastica.clamped_elastica_curve`), the ends at
+  x₁ = a + Δ/2 and a + L − Δ/2: an isometry.
 
 :func:`resolve` picks the start of a run: the ``initial`` of :func:`dgplate.run` (a function,
 one of these tables, or ``"flat"``) if given, else ``model.start``.
@@ -27,6 +31,7 @@ import numpy as np
 from dgplate import expressions
 from dgplate.compat import Array, Mesh
 from dgplate.errors import InputError
+from dgplate.reference.elastica import clamped_elastica_curve
 from dgplate.schema import is_number
 from dgplate.solvers.flow import Initial
 
@@ -35,13 +40,16 @@ _KEYS: dict[str, tuple[tuple[str, bool], ...]] = {
     "flat": (),
     "arc": (("radius", True), ("at", False), ("along", False)),
     "formula": (("g", True),),
+    "elastica": (("length", True), ("shortening", True), ("at", False)),
 }
 
 #: ``dgplate schema``'s line for ``model.start``.
 HELP = (
     "the flow's start: 'flat' (y = (x, y, 0)); {type = 'arc', radius = R, at = a (0), "
     "along = 'x'|'y'} (rolled into an arc of radius R, tangent to the plane along x₁ = a; "
-    "R < 0 bends down); {type = 'formula', g = [3 numbers or formulas in x, y]}"
+    "R < 0 bends down); {type = 'formula', g = [3 numbers or formulas in x, y]}; "
+    "{type = 'elastica', length = L, shortening = Δ, at = a (0)} (the strip a < x₁ < a + L "
+    "clamped at both ends on the elastica with its ends Δ closer)"
 )
 
 
@@ -54,6 +62,8 @@ class Start:
     at: float = 0.0
     along: int = 0  # the coordinate along which the arc runs: 0 (x₁) or 1 (x₂)
     g: tuple[float | str, ...] = ()
+    length: float = 0.0
+    shortening: float = 0.0
 
     @classmethod
     def from_table(cls, value: object, key: str = "model.start") -> Start:
@@ -77,6 +87,8 @@ class Start:
             raise InputError(f"{key}.{missing[0]} is required for type '{kind}'")
         if kind == "arc":
             return cls._arc(value, key)
+        if kind == "elastica":
+            return cls._elastica(value, key)
         if kind == "formula":
             g = value["g"]
             if not isinstance(g, list) or len(g) != 3:
@@ -96,6 +108,18 @@ class Start:
             raise InputError(f"{key}.along must be 'x' or 'y', got {along!r}")
         return cls("arc", radius=float(radius), at=at, along=0 if along == "x" else 1)
 
+    @classmethod
+    def _elastica(cls, value: dict[str, Any], key: str) -> Start:
+        length = expressions.finite_number(value["length"], f"{key}.length")
+        shortening = expressions.finite_number(value["shortening"], f"{key}.shortening")
+        if not 0 < shortening < length:
+            raise InputError(
+                f"{key}: the shortening must lie in (0, length), got shortening = "
+                f"{shortening:g}, length = {length:g}"
+            )
+        at = expressions.finite_number(value.get("at", 0.0), f"{key}.at")
+        return cls("elastica", at=at, length=length, shortening=shortening)
+
     def function(self, mesh: Mesh, key: str = "model.start") -> Initial | None:
         """y⁰ as a function of the points; None for the flat start.
 
@@ -110,6 +134,8 @@ class Start:
         """
         if self.kind == "arc":
             return self._arc_function
+        if self.kind == "elastica":
+            return self._elastica_function
         if self.kind == "formula":
             for i, entry in enumerate(self.g):
                 if isinstance(entry, str):
@@ -124,6 +150,12 @@ class Start:
         y[i] = self.at + radius * np.sin(angle)
         y[2] = radius * (1.0 - np.cos(angle))
         return y
+
+    def _elastica_function(self, x: Array) -> Array:
+        s, xs, zs = clamped_elastica_curve(self.length, self.shortening)
+        arc = x[0] - self.at
+        left = self.at + self.shortening / 2
+        return np.vstack([left + np.interp(arc, s, xs), x[1], np.interp(arc, s, zs)])
 
     def _formula_function(self, x: Array) -> Array:
         points = np.ascontiguousarray(x[:2].T)
