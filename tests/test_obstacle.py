@@ -217,7 +217,7 @@ def test_start_inside_the_obstacle_is_refused(tmp_path):
     """The clamp is above the table, the flat start y₃ = 0 below the floor y₃ ≥ 0.01 + x/10."""
     problem = strip(4, 1e-4)
     problem = dgplate.problem_from_dict(
-        {**problem.raw, "model": {**problem.raw["model"], "obstacle": {"type": "above", "psi": "0.01*x"}}},
+        {**problem.raw, "model": {**problem.raw["model"], "obstacle": {"type": "above", "psi": "0.01*x"}, "start": "flat"}},
         "strip",
     )  # fmt: skip
     with pytest.raises(dgplate.InputError, match=r"model\.obstacle: the start y⁰ penetrates"):
