@@ -379,7 +379,7 @@ def _set_up(
         raise InputError(f"out must be a folder path, got {type(out).__name__} {out!r}")
     if out is not None and not os.fspath(out).strip():
         raise InputError(
-            "--out is empty: give a folder, or leave --out out (output.dir, else out/<name>)"
+            "--out is empty: give a folder, or omit --out for output.dir (else out/<name>)"
         )
     target = Path(out or problem.output.dir or f"out/{problem.name}")
     key = "--out" if out is not None else "output.dir" if problem.output.dir else "output folder"
