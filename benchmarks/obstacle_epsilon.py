@@ -29,8 +29,6 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-import numpy as np
-
 import dgplate
 from dgplate.io.output import print0
 from dgplate.reference.obstacle import lift_off_length, penalised_lift_off
@@ -82,7 +80,6 @@ def main() -> None:
                 strip(args.cells, eps, args),
                 out=Path(args.out) / f"eps{eps:g}",
                 comm=comm,
-                initial=lambda x: np.vstack([x[0], x[1], np.full_like(x[0], HEIGHT)]),
                 force=True,
             )
             row.update(

@@ -47,11 +47,6 @@ COMMON: dict[str, Any] = {
 }
 
 
-def arc(x: np.ndarray) -> np.ndarray:
-    """The start: the strip bent into a circular arc of radius 1 about the x₂ axis."""
-    return np.vstack([np.sin(x[0]), x[1], 1.0 - np.cos(x[0])])
-
-
 def gap(comm: MPI.Comm, shape: Any, apart: float = GAP_APART) -> float:
     """The gap of the O's overlap: the least |y(x) − y(x̃)| over nodes with |x₁ − x̃₁| ≥ apart.
 
@@ -91,7 +86,7 @@ def level(comm: MPI.Comm, args: argparse.Namespace, cells: int) -> dict[str, Any
     folder = tempfile.mkdtemp(prefix="oconv_") if comm.rank == 0 else None
     folder = comm.bcast(folder, root=0)
     t0 = time.perf_counter()
-    result = run_problem(problem, Path(folder) / "run", comm, initial=arc)
+    result = run_problem(problem, Path(folder) / "run", comm)  # the arc: model.start
     wall = time.perf_counter() - t0
     summary, history = result.summary, result.history
     distances = [row["min_distance"] for row in history if "min_distance" in row]

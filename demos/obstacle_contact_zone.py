@@ -67,21 +67,17 @@ def strip(model: dict, q: float, epsilon: float, tau: float) -> dgplate.Problem:
 # %% [markdown]
 # ## The single-layer plate, clamped above the table
 #
-# The flat start at the clamp's height (`initial`) is admissible; the plate falls onto the
+# The flat start at the clamp's height (the file's `model.start`) is admissible; the plate falls onto the
 # table. The splitting lets the free plate fall by about εq per step, so the lighter strips
 # take more steps.
 
 # %%
 
 
-def at_height(x: np.ndarray) -> np.ndarray:
-    return np.vstack([x[0], x[1], np.full_like(x[0], HEIGHT)])
-
-
 plate = []
 for q in weights_plate:
     problem = strip({}, q, EPS_PLATE, tau=1.0)  # clamped at height H (the problem file)
-    s = demo.run(problem, args, f"plate_q{q:g}", initial=at_height)
+    s = demo.run(problem, args, f"plate_q{q:g}")
     plate.append((q, s))
 
 demo.say(f"\nsingle layer, ε = {EPS_PLATE:g}, {cells} cells along the strip")
@@ -135,7 +131,7 @@ for q, s in plate:
 # contact zone starts at the clamp and ends where the strip curls off.
 
 # %%
-BILAYER = {"name": "bilayer", "Z": 1.0, "boundary_data": "flat"}  # clamped on the table
+BILAYER = {"name": "bilayer", "Z": 1.0, "boundary_data": "flat", "start": "flat"}  # on the table
 bilayer = []
 for q in weights_bilayer:
     problem = strip(BILAYER, q, EPS_BILAYER, tau=0.1)

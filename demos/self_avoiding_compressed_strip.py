@@ -38,11 +38,8 @@
 # %%
 from pathlib import Path
 
-import numpy as np
-
 import dgplate
 from dgplate import demo
-from dgplate.reference.elastica import clamped_elastica
 
 PROBLEM = Path(__file__).parent / "problems" / "self_avoiding_compressed_strip.toml"
 args = demo.arguments(
@@ -50,7 +47,6 @@ args = demo.arguments(
     "a compressed strip that does not touch itself",
     "64×8 cells, δα = 2e-3",
 )
-LENGTH, START = 4.0, 2.8  # the strip's length and the end shortening of the start
 
 
 # %% [markdown]
@@ -62,33 +58,11 @@ LENGTH, START = 4.0, 2.8  # the strip's length and the end shortening of the sta
 # $$ s = F(\varphi, k)/\lambda, \qquad x = \big(2E(\varphi, k) - F(\varphi, k)\big)/\lambda,
 #    \qquad z = 2k(1 - \cos\varphi)/\lambda, \qquad \varphi \in [0, 2\pi], $$
 #
-# with the incomplete elliptic integrals F, E (computed here by the trapezoidal rule on a
-# fine grid in φ). The plate is $y = (x(s), x_2, z(s))$, $s = x_1 + 2$: an isometry.
-
-
-# %%
-def elastica(shortening: float, samples: int = 20001) -> tuple[np.ndarray, ...]:
-    """Arc length, x and z of the clamped–clamped elastica of length 4 shortened by Δ."""
-    shape = clamped_elastica(LENGTH, shortening)
-    k, lam = shape["k"], shape["lambda"]
-    phi = np.linspace(0.0, 2.0 * np.pi, samples)
-    root = np.sqrt(1.0 - (k * np.sin(phi)) ** 2)
-    step = phi[1] - phi[0]
-
-    def integral(f: np.ndarray) -> np.ndarray:
-        return np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * step)])
-
-    F, E = integral(1.0 / root), integral(root)
-    return F / lam, (2.0 * E - F) / lam, 2.0 * k * (1.0 - np.cos(phi)) / lam
-
-
-s, xs, zs = elastica(START)
-
-
-def start(x: np.ndarray) -> np.ndarray:
-    """The elastica at Δ/L = 0.7, its left end at x₁ = −2 + Δ/2."""
-    arc = x[0] + LENGTH / 2
-    return np.vstack([np.interp(arc, s, xs) - (LENGTH - START) / 2, x[1], np.interp(arc, s, zs)])
+# with the incomplete elliptic integrals F, E (computed by the trapezoidal rule on a fine grid
+# in φ, `dgplate.reference.elastica.clamped_elastica_curve`). The plate is
+# $y = (x(s), x_2, z(s))$, $s = x_1 + 2$: an isometry. The problem file says so,
+# `model.start = {type = "elastica", length = 4.0, shortening = 2.8, at = -2.0}`, so that
+# `dgplate run` on it starts there too.
 
 
 # %%
@@ -101,7 +75,7 @@ if args.paper:
         "output.frames_every": 25,
     }
 problem = dgplate.load_problem(PROBLEM, overrides)
-result = demo.run(problem, args, initial=start)
+result = demo.run(problem, args)  # from the file's model.start: the elastica
 demo.copy_figure(args.out, args.figure)
 
 # %% [markdown]

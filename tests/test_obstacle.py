@@ -6,7 +6,6 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-import numpy as np
 import pytest
 from conftest import PARITY_RTOL
 
@@ -24,11 +23,6 @@ def strip(cells: int, epsilon: float, **more: object) -> dgplate.Problem:
     return dgplate.load_problem(STRIP, overrides | {f"output.{k}": v for k, v in QUIET.items()})
 
 
-def at_height(x: np.ndarray) -> np.ndarray:
-    """The flat start at the height of the clamp."""
-    return np.vstack([x[0], x[1], np.full_like(x[0], HEIGHT)])
-
-
 def test_strip_lifts_off_the_table_at_the_penalised_beam_length(tmp_path):
     """Contact starts where the 1D penalised beam leaves the table; the error falls with h.
 
@@ -41,7 +35,7 @@ def test_strip_lifts_off_the_table_at_the_penalised_beam_length(tmp_path):
     assert 0.8 < exact / lift_off_length(MU, HEIGHT, WEIGHT) < 0.9
     errors = []
     for cells in (8, 16):
-        result = dgplate.run(strip(cells, epsilon), out=tmp_path / str(cells), initial=at_height)
+        result = dgplate.run(strip(cells, epsilon), out=tmp_path / str(cells))
         assert result["converged"] and result["energy_increases"] == []
         errors.append(abs(result["contact_extent"][0] / exact - 1))
         # the strip lies on the table from the lift-off point to its end, across its width
@@ -65,7 +59,7 @@ def test_strip_lifts_off_the_table_at_the_closed_form_length(tmp_path):
     errors = []
     for cells in (8, 16, 32):
         problem = strip(cells, epsilon, **ACTIVE)
-        result = dgplate.run(problem, out=tmp_path / str(cells), initial=at_height)
+        result = dgplate.run(problem, out=tmp_path / str(cells))
         assert result["converged"] and result["energy_increases"] == []
         assert result["steps"] < 40 and result["active_set_changes"] < 60
         errors.append(abs(result["contact_extent"][0] / ell - 1))
@@ -81,7 +75,6 @@ def test_active_set_and_splitting_reach_the_same_minimiser(tmp_path):
         dgplate.run(
             strip(8, 1e-3, **{**ACTIVE, "model.obstacle.treatment": treatment}),
             out=tmp_path / treatment,
-            initial=at_height,
         )
         for treatment in ("splitting", "active_set")
     ]
@@ -224,7 +217,7 @@ def test_start_inside_the_obstacle_is_refused(tmp_path):
     """The clamp is above the table, the flat start y₃ = 0 below the floor y₃ ≥ 0.01 + x/10."""
     problem = strip(4, 1e-4)
     problem = dgplate.problem_from_dict(
-        {**problem.raw, "model": {**problem.raw["model"], "obstacle": {"type": "above", "psi": "0.01*x"}}},
+        {**problem.raw, "model": {**problem.raw["model"], "obstacle": {"type": "above", "psi": "0.01*x"}, "start": "flat"}},
         "strip",
     )  # fmt: skip
     with pytest.raises(dgplate.InputError, match=r"model\.obstacle: the start y⁰ penetrates"):

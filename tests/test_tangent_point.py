@@ -170,11 +170,7 @@ def test_the_safety_net_redoes_steps_that_approach_too_fast(tmp_path):
         {"flow.tau": 1.0, "flow.max_steps": 3, "model.self_avoidance.approach": 0.97,
          "output.png": False, "output.vtx": False, "output.progress": 0},
     )  # fmt: skip
-    result = dgplate.run(
-        problem,
-        out=tmp_path / "out",
-        initial=lambda x: np.vstack([np.sin(x[0]), x[1], 1.0 - np.cos(x[0])]),
-    )
+    result = dgplate.run(problem, out=tmp_path / "out")  # from the file's arc (model.start)
     first = result.history[0]
     assert first["redone"] >= 1 and first["tau"] == 1.0 / 2 ** first["redone"]
     assert result["energy_increases"] == []

@@ -247,7 +247,12 @@ def _height(psi: float | Expr, mesh: Mesh) -> Expr:
 def _parse_geometry(kind: str, table: dict[str, Any], key: str) -> dict[str, Any]:
     """The keys of one obstacle type, checked (ψ as a formula, vectors, radius, side)."""
     if kind in ("above", "below"):
-        psi = table.get("psi", 0.0)
+        if "psi" not in table:
+            raise InputError(
+                f"{key}.psi is required for type '{kind}': the obstacle's height ψ "
+                "(a number or a formula in x, y)"
+            )
+        psi = table["psi"]
         expressions.check(psi, f"{key}.psi")
         return {"psi": float(psi) if is_number(psi) else psi}
     if kind == "plane":

@@ -113,7 +113,7 @@ class SelfAvoidance:
             )
         if not 0 <= values["theta"] < 2:
             raise InputError(f"{key}.theta must be in [0, 2), got {values['theta']}")
-        for name, least in (("quadrature_degree", 0), ("max_redo", 0)):
+        for name, least in (("quadrature_degree", 1), ("max_redo", 0)):
             if not is_integer(values[name]) or values[name] < least:
                 raise InputError(f"{key}.{name} must be an integer >= {least}, got {values[name]}")
         if not 0 < values["approach"] < 1:

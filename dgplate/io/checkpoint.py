@@ -238,9 +238,25 @@ def _same_problem(state: Mapping[str, Any], expected: Mapping[str, Any]) -> bool
     return "input" not in state and found == fingerprint(older)
 
 
+#: The first bytes of a .npz file (a zip archive's local file header).
+_ZIP_MAGIC = b"PK\x03\x04"
+
+
+def _archive(path: Path) -> Any:
+    """``np.load(path)`` of a zip archive; ValueError for other bytes.
+
+    NumPy takes bytes that are neither a zip archive nor a .npy file for a pickle and refuses
+    them with advice about ``allow_pickle``, which would mislead: the file is damaged.
+    """
+    with path.open("rb") as handle:
+        if handle.read(len(_ZIP_MAGIC)) != _ZIP_MAGIC:
+            raise ValueError("it is not a .npz (zip) archive")
+    return np.load(path)
+
+
 def read_state(path: Path) -> Any:
     """The JSON state of the checkpoint in the .npz file ``path``, without its tables."""
-    with np.load(path) as npz:
+    with _archive(path) as npz:
         return json.loads(bytes(npz[_STATE_KEY]).decode())
 
 
@@ -250,7 +266,7 @@ def _read(path: Path) -> Checkpoint:
     Raises what NumPy, zipfile and json raise on a damaged file, and ValueError where what
     they read is not a checkpoint's content.
     """
-    with np.load(path) as npz:
+    with _archive(path) as npz:
         names = {key: _field_name(key) for key in npz.files}
         tables = {name: npz[key] for key, name in names.items() if name is not None}
     state = read_state(path)

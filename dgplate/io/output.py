@@ -107,14 +107,17 @@ def is_dgplate_output(path: Path) -> bool:
     return (path / MARKER).is_file()
 
 
-def target_problem(target: Path, force: bool = False, resume: bool = False) -> str | None:
+def target_problem(
+    target: Path, force: bool = False, resume: bool = False, key: str = "--out"
+) -> str | None:
     """Why ``target`` cannot receive a run's outputs (None when it can). Reads, never writes.
 
     A missing or empty folder, or a previous dgplate output, may be used; any other folder
     holds a user's files and is refused unless ``force`` (dgplate then adds its files and
     deletes none of the others); a file is always refused. ``resume`` needs a checkpoint.
+    ``key`` begins the messages: how the user named the folder (``--out``, ``output.dir``).
     """
-    unusable = _not_a_folder(target)
+    unusable = _not_a_folder(target, key)
     if unusable:
         return unusable
     if resume:
@@ -125,28 +128,28 @@ def target_problem(target: Path, force: bool = False, resume: bool = False) -> s
         return None
     if target.is_dir() and any(target.iterdir()) and not is_dgplate_output(target) and not force:
         return (
-            f"--out {target} is a non-empty folder that dgplate did not write; "
+            f"{key} {target} is a non-empty folder that dgplate did not write; "
             "choose another or pass --force (dgplate then adds its files and deletes none)"
         )
     parent = target
     while not parent.exists():
         parent = parent.parent
     if not parent.is_dir():
-        return f"--out {target}: {parent} is a file, not a directory"
+        return f"{key} {target}: {parent} is a file, not a directory"
     if not os.access(parent, os.W_OK | os.X_OK):
-        return f"--out {target}: no permission to write in {parent}"
+        return f"{key} {target}: no permission to write in {parent}"
     return None
 
 
-def _not_a_folder(target: Path) -> str | None:
+def _not_a_folder(target: Path, key: str) -> str | None:
     """Why ``target`` (or its ``checkpoint``) cannot be a folder: a file, a broken link."""
     if target.is_symlink() and not target.exists():
-        return f"--out {target} is a link to {os.readlink(target)}, which does not exist"
+        return f"{key} {target} is a link to {os.readlink(target)}, which does not exist"
     if target.exists() and not target.is_dir():
-        return f"--out {target} is a file, not a directory"
+        return f"{key} {target} is a file, not a directory"
     kept = target / CHECKPOINT
     if (kept.exists() or kept.is_symlink()) and not kept.is_dir():
-        return f"--out {target}: {kept} is a file; dgplate keeps its checkpoints in that name"
+        return f"{key} {target}: {kept} is a file; dgplate keeps its checkpoints in that name"
     return None
 
 
@@ -205,9 +208,14 @@ class OutputDir:
             self._write_marker([])
 
     @staticmethod
-    def check(comm: MPI.Comm, target: Path, force: bool = False, resume: bool = False) -> None:
-        """Raise ``InputError`` (on every rank) if ``target`` may not receive outputs."""
-        _decide(comm, lambda: target_problem(Path(target).absolute(), force, resume))
+    def check(
+        comm: MPI.Comm, target: Path, force: bool = False, resume: bool = False, key: str = "--out"
+    ) -> None:
+        """Raise ``InputError`` (on every rank) if ``target`` may not receive outputs.
+
+        ``key``: how the user named the folder, which begins the message.
+        """
+        _decide(comm, lambda: target_problem(Path(target).absolute(), force, resume, key))
 
     def _write_marker(self, files: list[str], inside: dict[str, list[str]] | None = None) -> None:
         write_marker(self.target, files, inside)

@@ -31,6 +31,7 @@ from dgplate.dg.obstacle import Obstacle
 from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh, rectangle
+from dgplate.models import starts
 from dgplate.models.base import (
     PlateModel,
     clamped_data,
@@ -88,13 +89,14 @@ class KirchhoffSpec:
     )
     obstacle: dict[str, object] = option(
         {},
-        "rigid obstacle (penalty (1/2ε)∫(s)₋², docs/obstacle.md): {} none, or {type = 'above'|'below' (y₃ ≥ ψ | y₃ ≤ ψ), psi = number or formula in x, y}, {type = 'plane', normal = [3], point = [3]} (n·(y − p) ≥ 0), {type = 'sphere', center = [3], radius = R, side = 'outside'|'inside'}; each with epsilon = ε > 0 (default 1e-4) and treatment = 'splitting' (default; the convex part implicit, the concave part explicit) or 'active_set' (the implicit part on the last contact set only)",
+        "rigid obstacle (penalty (1/2ε)∫(s)₋², docs/obstacle.md): {} none, or {type = 'above'|'below' (y₃ ≥ ψ | y₃ ≤ ψ), psi = number or formula in x, y (required)}, {type = 'plane', normal = [3], point = [3]} (n·(y − p) ≥ 0), {type = 'sphere', center = [3], radius = R, side = 'outside'|'inside'}; each with epsilon = ε > 0 (default 1e-4) and treatment = 'splitting' (default; the convex part implicit, the concave part explicit) or 'active_set' (the implicit part on the last contact set only)",
     )
 
     self_avoidance: dict[str, float] = option(
         {},
         "self-avoidance ρ·TP[y] by the tangent-point potential (docs/self_avoidance.md): {} none, or {rho = ρ >= 0, q = exponent > 4 (4.5), theta = cluster-tree admissibility (0.5; 0 = exact sums), quadrature_degree = 2, max_redo = halvings of τ per step (8), approach = redo a step when the least distance falls below this fraction (0.5)}",
     )
+    start: str | dict[str, object] = option("flat", starts.HELP)
 
     def __post_init__(self) -> None:
         if self.degree < 2:
@@ -111,6 +113,7 @@ class KirchhoffSpec:
         check_penalty_length(self.penalty_length, "model.penalty_length")
         self._obstacle = Obstacle.from_table(self.obstacle, "model.obstacle")
         self._self_avoidance = SelfAvoidance.from_table(self.self_avoidance)
+        self._start = starts.Start.from_table(self.start)
         self._check_data()
 
     def _check_data(self) -> None:
@@ -143,6 +146,11 @@ class KirchhoffSpec:
     def obstacle_params(self) -> Obstacle | None:
         """The validated ``obstacle`` table (None: no obstacle)."""
         return self._obstacle
+
+    @property
+    def start_params(self) -> starts.Start:
+        """The validated ``start`` (the flow's first state)."""
+        return self._start
 
     @property
     def self_avoidance_params(self) -> SelfAvoidance | None:

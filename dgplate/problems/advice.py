@@ -64,9 +64,34 @@ def before_run(
     """
     messages = [nothing_to_solve(problem, tagged.mesh, starts_flat=initial is None)]
     messages.append(weak_self_avoidance(problem))
+    messages += adaptive_only(problem)
     if problem.flow.tau != "h":
         messages.append(tau_scale(float(problem.flow.tau), max_cell_diameter(tagged.mesh)))
     return [m for m in messages if m]
+
+
+#: The [flow] keys of the τ controller, which do nothing without ``flow.adaptive_tau = true``.
+ADAPTIVE_ONLY = (
+    "defect_bound",
+    "tau_growth",
+    "tau_growth_max",
+    "tau_max_ratio",
+    "refactor_factor",
+    "newton_finish",
+    "newton_tau_ratio",
+)
+
+
+def adaptive_only(problem: Problem) -> list[str]:
+    """Warnings for keys of the τ controller given while ``flow.adaptive_tau`` is false."""
+    given = problem.raw.get("flow") or {}
+    if problem.flow.adaptive_tau:
+        return []
+    return [
+        f"flow.{key} has no effect without flow.adaptive_tau = true (τ stays flow.tau)"
+        for key in ADAPTIVE_ONLY
+        if key in given
+    ]
 
 
 def weak_self_avoidance(problem: Problem) -> str | None:
@@ -172,9 +197,14 @@ def after_run(problem: Problem, driver: Any, summary: Mapping[str, Any], area: f
     """Warnings once the driver has stopped (before it is destroyed).
 
     Warnings once the driver has stopped (before it is destroyed): [flow] solver options
-    that PETSc never read, and a final state far from an isometry (``area`` = |Ω|).
+    and FvK's ``model.snes`` options that PETSc never read, and a final state far from an
+    isometry (``area`` = |Ω|).
     """
-    return unused_solver_options(problem.flow.solver, driver) + advise_result(summary, area)
+    unused = unused_solver_options(problem.flow.solver, driver)
+    snes = getattr(problem.model, "snes", None)
+    if snes:
+        unused += unused_solver_options(snes, driver, "model.snes")
+    return unused + advise_result(summary, area)
 
 
 def advise_result(summary: Mapping[str, Any], area: float = 1.0) -> list[str]:
@@ -197,35 +227,41 @@ def advise_result(summary: Mapping[str, Any], area: float = 1.0) -> list[str]:
     ]
 
 
-def unused_solver_options(options: Mapping[str, Any], driver: Any) -> list[str]:
-    """Warnings for ``flow.solver`` keys that PETSc never read.
+def unused_solver_options(
+    options: Mapping[str, Any], driver: Any, key: str = "flow.solver"
+) -> list[str]:
+    """Warnings for ``flow.solver`` (or ``model.snes``: ``key``) options PETSc never read.
 
-    Warnings for ``flow.solver`` keys (``options``) that PETSc never read (misspelt, or not
-    used by the chosen solver); collective. Call after the run: MUMPS reads its options only
-    at the first factorisation. The driver's step solver (``driver.solver``) holds the KSPs.
+    Warnings for the keys of ``options`` that PETSc never read (misspelt, or not used by the
+    chosen solver); collective. Call after the run: MUMPS reads its options only at the first
+    factorisation. The KSPs of the driver's step solver (``driver.solver``) and the driver's
+    own SNES (FvK's Newton solver) give the options prefixes.
     """
     given = list(options)
     if not given:
         return []
-    attributes = getattr(getattr(driver, "solver", None), "__dict__", {}).values()
-    solvers = [obj for obj in attributes if isinstance(obj, PETSc.KSP)]
-    prefixes = sorted({ksp.getOptionsPrefix() or "" for ksp in solvers})
+    attributes = [
+        *getattr(getattr(driver, "solver", None), "__dict__", {}).values(),
+        *getattr(driver, "__dict__", {}).values(),
+    ]
+    solvers = [obj for obj in attributes if isinstance(obj, PETSc.KSP | PETSc.SNES)]
+    prefixes = sorted({solver.getOptionsPrefix() or "" for solver in solvers})
     present = PETSc.Options().getAll()
     unused = []
-    for key in given:
-        names = [p + key for p in prefixes if p + key in present]
+    for option in given:
+        names = [p + option for p in prefixes if p + option in present]
         used = [option_used(name) for name in names]
         if None in used:  # this petsc4py cannot tell: no warning rather than a wrong one
             return []
         if not any(used):
-            unused.append(key)
+            unused.append(option)
     everywhere = set.intersection(*map(set, driver.comm.allgather(unused)))
     where = " or ".join(f"-{p}" for p in prefixes)
     return [
-        f"flow.solver.{key} was never read by PETSc (options prefix {where}): a misspelt "
+        f"{key}.{name} was never read by PETSc (options prefix {where}): a misspelt "
         "option, or one that the chosen solver does not use"
-        for key in unused
-        if key in everywhere
+        for name in unused
+        if name in everywhere
     ]
 
 

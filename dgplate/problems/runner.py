@@ -40,6 +40,7 @@ from dgplate.io.output import (
 )
 from dgplate.io.records import summary_is_current
 from dgplate.mesh.tagged import TaggedMesh, load_geo, rectangle
+from dgplate.models import starts
 from dgplate.models.base import Model
 from dgplate.problems import advice
 from dgplate.problems.registry import MODELS
@@ -298,7 +299,7 @@ def run(
     problem: Problem,
     out: str | Path | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
-    initial: Initial | None = None,
+    initial: Initial | str | dict[str, Any] | None = None,
     force: bool = False,
     resume: bool = False,
 ) -> Result:
@@ -308,7 +309,9 @@ def run(
         problem: a validated problem (:func:`dgplate.load_problem`).
         out: the output folder (default: ``output.dir``, else ``out/<problem name>``).
         comm: the communicator of the ranks that solve it.
-        initial: x ↦ y(x), a start other than the flat plate (e.g. an exact fold).
+        initial: x ↦ y(x), a start other than the flat plate (e.g. an exact fold), or
+            ``"flat"`` or a start table as ``model.start`` (:mod:`dgplate.models.starts`);
+            it takes precedence over ``model.start``.
         force: write into a folder of a user's files (deleting none of them).
         resume: continue from the checkpoint in the output folder, on any number of ranks.
 
@@ -320,6 +323,7 @@ def run(
     wall0 = time.perf_counter()
     with interrupt.StopOnSignal(), printing_ends_on_closed_pipe():
         target, start, tagged, model = _set_up(problem, out, comm, force, resume)
+        initial = starts.resolve(problem.model, initial, tagged.mesh)
         return _solve(_Job(problem, tagged, target, initial, force, start, wall0), model)
 
 
@@ -327,7 +331,7 @@ def check(
     problem: Problem,
     out: str | Path | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
-    initial: Initial | None = None,
+    initial: Initial | str | dict[str, Any] | None = None,
     force: bool = False,
     resume: bool = False,
 ) -> dict[str, Any]:
@@ -345,6 +349,7 @@ def check(
     and ``resume`` checks the checkpoint there.
     """
     target, start, tagged, model = _set_up(problem, out, comm, force, resume)
+    initial = starts.resolve(problem.model, initial, tagged.mesh)
     driver = model.driver(problem.flow, [], initial)
     _start(driver, start, target)
     report = {
@@ -373,8 +378,13 @@ def _set_up(
         )
     if out is not None and not isinstance(out, str | os.PathLike):
         raise InputError(f"out must be a folder path, got {type(out).__name__} {out!r}")
+    if out is not None and not os.fspath(out).strip():
+        raise InputError(
+            "--out is empty: give a folder, or omit --out for output.dir (else out/<name>)"
+        )
     target = Path(out or problem.output.dir or f"out/{problem.name}")
-    OutputDir.check(comm, target, force, resume)
+    key = "--out" if out is not None else "output.dir" if problem.output.dir else "output folder"
+    OutputDir.check(comm, target, force, resume, key)
     start = _resume_point(problem, target, comm) if resume else None
     return (target, start, *build_model(problem, comm))
 

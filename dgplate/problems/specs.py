@@ -181,7 +181,15 @@ def apply_overrides(data: dict[str, Any], overrides: Overrides) -> dict[str, Any
 
 
 def _plain(value: Any) -> Any:
-    """A Python value as TOML would give it: tuples as lists (``(32, 32)`` for cells)."""
+    """A Python value as TOML would give it (a copy).
+
+    Tuples and NumPy arrays as lists (``(32, 32)`` for cells), NumPy scalars as Python
+    numbers (``np.int64(32)`` is an integer, ``np.float64`` a float, ``np.bool_`` a bool).
+    """
+    import numpy as np
+
+    if isinstance(value, np.ndarray | np.generic):
+        value = value.tolist()
     if isinstance(value, tuple | list):
         return [_plain(v) for v in value]
     if isinstance(value, Mapping):
@@ -210,15 +218,28 @@ def load_problem(path: str | Path, overrides: Overrides = ()) -> Problem:
 
 
 def problem_from_dict(data: dict[str, Any], name: str, overrides: Overrides = ()) -> Problem:
-    """Validate a problem given as a dict (the Python API's entry point)."""
-    import copy
+    """Validate a problem given as a dict (the Python API's entry point).
 
+    Args:
+        data: the sections, as a problem file's tables (NumPy scalars are taken as numbers).
+        name: the problem's name: a plain name (the default output folder is out/<name>).
+        overrides: as for :func:`load_problem`.
+
+    Returns:
+        The validated problem.
+    """
     if not isinstance(data, Mapping):
         raise InputError(f"a problem is a dict of sections, got {type(data).__name__}")
+    _check_name(name)
 
     from dgplate.problems.registry import MODELS, model_spec
 
-    data = apply_overrides(copy.deepcopy(data), overrides)
+    data = apply_overrides(_plain(data), overrides)
+    if not data:
+        raise InputError(
+            f"the problem {name!r} is empty: give at least [model] (`dgplate schema` prints "
+            "every key and its default)"
+        )
     for section in data:
         if section not in SECTIONS:
             raise InputError(f"unknown section [{section}] (known: {', '.join(SECTIONS)})")
@@ -238,6 +259,19 @@ def problem_from_dict(data: dict[str, Any], name: str, overrides: Overrides = ()
             "anchor) the metric needs the L² product (rigid motions); set flow.l2_metric = 'auto'"
         )
     return Problem(name, mesh, model, flow, output, data)
+
+
+def _check_name(name: object) -> None:
+    """A problem's name must be a plain file name: it names the folder out/<name>."""
+    if (
+        not isinstance(name, str)
+        or name.strip() in ("", ".", "..")
+        or any(char in name for char in "/\\\0")
+    ):
+        raise InputError(
+            f"the problem name must be a plain name (no '/', '\\', not '..'): it names the "
+            f"default output folder out/<name>, got {name!r}"
+        )
 
 
 def sections(model: str) -> list[tuple[str, type]]:

@@ -25,7 +25,9 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["clamped_elastica", "elliptic_ke"]
+import numpy as np
+
+__all__ = ["clamped_elastica", "clamped_elastica_curve", "elliptic_ke"]
 
 
 def elliptic_ke(k: float) -> tuple[float, float]:
@@ -68,3 +70,34 @@ def clamped_elastica(length: float, shortening: float) -> dict[str, float]:
         "height": length * k / K,
         "lambda": 4 * K / length,
     }
+
+
+def clamped_elastica_curve(
+    length: float, shortening: float, samples: int = 20001
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Arc length s, x and z of the clamped–clamped elastica of length L shortened by Δ.
+
+    With sin(θ/2) = k sin φ, λ ds = dφ / √(1 − k² sin²φ) (docs/continuation.md):
+    s = F(φ, k)/λ, x = (2E(φ, k) − F(φ, k))/λ, z = 2k(1 − cos φ)/λ for φ ∈ [0, 2π], with the
+    incomplete elliptic integrals F, E by the trapezoidal rule on ``samples`` points in φ.
+    The curve runs from (0, 0) to (L − Δ, 0).
+
+    Args:
+        length: L.
+        shortening: Δ in (0, L).
+        samples: points of the table.
+
+    Returns:
+        The tables s, x and z (increasing s).
+    """
+    shape = clamped_elastica(length, shortening)
+    k, lam = shape["k"], shape["lambda"]
+    phi = np.linspace(0.0, 2.0 * np.pi, samples)
+    root = np.sqrt(1.0 - (k * np.sin(phi)) ** 2)
+    step = phi[1] - phi[0]
+
+    def integral(f: np.ndarray) -> np.ndarray:
+        return np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]) * step)])
+
+    F, E = integral(1.0 / root), integral(root)
+    return F / lam, (2.0 * E - F) / lam, 2.0 * k * (1.0 - np.cos(phi)) / lam
