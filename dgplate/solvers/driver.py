@@ -12,13 +12,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol, cast
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 from mpi4py import MPI
 
 from dgplate.compat import Form, Function, FunctionSpace
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import integral
+
+if TYPE_CHECKING:
+    from dgplate.solvers.flow import FlowSpec
 
 
 class Record(Protocol):
@@ -189,7 +192,17 @@ class EnergyFlow(StepCounters):
     W: FunctionSpace
     comm: MPI.Comm
     energy: Energy
+    settings: FlowSpec
     _E_form: Form
+
+    @property
+    def checkpoint_every(self) -> int:
+        """Steps between checkpoints: ``flow.checkpoint_every``."""
+        return self.settings.checkpoint_every
+
+    def remaining_steps(self) -> int:
+        """Steps left of ``flow.max_steps`` (the budget of a run and its resumed runs)."""
+        return max(self.settings.max_steps - self.step_count, 0)
 
     @property
     def num_dofs(self) -> int:

@@ -225,7 +225,7 @@ LAGGED_MUMPS: dict[str, OptionValue] = {
     "ksp_gmres_restart": 30,
 }
 
-STEP_SOLVERS = ("lagged", "direct", "schur")
+STEP_SOLVERS = ("lagged", "direct")
 #: Iterations over which the lagged solver measures FGMRES's recent rate of convergence
 #: (:meth:`LaggedStepSolver._hopeless`).
 RATE_WINDOW = 4
