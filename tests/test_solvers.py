@@ -23,7 +23,7 @@ from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.kirchhoff import KirchhoffSpec, bnn_plate, build_kirchhoff
 from dgplate.reference.bnn import bnn_h
 from dgplate.solvers.flow import FlowSpec, GradientFlow
-from dgplate.solvers.linear import RATE_WINDOW
+from dgplate.solvers.lagged import RATE_WINDOW
 
 
 def rolling_strip(comm: MPI.Comm, linear_solver: str):

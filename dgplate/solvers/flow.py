@@ -11,7 +11,7 @@ which share one sparsity pattern: DOLFINx's pattern of the step form without the
 block's exact zeros (the components of y do not couple, :mod:`dgplate.solvers.sparsity`). Since that
 sum changes only through b_n, the default
 solver keeps one LU factorisation over many steps as the preconditioner of FGMRES
-(:class:`dgplate.solvers.linear.LaggedStepSolver`) and refactorises only when the iteration count
+(:class:`dgplate.solvers.lagged.LaggedStepSolver`) and refactorises only when the iteration count
 grows. The flow is generic: it only sees an :class:`Energy`.
 
 :class:`GradientFlow` is the driver; it composes the step system
@@ -46,7 +46,8 @@ from dgplate.schema import is_integer, is_number, option
 from dgplate.solvers import linear
 from dgplate.solvers.constraint import IsometryDefect
 from dgplate.solvers.driver import EnergyFlow, Observer
-from dgplate.solvers.linear import OptionValue, StepSolver
+from dgplate.solvers.lagged import StepSolver
+from dgplate.solvers.linear import OptionValue
 from dgplate.solvers.projection import Projection
 from dgplate.solvers.stationarity import Stationarity
 from dgplate.solvers.step_system import FlowCounts, Spaces, StepSystem, mixed_space

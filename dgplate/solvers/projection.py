@@ -11,7 +11,8 @@ import math
 
 from dgplate.compat import Array
 from dgplate.solvers.constraint import IsometryDefect
-from dgplate.solvers.linear import SolveStats, StepSolver
+from dgplate.solvers.lagged import StepSolver
+from dgplate.solvers.linear import SolveStats
 from dgplate.solvers.step_system import StepSystem
 
 #: At most this many corrections close the constraint after an SQP step (see close_constraint).

@@ -11,8 +11,9 @@ from petsc4py import PETSc
 
 from dgplate import compat
 from dgplate.compat import Function
-from dgplate.solvers import linear, ordering
-from dgplate.solvers.linear import OptionValue, StepSolver
+from dgplate.solvers import lagged, linear, ordering
+from dgplate.solvers.lagged import StepSolver
+from dgplate.solvers.linear import OptionValue
 from dgplate.solvers.step_system import StepSystem
 from dgplate.solvers.steps import StepInfo
 
@@ -43,7 +44,7 @@ class Stationarity:
         solver: StepSolver = (
             linear.DirectStepSolver(comm, matrix, settings.solver, prefix=None)
             if settings.linear_solver == "direct"
-            else linear.LaggedStepSolver(
+            else lagged.LaggedStepSolver(
                 comm,
                 matrix,
                 {**STATIONARITY_KRYLOV, **(settings.solver or {})},

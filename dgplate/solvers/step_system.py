@@ -23,7 +23,7 @@ from dgplate import compat, values
 from dgplate.compat import Array, Function, FunctionSpace, Indices, Mesh
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets, h2_metric
-from dgplate.solvers import linear, ordering, sparsity, sqp
+from dgplate.solvers import lagged, linear, ordering, sparsity, sqp
 from dgplate.solvers.constraint import (
     EdgeConstraint,
     linearised_isometry,
@@ -31,7 +31,8 @@ from dgplate.solvers.constraint import (
     multiplier_element,
     symmetric,
 )
-from dgplate.solvers.linear import SolveStats, StepSolver
+from dgplate.solvers.lagged import StepSolver
+from dgplate.solvers.linear import SolveStats
 
 if TYPE_CHECKING:
     from dgplate.solvers.flow import FlowSpec
@@ -169,7 +170,7 @@ class StepSystem:
         settings = self.settings
         if settings.linear_solver == "direct":
             return linear.DirectStepSolver(self.comm, self.K, settings.solver, prefix=None)
-        return linear.LaggedStepSolver(
+        return lagged.LaggedStepSolver(
             self.comm,
             self.K,
             settings.solver,
