@@ -186,19 +186,14 @@ class Continuation:
             InputError naming ``options_key``, their problem-file key.
         bc_values: ``(constant, value)`` pairs of Dirichlet data at full load: the driver sets
             ``constant.value = load factor × value`` whenever the load factor changes.
-        secant: start each step from the secant extrapolation of the two previous states;
-            False: from the previous state.
+        secant: start each step from the secant extrapolation of the last two states.
         observers: told of every load step and of the end of :meth:`run`.
-        shape: the deformed surface y: ω → ℝ³ as a Function, or a callable returning it
-            updated from the state (called after each step and on a restore).
-        probes: numbers of the state (e.g. a centre deflection) added to every record; the
-            names are those it returns at the start.
+        shape: the deformed surface y: ω → ℝ³, a Function or a callable that updates it.
+        probes: numbers of the state added to every record (named as at the start).
         hint: what to try when Newton fails, appended to the reason.
         checkpoint_every: load steps between checkpoints (a load step is expensive: each).
-        stability: compute the lowest Hessian eigenvalue after each step (:class:`Stability`);
-            None: not.
-        relaxation: solve each step by a proximal gradient flow (:class:`Relaxation`) that
-            decreases Π, then Newton; None: Newton alone.
+        stability: the lowest Hessian eigenvalue after each step (:class:`Stability`) or None.
+        relaxation: a proximal gradient flow (:class:`Relaxation`) before Newton, or None.
 
     All methods are collective on the state's communicator.
     """
@@ -245,7 +240,7 @@ class Continuation:
         ]
         self.initial = state.x.array.copy()  # the deflection scale is measured from it
         self.set_load(self.time)
-        self._shape = self._update_shape()
+        self._shape = _shape_of(self._shape_source)
         self.spectrum = StabilityObserver(self, stability.solver if stability else None)
         names = list(probes()) if probes else []
         self._record = record_type([*names, LOWEST] if stability else names)
@@ -337,8 +332,7 @@ class Continuation:
             "load_factors": [factor for factor, _ in self.states],
             "history": [asdict(record) for record in self.history],
             "residual_norms": self.residual_norms,
-            "crossings": self.spectrum.crossings,
-            "perturbations": self.spectrum.perturbations,
+            **self.spectrum.checkpoint_state(),
             "relaxations": self.branches.relaxations,
         }
 
@@ -347,8 +341,7 @@ class Continuation:
         self.step_count = int(state["step"])
         self.history = [self._record(**row) for row in state["history"]]
         self.residual_norms = [list(norms) for norms in state["residual_norms"]]
-        self.spectrum.crossings = [float(f) for f in state.get("crossings", [])]
-        self.spectrum.perturbations = [dict(p) for p in state.get("perturbations", [])]
+        self.spectrum.restore_state(state)
         self.branches.relaxations = [dict(r) for r in state.get("relaxations", [])]
         factors = [float(factor) for factor in state["load_factors"]]
         for function in (self.state, self._previous):
@@ -356,7 +349,7 @@ class Continuation:
         arrays = [self._previous.x.array.copy(), self.state.x.array.copy()]
         self.states = list(zip(factors, arrays[-len(factors) :]))
         self.set_load(factors[-1])
-        self._shape = self._update_shape()
+        self._shape = _shape_of(self._shape_source)
 
     def summary(self) -> dict[str, Any]:
         """Numbers for ``summary.json``: dofs, load factors, Newton iterations, energy.
@@ -421,7 +414,7 @@ class Continuation:
         self.step_count += 1
         norms = self.newton.norms
         self.residual_norms.append(list(norms))
-        self._shape = self._update_shape()
+        self._shape = _shape_of(self._shape_source)
         probes.update(self._probes() if self._probes else {})
         record = self._record(
             step=self.step_count,
@@ -464,7 +457,7 @@ class Continuation:
         factor, array = self.states[-1]
         self.state.x.array[:] = array
         self.set_load(factor)
-        self._shape = self._update_shape()
+        self._shape = _shape_of(self._shape_source)
 
     def set_load(self, factor: float) -> None:
         """The load factor and the Dirichlet data at it."""
@@ -472,13 +465,14 @@ class Continuation:
         for constant, value in self._bc_values:
             constant.value = np.asarray(factor * value)
 
-    def _update_shape(self) -> dolfinx.fem.Function[np.float64]:
-        source = self._shape_source
-        return source if isinstance(source, dolfinx.fem.Function) else source()
-
     def energy_value(self) -> float:
         """Π of the current state (collective)."""
         return self.newton.energy_value()
+
+
+def _shape_of(source: Shape) -> dolfinx.fem.Function[np.float64]:
+    """The deformed surface of a driver's ``shape`` argument: the Function, or updated."""
+    return source if isinstance(source, dolfinx.fem.Function) else source()
 
 
 def _checked_schedule(schedule: Sequence[float], start: float) -> list[float]:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
@@ -107,6 +107,15 @@ class StabilityObserver:
             abs(getattr(r, LOWEST)) for r in self.path.history if math.isfinite(getattr(r, LOWEST))
         ]
         return float(leave.eig_rtol * max([abs(lowest), *met]))
+
+    def checkpoint_state(self) -> dict[str, Any]:
+        """The crossings and the perturbations so far."""
+        return {"crossings": self.crossings, "perturbations": self.perturbations}
+
+    def restore_state(self, state: Mapping[str, Any]) -> None:
+        """Take back :meth:`checkpoint_state` (missing keys: none)."""
+        self.crossings = [float(f) for f in state.get("crossings", [])]
+        self.perturbations = [dict(p) for p in state.get("perturbations", [])]
 
     def summary(self) -> dict[str, Any]:
         """The lowest eigenvalue per step, the crossings, the pushes and the eigensolver.
