@@ -1,6 +1,6 @@
 """Leaving unstable branches of a load path, and the relaxation that makes it possible.
 
-Relaxation (:class:`dgplate.solvers.newton.Relaxation`). Newton finds critical points, not
+Relaxation (:class:`dgplate.solvers.path_options.Relaxation`). Newton finds critical points, not
 minima: from a small push off an unstable state it often returns to it. With a relaxation
 each load step (and each solve after a push) is a proximal gradient flow in pseudo-time
 instead, the implicit Euler steps
@@ -19,7 +19,7 @@ polishes the state to the SNES tolerance. The energies of the accepted steps are
 Leaving (``Stability.perturb`` and ``Stability.leave``). With ``perturb = a`` the state of a
 step whose lowest eigenvalue has just turned negative is moved by a·φ (φ the unstable mode,
 max |φ_i| = 1, signed by :mod:`dgplate.solvers.eigen`) and solved again at the same load
-factor. With ``leave`` (:class:`dgplate.solvers.newton.Leave`) every converged step whose
+factor. With ``leave`` (:class:`dgplate.solvers.path_options.Leave`) every converged step whose
 lowest eigenvalue is below −tol (tol = ``eig_rtol`` × the largest |lowest eigenvalue| of the
 path so far) is left by rounds of push–relax: the state is moved by a·φ with a = ``fraction``
 × the deflection scale (the largest change of a free unknown since the start of the path),
@@ -34,25 +34,50 @@ from __future__ import annotations
 
 import itertools
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from mpi4py import MPI
 
+import dolfinx.fem
 import dolfinx.fem.petsc
 import numpy as np
+import numpy.typing as npt
 from petsc4py import PETSc
 
 from dgplate.errors import SolverError
 from dgplate.solvers import eigen
+from dgplate.solvers.path_options import Leave, Relaxation, Stability
+from dgplate.solvers.snes import NewtonSolver
+from dgplate.solvers.stability import StabilityObserver
 
-if TYPE_CHECKING:
-    from dgplate.solvers.newton import Continuation, Leave, Relaxation, Stability
+
+class Path(Protocol):
+    """The load path as the branch leaving sees it (:class:`dgplate.solvers.newton.Continuation`)."""
+
+    comm: MPI.Comm
+    state: dolfinx.fem.Function[np.float64]
+    initial: npt.NDArray[np.float64]  # the start of the path (the deflection scale)
+    states: list[tuple[float, npt.NDArray[np.float64]]]  # the secant predictor's points
+    newton: NewtonSolver
+    spectrum: StabilityObserver
+
+    def take_back(self) -> None:
+        """Back to the last converged state and its load factor."""
+        ...
+
+    def set_load(self, factor: float) -> None:
+        """The load factor and the Dirichlet data at it."""
+        ...
+
+    def solve_at(self, factor: float) -> int:
+        """Newton, or the relaxation and then Newton, at ``factor``: the iterations spent."""
+        ...
 
 
 class BranchLeaving:
     """The relaxation of a load path's solves, and the pushes off its unstable states."""
 
-    def __init__(self, path: Continuation):
+    def __init__(self, path: Path):
         """For the load path ``path`` (its state, its Newton solver and its stability)."""
         self.path, self.newton = path, path.newton
         self.relaxations: list[dict[str, Any]] = []  # the accepted energies of each relaxation

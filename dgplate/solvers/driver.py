@@ -12,16 +12,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Protocol, cast
+from typing import Any, Protocol, cast
 
 from mpi4py import MPI
 
 from dgplate.compat import Form, Function, FunctionSpace
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import integral
-
-if TYPE_CHECKING:
-    from dgplate.solvers.flow import FlowSpec
 
 
 class Record(Protocol):
@@ -182,6 +179,13 @@ class StepCounters:
         self.energy_increases = [int(s) for s in state.get("energy_increases", [])]
 
 
+class Budget(Protocol):
+    """The [flow] keys of a flow's step budget (:class:`dgplate.solvers.flow.FlowSpec`)."""
+
+    max_steps: int
+    checkpoint_every: int
+
+
 class EnergyFlow(StepCounters):
     """A flow of an :class:`~dgplate.dg.energy.Energy` on a mixed space ``W``.
 
@@ -192,7 +196,7 @@ class EnergyFlow(StepCounters):
     W: FunctionSpace
     comm: MPI.Comm
     energy: Energy
-    settings: FlowSpec
+    settings: Budget
     _E_form: Form
 
     @property

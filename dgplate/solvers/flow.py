@@ -233,6 +233,7 @@ class GradientFlow(EnergyFlow):
 
     #: The step system's class (a benchmark replaces it by a naive one).
     system_type: type[StepSystem] = StepSystem
+    settings: FlowSpec
 
     def __init__(
         self,
@@ -271,7 +272,7 @@ class GradientFlow(EnergyFlow):
         tau = max_cell_diameter(mesh) if settings.tau == "h" else float(settings.tau)
         spaces = Spaces(self.W, self.V, self._vdofs, self.y)
         self.system = self.system_type(spaces, facets, self.energy, settings, tau, self.counts)
-        self.control = TauController(self, self.system, self.counts, tau)
+        self.control = TauController(self, self.system, settings, tau)
         self.projection = Projection(self.system, self.defect, settings.projection_steps)
         self.measure = Stationarity(self.system, settings, tau)
         self._E_form = dolfinx.fem.form(self.energy.total)

@@ -15,10 +15,8 @@ product of b plus the L² products of both, so that free ends need no special ca
 Why not :class:`dgplate.solvers.flow.GradientFlow`: that flow is written for a single
 deformation y ∈ [DG_k]³ of a 2D plate with the isometry constraint ∇yᵀ∇y = I; the rod has two
 unknown fields, three other constraints and strong end conditions. Only the step system is
-different: the records, the stopping rule, the checkpoints and the runner's observers are the
-same (:class:`dgplate.solvers.driver.Driver`). The 1D system is small (a few thousand
-unknowns), so it is reassembled and factorised by MUMPS at every step
-(:class:`dgplate.solvers.linear.DirectStepSolver`).
+different: the records, the stopping rule, the safeguard and the checkpoints are the same. The
+1D system is small, so it is reassembled and factorised by MUMPS at every step.
 
 ``flow.projection_steps = m`` adds after each step m Newton corrections towards the nonlinear
 constraints (the same moments and nodes): the step system assembled at the current state, with
@@ -190,6 +188,8 @@ class Defects:
 
 class RodFlow(EnergyFlow):
     """The constrained gradient flow of a rod energy E(u, b) (a Driver)."""
+
+    settings: FlowSpec
 
     def __init__(
         self,

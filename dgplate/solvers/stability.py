@@ -14,17 +14,16 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from petsc4py import PETSc
 
 from dgplate.errors import SolverError
 from dgplate.solvers import eigen
-
-if TYPE_CHECKING:
-    from dgplate.solvers.newton import Continuation, Leave, Stability
+from dgplate.solvers.path_options import Leave, Stability
+from dgplate.solvers.snes import NewtonSolver
 
 #: The record field of the lowest Hessian eigenvalue.
 LOWEST = "lowest_eigenvalue"
@@ -32,10 +31,38 @@ LOWEST = "lowest_eigenvalue"
 _log = logging.getLogger(__name__)
 
 
+class Leaving(Protocol):
+    """What leaves an unstable state (:class:`dgplate.solvers.branch.BranchLeaving`)."""
+
+    def leave_branch(
+        self, factor: float, stability: Stability, leave: Leave, pairs: eigen.Eigenpairs
+    ) -> tuple[float, int]:
+        """Push–relax rounds from an unstable state: (the final lowest eigenvalue, Newton its)."""
+        ...
+
+    def leave_unstable(
+        self, factor: float, stability: Stability, mode: PETSc.Vec
+    ) -> tuple[float, int]:
+        """Push the state along ``mode`` and solve again: (amplitude, Newton its)."""
+        ...
+
+
+class Path(Protocol):
+    """The load path as the observer sees it (:class:`dgplate.solvers.newton.Continuation`)."""
+
+    newton: NewtonSolver
+    branches: Leaving
+
+    @property
+    def history(self) -> Sequence[Any]:
+        """The records of the converged load steps (``load_factor``, :data:`LOWEST`)."""
+        ...
+
+
 class StabilityObserver:
     """The lowest Hessian eigenvalues along a load path, its crossings and the pushes off it."""
 
-    def __init__(self, path: Continuation, solver: str | None):
+    def __init__(self, path: Path, solver: str | None):
         """The observer of ``path``; ``solver``: the eigensolver asked for (None: no check)."""
         self.path = path
         self.eigensolver = eigen.resolve_solver(solver) if solver else None

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import dolfinx.fem
 import dolfinx.fem.petsc
@@ -14,21 +14,25 @@ from dgplate.compat import Function
 from dgplate.solvers import lagged, linear, ordering
 from dgplate.solvers.lagged import StepSolver
 from dgplate.solvers.linear import OptionValue
-from dgplate.solvers.step_system import StepSystem
+from dgplate.solvers.step_system import StepSettings, StepSystem
 from dgplate.solvers.steps import StepInfo
-
-if TYPE_CHECKING:
-    from dgplate.solvers.flow import FlowSpec
 
 #: The measure's Krylov tolerance: near a critical point ‖P DE_h‖ is a small part of ‖DE_h‖,
 #: the right-hand side, and the step's 10⁻⁹ left it reproducible to only ~10⁻⁵ (2 ranks).
 STATIONARITY_KRYLOV: dict[str, OptionValue] = {"ksp_rtol": 1e-13}
 
 
+class StopSettings(StepSettings, Protocol):
+    """The [flow] keys of the stopping tests, besides the step system's."""
+
+    stop: str
+    tol: float
+
+
 class Stationarity:
     """The projected-gradient system of a flow and its solver, built at the first call."""
 
-    def __init__(self, system: StepSystem, settings: FlowSpec, initial_tau: float):
+    def __init__(self, system: StepSystem, settings: StopSettings, initial_tau: float):
         """The measure of ``system``'s state; its metric rows carry 1/``initial_tau``."""
         self.system, self.settings, self.initial_tau = system, settings, initial_tau
         self._built: tuple[compat.Form, PETSc.Mat, StepSolver] | None = None

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import basix.ufl
 import dolfinx.fem
@@ -32,14 +32,26 @@ from dgplate.solvers.constraint import (
     symmetric,
 )
 from dgplate.solvers.lagged import StepSolver
-from dgplate.solvers.linear import SolveStats
-
-if TYPE_CHECKING:
-    from dgplate.solvers.flow import FlowSpec
+from dgplate.solvers.linear import OptionValue, SolveStats
 
 #: K follows yⁿ by increments B(yⁿ − y_K); it is assembled whole after this many, so that
 #: their round-off (~10⁻¹⁶ of ‖B‖ each) cannot accumulate.
 K_REASSEMBLY = 100
+
+
+class StepSettings(Protocol):
+    """The [flow] keys that the step system reads (:class:`dgplate.solvers.flow.FlowSpec`)."""
+
+    multiplier_degree: int
+    edge_constraint: bool
+    solver: dict[str, OptionValue]
+    linear_solver: str
+    refactor_its: int
+
+    @property
+    def l2(self) -> bool | None:
+        """Whether the metric has the L² product; None: decided by the model (clamped?)."""
+        ...
 
 
 @dataclass
@@ -66,7 +78,7 @@ class Spaces:
     y: Function
 
 
-def mixed_space(mesh: Mesh, degree: int, settings: FlowSpec) -> FunctionSpace:
+def mixed_space(mesh: Mesh, degree: int, settings: StepSettings) -> FunctionSpace:
     """W: y ∈ [DG_k]³, the isometry multiplier, and the edge multipliers (if constrained)."""
     ve = basix.ufl.element("DG", mesh.basix_cell(), degree, shape=(3,))
     elements = [ve, multiplier_element(mesh, settings.multiplier_degree)]
@@ -84,7 +96,7 @@ class StepSystem:
         spaces: Spaces,
         facets: FacetSets,
         energy: Energy,
-        settings: FlowSpec,
+        settings: StepSettings,
         tau: float,
         counts: FlowCounts,
     ):

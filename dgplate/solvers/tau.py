@@ -9,23 +9,32 @@ the steps become SQP steps (:mod:`dgplate.solvers.sqp`) once τ is large enough.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
 from dgplate.errors import SolverError
+from dgplate.solvers.constraint import IsometryDefect
 from dgplate.solvers.projection import SQP_DEFECT_TOL
 from dgplate.solvers.safeguard import ActiveSetStep, Redoable, Safeguard
-from dgplate.solvers.step_system import FlowCounts, StepSystem
+from dgplate.solvers.step_system import StepSystem
+from dgplate.solvers.steps import StepInfo
 
-if TYPE_CHECKING:
-    from dgplate.solvers.constraint import IsometryDefect
-    from dgplate.solvers.flow import FlowSpec
-    from dgplate.solvers.steps import StepInfo
+
+class TauSettings(Protocol):
+    """The [flow] keys of the τ controller (:class:`dgplate.solvers.flow.FlowSpec`)."""
+
+    adaptive_tau: bool
+    defect_bound: float
+    tau_growth: float
+    tau_growth_max: float
+    tau_max_ratio: float
+    refactor_factor: float
+    newton_finish: bool
+    newton_tau_ratio: float
 
 
 class Stepper(Redoable, Protocol):
     """The flow as the controller sees it: one step, its state and its defect."""
 
-    settings: FlowSpec
     defect: IsometryDefect
     _last_energy: float
 
@@ -37,17 +46,17 @@ class Stepper(Redoable, Protocol):
 class TauController:
     """Chooses τ and the kind of each step of a flow, and redoes refused steps."""
 
-    def __init__(self, flow: Stepper, system: StepSystem, counts: FlowCounts, tau: float):
+    def __init__(self, flow: Stepper, system: StepSystem, settings: TauSettings, tau: float):
         """The controller of ``flow``, starting from τ = ``tau`` (held in ``system``)."""
-        self.flow, self.system, self.counts = flow, system, counts
-        self.settings = flow.settings
+        self.flow, self.system, self.counts = flow, system, system.counts
+        self.settings = settings
         self.initial = tau
         # the proposal (flow.adaptive_tau); the step matrix holds system.tau, which follows
         # it only when they differ by more than flow.refactor_factor
         self.target = tau
         self.linear_defect = 0.0  # D_h after the last linearised step, before projection
         self.safeguard = Safeguard(flow, system.energy)
-        self.active_sets = ActiveSetStep(flow, system, counts)
+        self.active_sets = ActiveSetStep(flow, system, system.counts)
 
     def set_tau(self, value: float) -> None:
         """τ into the step matrix, and the proposal reset to it."""
