@@ -1,7 +1,9 @@
 """What every driver is to the runner: steps that report records, a state to write and resume.
 
 A driver advances a model's state: the constrained gradient flow
-(:class:`dgplate.solvers.flow.GradientFlow`), Newton's method over a load schedule
+(:class:`dgplate.solvers.flow.GradientFlow`), the flow staged along a path of clamped data
+(:class:`dgplate.solvers.continuation.ContinuationFlow`), the rod's flow
+(:class:`dgplate.solvers.rod_flow.RodFlow`), Newton's method over a load schedule
 (:class:`dgplate.solvers.newton.Continuation`) or heat steps each followed by a relaxation
 (:class:`dgplate.coupling.thermal.ThermalBilayer`). The runner (:mod:`dgplate.problems.runner`)
 is written once against this protocol: its observers print progress, write the VTX series and
