@@ -50,14 +50,25 @@ def relax(
     ratios = (settings.tau_max_ratio, settings.newton_tau_ratio)
     scale = tau / flow.tau
     settings.tau_max_ratio, settings.newton_tau_ratio = (r * scale for r in ratios)
-    before = (flow.rejected_steps, flow.newton_steps, flow.newton_rejections, flow.step_solves)
+    counts = flow.counts
+    before = (
+        counts.rejected_steps,
+        counts.newton_steps,
+        counts.newton_rejections,
+        counts.step_solves,
+    )
     t0 = time.perf_counter()
     record = driver.hold(budget, tau)
     wall = time.perf_counter() - t0
     settings.tau_max_ratio, settings.newton_tau_ratio = ratios
     result = driver.last_result
     assert result is not None
-    after = (flow.rejected_steps, flow.newton_steps, flow.newton_rejections, flow.step_solves)
+    after = (
+        counts.rejected_steps,
+        counts.newton_steps,
+        counts.newton_rejections,
+        counts.step_solves,
+    )
     rejected, newton_steps, newton_rejections, step_solves = (
         a - b for a, b in zip(after, before, strict=True)
     )

@@ -34,7 +34,9 @@ from dgplate.io.output import ProgressPrinter, print0
 from dgplate.models.kirchhoff import bnn_plate
 from dgplate.reference.bnn import BNN_TABLE1, bnn_h
 from dgplate.solvers import linear as solvers
-from dgplate.solvers.flow import FlowResult, FlowSpec, GradientFlow
+from dgplate.solvers.flow import FlowSpec, GradientFlow
+from dgplate.solvers.step_system import StepSystem
+from dgplate.solvers.steps import FlowResult
 
 PHASES = ("assembly", "factorisation", "solves", "other")
 
@@ -60,24 +62,32 @@ class NaiveStepSolver:
             solvers.destroy_ksp(self.ksp)
 
 
-class NaiveFlow(GradientFlow):
-    """The same flow, but the whole step matrix is reassembled from the full form, in DOLFINx's
-    pattern, each step."""
+class NaiveSystem(StepSystem):
+    """The same step system, but the whole step matrix is reassembled from the full form, in
+    DOLFINx's pattern, each step."""
 
-    def _make_solver(self) -> NaiveStepSolver:
+    def _make_solver(self) -> NaiveStepSolver:  # type: ignore[override]
         self.K.destroy()
         self.K = dolfinx.fem.petsc.assemble_matrix(self.step_form)  # DOLFINx's full pattern
         self.K.assemble()
         return NaiveStepSolver(self.comm, self.K)
 
-    def assemble_system(self) -> None:
+    def assemble(self, newton: bool = False) -> NaiveStepSolver:  # type: ignore[override]
         self.K.zeroEntries()
         dolfinx.fem.petsc.assemble_matrix(self.K, self.step_form)
         self.K.assemble()
         with self.rhs.localForm() as local:
             local.set(0.0)
-        dolfinx.fem.petsc.assemble_vector(self.rhs, self._rhs)
+        dolfinx.fem.petsc.assemble_vector(self.rhs, self.rhs_form)
         self.rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        assert isinstance(self.solver, NaiveStepSolver)
+        return self.solver
+
+
+class NaiveFlow(GradientFlow):
+    """The same flow with the :class:`NaiveSystem`."""
+
+    system_type = NaiveSystem
 
 
 def bnn_flow(comm: MPI.Comm, cells: int, naive: bool = False, progress: int = 0) -> GradientFlow:

@@ -179,7 +179,7 @@ def solve(driver, factor: float) -> float:
         {
             "indentation": DEPTH * factor,
             "lowest_eigenvalue": record.lowest_eigenvalue,
-            "negative_eigenvalues": driver.negative_eigenvalues(),
+            "negative_eigenvalues": driver.spectrum.negative_eigenvalues(),
             "spread": spread(driver),
             "energy": record.energy,
             "newton_iterations": record.iterations,

@@ -153,16 +153,6 @@ def interpolation_points(element: FiniteElement) -> Array:
     return np.asarray(points() if callable(points) else points, dtype=np.float64)
 
 
-def rectangle_kwargs() -> dict[str, object]:
-    """Extra keyword arguments of ``create_rectangle`` that not every version accepts."""
-    return {}
-
-
-def petsc_problem_kwargs(prefix: str) -> dict[str, str]:
-    """``LinearProblem``/``NonlinearProblem`` need an options prefix from 0.10 on."""
-    return {"petsc_options_prefix": prefix} if DOLFINX_VERSION >= (0, 10) else {}
-
-
 def collapse(subspace: FunctionSpace) -> tuple[FunctionSpace, Indices]:
     """``(V, dofs)``: the collapsed subspace and the parent-space indices of its local dofs.
 

@@ -107,11 +107,6 @@ def from_dict(cls: type[T], data: object, section: str) -> T:
     return cls(**values)
 
 
-def to_dict(obj: Any) -> dict[str, Any]:
-    """The fields of a section dataclass as a (deep-copied) dict."""
-    return dataclasses.asdict(obj)
-
-
 def options(cls: type) -> list[tuple[str, str, str]]:
     """``(key, default as TOML, documentation)`` of each key of a spec dataclass.
 

@@ -81,7 +81,7 @@ def test_refactor_factor_keeps_tau_between_refactorisations():
         solver = bnn(MPI.COMM_WORLD, **flow)
         result = solver.run()
         assert result.converged and result.energy_increases == [], name
-        runs[name] = (result, solver.refactorisations, solver.rejected_steps)
+        runs[name] = (result, solver.counts.refactorisations, solver.counts.rejected_steps)
         solver.destroy()
     fixed = runs["fixed"][0]
     for name in ("every change", "factor 3"):
@@ -106,14 +106,15 @@ def test_refactor_factor_keeps_tau_between_refactorisations():
 
 def growth_record(solver):
     """Record, at every growth of τ: rejections so far, defect before projection, τ before, after."""
-    record, grow = [], solver._grow_tau
+    control = solver.control
+    record, grow = [], control._grow_tau
 
     def recorded():
-        before = solver._target_tau
+        before = control.target
         grow()
-        record.append((solver.rejected_steps, solver._linear_defect, before, solver._target_tau))
+        record.append((solver.counts.rejected_steps, control.linear_defect, before, control.target))
 
-    solver._grow_tau = recorded
+    control._grow_tau = recorded
     return record
 
 
@@ -143,7 +144,7 @@ def test_tau_grows_by_the_defect_until_the_first_rejection(newton_finish, bound)
     solver = bnn(MPI.COMM_WORLD, tau_max_ratio=ratio, newton_tau_ratio=ratio, **flow)
     record = growth_record(solver)
     result = solver.run()
-    cap = ratio * solver._initial_tau
+    cap = ratio * solver.control.initial
     solver.destroy()
     assert result.converged and result.energy_increases == []
     assert result.energy == pytest.approx(reference.energy, rel=1e-6)

@@ -94,6 +94,11 @@ BAD_INPUT = {
         ("model.mu={hinge=1.0}",), "error: model.mu: unknown cell group 'hinge'"
     ),
     "unknown step solver": Case(("flow.linear_solver='cg'",), "flow.linear_solver must be"),
+    "removed Schur solver": Case(
+        ("flow.linear_solver='schur'",),
+        "flow.linear_solver must be one of ('lagged', 'direct'), got 'schur' (the Schur solver "
+        "was removed: docs/performance.md)",
+    ),
     "refactor_its zero": Case(("flow.refactor_its=0",), "flow.refactor_its must be"),
     # a warning (τ ≫ h, nothing to solve) never comes before the error
     "absurd tau and a bad solver": Case(

@@ -47,7 +47,7 @@ def _cone(comm: MPI.Comm) -> dict:
         values = line_values(w, 0.5 * np.c_[np.cos(angles), np.sin(angles)])
         summary["spectrum"] = np.abs(np.fft.rfft(values - values.mean())) * 2 / len(values)
         summary["lowest"] = driver.history[-1].lowest_eigenvalue
-        summary["relaxations"] = driver.relaxations
+        summary["relaxations"] = driver.branches.relaxations
     finally:
         driver.destroy()
     return summary

@@ -43,7 +43,7 @@ def _buckle(comm: MPI.Comm, relaxation: bool) -> dict:
         assert driver.run().converged
         summary = driver.summary()
         summary["w_max"] = driver.history[-1].w_max
-        summary["residual"] = driver.plain_residual_norm()
+        summary["residual"] = driver.newton.plain_residual_norm()
     finally:
         driver.destroy()
     return summary

@@ -131,15 +131,15 @@ def test_step_matrix_drops_only_exact_zeros():
 
     flow = vertical_load_flow(MPI.COMM_WORLD, 6)
     flow.step()  # b_n at a bent state: every constraint entry is filled
-    flow.assemble_system()
-    full = dolfinx.fem.petsc.assemble_matrix(flow.step_form)
+    flow.system.assemble()
+    full = dolfinx.fem.petsc.assemble_matrix(flow.system.step_form)
     full.assemble()
     stored = (
-        flow.K.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"],
+        flow.system.K.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"],
         full.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"],
     )
     scale = full.norm(PETSc.NormType.FROBENIUS)
-    full.axpy(-1.0, flow.K, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+    full.axpy(-1.0, flow.system.K, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
     assert full.norm(PETSc.NormType.FROBENIUS) <= 1e-14 * scale
     assert stored[0] < 0.6 * stored[1]
     flow.destroy()

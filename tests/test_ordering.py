@@ -16,10 +16,10 @@ from dgplate.solvers.ordering import cellwise_numbering
 def _cellwise_step_matrix(comm) -> tuple[PETSc.Mat, PETSc.IS]:
     flow = vertical_load_flow(comm, 6)
     flow.step()  # a bent state: every constraint entry is filled
-    flow.assemble_system()
+    flow.system.assemble()
     numbering = cellwise_numbering(flow.W)
     assert numbering is not None
-    return flow.K.createSubMatrix(numbering, numbering), numbering
+    return flow.system.K.createSubMatrix(numbering, numbering), numbering
 
 
 @pytest.mark.mpi

@@ -23,7 +23,7 @@ from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.kirchhoff import KirchhoffSpec, bnn_plate, build_kirchhoff
 from dgplate.reference.bnn import bnn_h
 from dgplate.solvers.flow import FlowSpec, GradientFlow
-from dgplate.solvers.linear import RATE_WINDOW
+from dgplate.solvers.lagged import RATE_WINDOW
 
 
 def rolling_strip(comm: MPI.Comm, linear_solver: str):
@@ -111,13 +111,14 @@ def test_step_matrix_carried_by_increments_equals_its_whole_assembly(comm):
     A_const + B(yⁿ) assembled whole, to round-off."""
     flow = bnn_flow(comm, max_steps=5)
     flow.run()
-    flow.assemble_system()  # K for the state after step 5, as the next step would have it
-    assert flow._K_updates == 5  # steps 2–6 added increments; step 1 assembled K whole
-    whole = flow.K.duplicate(copy=False)
-    compat.assemble_matrix_into(whole, flow._a_const)
-    compat.add_matrix_form(whole, flow._b)
+    system = flow.system
+    system.assemble()  # K for the state after step 5, as the next step would have it
+    assert system._K_updates == 5  # steps 2–6 added increments; step 1 assembled K whole
+    whole = system.K.duplicate(copy=False)
+    compat.assemble_matrix_into(whole, system._a_const)
+    compat.add_matrix_form(whole, system._b)
     scale = whole.norm(PETSc.NormType.INFINITY)
-    whole.axpy(-1.0, flow.K)
+    whole.axpy(-1.0, system.K)
     assert whole.norm(PETSc.NormType.INFINITY) < 1e-13 * scale
     whole.destroy()
     flow.destroy()

@@ -221,10 +221,6 @@ class HeatSolver:
         """The time step Δt."""
         return float(self._dt.value)
 
-    def source_value(self, t: float) -> float:
-        """The scheduled source value at time t (0 without a scheduled source)."""
-        return self.source.value(t) if isinstance(self.source, HeatSource) else 0.0
-
     def step(self) -> float:
         """Advance θ by one time step; returns the new time. Collective.
 

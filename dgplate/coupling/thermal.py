@@ -35,7 +35,8 @@ from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets
 from dgplate.errors import InputError
 from dgplate.solvers.driver import Observer, RunOutcome, RunResult
-from dgplate.solvers.flow import FlowResult, FlowSpec, GradientFlow
+from dgplate.solvers.flow import FlowSpec, GradientFlow
+from dgplate.solvers.steps import FlowResult
 
 #: ``energy(y, θ)``: the plate's energy for the deformation y and the temperature θ.
 ThermalEnergy: TypeAlias = (

@@ -19,7 +19,6 @@ from dgplate.schema import from_dict, option, require_finite
 from dgplate.solvers.flow import FlowSpec
 
 SECTIONS = ("mesh", "model", "flow", "output")
-_OPTION = re.compile(r"^[A-Za-z0-9_]+$")
 
 
 @dataclass

@@ -24,13 +24,6 @@ def lift_off_length(mu: float, height: float, weight: float) -> float:
     return float((72.0 * mu * height / weight) ** 0.25)
 
 
-def lift_off_profile(x: np.ndarray, mu: float, height: float, weight: float) -> np.ndarray:
-    """The exact deflection w(x) (zero on the table, x ≥ ℓ)."""
-    ell = lift_off_length(mu, height, weight)
-    r = ell - np.minimum(x, ell)
-    return np.asarray(weight / (72.0 * mu) * (4.0 * ell * r**3 - 3.0 * r**4))
-
-
 def penalised_lift_off(
     mu: float, height: float, weight: float, epsilon: float, length: float, n: int = 3000
 ) -> float:

@@ -33,7 +33,8 @@ from dgplate.compat import Constant, Function
 from dgplate.errors import InputError
 from dgplate.schema import is_integer, is_number
 from dgplate.solvers.driver import Driver, Observer, Record, RunOutcome, RunResult
-from dgplate.solvers.flow import FlowResult, GradientFlow, StepInfo
+from dgplate.solvers.flow import GradientFlow
+from dgplate.solvers.steps import FlowResult, StepInfo
 
 __all__ = ["AlphaSchedule", "ContinuationFlow", "ContinuationStep", "StageRecord"]
 

@@ -1,7 +1,9 @@
 """What every driver is to the runner: steps that report records, a state to write and resume.
 
 A driver advances a model's state: the constrained gradient flow
-(:class:`dgplate.solvers.flow.GradientFlow`), Newton's method over a load schedule
+(:class:`dgplate.solvers.flow.GradientFlow`), the flow staged along a path of clamped data
+(:class:`dgplate.solvers.continuation.ContinuationFlow`), the rod's flow
+(:class:`dgplate.solvers.rod_flow.RodFlow`), Newton's method over a load schedule
 (:class:`dgplate.solvers.newton.Continuation`) or heat steps each followed by a relaxation
 (:class:`dgplate.coupling.thermal.ThermalBilayer`). The runner (:mod:`dgplate.problems.runner`)
 is written once against this protocol: its observers print progress, write the VTX series and
@@ -179,6 +181,13 @@ class StepCounters:
         self.energy_increases = [int(s) for s in state.get("energy_increases", [])]
 
 
+class Budget(Protocol):
+    """The [flow] keys of a flow's step budget (:class:`dgplate.solvers.flow.FlowSpec`)."""
+
+    max_steps: int
+    checkpoint_every: int
+
+
 class EnergyFlow(StepCounters):
     """A flow of an :class:`~dgplate.dg.energy.Energy` on a mixed space ``W``.
 
@@ -189,7 +198,17 @@ class EnergyFlow(StepCounters):
     W: FunctionSpace
     comm: MPI.Comm
     energy: Energy
+    settings: Budget
     _E_form: Form
+
+    @property
+    def checkpoint_every(self) -> int:
+        """Steps between checkpoints: ``flow.checkpoint_every``."""
+        return self.settings.checkpoint_every
+
+    def remaining_steps(self) -> int:
+        """Steps left of ``flow.max_steps`` (the budget of a run and its resumed runs)."""
+        return max(self.settings.max_steps - self.step_count, 0)
 
     @property
     def num_dofs(self) -> int:

@@ -15,10 +15,8 @@ product of b plus the L² products of both, so that free ends need no special ca
 Why not :class:`dgplate.solvers.flow.GradientFlow`: that flow is written for a single
 deformation y ∈ [DG_k]³ of a 2D plate with the isometry constraint ∇yᵀ∇y = I; the rod has two
 unknown fields, three other constraints and strong end conditions. Only the step system is
-different: the records, the stopping rule, the checkpoints and the runner's observers are the
-same (:class:`dgplate.solvers.driver.Driver`). The 1D system is small (a few thousand
-unknowns), so it is reassembled and factorised by MUMPS at every step
-(:class:`dgplate.solvers.linear.DirectStepSolver`).
+different: the records, the stopping rule, the safeguard and the checkpoints are the same. The
+1D system is small, so it is reassembled and factorised by MUMPS at every step.
 
 ``flow.projection_steps = m`` adds after each step m Newton corrections towards the nonlinear
 constraints (the same moments and nodes): the step system assembled at the current state, with
@@ -28,7 +26,8 @@ metric that solves the constraints linearised at the current state.
 Nonlocal terms of the energy (self-avoidance ρ·TP[u], :class:`dgplate.dg.energy.Nonlocal`)
 are explicit: their derivative at uⁿ is one more load. A step that they refuse (the least
 distance of non-neighbouring points fell too fast) or that raised the energy is taken back
-and redone with τ/2, at most ``max_redo`` times, as in the plate flow.
+and redone with τ/2, at most ``max_redo`` times, by the plate flow's
+:class:`dgplate.solvers.safeguard.Safeguard`.
 """
 
 from __future__ import annotations
@@ -55,7 +54,9 @@ from dgplate.dg.forms import integral
 from dgplate.errors import SolverError
 from dgplate.solvers import linear as solvers
 from dgplate.solvers.driver import EnergyFlow, Observer
-from dgplate.solvers.flow import FlowResult, FlowSpec, per_step
+from dgplate.solvers.flow import FlowSpec
+from dgplate.solvers.safeguard import Safeguard
+from dgplate.solvers.steps import FlowResult, per_step
 
 __all__ = [
     "RodFlow",
@@ -188,6 +189,8 @@ class Defects:
 class RodFlow(EnergyFlow):
     """The constrained gradient flow of a rod energy E(u, b) (a Driver)."""
 
+    settings: FlowSpec
+
     def __init__(
         self,
         mesh: Mesh,
@@ -225,6 +228,7 @@ class RodFlow(EnergyFlow):
         self._E_form = dolfinx.fem.form(self.energy.total)
         self._last_energy = self.evaluate_energy()
         self._last_increment: Array = np.zeros(0)
+        self.safeguard = Safeguard(self, self.energy)
 
     # -- set-up -----------------------------------------------------------------------------
     def _end_conditions(self, clamped: tuple[float, ...], pinned: tuple[float, ...]) -> list[Any]:
@@ -296,22 +300,17 @@ class RodFlow(EnergyFlow):
     # -- the Driver protocol ----------------------------------------------------------------
     @property
     def tau(self) -> float:
-        """The time step τ."""
+        """The time step τ (halved by the safeguard for a redone step)."""
         return float(self._tau.value)
+
+    @tau.setter
+    def tau(self, value: float) -> None:
+        self._tau.value = np.asarray(value)
 
     @property
     def shape(self) -> Function:
         """The centreline u (written to VTX and drawn)."""
         return self.u
-
-    @property
-    def checkpoint_every(self) -> int:
-        """Steps between checkpoints: ``flow.checkpoint_every``."""
-        return self.settings.checkpoint_every
-
-    def remaining_steps(self) -> int:
-        """Steps left of ``flow.max_steps``."""
-        return max(self.settings.max_steps - self.step_count, 0)
 
     def checkpoint_fields(self) -> dict[str, Function]:
         """The centreline and the frame."""
@@ -383,41 +382,15 @@ class RodFlow(EnergyFlow):
         self.b.x.array[:] += db
         return np.concatenate([du, db])
 
-    def _safe_step(self) -> RodStep:
-        """A step the nonlocal terms accept and that lowers E, else redone with τ/2.
+    def save(self) -> tuple[Array, Array, float, float, int]:
+        """The state a redone step starts from: u, b, the last energy, the time, the count."""
+        arrays = (self.u.x.array.copy(), self.b.x.array.copy())
+        return (*arrays, self._last_energy, self.time, self.step_count)
 
-        At most ``max_redo`` times; τ is restored for the next step. Without nonlocal terms a
-        plain step.
-        """
-        terms = self.energy.nonlocal_terms
-        if not terms:
-            return self._measured(self.step())
-        tau = self.tau
-        saved = (self.u.x.array.copy(), self.b.x.array.copy(), self._last_energy, self.time)
-        limit, redone = max(term.max_redo for term in terms), 0
-        info = self.step()
-        while not self._acceptable(info) and redone < limit:
-            self.u.x.array[:], self.b.x.array[:] = saved[0], saved[1]
-            self._last_energy, self.time = saved[2], saved[3]
-            self.step_count -= 1
-            self._tau.value, redone = np.asarray(self.tau / 2), redone + 1
-            info = self.step()
-        self._tau.value = np.asarray(tau)
-        distance = min(term.min_distance for term in terms)
-        info.safety = {"min_distance": distance, "redone": float(redone)}
-        return self._measured(info)
-
-    def _acceptable(self, info: RodStep) -> bool:
-        """The nonlocal terms accept the new state and E did not go up (beyond round-off)."""
-        accepted = all([term.accept() for term in self.energy.nonlocal_terms])
-        rises = -info.rate * info.tau > 1e-12 * max(1.0, abs(info.energy))
-        return accepted and not rises
-
-    def _measured(self, info: RodStep) -> RodStep:
-        """``info`` with the model's per-step figures (collective)."""
-        if self._measures is not None:
-            info.figures = self._measures(self)
-        return info
+    def restore(self, saved: tuple[Array, Array, float, float, int]) -> None:
+        """Take back the state of :meth:`save`."""
+        self.u.x.array[:], self.b.x.array[:] = saved[0], saved[1]
+        self._last_energy, self.time, self.step_count = saved[2:]
 
     def _undo(self) -> None:
         """Take back the last step (it produced a non-finite state)."""
@@ -441,7 +414,9 @@ class RodFlow(EnergyFlow):
         outcome: tuple[bool, str, int] | None = None
         for _ in range(budget):
             try:
-                info = self._safe_step()
+                info = self.safeguard.step(self.step)
+                if self._measures is not None:  # the model's per-step figures (collective)
+                    info.figures = self._measures(self)
             except SolverError as exc:
                 outcome = (False, f"step {self.step_count + 1} failed: {exc}", 0)
                 break

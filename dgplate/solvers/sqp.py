@@ -12,7 +12,7 @@ added, at the multipliers λⁿ of the previous step solve,
 is Newton's method on the KKT system of the discrete constrained problem, damped by the
 metric term (1/τ)(·,·)_*: it converges quadratically near a non-degenerate minimiser. The
 Hessian of the Lagrangian may be indefinite away from one, so the flow accepts such a step
-only when it lowers E_h (:meth:`dgplate.solvers.flow.GradientFlow._adaptive_step`).
+only when it lowers E_h (:meth:`dgplate.solvers.tau.TauController._adaptive_step`).
 
 The curvature terms couple the components of y and have facet terms (D²E_expl), so this
 matrix has DOLFINx's own sparsity pattern and its own LU factorisation at every step.

@@ -1,0 +1,68 @@
+"""What a gradient flow reports: one record per step, and how a run ended."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+
+@dataclass
+class StepInfo:
+    """What one step did: the row of ``history.csv``."""
+
+    step: int
+    time: float
+    tau: float
+    energy: float
+    defect: float
+    increment: float  # max |δy| over the degrees of freedom
+    rate: float  # (E_h[yⁿ⁻¹] − E_h[yⁿ]) / τ
+    seconds: float
+    assembly_s: float
+    factor_s: float  # factorisation (0 when the lagged solver reused its factors)
+    solve_s: float  # triangular solves and Krylov iterations
+    iterations: int  # Krylov iterations of the step solve (1 for a direct solve)
+    fallbacks: int = 0  # failed lagged solves redone (fresh factors, then direct LU)
+    safety: dict[str, float] = field(default_factory=dict)  # nonlocal terms: min_distance, redone
+    stationarity: float = math.nan  # ‖P DE_h[yⁿ]‖_*' (flow.stop = 'stationarity'; else nan)
+
+    def line(self) -> str:
+        """One line of progress output."""
+        return (
+            f"step {self.step:5d}  t = {self.time:9.4f}  τ = {self.tau:.3e}  "
+            f"E_h = {self.energy:+.6e}  D_h = {self.defect:.3e}  "
+            f"ΔE/τ = {self.rate:.2e}  {per_step(self.seconds)}"
+        )
+
+
+def per_step(seconds: float) -> str:
+    """The time of a step for a progress line: ``1.23 s/step``, or ``4.2 ms/step``."""
+    return f"{seconds:.2f} s/step" if seconds >= 0.1 else f"{1e3 * seconds:.3g} ms/step"
+
+
+@dataclass
+class FlowResult:
+    """How a run of the flow ended, and the records of its steps."""
+
+    converged: bool
+    reason: str
+    steps: int
+    energy: float
+    defect: float
+    history: list[StepInfo]
+    energy_increases: list[int]  # steps at which the energy went up
+    interrupted: int = 0  # the signal (SIGINT, SIGTERM) that stopped the run; 0: none
+
+    @classmethod
+    def of(
+        cls,
+        outcome: tuple[bool, str, int],
+        history: list[Any],
+        increases: list[int],
+        energy: float,
+        defect: float,
+    ) -> FlowResult:
+        """The result of a run: (converged, reason, signal), its records and final figures."""
+        converged, reason, signum = outcome
+        return cls(converged, reason, len(history), energy, defect, history, increases, signum)

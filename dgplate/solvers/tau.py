@@ -1,0 +1,181 @@
+"""The flow's τ controller: fixed τ, adaptive τ, and the switch to SQP steps.
+
+With ``flow.adaptive_tau`` a step is accepted when E_h did not rise, its linearisation error
+(the isometry defect before projection) is at most ``flow.defect_bound`` and the nonlocal terms
+accept the state; τ then grows, else the step is redone with τ/2. With ``flow.newton_finish``
+the steps become SQP steps (:mod:`dgplate.solvers.sqp`) once τ is large enough.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Protocol
+
+from dgplate.errors import SolverError
+from dgplate.solvers.constraint import IsometryDefect
+from dgplate.solvers.projection import SQP_DEFECT_TOL
+from dgplate.solvers.safeguard import ActiveSetStep, Redoable, Safeguard
+from dgplate.solvers.step_system import StepSystem
+from dgplate.solvers.steps import StepInfo
+
+
+class TauSettings(Protocol):
+    """The [flow] keys of the τ controller (:class:`dgplate.solvers.flow.FlowSpec`)."""
+
+    adaptive_tau: bool
+    defect_bound: float
+    tau_growth: float
+    tau_growth_max: float
+    tau_max_ratio: float
+    refactor_factor: float
+    newton_finish: bool
+    newton_tau_ratio: float
+
+
+class Stepper(Redoable, Protocol):
+    """The flow as the controller sees it: one step, its state and its defect."""
+
+    defect: IsometryDefect
+    _last_energy: float
+
+    def step(self, newton: bool = False) -> StepInfo:
+        """One step from the current state (``newton``: an SQP step)."""
+        ...
+
+
+class TauController:
+    """Chooses τ and the kind of each step of a flow, and redoes refused steps."""
+
+    def __init__(self, flow: Stepper, system: StepSystem, settings: TauSettings, tau: float):
+        """The controller of ``flow``, starting from τ = ``tau`` (held in ``system``)."""
+        self.flow, self.system, self.counts = flow, system, system.counts
+        self.settings = settings
+        self.initial = tau
+        # the proposal (flow.adaptive_tau); the step matrix holds system.tau, which follows
+        # it only when they differ by more than flow.refactor_factor
+        self.target = tau
+        self.linear_defect = 0.0  # D_h after the last linearised step, before projection
+        self.safeguard = Safeguard(flow, system.energy)
+        self.active_sets = ActiveSetStep(flow, system, system.counts)
+
+    def set_tau(self, value: float) -> None:
+        """τ into the step matrix, and the proposal reset to it."""
+        self.target = value
+        self.system.put_tau(value)
+
+    def step(self) -> StepInfo:
+        """One accepted step: adaptive (``flow.adaptive_tau``) or with a fixed τ, safeguarded."""
+        if self.settings.adaptive_tau:
+            return self._adaptive_step()
+        return self.safeguard.step(self._contact_step)
+
+    def _contact_step(self) -> StepInfo:
+        """A plain step, its active sets grown until it does not raise E_h."""
+        return self.active_sets.step(self.flow.step)
+
+    def _adaptive_step(self) -> StepInfo:
+        """One accepted step with adaptive τ (``flow.adaptive_tau``).
+
+        A step is accepted when E_h did not rise and the isometry defect after the linearised
+        step (before projection) is at most ``flow.defect_bound`` and the nonlocal terms
+        (self-avoidance) accept the new state; the controller's τ then grows
+        (:meth:`_grow_tau`). Otherwise the step is taken back and redone with half the τ it
+        was taken with (refactorised at once), down to 10⁻⁶ of the initial τ (below that the
+        step is accepted as it is). Rejected steps are counted in ``rejected_steps``.
+
+        With ``flow.newton_finish``, once τ is at its cap the step is first tried as an SQP step
+        (:mod:`dgplate.solvers.sqp`); if it fails the same test (or its matrix cannot be
+        factorised) it is taken back and redone as a plain step with the same τ
+        (``newton_rejections``).
+        """
+        flow = self.flow
+        saved = flow.save()
+        energy0 = flow._last_energy
+        tau_min = 1e-6 * self.initial
+        newton = self._newton_due()
+        defect0 = flow.defect() if newton else math.inf
+        while True:
+            info = self._attempt(newton)
+            if info is not None and (
+                self._accepted(info, energy0, defect0 if newton else math.inf)
+                or (flow.tau / 2 < tau_min and not newton)
+            ):
+                self.counts.newton_steps += newton
+                self._grow_tau()
+                return info
+            flow.restore(saved)
+            if newton:  # redone as a plain step with the same τ
+                self.counts.newton_rejections += 1
+                newton = False
+                continue
+            self.counts.rejected_steps += 1
+            flow.tau = flow.tau / 2
+
+    def _attempt(self, newton: bool) -> StepInfo | None:
+        """A step; an SQP step whose matrix cannot be factorised gives None (to redo it plain)."""
+        if not newton:
+            return self._contact_step()
+        try:
+            return self.flow.step(newton=True)
+        except SolverError:
+            return None
+
+    def _accepted(self, info: StepInfo, energy0: float, defect0: float = math.inf) -> bool:
+        """The adaptive controller's test of a step from the energy ``energy0``.
+
+        E_h did not rise, the linearisation error is at most ``flow.defect_bound`` and the
+        nonlocal terms accept the state; a non-finite energy or defect fails. An SQP step
+        (``defect0``: D_h of its start) must also end at most as far off the constraint as it
+        started, or at round-off: when its corrections stall, the state lies below the
+        constrained energy by about λ·D_h, and every later step, whose projections restore the
+        constraint, would count that as a rise of E_h (BNN 64² with τ grown eightfold per step:
+        D_h = 2.1·10⁻⁴ after an SQP step that started at 9.7·10⁻⁶, then 29 rejections).
+        """
+        lowered = info.energy <= energy0 + 1e-12 * max(1.0, abs(energy0))
+        close = self.linear_defect <= self.settings.defect_bound
+        on_constraint = info.defect <= max(defect0, SQP_DEFECT_TOL * self.flow.defect.area)
+        accepted = all([term.accept() for term in self.system.energy.nonlocal_terms])
+        return lowered and close and on_constraint and accepted
+
+    def _newton_due(self) -> bool:
+        """Whether the next step is an SQP step: ``flow.newton_finish`` and τ large enough.
+
+        τ (the held one) at least ``flow.newton_tau_ratio`` times the initial τ, or at its cap.
+        """
+        settings = self.settings
+        ratio = min(settings.newton_tau_ratio, settings.tau_max_ratio)
+        return settings.newton_finish and self.system.tau >= ratio * self.initial * (1 - 1e-12)
+
+    def _grow_tau(self) -> None:
+        """After an accepted step: the proposal grows by :meth:`_growth`, up to its cap.
+
+        The step matrix takes it only when it differs from the τ held there by more than
+        ``flow.refactor_factor``; until then the steps are gradient-flow steps with the held τ.
+        """
+        settings = self.settings
+        cap = settings.tau_max_ratio * self.initial
+        self.target = min(self._growth() * self.target, cap)
+        tau = self.system.tau
+        ratio = max(self.target / tau, tau / self.target)
+        if ratio > settings.refactor_factor * (1 + 1e-12):
+            self.system.put_tau(self.target)
+
+    def _growth(self) -> float:
+        """The factor of τ after an accepted step (``flow.tau_growth``, ``flow.tau_growth_max``).
+
+        With the SQP finish and until the run's first rejection, √(defect_bound/D)/2 between
+        the two, D the step's defect before projection: the factor that would bring a defect
+        ∝ τ² to a quarter of the bound, as an error-based step-size controller does. It takes
+        the run to the SQP steps sooner (box, second hold: 10 step solves against 14). Plain
+        steps gain nothing from a τ grown fast (BNN 32², plain adaptive τ: 56 step solves
+        against 38), and after a rejection a long step may leave the state off the constraint
+        by more than the next projection restores: then, and without the finish, the fixed
+        growth.
+        """
+        settings = self.settings
+        fast = settings.newton_finish and not self.counts.rejected_steps
+        if not fast or settings.tau_growth_max <= settings.tau_growth:
+            return settings.tau_growth
+        defect = max(self.linear_defect, 1e-300)
+        wanted = 0.5 * math.sqrt(settings.defect_bound / defect)
+        return min(max(wanted, settings.tau_growth), settings.tau_growth_max)
