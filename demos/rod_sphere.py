@@ -31,8 +31,8 @@
 # so the rod is 8.7 % longer than the great circle $2\pi R = 0.920$. A radius below the
 # start's extent is an input error.
 #
-# Run: `python demos/rod_sphere.py` (64 cells, ε = 10⁻⁶, τ = 0.02, 300 steps, about 15 s);
-# `--paper`: 128 cells and 1500 steps. Output: `out/rod_sphere/`.
+# Run: `python demos/rod_sphere.py` (64 cells, ε = 10⁻⁶, τ = 0.02; converges after 988 steps,
+# about 15 s); `--paper`: 128 cells (990 steps). Output: `out/rod_sphere/`.
 
 # %%
 from pathlib import Path
@@ -62,7 +62,7 @@ shape = summary["shape"]
 # %% [markdown]
 # ## Measured
 #
-# By default (64 cells, 300 steps): see the lines printed below and docs/rods.md. The demo
+# By default (64 cells, converged after 988 steps): see the lines printed below and docs/rods.md. The demo
 # asserts that the energy fell at every step, that no node lies farther from the centre than
 # R + 1 % (the penalty's penetration), that the rod is in contact (confinement energy > 0),
 # and that its length stays within 1 % of L. Every closed rod bends at least as much as the
@@ -77,7 +77,7 @@ shape = summary["shape"]
 # rod, and a circle has a curvature that varies by less than 10 %. The saddle squeezed into a
 # sphere 8.7 % too small becomes a **1-2 clew** lying on the sphere: one turn about its axis,
 # four curvature maxima (at the saddle's two peaks and two valleys), every node within 1 % of
-# the sphere (measured 0.76 % by default, 0.75 % with `--paper`). The demo asserts both and
+# the sphere (measured 0.75 % by default and with `--paper`). The demo asserts both and
 # adds the classification to summary.json (`shape`).
 
 # %%
@@ -103,4 +103,4 @@ demo.check(
     "the final shape is a 1-2 clew (one turn, four curvature maxima)", shape["label"] == "1-2 clew"
 )
 demo.check_between("max ||u| − R| / R", shape["sphere_distance"], high=0.01,
-                   source="on the sphere; measured 0.0076")  # fmt: skip
+                   source="on the sphere; measured 0.0075")  # fmt: skip

@@ -59,12 +59,10 @@ SMALLER: dict[str, tuple[str, ...]] = {
 }
 
 #: Files whose budgets are documented to end unconverged (the test fails if one converges:
-#: then remove it here). rod_sphere: ΔE/τ = 0.044 after its 300 steps (docs/rods.md, "Rods in
-#: a sphere"; the demo's figures are those of step 300). microcapsule: the final hold does not
+#: then remove it here). microcapsule: the final hold does not
 #: meet the flow's tolerance in its 300 steps (demos/microcapsule.py; run at the demo's small
 #: size, which does not converge either).
 UNCONVERGED = {
-    "rod_sphere": "docs/rods.md: not converged after 300 steps (ΔE/τ = 0.044)",
     "microcapsule": "demos/microcapsule.py: the final hold spends its budget",
 }
 
