@@ -95,6 +95,23 @@ def target_problem(target: Path, force: bool = False, resume: bool = False) -> s
         return f"--out {target}: {parent} is a file, not a directory"
     if not os.access(parent, os.W_OK | os.X_OK):
         return f"--out {target}: no permission to write in {parent}"
+    return None if target.exists() else _no_storage(target, parent)
+
+
+def _no_storage(target: Path, parent: Path) -> str | None:
+    """Why no folder can be made in ``parent`` (None: one can).
+
+    A read-only file system, or one without storage: a kernel's pseudo file system such as
+    /proc, where even root makes no folders.
+    """
+    try:
+        stats = os.statvfs(parent)
+    except OSError:
+        return None
+    if stats.f_flag & os.ST_RDONLY:
+        return f"--out {target}: {parent} is on a read-only file system"
+    if stats.f_blocks == 0:
+        return f"--out {target}: {parent} is on a file system that stores no folders (as /proc)"
     return None
 
 
