@@ -10,10 +10,11 @@ VTX series and the checkpoints; at the end one writer commits ``history.csv``, t
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,7 +28,6 @@ import ufl
 from dgplate import compat, interrupt, mpi
 from dgplate.errors import InputError
 from dgplate.io import checkpoint
-from dgplate.io.history_chart import plot_history
 from dgplate.io.output import (
     CHECKPOINT,
     OutputDir,
@@ -40,7 +40,7 @@ from dgplate.io.output import (
 from dgplate.io.records import summary_is_current
 from dgplate.mesh.tagged import TaggedMesh, load_geo, rectangle
 from dgplate.models.base import Model
-from dgplate.problems import advice
+from dgplate.problems import advice, sizing
 from dgplate.problems.registry import MODELS
 from dgplate.problems.specs import MeshSpec, Problem
 from dgplate.solvers.driver import Driver
@@ -300,6 +300,7 @@ def run(
     initial: Initial | None = None,
     force: bool = False,
     resume: bool = False,
+    allow_large: bool = False,
 ) -> Result:
     """Solve ``problem``, write its outputs to ``out`` and return the :class:`Result`.
 
@@ -310,6 +311,8 @@ def run(
         initial: x ↦ y(x), a start other than the flat plate (e.g. an exact fold).
         force: write into a folder of a user's files (deleting none of them).
         resume: continue from the checkpoint in the output folder, on any number of ranks.
+        allow_large: run a problem that needs more memory than the job has, or a degree
+            beyond :data:`~dgplate.problems.sizing.MAX_DEGREE` (refused otherwise).
 
     Everything that can be validated is validated before the output folder is touched, and
     the folder is checked before anything is computed (:class:`~dgplate.io.output.OutputDir`).
@@ -318,8 +321,11 @@ def run(
     """
     wall0 = time.perf_counter()
     with interrupt.StopOnSignal():
-        target, start, tagged, model = _set_up(problem, out, comm, force, resume)
-        return _solve(_Job(problem, tagged, target, initial, force, start, wall0), model)
+        with interrupt.setting_up():
+            target, start, tagged, model = _set_up(problem, out, comm, force, resume, allow_large)
+            job = _Job(problem, tagged, target, initial, force, start, wall0)
+            driver = _build_driver(job, model)
+        return _solve(job, model, driver)
 
 
 def check(
@@ -329,6 +335,7 @@ def check(
     initial: Initial | None = None,
     force: bool = False,
     resume: bool = False,
+    allow_large: bool = False,
 ) -> dict[str, Any]:
     """Validate ``problem`` as :func:`run` would, without solving it or writing anything.
 
@@ -343,13 +350,14 @@ def check(
     Args: those of :func:`run`; nothing is written, so ``force`` only accepts a user's folder
     and ``resume`` checks the checkpoint there.
     """
-    target, start, tagged, model = _set_up(problem, out, comm, force, resume)
-    driver = model.driver(problem.flow, [], initial)
+    with interrupt.setting_up():
+        target, start, tagged, model = _set_up(problem, out, comm, force, resume, allow_large)
+        driver = model.driver(problem.flow, [], initial)
     _start(driver, start, target)
     report = {
         "problem": problem.name,
         "model": problem.model.name,
-        "setting": _setting(problem, tagged, driver),
+        "setting": _setting(problem, tagged),
         "cells": _cells(tagged),
         "dofs": _dofs(driver),
         "ranks": comm.size,
@@ -362,9 +370,18 @@ def check(
 
 
 def _set_up(
-    problem: Problem, out: str | Path | None, comm: MPI.Comm, force: bool, resume: bool
+    problem: Problem,
+    out: str | Path | None,
+    comm: MPI.Comm,
+    force: bool,
+    resume: bool,
+    allow_large: bool,
 ) -> tuple[Path, checkpoint.Checkpoint | None, TaggedMesh, Model]:
-    """The output folder (checked), the checkpoint to resume from, the mesh and the model."""
+    """The output folder (checked), the checkpoint to resume from, the mesh and the model.
+
+    A problem too large for the job's memory is refused before anything is built
+    (:func:`dgplate.problems.sizing.guard`).
+    """
     if not isinstance(problem, Problem):
         raise InputError(
             "the problem must be a dgplate.Problem (dgplate.load_problem(path) reads a file), "
@@ -375,6 +392,7 @@ def _set_up(
     target = Path(out or problem.output.dir or f"out/{problem.name}")
     OutputDir.check(comm, target, force, resume)
     start = _resume_point(problem, target, comm) if resume else None
+    sizing.guard(problem, comm, allow_large)
     return (target, start, *build_model(problem, comm))
 
 
@@ -433,11 +451,22 @@ class _Job:
     wall0: float
 
 
-def _solve(job: _Job, model: Model) -> Result:
+def _build_driver(job: _Job, model: Model) -> Driver:
+    """The header line, then the driver: its spaces and forms (compiled, where new)."""
     comm = job.tagged.comm
     progress = job.problem.output.progress
     observers = [ProgressPrinter(comm, progress)] if progress else []
-    driver = model.driver(job.problem.flow, observers, job.initial)
+    resumed = f", resumed at step {job.start.state['step']}" if job.start is not None else ""
+    print0(
+        comm,
+        f"dgplate: {job.problem.name}: {_setting(job.problem, job.tagged)}{resumed}, "
+        f"output → {job.target.absolute()}",
+    )
+    with compiling(comm):
+        return model.driver(job.problem.flow, observers, job.initial)
+
+
+def _solve(job: _Job, model: Model, driver: Driver) -> Result:
     # no destroy() on an error: it is collective, and the error may have hit one rank only
     result = _run_driver(job, model, driver)
     driver.destroy()
@@ -455,12 +484,6 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
     if start is None:
         advice.warn(comm, advice.before_run(problem, tagged, initial))
     out = OutputDir(comm, target, force, resume=start is not None)
-    resumed = f", resumed at step {driver.step_count}" if start is not None else ""
-    print0(
-        comm,
-        f"dgplate: {problem.name}: {_setting(problem, tagged, driver)}{resumed}, "
-        f"output → {out.target}",
-    )
     earlier_wall = float(start.state.get("wall_time_s", 0.0)) if start is not None else 0.0
     checkpoints = Checkpoints(
         out.checkpoint_dir,
@@ -494,6 +517,8 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
     advice.warn(comm, advice.after_run(problem, driver, summary, _area(tagged)))
     write_history(comm, out.path / "history.csv", checkpoints.history)
     if problem.output.png:
+        from dgplate.io.history_chart import plot_history  # pyvista: 1 s to import
+
         _picture(problem, model, driver, summary, out.path / "final.png")
         if comm.rank == 0:
             flow = problem.flow
@@ -558,12 +583,37 @@ def _cells(tagged: TaggedMesh) -> int:
     return int(tagged.mesh.topology.index_map(tagged.mesh.topology.dim).size_global)
 
 
-def _setting(problem: Problem, tagged: TaggedMesh, driver: Driver) -> str:
-    """``model kirchhoff, 256 cells, 7,680 dofs on 2 rank(s)``: what a run solves, and where."""
+def _setting(problem: Problem, tagged: TaggedMesh) -> str:
+    """``model kirchhoff, 256 cells, 7,680 dofs on 2 rank(s)``: what a run solves, and where.
+
+    Known before the forms are built and compiled (:func:`dgplate.problems.sizing.unknowns`).
+    """
+    dofs = sizing.mesh_unknowns(problem.model, problem.flow, tagged.mesh)
     return (
-        f"model {problem.model.name}, {_cells(tagged):,} cells, {_dofs(driver):,} dofs on "
+        f"model {problem.model.name}, {_cells(tagged):,} cells, {dofs:,} dofs on "
         f"{tagged.comm.size} rank(s)"
     )
+
+
+@contextlib.contextmanager
+def compiling(comm: MPI.Comm) -> Iterator[None]:
+    """Say so on rank 0 when forms are compiled in the block (not found in the JIT cache).
+
+    One line before the first compilation, and one with the time when the block ends: the
+    first run of a problem's shape is silent for a while otherwise.
+    """
+    started: list[float] = []
+
+    def announce() -> None:
+        started.append(time.perf_counter())
+        print0(
+            comm, "dgplate: compiling forms (first run of this problem shape, cached afterwards)…"
+        )
+
+    with compat.on_first_compile(announce):
+        yield
+    if started:
+        print0(comm, f"dgplate: forms compiled in {time.perf_counter() - started[0]:.1f} s")
 
 
 def _area(tagged: TaggedMesh) -> float:
