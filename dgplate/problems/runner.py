@@ -322,7 +322,8 @@ def run(
     wall0 = time.perf_counter()
     with interrupt.StopOnSignal():
         with interrupt.setting_up():
-            target, start, tagged, model = _set_up(problem, out, comm, force, resume, allow_large)
+            set_up = _set_up(problem, out, comm, force, resume, allow_large, header=True)
+            target, start, tagged, model = set_up
             job = _Job(problem, tagged, target, initial, force, start, wall0)
             driver = _build_driver(job, model)
         return _solve(job, model, driver)
@@ -357,7 +358,7 @@ def check(
     report = {
         "problem": problem.name,
         "model": problem.model.name,
-        "setting": _setting(problem, tagged),
+        "setting": _setting(problem, comm.size, _size(problem, tagged)),
         "cells": _cells(tagged),
         "dofs": _dofs(driver),
         "ranks": comm.size,
@@ -376,11 +377,13 @@ def _set_up(
     force: bool,
     resume: bool,
     allow_large: bool,
+    header: bool = False,
 ) -> tuple[Path, checkpoint.Checkpoint | None, TaggedMesh, Model]:
     """The output folder (checked), the checkpoint to resume from, the mesh and the model.
 
     A problem too large for the job's memory is refused before anything is built
-    (:func:`dgplate.problems.sizing.guard`).
+    (:func:`dgplate.problems.sizing.guard`). ``header``: print the run's first line as soon
+    as its size is known: before the mesh is built when the keys say it exactly.
     """
     if not isinstance(problem, Problem):
         raise InputError(
@@ -392,8 +395,14 @@ def _set_up(
     target = Path(out or problem.output.dir or f"out/{problem.name}")
     OutputDir.check(comm, target, force, resume)
     start = _resume_point(problem, target, comm) if resume else None
-    sizing.guard(problem, comm, allow_large)
-    return (target, start, *build_model(problem, comm))
+    size = sizing.guard(problem, comm, allow_large)
+    known = size is not None and not size.approximate
+    if header and size is not None and known:
+        _header(problem, target, start, comm, (size.cells, size.dofs))
+    tagged, model = build_model(problem, comm)
+    if header and not known:
+        _header(problem, target, start, comm, _size(problem, tagged))
+    return target, start, tagged, model
 
 
 def build_model(problem: Problem, comm: MPI.Comm) -> tuple[TaggedMesh, Model]:
@@ -452,16 +461,10 @@ class _Job:
 
 
 def _build_driver(job: _Job, model: Model) -> Driver:
-    """The header line, then the driver: its spaces and forms (compiled, where new)."""
+    """The driver: its spaces and forms (compiled, where new, said so)."""
     comm = job.tagged.comm
     progress = job.problem.output.progress
     observers = [ProgressPrinter(comm, progress)] if progress else []
-    resumed = f", resumed at step {job.start.state['step']}" if job.start is not None else ""
-    print0(
-        comm,
-        f"dgplate: {job.problem.name}: {_setting(job.problem, job.tagged)}{resumed}, "
-        f"output → {job.target.absolute()}",
-    )
     with compiling(comm):
         return model.driver(job.problem.flow, observers, job.initial)
 
@@ -583,16 +586,28 @@ def _cells(tagged: TaggedMesh) -> int:
     return int(tagged.mesh.topology.index_map(tagged.mesh.topology.dim).size_global)
 
 
-def _setting(problem: Problem, tagged: TaggedMesh) -> str:
-    """``model kirchhoff, 256 cells, 7,680 dofs on 2 rank(s)``: what a run solves, and where.
+def _setting(problem: Problem, ranks: int, size: tuple[int, int]) -> str:
+    """``model kirchhoff, 256 cells, 7,680 dofs on 2 rank(s)``: what a run solves, and where."""
+    cells, dofs = size
+    return f"model {problem.model.name}, {cells:,} cells, {dofs:,} dofs on {ranks} rank(s)"
 
-    Known before the forms are built and compiled (:func:`dgplate.problems.sizing.unknowns`).
-    """
-    dofs = sizing.mesh_unknowns(problem.model, problem.flow, tagged.mesh)
-    return (
-        f"model {problem.model.name}, {_cells(tagged):,} cells, {dofs:,} dofs on "
-        f"{tagged.comm.size} rank(s)"
-    )
+
+def _size(problem: Problem, tagged: TaggedMesh) -> tuple[int, int]:
+    """(cells, dofs) of the built mesh, before the forms (:func:`sizing.mesh_unknowns`)."""
+    return _cells(tagged), sizing.mesh_unknowns(problem.model, problem.flow, tagged.mesh)
+
+
+def _header(
+    problem: Problem,
+    target: Path,
+    start: checkpoint.Checkpoint | None,
+    comm: MPI.Comm,
+    size: tuple[int, int],
+) -> None:
+    """The run's first line: what it solves, on how many ranks, and where it writes."""
+    resumed = f", resumed at step {start.state['step']}" if start is not None else ""
+    setting = _setting(problem, comm.size, size)
+    print0(comm, f"dgplate: {problem.name}: {setting}{resumed}, output → {target.absolute()}")
 
 
 @contextlib.contextmanager
