@@ -17,6 +17,7 @@ VERTICAL = PROBLEMS / "vertical_load.toml"
 SMALL = {"mesh.cells": [2, 3], "output.png": False, "output.vtx": False}
 
 
+@pytest.mark.mpi
 @pytest.mark.parametrize(
     ("name", "sets"),
     [
@@ -32,11 +33,12 @@ SMALL = {"mesh.cells": [2, 3], "output.png": False, "output.vtx": False}
 def test_unknowns_before_the_build_are_the_runs(name, sets, tmp_path, comm):
     """The count from the keys, from the built mesh (the header) and the driver's agree."""
     problem = dgplate.load_problem(PROBLEMS / f"{name}.toml", sets)
-    report = dgplate.check(problem, out=tmp_path / "out")
+    report = dgplate.check(problem, out=comm.bcast(tmp_path / "out", root=0))
     size = sizing.estimate(problem, comm)
     assert size is not None
     assert (size.cells, size.dofs) == (report["cells"], report["dofs"])
-    assert f"{report['cells']:,} cells, {report['dofs']:,} dofs on 1 rank(s)" in report["setting"]
+    setting = f"{report['cells']:,} cells, {report['dofs']:,} dofs on {comm.size} rank(s)"
+    assert setting in report["setting"]
 
 
 @pytest.mark.parametrize(
@@ -58,6 +60,7 @@ def test_memory_estimate_reproduces_its_calibration(
     assert estimate == pytest.approx(measured_mb, rel=0.1)
 
 
+@pytest.mark.mpi
 def test_the_least_memory_limit_holds(monkeypatch, comm):
     """Physical memory, the cgroup's limit and ulimit -v (per rank): the least one counts."""
     monkeypatch.setattr(sizing, "_physical_mb", lambda: 16384.0)
