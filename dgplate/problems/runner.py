@@ -351,7 +351,8 @@ def check(
     Args: those of :func:`run`; nothing is written, so ``force`` only accepts a user's folder
     and ``resume`` checks the checkpoint there.
     """
-    with interrupt.setting_up():
+    # a compilation left unfinished by a signal is given up (the next run compiles it)
+    with interrupt.setting_up(), compat.on_first_compile(lambda: None):
         target, start, tagged, model = _set_up(problem, out, comm, force, resume, allow_large)
         driver = model.driver(problem.flow, [], initial)
     _start(driver, start, target)
