@@ -16,6 +16,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 from mpi4py import MPI
@@ -407,6 +408,29 @@ def test_sigint_during_the_compilation_ends_it_and_keeps_the_cache_usable(tmp_pa
     assert all(c.with_suffix(".c.cached").exists() for c in sources)
     assert list((cache / "fenics").glob("*.c.failed"))
     assert not (tmp_path / "run").exists()
+
+
+def test_sigterm_during_checks_compilation_keeps_the_cache_usable(tmp_path):
+    """`dgplate check` on a cold cache, signalled while FFCx compiles a form: 143, and the
+    form's C file renamed, not left for the next run to wait on."""
+    fenics = tmp_path / "cache" / "fenics"
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}
+    args = ["check", str(VERTICAL), "--out", str(tmp_path / "run"), *SMALL]
+    process = subprocess.Popen(
+        [sys.executable, "-m", "dgplate", *args], stderr=subprocess.PIPE, text=True, env=env
+    )
+    try:
+        # a C file with code: its compilation is under way (the empty file is FFCx's lock)
+        while not any(c.stat().st_size for c in fenics.glob("*.c")) and process.poll() is None:
+            time.sleep(0.05)
+        process.send_signal(signal.SIGTERM)
+        _, err = process.communicate(timeout=120)
+    finally:
+        process.kill()
+    assert process.returncode == 143, err
+    assert err == "dgplate: SIGTERM during the set-up: stopped, nothing written\n"
+    assert all(c.with_suffix(".c.cached").exists() for c in fenics.glob("*.c"))
+    assert list(fenics.glob("*.c.failed"))
 
 
 def test_a_failing_solver_ends_with_exit_1_and_no_abort(tmp_path):
