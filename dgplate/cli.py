@@ -6,8 +6,10 @@ folder, the mesh, the model, the start) without solving or writing: 0 valid, 2 b
 run in detail, several as a table (a demo's folder of several runs stands for them).
 
 Exit codes: 0 success; 1 the solve did not converge, or failed (outputs are written, with the
-reason); 2 bad input (a one-line message on stderr, nothing written); 130 and 143 the run was
-interrupted by SIGINT or SIGTERM (outputs and a checkpoint are written; ``--resume`` goes on).
+reason); 2 bad input (a one-line message on stderr, nothing written), a problem too large for
+the job's memory included (``--allow-large`` runs it); 130 and 143 the run was interrupted by
+SIGINT or SIGTERM (outputs and a checkpoint are written; ``--resume`` goes on; during the
+set-up and the compilation of forms the signal ends the process at once).
 Under MPI an error on some ranks ends all of them within seconds (:func:`end_together`).
 """
 
@@ -43,6 +45,7 @@ class _Parser(argparse.ArgumentParser):
 
 def _parser() -> argparse.ArgumentParser:
     from dgplate import __version__
+    from dgplate.problems.sizing import MAX_DEGREE
 
     parser = _Parser(
         prog="dgplate", description="Large bending deformations of thin plates (IP-dG, DOLFINx)."
@@ -67,6 +70,12 @@ def _parser() -> argparse.ArgumentParser:
             "--resume",
             action="store_true",
             help="continue from the checkpoint in the output folder (same problem, any ranks)",
+        )
+        command.add_argument(
+            "--allow-large",
+            action="store_true",
+            help="run a problem that needs more memory than the job has, or a polynomial "
+            f"degree beyond {MAX_DEGREE} (refused otherwise, before anything is built)",
         )
         command.add_argument(
             "--set",
@@ -135,10 +144,12 @@ def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
     from dgplate.problems.specs import load_problem
 
     problem = load_problem(args.problem, args.overrides)
-    if args.command == "check":
-        return _check(problem, args, comm)
-    with interrupt.StopOnSignal():
-        summary = run(problem, args.out, comm, force=args.force, resume=args.resume).summary
+    # the set-up and the compilation end at once on SIGINT and SIGTERM (nothing to keep yet)
+    with interrupt.StopOnSignal(at_once=True):
+        if args.command == "check":
+            return _check(problem, args, comm)
+        options = {"force": args.force, "resume": args.resume, "allow_large": args.allow_large}
+        summary = run(problem, args.out, comm, **options).summary
     if summary.get("interrupted"):
         if comm.rank == 0:
             print(
@@ -164,7 +175,8 @@ def _check(problem: Problem, args: argparse.Namespace, comm: MPI.Comm) -> int:
     from dgplate.problems import advice
     from dgplate.problems.runner import check
 
-    report = check(problem, args.out, comm, force=args.force, resume=args.resume)
+    options = {"force": args.force, "resume": args.resume, "allow_large": args.allow_large}
+    report = check(problem, args.out, comm, **options)
     advice.warn(comm, report["warnings"])
     if comm.rank == 0:
         resume = report["resume_step"]

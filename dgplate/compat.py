@@ -13,8 +13,12 @@ names further down say it once, so that the rest of the package needs no ``type:
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import importlib
-from collections.abc import Callable, Sequence
+import os
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias, cast
 
 from mpi4py import MPI
@@ -33,6 +37,7 @@ from ufl.core.expr import Expr
 if TYPE_CHECKING:
     import basix.ufl
 
+from dgplate import interrupt
 from dgplate.errors import UnsupportedVersionError
 
 MIN_VERSION = (0, 9)
@@ -90,6 +95,44 @@ def wait_longer_for_jit() -> None:
 
 
 wait_longer_for_jit()
+
+
+@contextlib.contextmanager
+def on_first_compile(announce: Callable[[], None]) -> Iterator[None]:
+    """Call ``announce`` once, before the first form the block compiles (a JIT cache miss).
+
+    FFCx's ``get_cached_module`` (0.9 to 0.11) creates the C file of a form it does not find
+    and returns no module: the caller then compiles it and marks it ready. A process that
+    ends before that (:func:`dgplate.interrupt.setting_up`) renames the C file as FFCx does
+    on a failed compilation; left in place, it would make the next run wait for it.
+    """
+    import ffcx.codegeneration.jit as jit
+
+    original: Callable[..., Any] = jit.get_cached_module
+    announced: list[bool] = []
+
+    def get_cached_module(module_name: str, names: Any, cache_dir: Any, timeout: int) -> Any:
+        found = original(module_name, names, cache_dir, timeout)
+        if found[0] is None:  # this process compiles it
+            c_file = Path(cache_dir).joinpath(module_name).with_suffix(".c")
+            interrupt.CLEAN_UP.append(functools.partial(_abandon, c_file))
+            if not announced:
+                announced.append(True)
+                announce()
+        return found
+
+    jit.get_cached_module = get_cached_module
+    try:
+        yield
+    finally:
+        jit.get_cached_module = original
+        interrupt.CLEAN_UP.clear()
+
+
+def _abandon(c_file: Path) -> None:
+    """Rename an unfinished compilation's C file to ``.c.failed`` (FFCx's own clean-up)."""
+    if not c_file.with_suffix(".c.cached").exists():
+        os.replace(c_file, c_file.with_suffix(".c.failed"))
 
 
 def shared_facet_partitioner() -> Callable[..., object]:

@@ -6,17 +6,27 @@ active, the first signal only sets a flag; the drivers ask :func:`requested` at 
 boundary (a collective, so a signal that reached one rank stops all of them at the same step),
 write what they have, and the command line exits with 128 + the signal number (130 for SIGINT,
 143 for SIGTERM). A second signal exits at once.
+
+Before the first step there is nothing to keep, and the set-up may spend minutes in one call of
+compiled code (a large mesh, a form compilation; under MPI a rank waits in a collective while
+another compiles), where a Python handler would run only when the call returns. So on the
+command line (``StopOnSignal(at_once=True)``) a signal during the set-up (:func:`setting_up`)
+ends the process at once, with 130 or 143 and without PETSc's crash report: the C library
+calls the handler directly, which renames the C file of a form compilation this process left
+unfinished (:data:`CLEAN_UP`, else the next run would wait for it) and exits.
 """
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import os
 import signal
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from types import FrameType, TracebackType
-from typing import TypeAlias
+from typing import Any, TypeAlias
 
 from mpi4py import MPI
 
@@ -26,6 +36,13 @@ Handler: TypeAlias = "Callable[[int, FrameType | None], object] | int | signal.H
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _received = 0
 _depth = 0  # nested StopOnSignal contexts: only the outermost installs and restores
+_at_once = False  # whether the outermost StopOnSignal ends the set-up at once (the CLI)
+_rank = 0  # MPI.COMM_WORLD's rank, for the handler that may not call MPI
+_ending = False  # inside setting_up: a signal ends the process at once
+
+#: What a process that ends at once during the set-up does first (e.g. give up an unfinished
+#: form compilation, :func:`dgplate.compat.on_first_compile`): only system calls, no MPI.
+CLEAN_UP: list[Callable[[], None]] = []
 
 
 def _handler(signum: int, _frame: FrameType | None) -> None:
@@ -46,15 +63,20 @@ class StopOnSignal:
     """Context manager: SIGINT and SIGTERM request a stop instead of killing the run.
 
     Outside the main thread (where Python cannot install handlers) it does nothing. The
-    previous handlers are restored on exit, so notebooks and callers keep theirs.
+    previous handlers are restored on exit, so notebooks and callers keep theirs. ``at_once``
+    (the command line's choice; a notebook's kernel must survive a Ctrl-C): the blocks marked
+    :func:`setting_up` end the process at once on either signal.
     """
 
+    def __init__(self, at_once: bool = False) -> None:
+        self.at_once = at_once
+
     def __enter__(self) -> StopOnSignal:
-        global _received, _depth
+        global _received, _depth, _at_once
         self._previous: dict[int, Handler] = {}
         _depth += 1
         if _depth == 1 and threading.current_thread() is threading.main_thread():
-            _received = 0
+            _received, _at_once = 0, self.at_once
             for sig in SIGNALS:
                 self._previous[sig] = signal.signal(sig, _handler)
         return self
@@ -65,10 +87,72 @@ class StopOnSignal:
         value: BaseException | None,
         traceback: TracebackType | None,
     ) -> None:
-        global _depth
+        global _depth, _at_once
         _depth -= 1
         for sig, previous in self._previous.items():
             signal.signal(sig, previous)
+        if self._previous:
+            _at_once = False
+
+
+@contextlib.contextmanager
+def setting_up() -> Iterator[None]:
+    """A set-up or compile phase: SIGINT and SIGTERM end the process at once in it.
+
+    Only inside a ``StopOnSignal(at_once=True)`` (the command line), in the main thread;
+    elsewhere it does nothing. The stop-at-a-step handlers are back on leaving the block.
+    """
+    if not _at_once or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    global _rank, _ending
+    _rank = MPI.COMM_WORLD.rank
+    saved = {sig: signal.getsignal(sig) for sig in SIGNALS}
+    _ending = True
+    renew()
+    try:
+        yield
+    finally:
+        _ending = False
+        for sig, handler in saved.items():
+            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
+
+
+def renew() -> None:
+    """Install the set-up's handlers again after a library reset them (gmsh does).
+
+    Only inside :func:`setting_up`; elsewhere it does nothing.
+    """
+    if _ending:
+        for sig in SIGNALS:
+            _libc_signal(sig, _END_NOW)
+
+
+def _end_now(signum: int) -> None:
+    """End the process with 128 + ``signum`` now.
+
+    Called by the C library in the signal's context, even inside compiled code: the least
+    Python possible, and no MPI.
+    """
+    for clean_up in CLEAN_UP:
+        with contextlib.suppress(Exception):
+            clean_up()
+    if _rank == 0:  # mpirun forwards the signal to every rank: say it once
+        name = "SIGINT" if signum == signal.SIGINT else "SIGTERM"
+        os.write(2, f"dgplate: {name} during the set-up: stopped, nothing written\n".encode())
+    os._exit(128 + signum)
+
+
+_HANDLER = ctypes.CFUNCTYPE(None, ctypes.c_int)
+_END_NOW = _HANDLER(_end_now)
+
+
+def _libc_signal(signum: int, handler: Any) -> None:
+    """Install a C-level ``handler`` (Python's own run only between bytecodes)."""
+    libc = ctypes.CDLL(None)
+    libc.signal.argtypes = [ctypes.c_int, _HANDLER]
+    libc.signal.restype = ctypes.c_void_p
+    libc.signal(signum, handler)
 
 
 def requested(comm: MPI.Comm) -> int:

@@ -26,9 +26,11 @@ PROBLEMS = ROOT / "demos" / "problems"
 VERTICAL = PROBLEMS / "vertical_load.toml"
 BILAYER = PROBLEMS / "bilayer_cylinder.toml"
 FVK = PROBLEMS / "fvk_square.toml"
+ROD = PROBLEMS / "rod_arc.toml"
 
 THERMAL = b'[model]\nname = "thermal"\n'
 SMALL = ("mesh.cells=[4,4]", "output.png=false", "output.vtx=false", "output.progress=0")
+ROD_SMALL = ("output.png=false", "output.vtx=false", "output.progress=0")
 MISSING, DIRECTORY = "<missing file>", "<directory>"
 
 
@@ -282,6 +284,25 @@ BAD_INPUT = {
         ("model.start={type='formula', g=['x', 'y', 'sqrt(-1-x)']}",),
         "model.start.g[2]: formula 'sqrt(-1-x)' is not finite on the plate",
     ),
+    # -- too large for the memory of any machine, refused before anything is built --------------------
+    "rod of 1e8 cells": Case(
+        ("model.cells=100000000",),
+        "model.cells: 100,000,000 cells of degree 2 make 1,400,000,007 unknowns",
+        ROD,
+        base=ROD_SMALL,
+    ),
+    "plate of 1e10 cells": Case(
+        ("mesh.cells=[100000,100000]",),
+        "mesh.cells: 10,000,000,000 cells of degree 2 make 300,000,000,000 unknowns",
+    ),
+    "gmsh mesh of 4e9 cells": Case(
+        (),
+        "mesh.parameters: about ",
+        b'[mesh]\ntype = "gmsh"\nfile = "rectangle.geo"\nparameters = { h = 1e-4 }\n',
+        base=(),
+    ),
+    "degree 40": Case(("model.degree=40",), "model.degree = 40 is above 6"),
+    "rod degree 40": Case(("model.degree=40",), "model.degree = 40 is above 6", ROD, ROD_SMALL),
     # -- the problem file itself ------------------------------------------------------------------
     "empty problem file": Case(
         (), "the problem 'empty_problem_file' is empty: give at least [model]", b"", base=()
@@ -302,6 +323,7 @@ BAD_INPUT = {
 
 #: Cases that also run under mpirun -n 2 (validation, and collective checks on the mesh).
 MPI_CASES = [
+    "rod of 1e8 cells",
     "load inf",
     "load nan",
     "penalty nan",

@@ -129,6 +129,26 @@ def test_check_refuses_what_run_refuses(tmp_path, capsys):
     assert [p.name for p in (tmp_path / "mine").iterdir()] == ["notes.txt"]
 
 
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="no /proc")
+def test_check_refuses_a_folder_run_cannot_make(capsys):
+    """/proc takes no folders, not even root's: check says so as run does, writing nothing."""
+    line = "dgplate: error: --out /proc/x: /proc is on a file system that stores no folders"
+    for verb in ("check", "run"):
+        assert main([verb, str(VERTICAL), "--out", "/proc/x", *SMALL]) == 2
+        assert capsys.readouterr().err == f"{line} (as /proc)\n"
+
+
+def test_header_first_and_no_compile_notice_from_the_cache(tmp_path, capsys):
+    """The header is the first line; a run whose forms are cached says nothing of compiling."""
+    args = ["run", str(VERTICAL), *SMALL, "--set", "output.progress=0"]
+    assert main([*args, "--out", str(tmp_path / "a")]) == 0  # compiles on a cold cache
+    capsys.readouterr()
+    assert main([*args, "--out", str(tmp_path / "b")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("dgplate: vertical_load: model kirchhoff, 16 cells, 480 dofs on")
+    assert not any("compiling" in line for line in lines), lines
+
+
 @pytest.mark.mpi
 def test_cli_in_parallel(tmp_path):
     """`mpirun -n 2 dgplate run …`: one output directory, and the energy and step count of a

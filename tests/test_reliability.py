@@ -16,6 +16,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 from mpi4py import MPI
@@ -30,6 +31,7 @@ from dgplate.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 VERTICAL = ROOT / "demos" / "problems" / "vertical_load.toml"
+ROD = ROOT / "demos" / "problems" / "rod_arc.toml"
 SMALL = ["--set", "mesh.cells=[4,4]", "--set", "output.png=false", "--set", "output.vtx=false"]
 # 8×8 BNN plate with τ = 0.1: 37 steps with direct solves (enough to kill it halfway)
 RESUMABLE = [
@@ -343,6 +345,92 @@ def test_sigterm_keeps_outputs_and_exits_143(ranks, mesh, tmp_path):
     assert len(rows) == summary["steps"] + 1
     assert (out / "checkpoint" / "state.npz").is_file()
     assert not list(out.glob(".staging-*"))
+
+
+def _signalled(command: list[str], wait_for: str, sig: int, env=None) -> tuple[int, str, str]:
+    """Start ``command``, send ``sig`` when a line of its output starts with ``wait_for``;
+    returns (exit code, stdout, stderr)."""
+    process = subprocess.Popen(
+        command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
+    )
+    try:
+        seen = []
+        for line in process.stdout:
+            seen.append(line)
+            if line.startswith(wait_for):
+                break
+        process.send_signal(sig)
+        out, err = process.communicate(timeout=120)
+    finally:
+        process.kill()
+    return process.returncode, "".join(seen) + out, err
+
+
+@pytest.mark.parametrize("ranks", [1, TWO_RANKS])
+def test_sigterm_during_the_set_up_ends_it_at_once(ranks, tmp_path):
+    """After its first line a rod of 40,000 cells spends half a minute in compiled code (the
+    collapse of its mixed space), where Python handlers do not run; under mpirun a rank also
+    waits in a collective. SIGTERM ends it there: 143, one line, nothing written, no PETSc
+    report (without the immediate end it would stop only after a step, with outputs)."""
+    if ranks > 1 and (_mpirun() is None or OPEN_MPI):
+        pytest.skip("no mpirun, or Open MPI's, which ends the job itself on SIGTERM")
+    out = tmp_path / "run"
+    args = ["run", str(ROD), "--out", str(out), "--set", "model.cells=40000"]
+    command = [sys.executable, "-m", "dgplate", *args]
+    if ranks > 1:
+        command = [_mpirun(), "-n", "2", sys.executable, "-m", "mpi4py", "-m", "dgplate", *args]
+    code, stdout, err = _signalled(
+        command, "dgplate: rod_arc: model rod, 40,000 cells", signal.SIGTERM
+    )
+    assert code == 143, err
+    assert err == "dgplate: SIGTERM during the set-up: stopped, nothing written\n", err
+    assert "PETSc" not in stdout
+    assert not out.exists()
+
+
+def test_sigint_during_the_compilation_ends_it_and_keeps_the_cache_usable(tmp_path):
+    """A cold JIT cache: the header, then the notice of the compilation; SIGINT there ends the
+    process with 130, and the unfinished form's C file is renamed (as FFCx does after a failed
+    compilation), so that the next run compiles it instead of waiting for it."""
+    cache = tmp_path / "cache"
+    env = {**os.environ, "XDG_CACHE_HOME": str(cache)}
+    args = ["run", str(VERTICAL), "--out", str(tmp_path / "run"), *SMALL]
+    command = [sys.executable, "-m", "dgplate", *args]
+    code, stdout, err = _signalled(command, "dgplate: compiling forms", signal.SIGINT, env)
+    assert code == 130, err
+    assert err == "dgplate: SIGINT during the set-up: stopped, nothing written\n", err
+    header, notice = stdout.splitlines()
+    assert header.startswith("dgplate: vertical_load: model kirchhoff, 16 cells, 480 dofs")
+    assert (
+        notice == "dgplate: compiling forms (first run of this problem shape, cached afterwards)…"
+    )
+    sources = (cache / "fenics").glob("*.c")
+    assert all(c.with_suffix(".c.cached").exists() for c in sources)
+    assert list((cache / "fenics").glob("*.c.failed"))
+    assert not (tmp_path / "run").exists()
+
+
+def test_sigterm_during_checks_compilation_keeps_the_cache_usable(tmp_path):
+    """`dgplate check` on a cold cache, signalled while FFCx compiles a form: 143, and the
+    form's C file renamed, not left for the next run to wait on."""
+    fenics = tmp_path / "cache" / "fenics"
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path / "cache")}
+    args = ["check", str(VERTICAL), "--out", str(tmp_path / "run"), *SMALL]
+    process = subprocess.Popen(
+        [sys.executable, "-m", "dgplate", *args], stderr=subprocess.PIPE, text=True, env=env
+    )
+    try:
+        # a C file with code: its compilation is under way (the empty file is FFCx's lock)
+        while not any(c.stat().st_size for c in fenics.glob("*.c")) and process.poll() is None:
+            time.sleep(0.05)
+        process.send_signal(signal.SIGTERM)
+        _, err = process.communicate(timeout=120)
+    finally:
+        process.kill()
+    assert process.returncode == 143, err
+    assert err == "dgplate: SIGTERM during the set-up: stopped, nothing written\n"
+    assert all(c.with_suffix(".c.cached").exists() for c in fenics.glob("*.c"))
+    assert list(fenics.glob("*.c.failed"))
 
 
 def test_a_failing_solver_ends_with_exit_1_and_no_abort(tmp_path):

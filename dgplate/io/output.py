@@ -138,6 +138,23 @@ def target_problem(
         return f"{key} {target}: {parent} is a file, not a directory"
     if not os.access(parent, os.W_OK | os.X_OK):
         return f"{key} {target}: no permission to write in {parent}"
+    return None if target.exists() else _no_storage(key, target, parent)
+
+
+def _no_storage(key: str, target: Path, parent: Path) -> str | None:
+    """Why no folder can be made in ``parent`` (None: one can).
+
+    A read-only file system, or one without storage: a kernel's pseudo file system such as
+    /proc, where even root makes no folders.
+    """
+    try:
+        stats = os.statvfs(parent)
+    except OSError:
+        return None
+    if stats.f_flag & os.ST_RDONLY:
+        return f"{key} {target}: {parent} is on a read-only file system"
+    if stats.f_blocks == 0:
+        return f"{key} {target}: {parent} is on a file system that stores no folders (as /proc)"
     return None
 
 

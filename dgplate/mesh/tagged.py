@@ -25,7 +25,7 @@ import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 
-from dgplate import compat, mpi
+from dgplate import compat, interrupt, mpi
 from dgplate.compat import Array, Function, Indices, Mesh, MeshTags
 from dgplate.errors import InputError, read_user_text
 
@@ -273,6 +273,63 @@ def load_geo(
 #: gmsh's ``Mesh.MaxRetries`` (:func:`load_geo`'s ``gmsh_options`` may set another).
 MAX_RETRIES = 5
 
+#: Nodes on the curves up to which :func:`geo_size` meshes the surfaces at the file's sizes.
+ESTIMATE_NODES = 400
+
+
+def geo_size(
+    comm: MPI.Comm, name: str | Path, parameters: Mapping[str, float], recombine: bool | None
+) -> tuple[int, str] | None:
+    """About how many cells :func:`load_geo` makes of a .geo file, and their type, cheaply.
+
+    gmsh meshes the curves (their nodes grow like 1/h only), then the surfaces with every size
+    scaled by f = curve nodes / :data:`ESTIMATE_NODES` where that is > 1: the cells grow like
+    1/h², so the estimate is f² times those of the coarse mesh (exact for f = 1). None when
+    gmsh fails: :func:`load_geo` reports why. Collective (gmsh runs on rank 0).
+    """
+    path = resolve_geo(name)
+    _check_parameters(path, parameters)
+    import gmsh
+
+    size: tuple[int, str] | None = None
+    with signal_handlers_kept():
+        if comm.rank == 0:
+            gmsh.initialize(["dgplate"], readConfigFiles=False)
+            try:
+                gmsh.option.setNumber("General.Terminal", 0)
+                gmsh.option.setNumber("Mesh.MaxRetries", MAX_RETRIES)
+                size = _coarse_count(gmsh, path, parameters, recombine)
+            except Exception:  # gmsh's own error, which load_geo reports
+                size = None
+            finally:
+                gmsh.finalize()
+    found: tuple[int, str] | None = comm.bcast(size, root=0)
+    return found
+
+
+def _coarse_count(
+    gmsh: ModuleType, path: Path, parameters: Mapping[str, float], recombine: bool | None
+) -> tuple[int, str]:
+    """(cells, cell type) of :func:`geo_size`'s estimate (gmsh initialised, rank 0)."""
+    for key, value in parameters.items():
+        gmsh.parser.setNumber(key, [float(value)])
+    if recombine:
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+    gmsh.merge(str(path))
+    gmsh.model.mesh.generate(1)
+    nodes = len(gmsh.model.mesh.getNodes(1, -1, includeBoundary=True)[0])
+    factor = max(1.0, nodes / ESTIMATE_NODES)
+    gmsh.model.mesh.clear()
+    scale = gmsh.option.getNumber("Mesh.MeshSizeFactor")
+    gmsh.option.setNumber("Mesh.MeshSizeFactor", scale * factor)
+    gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 0)  # not Blossom: as many, quicker
+    gmsh.model.mesh.generate(2)
+    types, tags, _ = gmsh.model.mesh.getElements(2)
+    counts = {int(kind): len(cells) for kind, cells in zip(types, tags, strict=True)}
+    quads = counts.get(3, 0)  # gmsh's element type 3: the 4-node quadrilateral
+    cell_type = "quadrilateral" if quads > sum(counts.values()) / 2 else "triangle"
+    return round(sum(counts.values()) * factor**2), cell_type
+
 
 @contextlib.contextmanager
 def signal_handlers_kept() -> Iterator[None]:
@@ -293,6 +350,7 @@ def signal_handlers_kept() -> Iterator[None]:
         for sig, handler in saved.items():
             if handler is not None:
                 signal.signal(sig, handler)
+        interrupt.renew()  # a set-up's handlers, which Python does not know of
 
 
 def _check_parameters(path: Path, parameters: Mapping[str, float]) -> None:

@@ -52,7 +52,6 @@ from dgplate.dg.forms import integral
 from dgplate.dg.obstacle import Obstacle
 from dgplate.dg.self_avoidance import CurveTangentPoint, SelfAvoidance
 from dgplate.errors import InputError
-from dgplate.io.rod_pictures import plot_rod
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import is_integer, is_number, option
 from dgplate.solvers.driver import Observer
@@ -753,6 +752,8 @@ class RodModel:
         """
         ball = self.spec.sphere
         sphere = None if ball is None else (ball.radius, ball.center)
+        from dgplate.io.rod_pictures import plot_rod  # pyvista: 1 s to import
+
         plot_rod(driver.u, driver.b, path, title, sphere=sphere)
 
     def lines(self, driver: RodFlow) -> list[Array]:

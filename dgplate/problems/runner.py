@@ -10,10 +10,11 @@ VTX series and the checkpoints; at the end one writer commits ``history.csv``, t
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,7 +28,6 @@ import ufl
 from dgplate import compat, interrupt, mpi
 from dgplate.errors import InputError
 from dgplate.io import checkpoint
-from dgplate.io.history_chart import plot_history
 from dgplate.io.output import (
     CHECKPOINT,
     OutputDir,
@@ -42,7 +42,7 @@ from dgplate.io.records import summary_is_current
 from dgplate.mesh.tagged import TaggedMesh, load_geo, rectangle
 from dgplate.models import starts
 from dgplate.models.base import Model
-from dgplate.problems import advice
+from dgplate.problems import advice, sizing
 from dgplate.problems.registry import MODELS
 from dgplate.problems.specs import MeshSpec, Problem
 from dgplate.solvers.driver import Driver
@@ -302,6 +302,7 @@ def run(
     initial: Initial | str | dict[str, Any] | None = None,
     force: bool = False,
     resume: bool = False,
+    allow_large: bool = False,
 ) -> Result:
     """Solve ``problem``, write its outputs to ``out`` and return the :class:`Result`.
 
@@ -314,6 +315,8 @@ def run(
             it takes precedence over ``model.start``.
         force: write into a folder of a user's files (deleting none of them).
         resume: continue from the checkpoint in the output folder, on any number of ranks.
+        allow_large: run a problem that needs more memory than the job has, or a degree
+            beyond :data:`~dgplate.problems.sizing.MAX_DEGREE` (refused otherwise).
 
     Everything that can be validated is validated before the output folder is touched, and
     the folder is checked before anything is computed (:class:`~dgplate.io.output.OutputDir`).
@@ -322,9 +325,13 @@ def run(
     """
     wall0 = time.perf_counter()
     with interrupt.StopOnSignal(), printing_ends_on_closed_pipe():
-        target, start, tagged, model = _set_up(problem, out, comm, force, resume)
-        initial = starts.resolve(problem.model, initial, tagged.mesh)
-        return _solve(_Job(problem, tagged, target, initial, force, start, wall0), model)
+        with interrupt.setting_up():
+            set_up = _set_up(problem, out, comm, force, resume, allow_large, header=True)
+            target, start, tagged, model = set_up
+            initial = starts.resolve(problem.model, initial, tagged.mesh)
+            job = _Job(problem, tagged, target, initial, force, start, wall0)
+            driver = _build_driver(job, model)
+        return _solve(job, model, driver)
 
 
 def check(
@@ -334,6 +341,7 @@ def check(
     initial: Initial | str | dict[str, Any] | None = None,
     force: bool = False,
     resume: bool = False,
+    allow_large: bool = False,
 ) -> dict[str, Any]:
     """Validate ``problem`` as :func:`run` would, without solving it or writing anything.
 
@@ -348,14 +356,16 @@ def check(
     Args: those of :func:`run`; nothing is written, so ``force`` only accepts a user's folder
     and ``resume`` checks the checkpoint there.
     """
-    target, start, tagged, model = _set_up(problem, out, comm, force, resume)
-    initial = starts.resolve(problem.model, initial, tagged.mesh)
-    driver = model.driver(problem.flow, [], initial)
+    # a compilation left unfinished by a signal is given up (the next run compiles it)
+    with interrupt.setting_up(), compat.on_first_compile(lambda: None):
+        target, start, tagged, model = _set_up(problem, out, comm, force, resume, allow_large)
+        initial = starts.resolve(problem.model, initial, tagged.mesh)
+        driver = model.driver(problem.flow, [], initial)
     _start(driver, start, target)
     report = {
         "problem": problem.name,
         "model": problem.model.name,
-        "setting": _setting(problem, tagged, driver),
+        "setting": _setting(problem, comm.size, _size(problem, tagged)),
         "cells": _cells(tagged),
         "dofs": _dofs(driver),
         "ranks": comm.size,
@@ -368,9 +378,20 @@ def check(
 
 
 def _set_up(
-    problem: Problem, out: str | Path | None, comm: MPI.Comm, force: bool, resume: bool
+    problem: Problem,
+    out: str | Path | None,
+    comm: MPI.Comm,
+    force: bool,
+    resume: bool,
+    allow_large: bool,
+    header: bool = False,
 ) -> tuple[Path, checkpoint.Checkpoint | None, TaggedMesh, Model]:
-    """The output folder (checked), the checkpoint to resume from, the mesh and the model."""
+    """The output folder (checked), the checkpoint to resume from, the mesh and the model.
+
+    A problem too large for the job's memory is refused before anything is built
+    (:func:`dgplate.problems.sizing.guard`). ``header``: print the run's first line as soon
+    as its size is known: before the mesh is built when the keys say it exactly.
+    """
     if not isinstance(problem, Problem):
         raise InputError(
             "the problem must be a dgplate.Problem (dgplate.load_problem(path) reads a file), "
@@ -386,7 +407,14 @@ def _set_up(
     key = "--out" if out is not None else "output.dir" if problem.output.dir else "output folder"
     OutputDir.check(comm, target, force, resume, key)
     start = _resume_point(problem, target, comm) if resume else None
-    return (target, start, *build_model(problem, comm))
+    size = sizing.guard(problem, comm, allow_large)
+    known = size is not None and not size.approximate
+    if header and size is not None and known:
+        _header(problem, target, start, comm, (size.cells, size.dofs))
+    tagged, model = build_model(problem, comm)
+    if header and not known:
+        _header(problem, target, start, comm, _size(problem, tagged))
+    return target, start, tagged, model
 
 
 def build_model(problem: Problem, comm: MPI.Comm) -> tuple[TaggedMesh, Model]:
@@ -444,10 +472,15 @@ class _Job:
     wall0: float
 
 
-def _solve(job: _Job, model: Model) -> Result:
+def _build_driver(job: _Job, model: Model) -> Driver:
+    """The driver: its spaces and forms (compiled, where new, said so)."""
     comm = job.tagged.comm
     printer = ProgressPrinter(comm, job.problem.output.progress, start=job.wall0)
-    driver = model.driver(job.problem.flow, [printer], job.initial)
+    with compiling(comm):
+        return model.driver(job.problem.flow, [printer], job.initial)
+
+
+def _solve(job: _Job, model: Model, driver: Driver) -> Result:
     # no destroy() on an error: it is collective, and the error may have hit one rank only
     result = _run_driver(job, model, driver)
     driver.destroy()
@@ -465,12 +498,6 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
     if start is None:
         advice.warn(comm, advice.before_run(problem, tagged, initial))
     out = OutputDir(comm, target, force, resume=start is not None)
-    resumed = f", resumed at step {driver.step_count}" if start is not None else ""
-    print0(
-        comm,
-        f"dgplate: {problem.name}: {_setting(problem, tagged, driver)}{resumed}, "
-        f"output → {out.target}",
-    )
     earlier_wall = float(start.state.get("wall_time_s", 0.0)) if start is not None else 0.0
     checkpoints = Checkpoints(
         out.checkpoint_dir,
@@ -504,6 +531,8 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
     advice.warn(comm, advice.after_run(problem, driver, summary, _area(tagged)))
     write_history(comm, out.path / "history.csv", checkpoints.history)
     if problem.output.png:
+        from dgplate.io.history_chart import plot_history  # pyvista: 1 s to import
+
         _picture(problem, model, driver, summary, out.path / "final.png")
         _held_pictures(problem, model, driver, out.path)
         if comm.rank == 0:
@@ -569,12 +598,49 @@ def _cells(tagged: TaggedMesh) -> int:
     return int(tagged.mesh.topology.index_map(tagged.mesh.topology.dim).size_global)
 
 
-def _setting(problem: Problem, tagged: TaggedMesh, driver: Driver) -> str:
+def _setting(problem: Problem, ranks: int, size: tuple[int, int]) -> str:
     """``model kirchhoff, 256 cells, 7,680 dofs on 2 rank(s)``: what a run solves, and where."""
-    return (
-        f"model {problem.model.name}, {_cells(tagged):,} cells, {_dofs(driver):,} dofs on "
-        f"{tagged.comm.size} rank(s)"
-    )
+    cells, dofs = size
+    return f"model {problem.model.name}, {cells:,} cells, {dofs:,} dofs on {ranks} rank(s)"
+
+
+def _size(problem: Problem, tagged: TaggedMesh) -> tuple[int, int]:
+    """(cells, dofs) of the built mesh, before the forms (:func:`sizing.mesh_unknowns`)."""
+    return _cells(tagged), sizing.mesh_unknowns(problem.model, problem.flow, tagged.mesh)
+
+
+def _header(
+    problem: Problem,
+    target: Path,
+    start: checkpoint.Checkpoint | None,
+    comm: MPI.Comm,
+    size: tuple[int, int],
+) -> None:
+    """The run's first line: what it solves, on how many ranks, and where it writes."""
+    resumed = f", resumed at step {start.state['step']}" if start is not None else ""
+    setting = _setting(problem, comm.size, size)
+    print0(comm, f"dgplate: {problem.name}: {setting}{resumed}, output → {target.absolute()}")
+
+
+@contextlib.contextmanager
+def compiling(comm: MPI.Comm) -> Iterator[None]:
+    """Say so on rank 0 when forms are compiled in the block (not found in the JIT cache).
+
+    One line before the first compilation, and one with the time when the block ends: the
+    first run of a problem's shape is silent for a while otherwise.
+    """
+    started: list[float] = []
+
+    def announce() -> None:
+        started.append(time.perf_counter())
+        print0(
+            comm, "dgplate: compiling forms (first run of this problem shape, cached afterwards)…"
+        )
+
+    with compat.on_first_compile(announce):
+        yield
+    if started:
+        print0(comm, f"dgplate: forms compiled in {time.perf_counter() - started[0]:.1f} s")
 
 
 def _area(tagged: TaggedMesh) -> float:
