@@ -30,7 +30,8 @@ import numpy as np
 from petsc4py import PETSc
 
 from dgplate import mpi
-from dgplate.io.output import ProgressPrinter, print0
+from dgplate.io.output import print0
+from dgplate.io.progress import ProgressPrinter
 from dgplate.models.kirchhoff import bnn_plate
 from dgplate.reference.bnn import BNN_TABLE1, bnn_h
 from dgplate.solvers import linear as solvers

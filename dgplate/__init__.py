@@ -9,7 +9,7 @@ The Python API in two calls::
     result["energy"], result.shape  # summary.json's numbers and the final deformation
 
 ``run`` does what ``dgplate run`` does: it validates, writes the same outputs and returns a
-:class:`~dgplate.problems.runner.Result`. ``check(problem)`` does what ``dgplate check`` does:
+:class:`~dgplate.problems.result.Result`. ``check(problem)`` does what ``dgplate check`` does:
 it validates everything ``run`` would (output folder, mesh, model, start) without solving.
 ``load_result(folder)`` reads a finished run back (summary, history, final state).
 """
@@ -21,8 +21,9 @@ from mpi4py import MPI  # noqa: F401  (MPI must be initialised before dolfinx is
 from dgplate.errors import DgplateError, InputError, SolverError, UnsupportedVersionError
 
 if TYPE_CHECKING:
+    from dgplate.problems.result import Result
     from dgplate.problems.results import load_result
-    from dgplate.problems.runner import Result, check, run
+    from dgplate.problems.runner import check, run
     from dgplate.problems.specs import Problem, load_problem, problem_from_dict
 
 __version__ = "0.1.0"
@@ -33,7 +34,7 @@ _LAZY = {
     "Problem": "dgplate.problems.specs",
     "run": "dgplate.problems.runner",
     "check": "dgplate.problems.runner",
-    "Result": "dgplate.problems.runner",
+    "Result": "dgplate.problems.result",
     "load_result": "dgplate.problems.results",
 }
 

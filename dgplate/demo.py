@@ -176,7 +176,7 @@ def run(
     Collective.
 
     With ``--resume``, a run that has a checkpoint in its folder continues from it, one that
-    finished there returns its :class:`~dgplate.problems.runner.Result` read back
+    finished there returns its :class:`~dgplate.problems.result.Result` read back
     (:func:`dgplate.load_result`) without running again, and one that has not started yet
     starts: a demo of several runs can be resumed wherever it was stopped.
 

@@ -188,7 +188,7 @@ def _printed(every, driver, records, ticks, result=None):
 
     from mpi4py import MPI
 
-    from dgplate.io.output import ProgressPrinter
+    from dgplate.io.progress import ProgressPrinter
 
     clock = iter(ticks)
     stream = io.StringIO()
@@ -211,7 +211,7 @@ def _record(step, rate=float("nan")):
 def test_progress_printer_estimates_the_time_left():
     """From the pace after the first step: 0.2 of the path per 10 s, so 0.4 left is 20 s;
     every line has the time since the run's start."""
-    from dgplate.io.output import duration
+    from dgplate.io.progress import duration
 
     records = [_record(step) for step in range(1, 6)]
     lines = _printed(1, _PathDriver(), records, [10.0, 20.0, 30.0, 40.0, 50.0])

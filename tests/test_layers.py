@@ -92,3 +92,33 @@ def test_no_import_circles():
         if module not in state:
             visit(module, [module])
     assert not circles, "\n".join(circles)
+
+
+def design_table() -> dict[str, set[str]]:
+    """docs/design.md §6's layer table: package folder ('' for the base and top) → modules."""
+    text = (PACKAGE.parent / "docs" / "design.md").read_text()
+    rows: dict[str, set[str]] = {}
+    for line in text.split("### Layers", 1)[1].split("### ", 1)[0].splitlines():
+        cells = line.split("|")
+        if len(cells) < 4 or not cells[2].strip().startswith("`"):
+            continue
+        folder = cells[1].strip().strip("`")
+        folder = folder.rstrip("/") if folder.endswith("/") else ""
+        names = {n.strip().strip("`").removeprefix("dgplate/") for n in cells[2].split(",")}
+        rows.setdefault(folder, set()).update(names)
+    return rows
+
+
+def test_design_lists_every_module_and_no_other():
+    """The layer table of docs/design.md §6 names every module of the package, and only those."""
+    listed = design_table()
+    actual: dict[str, set[str]] = {}
+    for path in PACKAGE.rglob("*.py"):
+        parts = path.relative_to(PACKAGE).with_suffix("").parts
+        if len(parts) == 1:
+            actual.setdefault("", set()).add(parts[0])
+        elif parts[0] == "reference":  # listed as a whole: `reference/`
+            actual.setdefault("", set()).add("reference/")
+        elif parts[-1] != "__init__":
+            actual.setdefault(parts[0], set()).add(parts[-1])
+    assert listed == actual

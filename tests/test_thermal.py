@@ -28,12 +28,12 @@ from dgplate.measure.hinges import (
 )
 from dgplate.mesh.tagged import load_geo
 from dgplate.models.thermal import (
-    ThermalSpec,
     build_thermal,
     calibrate_alpha,
     cell_aspect_ratio,
     hinge_penalty,
 )
+from dgplate.models.thermal_spec import ThermalSpec
 from dgplate.problems.registry import MODELS, model_spec
 from dgplate.schema import describe
 from dgplate.solvers.flow import FlowSpec

@@ -20,7 +20,8 @@ from typing import Any
 
 from dgplate.errors import InputError, read_user_text
 from dgplate.io.checkpoint import STATE_FILE, read_state
-from dgplate.io.output import CHECKPOINT, MARKER, count_of, duration, is_dgplate_output
+from dgplate.io.output import CHECKPOINT, MARKER, count_of, is_dgplate_output
+from dgplate.io.progress import duration
 
 SUMMARY = "summary.json"
 HISTORY = "history.csv"

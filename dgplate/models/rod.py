@@ -746,10 +746,7 @@ class RodModel:
         return out
 
     def picture(self, driver: RodFlow, path: Path, title: str) -> None:
-        """final.png: a tube around u with a stripe along b, so that the twist shows.
-
-        A confined rod is drawn inside its translucent sphere.
-        """
+        """final.png: a tube around u with a stripe along b (the twist); a sphere that confines it."""
         ball = self.spec.sphere
         sphere = None if ball is None else (ball.radius, ball.center)
         from dgplate.io.rod_pictures import plot_rod  # pyvista: 1 s to import

@@ -17,7 +17,8 @@ from dgplate.models.fvk import FvKSpec, build_fvk
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
 from dgplate.models.lce import LCESpec, build_lce
 from dgplate.models.rod import ROD_IGNORES, RodSpec, build_rod, rod_mesh
-from dgplate.models.thermal import ThermalSpec, build_thermal
+from dgplate.models.thermal import build_thermal
+from dgplate.models.thermal_spec import ThermalSpec
 from dgplate.schema import from_dict
 
 

@@ -10,20 +10,16 @@ VTX series and the checkpoints; at the end one writer commits ``history.csv``, t
 
 from __future__ import annotations
 
-import contextlib
 import os
-import shutil
 import time
-from collections.abc import Callable, Iterator
-from dataclasses import asdict, dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from mpi4py import MPI
 
-import dolfinx.fem
 import numpy as np
-import ufl
 
 from dgplate import compat, interrupt, mpi
 from dgplate.errors import InputError
@@ -31,81 +27,24 @@ from dgplate.io import checkpoint
 from dgplate.io.output import (
     CHECKPOINT,
     OutputDir,
-    ProgressPrinter,
-    bounding_box,
-    print0,
     printing_ends_on_closed_pipe,
     write_history,
     write_json,
 )
+from dgplate.io.progress import ProgressPrinter
 from dgplate.io.records import summary_is_current
 from dgplate.mesh.tagged import TaggedMesh, load_geo, rectangle
 from dgplate.models import starts
 from dgplate.models.base import Model
-from dgplate.problems import advice, sizing
+from dgplate.problems import advice, pictures, report, sizing
+from dgplate.problems.observers import Checkpoints, FrameWriter, SeriesWriter
+from dgplate.problems.pictures import FRAMES
 from dgplate.problems.registry import MODELS
+from dgplate.problems.result import Result
 from dgplate.problems.specs import MeshSpec, Problem
 from dgplate.solvers.driver import Driver
 
 Initial = Callable[[np.ndarray], np.ndarray]
-
-
-#: The summary's figures in a :class:`Result`'s one-line ``repr``.
-_REPR_KEYS = ("steps", "energy", "isometry_defect")
-
-
-@dataclass
-class Result:
-    """What :func:`run` returns: the summary (also ``summary.json``) and the final state.
-
-    ``result["energy"]`` reads the summary. ``shape`` is the final deformation y: ω → ℝ³;
-    ``fields`` holds every function of the final state (those a checkpoint stores);
-    ``history`` the rows of ``history.csv``; ``folder`` the output folder. In a notebook a
-    result shows itself as a table of its main figures and its ``final.png``.
-    """
-
-    summary: dict[str, Any]
-    shape: dolfinx.fem.Function[np.float64] | None = None
-    fields: dict[str, dolfinx.fem.Function[np.float64]] = field(default_factory=dict)
-    history: list[dict[str, Any]] = field(default_factory=list)
-    folder: Path | None = None
-
-    def __getitem__(self, key: str) -> Any:
-        return self.summary[key]
-
-    def _repr_html_(self) -> str:
-        """Jupyter's view: the main figures of summary.json and the final picture."""
-        import base64
-        import html
-
-        keys = ["problem", "model", "converged", "reason", "steps", "energy"]
-        keys += ["isometry_defect", "dofs", "ranks", "wall_time_s"]
-        rows = "".join(
-            f"<tr><th style='text-align:left'>{key}</th><td style='text-align:left'>"
-            f"{html.escape(_shown(self.summary[key]))}</td></tr>"
-            for key in keys
-            if key in self.summary
-        )
-        out = f"<table>{rows}</table>"
-        picture = self.folder / "final.png" if self.folder is not None else None
-        if picture is not None and picture.is_file():
-            data = base64.b64encode(picture.read_bytes()).decode("ascii")
-            out += f"<img src='data:image/png;base64,{data}' style='max-width:640px'>"
-        return f"<div style='display:flex;gap:1em;align-items:flex-start'>{out}</div>"
-
-    def get(self, key: str, default: Any = None) -> Any:
-        """``summary.get(key, default)``."""
-        return self.summary.get(key, default)
-
-    def __repr__(self) -> str:
-        """One line: the run, how it ended, E_h and D_h (the summary has everything)."""
-        s = self.summary
-        shown = [f"{s.get('problem', '?')} ({s.get('model', '?')})"]
-        if "converged" in s:
-            shown.append("converged" if s["converged"] else "not converged")
-        shown += [f"{key}={_shown(s[key])}" for key in _REPR_KEYS if key in s]
-        folder = f", folder={str(self.folder)!r}" if self.folder is not None else ""
-        return f"Result({', '.join(shown)}{folder})"
 
 
 def build_mesh(spec: MeshSpec, comm: MPI.Comm) -> TaggedMesh:
@@ -118,165 +57,6 @@ def build_mesh(spec: MeshSpec, comm: MPI.Comm) -> TaggedMesh:
 #: How long the ranks of a run that failed wait for each other before the clean-up that
 #: needs them all (closing the VTX files, removing the staged outputs).
 ERROR_AGREE_SECONDS = 5.0
-
-
-class SeriesWriter:
-    """VTX time series of ``driver.shape``, every ``every`` steps and at the end."""
-
-    def __init__(self, driver: Driver, path: Path, every: int):
-        from dgplate.io.vtx import DeformationWriter
-
-        self.writer = DeformationWriter(path, driver.shape, comm=driver.comm)
-        self.every = every
-        self.writer.write(driver.time)
-
-    def step(self, driver: Driver, record: Any) -> None:
-        """Write every ``every`` steps."""
-        if record.step % self.every == 0:
-            self.writer.write(driver.time)
-
-    def finish(self, driver: Driver, result: Any) -> None:
-        """Write the final state (unless just written) and close the file."""
-        if result.steps % self.every:
-            self.writer.write(driver.time)
-        self.close()
-
-    def close(self) -> None:
-        """Close the file (collective); the states written so far stay readable."""
-        self.writer.close()
-
-
-class FrameWriter:
-    """Pictures of ``driver.shape`` at the start, every ``every`` steps and at the end; a GIF.
-
-    The pictures are drawn by ``draw(path, title)`` (the run's final.png function) into
-    ``folder`` as ``frame_<step>.png``; the title carries the step, the time, the energy and,
-    with self-avoidance, the least distance of non-neighbouring points. On ``--resume`` the
-    earlier run's frames (``earlier``) are copied first, so the GIF shows the whole run.
-    Collective (the pictures gather the shape); rank 0 writes.
-    """
-
-    def __init__(
-        self,
-        draw: Callable[[Path, str], None],
-        folder: Path,
-        every: int,
-        name: str,
-        driver: Driver,
-        earlier: Path | None = None,
-    ):
-        self.draw, self.folder, self.every, self.name = draw, folder, every, name
-        self.comm: MPI.Comm = driver.comm
-        if self.comm.rank == 0:
-            folder.mkdir(parents=True, exist_ok=True)
-            for old in sorted(earlier.glob("frame_*.png")) if earlier else ():
-                shutil.copyfile(old, folder / old.name)
-        self.last = -1
-        self._frame(driver.step_count, {"time": driver.time})
-
-    def _frame(self, step: int, row: dict[str, Any]) -> None:
-        lines = [self.name, f"step {step}"]
-        for key, label, fmt, line in _FRAME_FIGURES:
-            value = row.get(key)
-            if isinstance(value, float | int) and not isinstance(value, bool):
-                if line == len(lines):
-                    lines.append("")
-                lines[line] += f"{', ' if lines[line] else ''}{label} = {value:{fmt}}"
-        self.draw(self.folder / f"frame_{step:06d}.png", "\n".join(lines))
-        self.last = step
-
-    def step(self, driver: Driver, record: Any) -> None:
-        """A frame every ``every`` steps."""
-        if record.step % self.every == 0:
-            self._frame(record.step, history_row(record))
-
-    def finish(self, driver: Driver, result: Any) -> None:
-        """A frame of the last state (unless just drawn), whatever ended the run."""
-        if self.last != driver.step_count:
-            row = history_row(result.history[-1]) if result.history else {"time": driver.time}
-            self._frame(driver.step_count, row)
-
-    def gif(self, path: Path) -> None:
-        """Assemble the frames into ``path`` (rank 0; written atomically)."""
-        from dgplate.io.plotting import frames_to_gif
-
-        if self.comm.rank == 0:
-            frames = sorted(self.folder.glob("frame_*.png"))
-            frames_to_gif(frames, path, fps=FRAMES_PER_SECOND, comm=self.comm)
-
-
-#: (history column, label, format, line) of the figures in a frame's title (three short
-#: lines: the name; the step, time and energy; the least distance, with self-avoidance).
-_FRAME_FIGURES = (
-    ("time", "t", ".4g", 1),
-    ("energy", "E", ".5g", 1),
-    ("min_distance", "least distance", ".3g", 2),
-)
-
-
-def history_row(record: Any) -> dict[str, Any]:
-    """A record as one row of history.csv: its fields, a nested table's entries as columns."""
-    row: dict[str, Any] = {}
-    for key, value in asdict(record).items():
-        if isinstance(value, dict):
-            row.update(value)
-        else:
-            row[key] = value
-    return row
-
-
-class Checkpoints:
-    """Checkpoints of a driver every ``every`` steps (0: none on the way) and on ``save()``.
-
-    The state holds the problem's input and fingerprint and the whole history so far (from the
-    checkpoint a run resumed from, and this run's steps), so that a resumed run reports
-    every step.
-    """
-
-    def __init__(
-        self,
-        directory: Path,
-        every: int,
-        problem: dict[str, Any],
-        earlier: list[dict[str, Any]],
-        wall: tuple[float, float] = (0.0, 0.0),
-        label: dict[str, Any] | None = None,
-    ):
-        self.directory, self.every, self.problem = directory, every, problem
-        self.fingerprint = checkpoint.fingerprint(problem)
-        self.history: list[dict[str, Any]] = list(earlier)
-        # (wall time of the runs this one resumes, perf_counter at this run's start)
-        self.earlier_wall, self.wall0 = wall
-        #: what ``dgplate show`` prints of a run that has a checkpoint but no summary yet
-        self.label = label or {}
-
-    def wall_time(self) -> float:
-        """Seconds of wall time over this run and those it resumes."""
-        return self.earlier_wall + time.perf_counter() - self.wall0
-
-    def step(self, driver: Driver, record: Any) -> None:
-        """Keep the record; save every ``every`` steps."""
-        self.history.append(history_row(record))
-        if self.every and record.step % self.every == 0:
-            self.save(driver)
-
-    def finish(self, driver: Driver, result: Any) -> None:
-        """Nothing: the runner saves the final checkpoint once the outcome is known."""
-
-    def save(self, driver: Driver, finished: bool = False, reason: str = "") -> None:
-        """Write the checkpoint now (collective); ``finished``: the run converged (``reason``)."""
-        state = {
-            "fingerprint": self.fingerprint,
-            "input": self.problem,
-            "step": driver.step_count,
-            "driver": driver.checkpoint_state(),
-            "history": self.history,
-            "finished": finished,
-            "reason": reason,
-            "wall_time_s": self.wall_time(),
-            "label": self.label,
-        }
-        checkpoint.save(self.directory, driver.comm, driver.checkpoint_fields(), state)
 
 
 def _resume_point(problem: Problem, target: Path, comm: MPI.Comm) -> checkpoint.Checkpoint:
@@ -362,19 +142,19 @@ def check(
         initial = starts.resolve(problem.model, initial, tagged.mesh)
         driver = model.driver(problem.flow, [], initial)
     _start(driver, start, target)
-    report = {
+    checked = {
         "problem": problem.name,
         "model": problem.model.name,
-        "setting": _setting(problem, comm.size, _size(problem, tagged)),
-        "cells": _cells(tagged),
-        "dofs": _dofs(driver),
+        "setting": report.setting(problem, comm.size, report.size_of(problem, tagged)),
+        "cells": report.cells(tagged),
+        "dofs": report.dofs(driver),
         "ranks": comm.size,
         "output": str(target.absolute()),
         "resume_step": driver.step_count if start is not None else None,
         "warnings": advice.before_run(problem, tagged, initial) if start is None else [],
     }
     driver.destroy()  # not on an error: it is collective, and the error may be on one rank
-    return report
+    return checked
 
 
 def _set_up(
@@ -410,10 +190,10 @@ def _set_up(
     size = sizing.guard(problem, comm, allow_large)
     known = size is not None and not size.approximate
     if header and size is not None and known:
-        _header(problem, target, start, comm, (size.cells, size.dofs))
+        report.header(problem, target, start, comm, (size.cells, size.dofs))
     tagged, model = build_model(problem, comm)
     if header and not known:
-        _header(problem, target, start, comm, _size(problem, tagged))
+        report.header(problem, target, start, comm, report.size_of(problem, tagged))
     return target, start, tagged, model
 
 
@@ -422,7 +202,7 @@ def build_model(problem: Problem, comm: MPI.Comm) -> tuple[TaggedMesh, Model]:
     entry = MODELS[problem.model.name]
     own = entry.mesh  # a model with its own mesh (a rod) has no [mesh]
     tagged = own(problem.model, comm) if own else build_mesh(problem.mesh, comm)
-    cells = _cells(tagged)
+    cells = report.cells(tagged)
     if cells < comm.size:
         raise InputError(
             f"mesh: {cells} cell(s) for {comm.size} ranks: every rank needs a cell; refine "
@@ -476,7 +256,7 @@ def _build_driver(job: _Job, model: Model) -> Driver:
     """The driver: its spaces and forms (compiled, where new, said so)."""
     comm = job.tagged.comm
     printer = ProgressPrinter(comm, job.problem.output.progress, start=job.wall0)
-    with compiling(comm):
+    with report.compiling(comm):
         return model.driver(job.problem.flow, [printer], job.initial)
 
 
@@ -508,8 +288,8 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
         label={
             "problem": problem.name,
             "model": problem.model.name,
-            "cells": _cells(tagged),
-            "dofs": _dofs(driver),
+            "cells": report.cells(tagged),
+            "dofs": report.dofs(driver),
             "ranks": comm.size,
         },
     )
@@ -521,20 +301,21 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
             driver.observers.append(
                 SeriesWriter(driver, out.path / "deformation.bp", problem.output.every)
             )
-        return _frames(job, model, driver, out)
+        earlier = job.target / FRAMES if job.start is not None else None
+        return pictures.frames(problem, model, driver, out.path / FRAMES, earlier)
 
     result, frames = _run_or_clean_up(driver, out, start, writers)
     if frames is not None:
         frames.gif(out.path / f"{problem.name}.gif")
     checkpoints.save(driver, finished=result.converged, reason=result.reason)
-    summary = _summary(problem, tagged, model, driver, result, len(checkpoints.history))
-    advice.warn(comm, advice.after_run(problem, driver, summary, _area(tagged)))
+    summary = report.summary(problem, tagged, model, driver, result, len(checkpoints.history))
+    advice.warn(comm, advice.after_run(problem, driver, summary, report.area(tagged)))
     write_history(comm, out.path / "history.csv", checkpoints.history)
     if problem.output.png:
         from dgplate.io.history_chart import plot_history  # pyvista: 1 s to import
 
-        _picture(problem, model, driver, summary, out.path / "final.png")
-        _held_pictures(problem, model, driver, out.path)
+        pictures.picture(problem, model, driver, summary, out.path / "final.png")
+        pictures.held_pictures(problem, model, driver, out.path)
         if comm.rank == 0:
             flow = problem.flow
             plot_history(
@@ -583,173 +364,3 @@ def _run_or_clean_up(
         raise  # ``agree`` is not freed: freeing is collective, and this rank is failing
     agree.Free()
     return result, frames
-
-
-def _shown(value: Any) -> str:
-    """A summary value as a notebook shows it: floats to 6 significant digits."""
-    return f"{value:.6g}" if isinstance(value, float) else str(value)
-
-
-def _dofs(driver: Driver) -> int:
-    return int(driver.summary().get("dofs", 0))
-
-
-def _cells(tagged: TaggedMesh) -> int:
-    return int(tagged.mesh.topology.index_map(tagged.mesh.topology.dim).size_global)
-
-
-def _setting(problem: Problem, ranks: int, size: tuple[int, int]) -> str:
-    """``model kirchhoff, 256 cells, 7,680 dofs on 2 rank(s)``: what a run solves, and where."""
-    cells, dofs = size
-    return f"model {problem.model.name}, {cells:,} cells, {dofs:,} dofs on {ranks} rank(s)"
-
-
-def _size(problem: Problem, tagged: TaggedMesh) -> tuple[int, int]:
-    """(cells, dofs) of the built mesh, before the forms (:func:`sizing.mesh_unknowns`)."""
-    return _cells(tagged), sizing.mesh_unknowns(problem.model, problem.flow, tagged.mesh)
-
-
-def _header(
-    problem: Problem,
-    target: Path,
-    start: checkpoint.Checkpoint | None,
-    comm: MPI.Comm,
-    size: tuple[int, int],
-) -> None:
-    """The run's first line: what it solves, on how many ranks, and where it writes."""
-    resumed = f", resumed at step {start.state['step']}" if start is not None else ""
-    setting = _setting(problem, comm.size, size)
-    print0(comm, f"dgplate: {problem.name}: {setting}{resumed}, output → {target.absolute()}")
-
-
-@contextlib.contextmanager
-def compiling(comm: MPI.Comm) -> Iterator[None]:
-    """Say so on rank 0 when forms are compiled in the block (not found in the JIT cache).
-
-    One line before the first compilation, and one with the time when the block ends: the
-    first run of a problem's shape is silent for a while otherwise.
-    """
-    started: list[float] = []
-
-    def announce() -> None:
-        started.append(time.perf_counter())
-        print0(
-            comm, "dgplate: compiling forms (first run of this problem shape, cached afterwards)…"
-        )
-
-    with compat.on_first_compile(announce):
-        yield
-    if started:
-        print0(comm, f"dgplate: forms compiled in {time.perf_counter() - started[0]:.1f} s")
-
-
-def _area(tagged: TaggedMesh) -> float:
-    """|Ω|, the area of the reference plate."""
-    one = dolfinx.fem.form(dolfinx.fem.Constant(tagged.mesh, 1.0) * ufl.dx(domain=tagged.mesh))
-    return float(tagged.comm.allreduce(dolfinx.fem.assemble_scalar(one), op=MPI.SUM))
-
-
-def _frames(job: _Job, model: Model, driver: Driver, out: OutputDir) -> FrameWriter | None:
-    """The observer drawing ``output.frames_every``'s frames (None: not asked for)."""
-    problem = job.problem
-    every = problem.output.frames_every
-    if not every:
-        return None
-
-    def draw(path: Path, title: str) -> None:
-        _draw(problem, model, driver, path, title, window_size=FRAME_SIZE, reference=False)
-
-    earlier = job.target / FRAMES if job.start is not None else None
-    frames = FrameWriter(draw, out.path / FRAMES, every, problem.name, driver, earlier)
-    driver.observers.append(frames)
-    return frames
-
-
-#: The folder of the frames in the output folder, and their size in pixels (the frames leave
-#: out final.png's outline of the reference domain, which would dwarf e.g. a knotted ribbon).
-FRAMES = "frames"
-FRAME_SIZE = (640, 480)
-FRAMES_PER_SECOND = 5.0
-
-
-def _picture(
-    problem: Problem, model: Model, driver: Driver, summary: dict[str, Any], path: Path
-) -> None:
-    """final.png of the final shape (collective: the lines are gathered)."""
-    energy, defect = summary.get("energy"), summary.get("isometry_defect")
-    title = problem.name
-    if isinstance(energy, float):
-        title += f": E_h = {energy:.4e}"
-    if isinstance(defect, float):
-        title += f", D_h = {defect:.2e}"
-    _draw(problem, model, driver, path, title)
-
-
-def _held_pictures(problem: Problem, model: Model, driver: Driver, folder: Path) -> None:
-    """``<name>.png`` of the shapes a model keeps besides the final one (collective).
-
-    A thermal model's ``held_shapes``: the box closed at the switch (``at_switch.png``),
-    where final.png shows it open again after cooling. Each is drawn as final.png is, from
-    the driver's shape set to it for the picture and put back afterwards.
-    """
-    held = getattr(model, "held_shapes", None)
-    shapes = held(driver) if held is not None else {}
-    if not shapes:
-        return
-    final = driver.shape.x.array.copy()
-    for name, (values, title) in shapes.items():
-        driver.shape.x.array[:] = values
-        _draw(problem, model, driver, folder / f"{name}.png", f"{problem.name}, {title}")
-    driver.shape.x.array[:] = final
-
-
-def _draw(
-    problem: Problem, model: Model, driver: Driver, path: Path, title: str, **options: Any
-) -> None:
-    """A picture of the current shape: the model's own, else the coloured surface.
-
-    Collective: the lines are gathered. ``options`` (``window_size``, ``reference``) go to the surface's
-    picture; a model's own picture keeps its size.
-    """
-    from dgplate.io.plotting import plot_deformation
-
-    own = getattr(model, "picture", None)  # a model's own picture (a rod: a striped tube)
-    if own is not None:
-        own(driver, path, title)
-        return
-    plot_deformation(
-        driver.shape,
-        path,
-        title=title,
-        color_by=problem.output.color_by,
-        lines=model.lines(driver),
-        **options,
-    )
-
-
-def _summary(
-    problem: Problem,
-    tagged: TaggedMesh,
-    model: Model,
-    driver: Driver,
-    result: Any,
-    steps: int,
-) -> dict[str, Any]:
-    mesh = tagged.mesh
-    summary: dict[str, Any] = {
-        "problem": problem.name,
-        "model": problem.model.name,
-        "cells": mesh.topology.index_map(mesh.topology.dim).size_global,
-        "degree": getattr(problem.model, "degree", None),
-        "ranks": driver.comm.size,
-        "steps": steps,
-        "converged": result.converged,
-        "reason": result.reason,
-        "interrupted": result.interrupted,
-    }
-    summary.update(driver.summary())
-    summary["bbox"] = bounding_box(driver.shape)
-    summary.update(model.figures(driver))
-    summary["dolfinx_version"] = compat.version_string()
-    summary["input"] = problem.raw
-    return summary

@@ -1,0 +1,181 @@
+"""The runner's observers of a driver: the VTX series, the frames and the checkpoints.
+
+Each has ``step(driver, record)`` and ``finish(driver, result)`` (the driver's observer
+protocol, :class:`dgplate.solvers.driver.Observer`).
+"""
+
+from __future__ import annotations
+
+import shutil
+import time
+from collections.abc import Callable
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+from dgplate.io import checkpoint
+from dgplate.solvers.driver import Driver
+
+#: Frames per second of the GIF made of the frames.
+FRAMES_PER_SECOND = 5.0
+
+
+class SeriesWriter:
+    """VTX time series of ``driver.shape``, every ``every`` steps and at the end."""
+
+    def __init__(self, driver: Driver, path: Path, every: int):
+        from dgplate.io.vtx import DeformationWriter
+
+        self.writer = DeformationWriter(path, driver.shape, comm=driver.comm)
+        self.every = every
+        self.writer.write(driver.time)
+
+    def step(self, driver: Driver, record: Any) -> None:
+        """Write every ``every`` steps."""
+        if record.step % self.every == 0:
+            self.writer.write(driver.time)
+
+    def finish(self, driver: Driver, result: Any) -> None:
+        """Write the final state (unless just written) and close the file."""
+        if result.steps % self.every:
+            self.writer.write(driver.time)
+        self.close()
+
+    def close(self) -> None:
+        """Close the file (collective); the states written so far stay readable."""
+        self.writer.close()
+
+
+class FrameWriter:
+    """Pictures of ``driver.shape`` at the start, every ``every`` steps and at the end; a GIF.
+
+    The pictures are drawn by ``draw(path, title)`` (the run's final.png function) into
+    ``folder`` as ``frame_<step>.png``; the title carries the step, the time, the energy and,
+    with self-avoidance, the least distance of non-neighbouring points. On ``--resume`` the
+    earlier run's frames (``earlier``) are copied first, so the GIF shows the whole run.
+    Collective (the pictures gather the shape); rank 0 writes.
+    """
+
+    def __init__(
+        self,
+        draw: Callable[[Path, str], None],
+        folder: Path,
+        every: int,
+        name: str,
+        driver: Driver,
+        earlier: Path | None = None,
+    ):
+        self.draw, self.folder, self.every, self.name = draw, folder, every, name
+        self.comm: MPI.Comm = driver.comm
+        if self.comm.rank == 0:
+            folder.mkdir(parents=True, exist_ok=True)
+            for old in sorted(earlier.glob("frame_*.png")) if earlier else ():
+                shutil.copyfile(old, folder / old.name)
+        self.last = -1
+        self._frame(driver.step_count, {"time": driver.time})
+
+    def _frame(self, step: int, row: dict[str, Any]) -> None:
+        lines = [self.name, f"step {step}"]
+        for key, label, fmt, line in _FRAME_FIGURES:
+            value = row.get(key)
+            if isinstance(value, float | int) and not isinstance(value, bool):
+                if line == len(lines):
+                    lines.append("")
+                lines[line] += f"{', ' if lines[line] else ''}{label} = {value:{fmt}}"
+        self.draw(self.folder / f"frame_{step:06d}.png", "\n".join(lines))
+        self.last = step
+
+    def step(self, driver: Driver, record: Any) -> None:
+        """A frame every ``every`` steps."""
+        if record.step % self.every == 0:
+            self._frame(record.step, history_row(record))
+
+    def finish(self, driver: Driver, result: Any) -> None:
+        """A frame of the last state (unless just drawn), whatever ended the run."""
+        if self.last != driver.step_count:
+            row = history_row(result.history[-1]) if result.history else {"time": driver.time}
+            self._frame(driver.step_count, row)
+
+    def gif(self, path: Path) -> None:
+        """Assemble the frames into ``path`` (rank 0; written atomically)."""
+        from dgplate.io.plotting import frames_to_gif
+
+        if self.comm.rank == 0:
+            frames = sorted(self.folder.glob("frame_*.png"))
+            frames_to_gif(frames, path, fps=FRAMES_PER_SECOND, comm=self.comm)
+
+
+#: (history column, label, format, line) of the figures in a frame's title (three short
+#: lines: the name; the step, time and energy; the least distance, with self-avoidance).
+_FRAME_FIGURES = (
+    ("time", "t", ".4g", 1),
+    ("energy", "E", ".5g", 1),
+    ("min_distance", "least distance", ".3g", 2),
+)
+
+
+def history_row(record: Any) -> dict[str, Any]:
+    """A record as one row of history.csv: its fields, a nested table's entries as columns."""
+    row: dict[str, Any] = {}
+    for key, value in asdict(record).items():
+        if isinstance(value, dict):
+            row.update(value)
+        else:
+            row[key] = value
+    return row
+
+
+class Checkpoints:
+    """Checkpoints of a driver every ``every`` steps (0: none on the way) and on ``save()``.
+
+    The state holds the problem's input and fingerprint and the whole history so far (from the
+    checkpoint a run resumed from, and this run's steps), so that a resumed run reports
+    every step.
+    """
+
+    def __init__(
+        self,
+        directory: Path,
+        every: int,
+        problem: dict[str, Any],
+        earlier: list[dict[str, Any]],
+        wall: tuple[float, float] = (0.0, 0.0),
+        label: dict[str, Any] | None = None,
+    ):
+        self.directory, self.every, self.problem = directory, every, problem
+        self.fingerprint = checkpoint.fingerprint(problem)
+        self.history: list[dict[str, Any]] = list(earlier)
+        # (wall time of the runs this one resumes, perf_counter at this run's start)
+        self.earlier_wall, self.wall0 = wall
+        #: what ``dgplate show`` prints of a run that has a checkpoint but no summary yet
+        self.label = label or {}
+
+    def wall_time(self) -> float:
+        """Seconds of wall time over this run and those it resumes."""
+        return self.earlier_wall + time.perf_counter() - self.wall0
+
+    def step(self, driver: Driver, record: Any) -> None:
+        """Keep the record; save every ``every`` steps."""
+        self.history.append(history_row(record))
+        if self.every and record.step % self.every == 0:
+            self.save(driver)
+
+    def finish(self, driver: Driver, result: Any) -> None:
+        """Nothing: the runner saves the final checkpoint once the outcome is known."""
+
+    def save(self, driver: Driver, finished: bool = False, reason: str = "") -> None:
+        """Write the checkpoint now (collective); ``finished``: the run converged (``reason``)."""
+        state = {
+            "fingerprint": self.fingerprint,
+            "input": self.problem,
+            "step": driver.step_count,
+            "driver": driver.checkpoint_state(),
+            "history": self.history,
+            "finished": finished,
+            "reason": reason,
+            "wall_time_s": self.wall_time(),
+            "label": self.label,
+        }
+        checkpoint.save(self.directory, driver.comm, driver.checkpoint_fields(), state)

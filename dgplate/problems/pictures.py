@@ -1,0 +1,98 @@
+"""The run's pictures: final.png, the shapes a model keeps besides it, and the frames."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from dgplate.models.base import Model
+from dgplate.problems.observers import FrameWriter
+from dgplate.problems.specs import Problem
+from dgplate.solvers.driver import Driver
+
+#: The folder of the frames in the output folder, and their size in pixels (the frames leave
+#: out final.png's outline of the reference domain, which would dwarf e.g. a knotted ribbon).
+FRAMES = "frames"
+FRAME_SIZE = (640, 480)
+
+
+def frames(
+    problem: Problem, model: Model, driver: Driver, folder: Path, earlier: Path | None
+) -> FrameWriter | None:
+    """The observer drawing ``output.frames_every``'s frames into ``folder`` (None: none asked).
+
+    Args:
+        problem: the problem run.
+        model: its model (which may draw its own pictures).
+        driver: the driver observed; the frame writer is appended to its observers.
+        folder: the frames' folder.
+        earlier: the frames of the run resumed (copied first), or None.
+
+    Returns:
+        The frame writer, or None when ``output.frames_every`` is 0.
+    """
+    every = problem.output.frames_every
+    if not every:
+        return None
+
+    def draw(path: Path, title: str) -> None:
+        _draw(problem, model, driver, path, title, window_size=FRAME_SIZE, reference=False)
+
+    writer = FrameWriter(draw, folder, every, problem.name, driver, earlier)
+    driver.observers.append(writer)
+    return writer
+
+
+def picture(
+    problem: Problem, model: Model, driver: Driver, summary: dict[str, Any], path: Path
+) -> None:
+    """final.png of the final shape (collective: the lines are gathered)."""
+    energy, defect = summary.get("energy"), summary.get("isometry_defect")
+    title = problem.name
+    if isinstance(energy, float):
+        title += f": E_h = {energy:.4e}"
+    if isinstance(defect, float):
+        title += f", D_h = {defect:.2e}"
+    _draw(problem, model, driver, path, title)
+
+
+def held_pictures(problem: Problem, model: Model, driver: Driver, folder: Path) -> None:
+    """``<name>.png`` of the shapes a model keeps besides the final one (collective).
+
+    A thermal model's ``held_shapes``: the box closed at the switch (``at_switch.png``),
+    where final.png shows it open again after cooling. Each is drawn as final.png is, from
+    the driver's shape set to it for the picture and put back afterwards.
+    """
+    held = getattr(model, "held_shapes", None)
+    shapes = held(driver) if held is not None else {}
+    if not shapes:
+        return
+    final = driver.shape.x.array.copy()
+    for name, (values, title) in shapes.items():
+        driver.shape.x.array[:] = values
+        _draw(problem, model, driver, folder / f"{name}.png", f"{problem.name}, {title}")
+    driver.shape.x.array[:] = final
+
+
+def _draw(
+    problem: Problem, model: Model, driver: Driver, path: Path, title: str, **options: Any
+) -> None:
+    """A picture of the current shape: the model's own, else the coloured surface.
+
+    Collective: the lines are gathered. ``options`` (``window_size``, ``reference``) go to the surface's
+    picture; a model's own picture keeps its size.
+    """
+    from dgplate.io.plotting import plot_deformation
+
+    own = getattr(model, "picture", None)  # a model's own picture (a rod: a striped tube)
+    if own is not None:
+        own(driver, path, title)
+        return
+    plot_deformation(
+        driver.shape,
+        path,
+        title=title,
+        color_by=problem.output.color_by,
+        lines=model.lines(driver),
+        **options,
+    )
