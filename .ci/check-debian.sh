@@ -175,7 +175,7 @@ else
     log "2-rank demos: ${demos[*]}"
     ids=()
     for demo in "${demos[@]}"; do
-      ids+=("tests/test_demos.py::test_demo_runs_and_checks_its_results[$demo-np2]")
+      ids+=("tests/demos/test_demos.py::test_demo_runs_and_checks_its_results[$demo-np2]")
     done
     in_root -n 2 --durations=10 "${ids[@]}" || rc=$?
   fi

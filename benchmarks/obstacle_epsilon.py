@@ -1,6 +1,6 @@
 """How the penalty ε of a rigid obstacle shows in the contact: lift-off length and penetration.
 
-The heavy strip of ``tests/test_obstacle.py`` (ω = (0, 2) × (0, 0.25), clamped horizontally at
+The heavy strip of ``tests/models/test_obstacle.py`` (ω = (0, 2) × (0, 0.25), clamped horizontally at
 height H = 0.02 above the table y₃ ≥ 0, weight q = 1, μ = 1) is run from the flat start at the
 clamp's height for several ε on one mesh. Reported per ε: the plate's lift-off point (where the
 contact starts), the lift-off ℓ_ε of the one-dimensional penalised beam

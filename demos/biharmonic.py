@@ -109,7 +109,7 @@ demo.copy_figure(args.out, args.figure)
 # ## The rates
 #
 # Measured with Q2 (docs/verification.md): H² 1.00, H¹ 1.99, L² 1.91 at 32², L² 1.95 at 64².
-# The demo asserts what `tests/test_biharmonic.py` asserts: the rate between the two finest
+# The demo asserts what `tests/dg/test_biharmonic.py` asserts: the rate between the two finest
 # meshes within 0.15 of the theory, and errors that decrease at every refinement.
 
 # %%

@@ -34,7 +34,7 @@
 # them takes a fine mesh and thousands of small steps (`--paper`: 24 × 36 cells). The problem
 # file `demos/problems/bilayer_anisotropic.toml` scales the plate by 1/2 (8 × 12 cells, a
 # minute or two per case). By default the demo scales it by 1/4, $(-\tfrac12, \tfrac12) \times
-# (-\tfrac34, \tfrac34)$, on 4 × 6 Q2 cells with a loose tolerance, as `tests/test_bilayer.py`
+# (-\tfrac34, \tfrac34)$, on 4 × 6 Q2 cells with a loose tolerance, as `tests/models/test_bilayer.py`
 # does (there τ = 0.02, here 0.04: half the steps, the same directions): a cell spans more than
 # a radian of the roll, so radius and energy are far from converged, but the rolling direction
 # is right.
@@ -87,7 +87,7 @@ for name, Z in CASES.items():
 # radius 0.256, 105 steps; Z₂ along (0.72, −0.69), 1.3° from (1, −1)/√2, radius 0.233, 168 steps.
 # The problem file's plate (docs/bilayer.md): 0.0° and 1.4°, radii 0.255 and 0.235.
 #
-# The demo asserts what `tests/test_bilayer.py` asserts of the corkscrew, for both cases: the
+# The demo asserts what `tests/models/test_bilayer.py` asserts of the corkscrew, for both cases: the
 # flow converged, the bending direction within 3° of $e$, the large eigenvalue of
 # $\overline{I\!I}$ below −2 and the other one less than 0.3 times as large in magnitude.
 

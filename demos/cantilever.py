@@ -129,7 +129,7 @@ demo.copy_figure(args.out, args.figure)
 # (The flow stops at (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < 10⁻⁶, which leaves a few 10⁻³ of the tip height on
 # the finer meshes.) The demo asserts that the flow converged with a decreasing energy, and E_h
 # and the tip height within 0.5 % of the elastica (the tolerance on E_h of the published
-# vertical-load test, tests/test_kirchhoff.py).
+# vertical-load test, tests/models/test_kirchhoff.py).
 
 # %%
 demo.check("the flow converged and E_h decreased at every step",

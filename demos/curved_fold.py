@@ -78,7 +78,7 @@ if args.chords:
 #
 # The demo asserts these statements: every flow converged with a decreasing energy, the mean
 # fold angle is 39° ± 1° on each level, and D_h falls by a factor between 1.6 and 2.4 when h
-# is halved (the bounds that `tests/test_kirchhoff.py` puts on D_h = O(τ)); with `--chords`,
+# is halved (the bounds that `tests/models/test_kirchhoff.py` puts on D_h = O(τ)); with `--chords`,
 # that the chords fold less than the curved cells.
 
 # %%

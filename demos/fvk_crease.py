@@ -127,7 +127,7 @@ demo.copy_figure(args.out, args.figure, "crease.png")
 # %% [markdown]
 # ## Checks
 #
-# What `tests/test_fvk.py` asserts of the same strip: the centre deflection within 1 % of the
+# What `tests/models/test_fvk.py` asserts of the same strip: the centre deflection within 1 % of the
 # exact strip solution, in the linear limit and along the load path (largest difference 0.49 %
 # creased, 0.62 % plain at h = 0.1; 0.11 % and 0.16 % at h = 0.05, docs/fvk.md).
 

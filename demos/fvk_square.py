@@ -201,7 +201,7 @@ demo.copy_figure(args.out, args.figure, "load_deflection.png")
 # %% [markdown]
 # ## Checks
 #
-# What `tests/test_fvk.py` asserts: on the finest mesh the linear-limit coefficient within 1 % of
+# What `tests/models/test_fvk.py` asserts: on the finest mesh the linear-limit coefficient within 1 % of
 # the published one, with errors against the series that decrease under refinement; and the
 # centre deflection within 3 % of Levy's at all his loads (largest difference: 0.96 % on
 # 16 × 16, 1.68 % on 32 × 32, docs/fvk.md).

@@ -31,7 +31,7 @@
 # the Nitsche penalty of the mismatch). The published linearised flow leaves the isometry
 # constraint on the way for good (D_h ends O(1)); `flow.projection_steps = 2` in the problem
 # file keeps each iterate on the discrete constraint, and the flow walks to the fold.
-# (`tests/test_creases.py` also starts the flow at the fold: it takes one step of size 1e−15.)
+# (`tests/models/test_creases.py` also starts the flow at the fold: it takes one step of size 1e−15.)
 #
 # Run: `python demos/straight_fold.py` (h = 0.25, seconds), `--paper` for h = 0.125,
 # `--angle 90` for another fold, `--out DIR`; in parallel
@@ -91,7 +91,7 @@ kept = demo.run(plain, args, "no_crease")
 # the flow ends at a smooth bend of positive energy (1.457 at h = 0.25, 1.113 at h = 0.125 for
 # φ = 60°; 294.6 for φ = 90°); `no_crease/final.png` shows it.
 #
-# The demo asserts what `tests/test_creases.py` asserts of the same run: the flow converged
+# The demo asserts what `tests/models/test_creases.py` asserts of the same run: the flow converged
 # with a decreasing energy, |E_h| and D_h below 10⁻¹⁰ and the mean fold angle φ within 10⁻⁴°;
 # and that without the crease the energy stays above 10⁻² (the bend costs energy).
 

@@ -65,7 +65,7 @@ demo.copy_figure(Path(args.out, *subfolder), args.figure)
 # ## Comparison with the published table
 #
 # With Q2 the implementation reproduces the published energies, defects and step counts to the
-# digits printed. The demo asserts what `tests/test_kirchhoff.py` asserts of each published
+# digits printed. The demo asserts what `tests/models/test_kirchhoff.py` asserts of each published
 # row: E_h within 0.5 %, D_h within 1 % and the step count within 2; and, for any mesh, that
 # the flow converged with an energy that decreased at every step.
 

@@ -1,7 +1,7 @@
-"""Shared fixtures. Tests marked ``mpi`` run serially and again under ``mpirun -n 2``."""
+"""Shared fixtures and hooks. Tests marked ``mpi`` run serially and again under ``mpirun -n 2``.
 
-import json
-from pathlib import Path
+Shared helpers that are not fixtures (paths, factories, checks) are in ``helpers.py``.
+"""
 
 from mpi4py import MPI
 
@@ -13,23 +13,6 @@ def comm():
     return MPI.COMM_WORLD
 
 
-# Rank parity of a nonlinear flow. Each step solves a saddle-point system whose condition
-# number grows like h^-4 (about 1e6 on the test meshes); a different partition changes the
-# summation order and MUMPS' pivot sequence, so the iterates may differ by cond * eps ~ 1e-10
-# per step, and a few dozen steps accumulate that. 1e-8 is far below any discretisation
-# effect (those are 1e-3 and larger) and still catches a wrong ghost or a missing reduction,
-# which show up at 1e-3 and beyond.
-PARITY_RTOL = 1e-8
-
-
-def rates(errors: list[float]) -> list[float]:
-    """Observed convergence rates for a sequence of errors at halved mesh sizes."""
-    import numpy as np
-
-    e = np.asarray(errors)
-    return list(np.log2(e[:-1] / e[1:]))
-
-
 def pytest_configure(config):
     """Under mpirun every rank gets its own temporary directory tree (no clean-up races)."""
     if MPI.COMM_WORLD.size > 1 and not config.option.basetemp:
@@ -39,85 +22,3 @@ def pytest_configure(config):
         config.option.basetemp = (
             Path(tempfile.gettempdir()) / f"pytest-mpi-rank{MPI.COMM_WORLD.rank}"
         )
-
-
-def check_load_is_derivative(term, y, direction, comm, rel_tol: float = 1e-5) -> None:
-    """A self-avoidance term's assembled load against central differences of its energy.
-
-    ``term.update()`` returns ρ·TP at the current ``y``; ``term.linearisation`` is the form
-    whose derivative in ``y`` is the load. ``direction`` is a Function in ``y``'s space.
-    """
-    import math
-
-    import dolfinx.fem.petsc
-    import ufl
-
-    value = term.update()
-    V = y.function_space
-    load = dolfinx.fem.petsc.assemble_vector(
-        dolfinx.fem.form(ufl.derivative(term.linearisation, y, ufl.TestFunction(V)))
-    )
-    load.ghostUpdate(addv=True, mode=1)  # ADD, REVERSE
-    owned = V.dofmap.index_map.size_local * 3
-    exact = comm.allreduce(float(load.array[:owned] @ direction.x.array[:owned]))
-    eps, base = 1e-6, y.x.array.copy()
-    values = []
-    for sign in (1, -1):
-        y.x.array[:] = base + sign * eps * direction.x.array
-        values.append(term.update())
-    y.x.array[:] = base
-    assert value > 0 and abs(exact) > 0
-    assert math.isclose((values[0] - values[1]) / (2 * eps), exact, rel_tol=rel_tol)
-
-
-def check_pair_sum_derivatives(cloud, q: float, seed: int, rel_tol: float = 1e-6) -> None:
-    """∂TP/∂x and ∂TP/∂ν (or ∂TP/∂t of a curve) of the exact sums against central differences."""
-    import math
-
-    import numpy as np
-
-    from dgplate.dg import tangent_point as tp
-
-    rng = np.random.default_rng(seed)
-    dx, dn = rng.normal(size=cloud.points.shape), rng.normal(size=cloud.normals.shape)
-    base = tp.evaluate(cloud, q, theta=0.0)
-    eps = 1e-6
-
-    def energy(sign: float) -> float:
-        moved = tp.Cloud(
-            cloud.points + sign * eps * dx,
-            cloud.normals + sign * eps * dn,
-            cloud.weights,
-            cloud.vertices,
-            curve=cloud.curve,
-        )
-        return tp.evaluate(moved, q, theta=0.0).energy
-
-    fd = (energy(1) - energy(-1)) / (2 * eps)
-    exact = np.sum(base.d_points * dx) + np.sum(base.d_normals * dn)
-    assert math.isclose(fd, exact, rel_tol=rel_tol)
-
-
-def summary_of(out: Path) -> dict:
-    """The ``summary.json`` of a run's output folder."""
-    return json.loads((out / "summary.json").read_text())
-
-
-def stop_and_resume(problem: Path, tmp_path: Path, options: list[str], max_steps: int):
-    """Run ``problem`` to its end, and again stopped at ``max_steps`` (checkpoints every step)
-    and then resumed; the two histories must agree in step, time, τ and E_h of every step.
-
-    Returns the summaries of the whole run, of the stopped run and of the resumed run.
-    """
-    from dgplate.cli import main
-
-    reference, out = tmp_path / "reference", tmp_path / "resumed"
-    assert main(["run", str(problem), "--out", str(reference), *options]) == 0
-    budget = [f"--set=flow.max_steps={max_steps}", "--set=flow.checkpoint_every=1"]
-    assert main(["run", str(problem), "--out", str(out), *options, *budget]) == 1
-    stopped = summary_of(out)
-    assert main(["run", str(problem), "--out", str(out), *options, "--resume"]) == 0
-    rows = [line.split(",")[:4] for line in (out / "history.csv").read_text().splitlines()]
-    lines = (reference / "history.csv").read_text().splitlines()
-    assert rows == [line.split(",")[:4] for line in lines]
-    return summary_of(reference), stopped, summary_of(out)

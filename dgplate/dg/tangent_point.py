@@ -450,7 +450,7 @@ def _row_starts(leaves: IntArray, length: IntArray, per: int) -> IntArray:
 def _default_leaf(cloud: Cloud, theta: float) -> int:
     """The leaf size: ``_LEAF_EXACT`` for the exact sums, ``_LEAF`` for surfaces, 32 for curves.
 
-    On a curve the monopoles are the larger error (tests/test_rod_self_avoidance.py), and boxes
+    On a curve the monopoles are the larger error (tests/models/test_rod_self_avoidance.py), and boxes
     of 16 points admitted as far raised it at θ = 0.25 from 4.5e-4 to 1.2e-3 (TP, trefoil).
     """
     if theta == 0:

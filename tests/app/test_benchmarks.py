@@ -1,0 +1,66 @@
+"""Smoke run of the benchmark scripts at the smallest size: they run, and what they write
+holds together (the optimised and the naive flow agree; the report reads the JSON)."""
+
+import importlib.util
+import json
+from pathlib import Path
+
+from mpi4py import MPI
+
+import pytest
+
+BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
+
+
+def _load(name: str):
+    spec = importlib.util.spec_from_file_location(f"bench_{name}", BENCH / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.mpi
+def test_flow_benchmark_smoke(tmp_path):
+    comm = MPI.COMM_WORLD
+    out = tmp_path / f"flow_8_np{comm.size}.json"
+    # every rank needs the same path: rank 0's temporary directory
+    out = Path(comm.bcast(str(out), root=0))
+    record = _load("flow").main(
+        ["--cells", "8", "--repeat", "2", "--compare-naive", "--json", str(out)]
+    )
+    assert record["dofs"] == 30 * 8 * 8 and record["ranks"] == comm.size
+    # the kept run is one of the repeats
+    assert len(record["optimized"]["repeats_wall_s"]) == 2
+    assert record["optimized"]["wall_s"] in record["optimized"]["repeats_wall_s"]
+    assert record["optimized"]["converged"] and record["naive"]["converged"]
+    assert record["steps_agree"]
+    assert record["energy_rel_diff"] < 1e-8
+    assert record["naive"]["factorisations"] == record["naive"]["steps"]
+    assert record["optimized"]["factorisations"] < record["optimized"]["steps"]
+    for kind in ("optimized", "naive"):
+        phases = record[kind]["breakdown_per_step_s"]
+        assert set(phases) == {"assembly", "factorisation", "solves", "other"}
+        assert sum(phases.values()) == pytest.approx(record["per_step_s"][kind], rel=1e-9)
+    assert record["peak_memory_mb"]["max_rank"] > 0
+    if comm.rank == 0:
+        assert json.loads(out.read_text())["energy"] == record["energy"]
+        readme = tmp_path / "README.md"
+        readme.write_text("# x\n")
+        _load("report").main(["--results", str(out.parent), "--readme", str(readme)])
+        text = readme.read_text()
+        assert "## Performance" in text and "| 8² |" in text
+        assert (out.parent / "performance.png").stat().st_size > 1000
+
+
+def test_bandwidth_benchmark_smoke(tmp_path):
+    """The bandwidth script measures 1 and 2 ranks, and the report quotes its ratios."""
+    out = tmp_path / "bandwidth_before.json"
+    _load("bandwidth").main(["--megabytes", "8", "--repeat", "2", "--json", str(out)])
+    record = json.loads(out.read_text())
+    assert record["one_rank"]["ranks"] == 1 and record["two_ranks"]["ranks"] == 2
+    for kernel in ("read_gb_per_s", "triad_gb_per_s"):
+        assert record["one_rank"][kernel] > 0 and record["two_ranks"][kernel] > 0
+        ratio = record["two_ranks"][kernel] / record["one_rank"][kernel]
+        assert record["ratio_two_over_one"][kernel] == pytest.approx(ratio)
+    (note,) = _load("report").bandwidth_notes(tmp_path)
+    assert f"read {record['ratio_two_over_one']['read_gb_per_s']:.2f}×" in note
