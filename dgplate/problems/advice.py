@@ -234,16 +234,14 @@ def unused_solver_options(
 
     Warnings for the keys of ``options`` that PETSc never read (misspelt, or not used by the
     chosen solver); collective. Call after the run: MUMPS reads its options only at the first
-    factorisation. The KSPs of the driver's step solver (``driver.solver``) and the driver's
-    own SNES (FvK's Newton solver) give the options prefixes.
+    factorisation. The KSPs of the driver's step solver (``driver.solver``) and the SNES of
+    FvK's Newton solver (``driver.newton``) give the options prefixes.
     """
     given = list(options)
     if not given:
         return []
-    attributes = [
-        *getattr(getattr(driver, "solver", None), "__dict__", {}).values(),
-        *getattr(driver, "__dict__", {}).values(),
-    ]
+    parts = (getattr(driver, "solver", None), driver, getattr(driver, "newton", None))
+    attributes = [obj for part in parts for obj in getattr(part, "__dict__", {}).values()]
     solvers = [obj for obj in attributes if isinstance(obj, PETSc.KSP | PETSc.SNES)]
     prefixes = sorted({solver.getOptionsPrefix() or "" for solver in solvers})
     present = PETSc.Options().getAll()

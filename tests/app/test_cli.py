@@ -247,7 +247,7 @@ def test_progress_printer_auto_prints_a_line_a_second_and_every_ten_steps():
     """``auto``: the first step, then a line when both 1 s and 10 steps have passed since
     the last, the last step's line and the final one. Steps of 0.05 s: every 20th step;
     steps of 1 s: every 10th."""
-    from dgplate.io.output import AUTO_STEPS
+    from dgplate.io.progress import AUTO_STEPS
     from dgplate.solvers.driver import RunOutcome
 
     records = [_record(step) for step in range(1, 46)]
