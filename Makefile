@@ -7,7 +7,7 @@ NP     ?= 2
 DEMO   ?= $(firstword $(wildcard demos/box_folding.py demos/vertical_load.py demos/biharmonic.py))
 PYTEST_FLAGS ?= -q
 
-.PHONY: setup demo test test-serial test-mpi lint format check-debian bench bench-large bench-tau docs docs-check clean
+.PHONY: setup demo test test-fast test-serial test-mpi lint format check-debian bench bench-large bench-tau docs docs-check clean
 
 setup:
 	@bash .ci/setup-venv.sh
@@ -16,6 +16,12 @@ demo: setup
 	$(MPIRUN) -n $(NP) $(PY) $(DEMO)
 
 test: setup test-serial test-mpi
+
+# The fast tier (about 2 minutes on 2 cores, warm JIT cache): every test but those marked slow
+# (tests/slow_tests.txt: 2 s or more; the demos; the shipped problem files) and those that
+# launch mpirun.
+test-fast: setup
+	$(PY) -m pytest $(PYTEST_FLAGS) -n $(NP) -m "not slow and not spawns_mpirun" tests
 
 # Two passes: the tests on NP parallel workers (pytest-xdist), then those that launch mpirun
 # themselves (marker spawns_mpirun, among them a demo of each model and feature on 2 ranks) one

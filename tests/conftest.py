@@ -3,6 +3,8 @@
 Shared helpers that are not fixtures (paths, factories, checks) are in ``helpers.py``.
 """
 
+from pathlib import Path
+
 from mpi4py import MPI
 
 import pytest
@@ -17,8 +19,29 @@ def pytest_configure(config):
     """Under mpirun every rank gets its own temporary directory tree (no clean-up races)."""
     if MPI.COMM_WORLD.size > 1 and not config.option.basetemp:
         import tempfile
-        from pathlib import Path
 
         config.option.basetemp = (
             Path(tempfile.gettempdir()) / f"pytest-mpi-rank{MPI.COMM_WORLD.rank}"
         )
+
+
+#: Left out of ``make test-fast`` as wholes: the demos and the runs of shipped files.
+SLOW_MODULES = ("demos/", "app/test_problem_files.py", "app/test_tutorial.py")
+SLOW_TESTS = Path(__file__).parent / "slow_tests.txt"
+
+
+def slow_test_ids() -> set[str]:
+    """The node ids listed in slow_tests.txt (tests taking 2 s or more)."""
+    lines = SLOW_TESTS.read_text().splitlines()
+    return {line.strip() for line in lines if line.strip() and not line.startswith("#")}
+
+
+def pytest_collection_modifyitems(config, items):
+    """Mark ``slow`` what ``make test-fast`` leaves out (see slow_tests.txt)."""
+    slow = slow_test_ids()
+    tests = Path(__file__).parent
+    for item in items:
+        where = Path(item.fspath).relative_to(tests).as_posix()
+        node = f"tests/{where}::{item.nodeid.split('::', 1)[1]}" if "::" in item.nodeid else ""
+        if where.startswith(SLOW_MODULES) or node in slow:
+            item.add_marker(pytest.mark.slow)
