@@ -90,6 +90,19 @@ VARIANTS: dict[str, dict[str, Any]] = {
     },
     # the standard penalty power with the file's constraint
     "p1": {**TUNED, **MINIMISER, "model.penalty": STANDARD_PENALTY},
+    # the standard penalty with the Gauss-curvature penalty (β/2)Σ h⁻¹∫K² (model.gauss_penalty)
+    "p1_gauss1": {
+        **TUNED,
+        **MINIMISER,
+        "model.penalty": STANDARD_PENALTY,
+        "model.gauss_penalty": 1.0,
+    },
+    "p1_gauss10": {
+        **TUNED,
+        **MINIMISER,
+        "model.penalty": STANDARD_PENALTY,
+        "model.gauss_penalty": 10.0,
+    },
     # the published method's discretisation (DG0 multipliers, no edge moments), to a minimiser
     "published": {
         "model.penalty": STANDARD_PENALTY,
@@ -102,6 +115,11 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "minimiser": MINIMISER,
     "minimiser_dg1": {**MINIMISER, "flow.multiplier_degree": 1},
     "minimiser_tri": {**MINIMISER, "mesh.cell_type": "triangle"},
+    # over-penalised gradient jumps on the rigid plate: γ₁h⁻³ equal to 1100h⁻¹ at 16²
+    "minimiser_p3": {
+        **MINIMISER,
+        "model.penalty": {"gamma0": 5000.0, "gamma1": 137.5, "gradient_power": 3},
+    },
 }
 
 CASES = ("cylinder", "uniaxial", "rigid")
