@@ -90,6 +90,12 @@ VARIANTS: dict[str, dict[str, Any]] = {
     },
     # the standard penalty power with the file's constraint
     "p1": {**TUNED, **MINIMISER, "model.penalty": STANDARD_PENALTY},
+    # the standard penalty with ten times γ₀
+    "p1_gamma0x10": {
+        **TUNED,
+        **MINIMISER,
+        "model.penalty": {"gamma0": 50000.0, "gamma1": 1100.0, "gradient_power": 1},
+    },
     # the standard penalty with the Gauss-curvature penalty (β/2)Σ h⁻¹∫K² (model.gauss_penalty)
     "p1_gauss1": {
         **TUNED,
@@ -115,6 +121,22 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "minimiser": MINIMISER,
     "minimiser_dg1": {**MINIMISER, "flow.multiplier_degree": 1},
     "minimiser_tri": {**MINIMISER, "mesh.cell_type": "triangle"},
+    # the rigid plate as a bilayer with Z = 0 and the Gauss-curvature penalty
+    "minimiser_gauss1": {
+        **MINIMISER,
+        "model.name": "bilayer",
+        "model.Z": 0.0,
+        "model.gauss_penalty": 1.0,
+    },
+    # ten times the value-jump penalty γ₀ (the in-plane incompatibility the moments leave)
+    "minimiser_gamma0x10": {
+        **MINIMISER,
+        "model.penalty": {"gamma0": 50000.0, "gamma1": 1100.0, "gradient_power": 1},
+    },
+    "minimiser_gamma0x100": {
+        **MINIMISER,
+        "model.penalty": {"gamma0": 500000.0, "gamma1": 1100.0, "gradient_power": 1},
+    },
     # over-penalised gradient jumps on the rigid plate: γ₁h⁻³ equal to 1100h⁻¹ at 16²
     "minimiser_p3": {
         **MINIMISER,
