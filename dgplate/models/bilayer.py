@@ -19,6 +19,7 @@ The coupling term is not quadratic: the gradient flow treats it explicitly (at y
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import ufl
@@ -50,6 +51,7 @@ __all__ = [
     "bilayer_energy",
     "build_bilayer",
     "curvature_coupling",
+    "gauss_penalty",
     "second_fundamental_form",
     "spontaneous_curvature",
     "unit_normal",
@@ -81,6 +83,21 @@ def curvature_coupling(
     return form
 
 
+def gauss_penalty(y: Expr, facets: FacetSets, beta: float, degree: int | None = None) -> ufl.Form:
+    """(β/2) Σ_T h_T⁻¹ ∫_T K², K = det II(y) the Gauss curvature of the deformed plate (broken).
+
+    Every isometry of a flat plate has K = 0 (Theorema Egregium), so the term vanishes on the
+    exact solutions: it is consistent. It prices the doubly curved states that a constraint
+    imposed on cell moments leaves free (the one-cell layer along a free edge, docs/bilayer.md);
+    the weight h⁻¹ makes the price grow under refinement.
+    """
+    II = second_fundamental_form(y)
+    K = II[0, 0] * II[1, 1] - II[0, 1] * II[1, 0]
+    weight = values.constant(facets.mesh, beta) / facets.h
+    form: ufl.Form = 0.5 * weight * K**2 * cell_measure(facets.mesh, degree)
+    return form
+
+
 def bilayer_energy(
     y: Expr,
     facets: FacetSets,
@@ -92,14 +109,20 @@ def bilayer_energy(
     Phi: Expr | None = None,
     consistent: bool = True,
     degree: int | None = None,
+    gauss: float = 0.0,
 ) -> Energy:
-    """Bending (implicit) + curvature coupling and ½∫μ|Z|² (explicit) − load."""
+    """Bending (implicit) + curvature coupling and ½∫μ|Z|² (explicit) − load.
+
+    ``gauss`` > 0 adds :func:`gauss_penalty` with β = ``gauss`` to the explicit part.
+    """
     rigidity = 1.0 if mu is None else mu
     implicit = bending_energy(y, facets, penalty, mu=mu, g=g, Phi=Phi)
     if load is not None:
         implicit -= ufl.inner(load, y) * facets.dx
     explicit = curvature_coupling(y, facets, Z, rigidity, g, Phi, consistent, degree)
     explicit += 0.5 * rigidity * ufl.inner(Z, Z) * facets.dx
+    if gauss > 0:
+        explicit += gauss_penalty(y, facets, gauss, degree)
     return Energy(implicit=implicit, explicit=explicit)
 
 
@@ -168,11 +191,18 @@ class BilayerSpec(KirchhoffSpec):
     consistent: bool = option(
         True, "include the face terms of the distributional Hessian in the Z coupling"
     )
+    gauss_penalty: float = option(
+        0.0,
+        "β ≥ 0: add (β/2)Σ_T h⁻¹∫_T K² (K: Gauss curvature, zero for isometries) against doubly curved free-edge layers",
+    )
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if isinstance(self.Z, list):  # formulas are checked now; the shape when it is built
             expressions.check(self.Z, "model.Z")
+        beta = self.gauss_penalty
+        if not (is_number(beta) and math.isfinite(beta) and beta >= 0):
+            raise InputError(f"model.gauss_penalty must be a number >= 0, got {beta!r}")
 
 
 def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
@@ -189,7 +219,9 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
     degree = 3 * spec.degree + 2
 
     def energy_fn(y: Function) -> Energy:
-        return bilayer_energy(y, facets, penalty, Z, mu, load, g, Phi, spec.consistent, degree)
+        return bilayer_energy(
+            y, facets, penalty, Z, mu, load, g, Phi, spec.consistent, degree, spec.gauss_penalty
+        )
 
     plate = PlateModel(
         facets, spec.degree, energy_fn, measures=[curvature_summary], continuation=path

@@ -128,6 +128,9 @@ BAD_INPUT = {
     "unknown Z group": Case(
         ("model.Z={nogroup=1.0}",), "error: model.Z: unknown cell group 'nogroup'", BILAYER
     ),
+    "negative Gauss penalty": Case(
+        ("model.gauss_penalty=-1",), "model.gauss_penalty must be a number >= 0, got -1", BILAYER
+    ),
     "fvk unknown indenter": Case(
         ("model.indenter='tip'",), "error: model.indenter: unknown cell group 'tip'", FVK
     ),

@@ -3,6 +3,7 @@ holds together (the optimised and the naive flow agree; the report reads the JSO
 
 import importlib.util
 import json
+import math
 from pathlib import Path
 
 from mpi4py import MPI
@@ -64,3 +65,23 @@ def test_bandwidth_benchmark_smoke(tmp_path):
         assert record["ratio_two_over_one"][kernel] == pytest.approx(ratio)
     (note,) = _load("report").bandwidth_notes(tmp_path)
     assert f"read {record['ratio_two_over_one']['read_gb_per_s']:.2f}×" in note
+
+
+def test_accuracy_benchmark_smoke(tmp_path):
+    """The accuracy study's record: one run per level, errors against the exact energy, orders."""
+    accuracy = _load("accuracy")
+    accuracy.main(
+        ["--case", "rigid", "--variants", "bnn", "--levels", "2", "4", "--results", str(tmp_path)]
+    )
+    record = json.loads((tmp_path / "accuracy_rigid_bnn.json").read_text())
+    assert record["case"] == "rigid" and record["variant"] == "bnn"
+    runs = record["runs"]
+    assert [run["cells"] for run in runs] == [[2, 2], [4, 4]]
+    assert [run["dofs"] for run in runs] == [30 * 4, 30 * 16]
+    for run in runs:
+        assert run["converged"] and run["exact_energy"] == 0.0
+        assert run["energy_error"] == run["energy"] < 0  # the discrete plate sags below E = 0
+    e0, e1 = (abs(run["energy_error"]) for run in runs)
+    assert record["energy_orders"] == [pytest.approx(math.log2(e0 / e1))]
+    assert record["radius_orders"] == [None]
+    assert "| 4×4 | 480 |" in accuracy.table(record)
