@@ -64,6 +64,7 @@ from dgplate.solvers.rod_flow import (
     nitsche_slope,
     tangent,
 )
+from dgplate.solvers.tau import ADAPTIVE_ONLY
 
 __all__ = [
     "ENDS",
@@ -95,17 +96,7 @@ ROD_IGNORES = {
     **{
         f"flow.{key}": "the rod flow has a fixed τ (its self-avoidance safety net halves it for "
         "single steps) and stops at (E[xⁿ⁻¹] − E[xⁿ])/τ < tol"
-        for key in (
-            "stop",
-            "adaptive_tau",
-            "defect_bound",
-            "tau_growth",
-            "tau_growth_max",
-            "tau_max_ratio",
-            "refactor_factor",
-            "newton_finish",
-            "newton_tau_ratio",
-        )
+        for key in ("stop", "adaptive_tau", *ADAPTIVE_ONLY)
     },
 }
 _START, _END = 1, 2  # the tags of the nodes s = 0 and s = L

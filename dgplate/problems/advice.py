@@ -21,6 +21,7 @@ from petsc4py import PETSc
 from dgplate import expressions
 from dgplate.dg.geometry import max_cell_diameter
 from dgplate.errors import InputError
+from dgplate.solvers.tau import ADAPTIVE_ONLY
 
 if TYPE_CHECKING:
     import dolfinx.mesh
@@ -68,18 +69,6 @@ def before_run(
     if problem.flow.tau != "h":
         messages.append(tau_scale(float(problem.flow.tau), max_cell_diameter(tagged.mesh)))
     return [m for m in messages if m]
-
-
-#: The [flow] keys of the τ controller, which do nothing without ``flow.adaptive_tau = true``.
-ADAPTIVE_ONLY = (
-    "defect_bound",
-    "tau_growth",
-    "tau_growth_max",
-    "tau_max_ratio",
-    "refactor_factor",
-    "newton_finish",
-    "newton_tau_ratio",
-)
 
 
 def adaptive_only(problem: Problem) -> list[str]:

@@ -18,6 +18,18 @@ from dgplate.solvers.safeguard import ActiveSetStep, Redoable, Safeguard
 from dgplate.solvers.step_system import StepSystem
 from dgplate.solvers.steps import StepInfo
 
+#: The [flow] keys of the adaptive τ controller and its SQP switch: they act only with
+#: ``flow.adaptive_tau = true``.
+ADAPTIVE_ONLY = (
+    "defect_bound",
+    "tau_growth",
+    "tau_growth_max",
+    "tau_max_ratio",
+    "refactor_factor",
+    "newton_finish",
+    "newton_tau_ratio",
+)
+
 
 class TauSettings(Protocol):
     """The [flow] keys of the τ controller (:class:`dgplate.solvers.flow.FlowSpec`)."""
