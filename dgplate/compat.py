@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import importlib
+import inspect
 import os
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -111,9 +112,13 @@ def on_first_compile(announce: Callable[[], None]) -> Iterator[None]:
     original: Callable[..., Any] = jit.get_cached_module
     announced: list[bool] = []
 
-    def get_cached_module(module_name: str, names: Any, cache_dir: Any, timeout: int) -> Any:
-        found = original(module_name, names, cache_dir, timeout)
+    signature = inspect.signature(original)
+
+    def get_cached_module(*args: Any, **kwargs: Any) -> Any:
+        found = original(*args, **kwargs)
         if found[0] is None:  # this process compiles it
+            # (module name, object names, cache folder, timeout), by position or by name
+            module_name, _, cache_dir, *_ = signature.bind(*args, **kwargs).arguments.values()
             c_file = Path(cache_dir).joinpath(module_name).with_suffix(".c")
             interrupt.CLEAN_UP.append(functools.partial(_abandon, c_file))
             if not announced:

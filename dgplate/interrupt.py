@@ -52,11 +52,12 @@ def _handler(signum: int, _frame: FrameType | None) -> None:
         os._exit(128 + signum)  # the second signal: no clean-up, now
     _received = signum
     if MPI.COMM_WORLD.rank == 0:  # mpirun forwards the signal to every rank: say it once
-        sys.stderr.write(
-            f"dgplate: {signal.Signals(signum).name} received: stopping at the next step "
-            "(send it again to stop at once)\n"
-        )
-        sys.stderr.flush()
+        with contextlib.suppress(OSError):  # a closed stderr: the run stops all the same
+            sys.stderr.write(
+                f"dgplate: {signal.Signals(signum).name} received: stopping at the next step "
+                "(send it again to stop at once)\n"
+            )
+            sys.stderr.flush()
 
 
 class StopOnSignal:

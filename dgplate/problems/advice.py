@@ -21,6 +21,7 @@ from petsc4py import PETSc
 from dgplate import expressions
 from dgplate.dg.geometry import max_cell_diameter
 from dgplate.errors import InputError
+from dgplate.io.output import print0
 from dgplate.solvers.tau import ADAPTIVE_ONLY
 
 if TYPE_CHECKING:
@@ -49,9 +50,8 @@ DEFECT_LIMIT = 0.1
 
 def warn(comm: MPI.Comm, messages: Iterable[str]) -> None:
     """Print each message as one ``dgplate: warning:`` line on stderr, on rank 0 only."""
-    if comm.rank == 0:
-        for message in messages:
-            print(f"dgplate: warning: {' '.join(message.split())}", file=sys.stderr, flush=True)
+    for message in messages:  # a closed stderr ends the printing, not the run
+        print0(comm, f"dgplate: warning: {' '.join(message.split())}", file=sys.stderr)
 
 
 # -- before the run ------------------------------------------------------------------------------

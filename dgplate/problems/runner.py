@@ -105,7 +105,8 @@ def run(
     """
     wall0 = time.perf_counter()
     with interrupt.StopOnSignal(), printing_ends_on_closed_pipe():
-        with interrupt.setting_up():
+        # every compilation of the set-up is announced, and given up on a signal
+        with interrupt.setting_up(), report.compiling(comm):
             set_up = _set_up(problem, out, comm, force, resume, allow_large, header=True)
             target, start, tagged, model = set_up
             initial = starts.resolve(problem.model, initial, tagged.mesh)
@@ -256,8 +257,7 @@ def _build_driver(job: _Job, model: Model) -> Driver:
     """The driver: its spaces and forms (compiled, where new, said so)."""
     comm = job.tagged.comm
     printer = ProgressPrinter(comm, job.problem.output.progress, start=job.wall0)
-    with report.compiling(comm):
-        return model.driver(job.problem.flow, [printer], job.initial)
+    return model.driver(job.problem.flow, [printer], job.initial)
 
 
 def _solve(job: _Job, model: Model, driver: Driver) -> Result:

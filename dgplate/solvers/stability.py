@@ -28,7 +28,7 @@ from dgplate.solvers.snes import NewtonSolver
 #: The record field of the lowest Hessian eigenvalue.
 LOWEST = "lowest_eigenvalue"
 
-_log = logging.getLogger(__name__)
+_log = logging.getLogger("dgplate.solvers.newton")  # the name it had before the split
 
 
 class Leaving(Protocol):
