@@ -37,7 +37,7 @@ test-mpi: setup
 LINT_DIRS = $(wildcard dgplate tests demos benchmarks docs)
 
 # ruff (with Google docstrings and complexity ≤ 10 on dgplate/) and mypy (strict on the
-# numerical core: dg, solvers, models; see pyproject.toml)
+# numerical core: dg, solvers, models; relaxed on tests, demos, benchmarks; see pyproject.toml)
 lint: setup
 	$(VENV)/bin/ruff check $(LINT_DIRS)
 	$(VENV)/bin/ruff format --check $(LINT_DIRS)

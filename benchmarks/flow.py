@@ -46,7 +46,8 @@ class NaiveStepSolver:
     """The published baseline: a new KSP, hence a symbolic and numeric LU, every step."""
 
     def __init__(self, comm, K: PETSc.Mat):
-        self.comm, self.K, self.ksp = comm, K, None
+        self.comm, self.K = comm, K
+        self.ksp: PETSc.KSP | None = None
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec, refactor: bool = True) -> solvers.SolveStats:
         t0 = time.perf_counter()
@@ -75,7 +76,7 @@ class NaiveSystem(StepSystem):
 
     def assemble(self, newton: bool = False) -> NaiveStepSolver:  # type: ignore[override]
         self.K.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(self.K, self.step_form)
+        dolfinx.fem.petsc.assemble_matrix(self.K, self.step_form)  # type: ignore[arg-type]
         self.K.assemble()
         with self.rhs.localForm() as local:
             local.set(0.0)

@@ -39,9 +39,11 @@ from mpi4py import MPI
 import dolfinx.fem
 import numpy as np
 
+from dgplate.compat import Function
 from dgplate.measure.wrinkles import line_values, wrinkle_profile
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk import FvKSpec, build_fvk
+from dgplate.solvers.stability import LOWEST
 
 DISTANCES = (0.0, 0.05, 0.1, 0.2, 0.6)
 
@@ -57,7 +59,7 @@ class Interpolated:
         for sub in (state.function_space.sub(1).sub(0), state.function_space.sub(1).sub(1),
                     state.function_space.sub(0)):  # fmt: skip
             space, dofs = sub.collapse()
-            part = dolfinx.fem.Function(space)
+            part: Function = dolfinx.fem.Function(space)
             part.x.array[:] = state.x.array[dofs]
             self.parts.append(part)
 
@@ -103,11 +105,11 @@ def run(
     seconds = time.perf_counter() - start
     summary = driver.summary()
     space, dofs = model.space.sub(0).collapse()
-    w = dolfinx.fem.Function(space)
+    w: Function = dolfinx.fem.Function(space)
     w.x.array[:] = driver.state.x.array[dofs]
     profiles = [wrinkle_profile(w, [d, 0.0], [d, 1.0]) for d in DISTANCES]
     final = Interpolated(driver.state)
-    lowest = [step.lowest_eigenvalue for step in driver.history]
+    lowest = [getattr(step, LOWEST) for step in driver.history]
     driver.destroy()
     return {
         "cells": cells,

@@ -129,9 +129,9 @@ def plot(records: list[dict], fit, path: Path) -> None:
             left.loglog(*zip(*naive), "s--", label=f"naive, {ranks} rank(s)")
     if fit:
         ranks, p, rows = fit
-        x = np.array([rows[0]["dofs"], rows[-1]["dofs"]], dtype=float)
+        ends = np.array([rows[0]["dofs"], rows[-1]["dofs"]], dtype=float)
         y0 = rows[0]["per_step_s"]["optimized"]
-        left.loglog(x, y0 * (x / x[0]) ** p, "k:", label=f"fit: DoFs^{p:.2f}")
+        left.loglog(ends, y0 * (ends / ends[0]) ** p, "k:", label=f"fit: DoFs^{p:.2f}")
     left.set_xlabel("degrees of freedom")
     left.set_ylabel("seconds per step")
     left.grid(True, which="both", alpha=0.3)

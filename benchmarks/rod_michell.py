@@ -23,6 +23,7 @@ import json
 import math
 import time
 from pathlib import Path
+from typing import cast
 
 from mpi4py import MPI
 
@@ -32,6 +33,7 @@ import dgplate
 from dgplate import mpi
 from dgplate.io.output import print0
 from dgplate.problems.registry import MODELS
+from dgplate.solvers.rod_flow import RodFlow
 
 CLOSED = Path(__file__).resolve().parent.parent / "demos" / "problems" / "rod_closed.toml"
 
@@ -59,7 +61,7 @@ def growth(c_t: float, turns: int, cells: int, tau: float, steps: int, comm: MPI
     entry = MODELS["rod"]
     assert entry.mesh is not None
     model = entry.build(problem.model, entry.mesh(problem.model, comm))
-    driver = model.driver(problem.flow, [], None)
+    driver = cast(RodFlow, model.driver(problem.flow, [], None))
     z = [extent_z(driver.u)]
     energies = [driver.evaluate_energy()]
     for _ in range(steps):

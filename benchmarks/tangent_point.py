@@ -27,7 +27,7 @@ import argparse
 import json
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from mpi4py import MPI
 
@@ -35,9 +35,11 @@ import numpy as np
 
 import dgplate
 from dgplate.dg import tangent_point as tp
+from dgplate.dg.self_avoidance import PlateTangentPoint
 from dgplate.io.output import print0
 from dgplate.problems.registry import MODELS
 from dgplate.problems.runner import build_mesh
+from dgplate.solvers.flow import GradientFlow
 
 DEMO = Path(__file__).resolve().parent.parent / "demos" / "problems" / "self_avoiding_strip.toml"
 
@@ -174,7 +176,9 @@ def flow(steps: int, cells: list[int]) -> dict[str, Any]:
     driver = model.driver(
         problem.flow, [], lambda x: np.vstack([np.sin(x[0]), x[1], 1.0 - np.cos(x[0])])
     )
-    (term,) = driver.energy.nonlocal_terms
+    driver = cast(GradientFlow, driver)  # the bilayer's flow
+    (nonlocal_term,) = driver.energy.nonlocal_terms
+    term = cast(PlateTangentPoint, nonlocal_term)
     rows = []
     for _ in range(steps):
         info = driver.step()

@@ -45,6 +45,7 @@ PROBLEM = Path(__file__).parent / "problems" / "bilayer_i_shape.toml"
 args = demo.arguments("bilayer_i_shape", "an I-shaped bilayer plate", "the published I, h = 0.125")
 
 # %%
+overrides: dict[str, object]
 if args.paper:
     overrides = {"mesh.parameters": {"W": 4.0, "H": 4.0, "t": 1.0, "w": 1.5, "h": 0.125}}
 else:  # tol scaled with the energy: a quarter of the area, a quarter of the problem file's

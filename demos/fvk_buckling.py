@@ -83,7 +83,7 @@ driver = model.driver(None, [], None)
 result = driver.run()
 summary = driver.summary()
 shortening = 3 * np.array(summary["load_factors"])  # Δ / Δ_cr
-w_t = np.array([step.w_center for step in driver.history]) / T
+w_t = np.array([vars(step)["w_center"] for step in driver.history]) / T
 demo.save_shape(driver, out / "run", "the buckled plate at 3 Δ_cr")
 driver.destroy()
 if not result.converged:

@@ -280,7 +280,7 @@ def angular_modes(driver, radius: float = 0.5) -> list[list[float]]:
     return [[int(n), float(spectrum[n])] for n in largest]
 
 
-def push(driver) -> tuple[dict | None, np.ndarray | None]:
+def push(driver, beyond: float) -> tuple[dict | None, np.ndarray | None]:
     """The state past the onset pushed along the unstable mode: its record and snapshot.
 
     With ``--leave``: rounds of push and relaxation until the lowest eigenvalue is ≥ −tol
@@ -320,7 +320,7 @@ before_state = path[-1]
 symmetric_energy = next(
     (p["energy"] for p in path if beyond and p["indentation"] == DEPTH * beyond), None
 )
-pushed, after = push(driver) if (args.push or args.leave) and beyond else (None, None)
+pushed, after = push(driver, beyond) if (args.push or args.leave) and beyond else (None, None)
 summary = driver.summary()
 driver.destroy()
 
@@ -349,7 +349,7 @@ if comm.rank == 0:
     ax[0].set_ylabel("lowest Hessian eigenvalue (symmetric path)")
     x, y = polar_r * np.cos(polar_t), polar_r * np.sin(polar_t)
     shown = [(before, "before", before_state)]
-    if after is not None:
+    if after is not None and pushed is not None:
         shown.append((after, "after", pushed))
     for axis, (field, name, state) in zip(ax[1:], shown):
         mesh = axis.pcolormesh(x, y, field, shading="gouraud", cmap="viridis")

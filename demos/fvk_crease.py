@@ -76,7 +76,7 @@ for crease in (True, False):
     driver = build_fvk(spec, tagged).driver(None, [], None)
     result = driver.run()
     summary = driver.summary()
-    ours = np.array([step.w_center for step in driver.history])
+    ours = np.array([vars(step)["w_center"] for step in driver.history])
     demo.save_shape(driver, out / name, f"{name} strip at the largest load")
     driver.destroy()
     if not result.converged:

@@ -39,6 +39,7 @@ import dolfinx.fem
 import numpy as np
 
 from dgplate import demo
+from dgplate.compat import Function
 from dgplate.io.output import write_json
 from dgplate.measure.wrinkles import wrinkle_profile
 from dgplate.mesh.tagged import rectangle
@@ -73,7 +74,7 @@ result = driver.run()
 summary = driver.summary()
 demo.save_shape(driver, out / "run", "wrinkles at the compressed edge x = 0")
 space, dofs = model.space.sub(0).collapse()
-w = dolfinx.fem.Function(space)
+w: Function = dolfinx.fem.Function(space)
 w.x.array[:] = driver.state.x.array[dofs]
 driver.destroy()
 if not result.converged:

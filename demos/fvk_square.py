@@ -36,6 +36,7 @@
 # %%
 import argparse
 import time
+from typing import Any
 
 from mpi4py import MPI
 
@@ -97,7 +98,7 @@ for support, (published, series) in LINEAR.items():
     for n in levels:
         tagged = rectangle(comm, [[0, 0], [1, 1]], [n, n])
         q = 1e-4 * D
-        sides = {support: list(RECTANGLE_SIDES)}
+        sides: dict[str, Any] = {support: list(RECTANGLE_SIDES)}
         spec = FvKSpec(E=E, nu=NU, thickness=T, pressure=q, load_steps=1, **sides)
         steps, figures = solve(tagged, spec)
         coeff = steps[-1].w_center * D / q

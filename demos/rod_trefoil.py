@@ -76,6 +76,7 @@ def start_bending(samples: int = 20000) -> float:
 
 
 # %%
+STAGES: tuple[float, ...]
 if args.paper:
     STAGES = (0.1, 0.03, 0.01, 0.003, 0.001)
     overrides = {"model.cells": 96, "flow.max_steps": 1000}

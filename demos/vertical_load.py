@@ -53,7 +53,7 @@ args = demo.parse(parser)
 levels = [16, 32, 64] if args.paper else [args.cells]
 rows = []
 for n in levels:
-    overrides = {"mesh.cells": [n, n]}
+    overrides: dict[str, object] = {"mesh.cells": [n, n]}
     if args.triangles:
         overrides["mesh.cell_type"] = "triangle"
     problem = dgplate.load_problem(PROBLEM, overrides=overrides)

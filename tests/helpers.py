@@ -78,7 +78,7 @@ def check_load_is_derivative(term, y, direction, comm, rel_tol: float = 1e-5) ->
     load = dolfinx.fem.petsc.assemble_vector(
         dolfinx.fem.form(ufl.derivative(term.linearisation, y, ufl.TestFunction(V)))
     )
-    load.ghostUpdate(addv=True, mode=1)  # ADD, REVERSE
+    load.ghostUpdate(addv=True, mode="reverse")  # ADD, REVERSE
     owned = V.dofmap.index_map.size_local * 3
     exact = comm.allreduce(float(load.array[:owned] @ direction.x.array[:owned]))
     eps, base = 1e-6, y.x.array.copy()

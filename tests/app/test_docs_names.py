@@ -29,10 +29,10 @@ def resolve(dotted: str) -> object:
     parts = dotted.split(".")
     for cut in range(len(parts), 0, -1):
         try:
-            obj: object = importlib.import_module(".".join(parts[:cut]))
+            module = importlib.import_module(".".join(parts[:cut]))
         except ModuleNotFoundError:
             continue
-        module = obj
+        obj: object = module
         for name in parts[cut:]:
             obj = getattr(obj, name)
         defined_in = getattr(obj, "__module__", None)

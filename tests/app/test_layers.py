@@ -74,7 +74,7 @@ def test_no_module_imports_from_a_layer_above_it():
     assert not upward, "\n".join(upward)
 
 
-def test_no_import_circles():
+def test_no_import_circles() -> None:
     edges = {m: {t for t in ts if t != "dgplate"} for m, ts in graph().items()}
     state: dict[str, int] = {}  # 1: on the current path, 2: done
     circles = []
@@ -109,7 +109,7 @@ def design_table() -> dict[str, set[str]]:
     return rows
 
 
-def test_design_lists_every_module_and_no_other():
+def test_design_lists_every_module_and_no_other() -> None:
     """The layer table of docs/design.md §6 names every module of the package, and only those."""
     listed = design_table()
     actual: dict[str, set[str]] = {}

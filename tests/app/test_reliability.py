@@ -64,7 +64,9 @@ def dgplate(*args: str, ranks: int = 1, timeout: float = 300) -> subprocess.Comp
     """``dgplate`` in a subprocess (under ``mpirun -n ranks`` when ranks > 1)."""
     command = [sys.executable, "-m", "dgplate", *args]
     if ranks > 1:
-        command = [_mpirun(), "-n", str(ranks), sys.executable, "-m", "mpi4py", "-m", "dgplate"]
+        launcher = _mpirun()
+        assert launcher is not None, "no mpirun"
+        command = [launcher, "-n", str(ranks), sys.executable, "-m", "mpi4py", "-m", "dgplate"]
         command += list(args)
     return subprocess.run(command, capture_output=True, text=True, timeout=timeout)
 
@@ -355,6 +357,7 @@ def _signalled(command: list[str], wait_for: str, sig: int, env=None) -> tuple[i
     )
     try:
         seen = []
+        assert process.stdout is not None  # stdout=PIPE
         for line in process.stdout:
             seen.append(line)
             if line.startswith(wait_for):

@@ -37,7 +37,9 @@ def run_demo(
     """
     command = [sys.executable, str(demo), "--out", str(out)]
     if ranks > 1:
-        command = [_mpirun(), "-n", str(ranks), sys.executable, "-m", "mpi4py", *command[1:]]
+        launcher = _mpirun()
+        assert launcher is not None, "no mpirun"
+        command = [launcher, "-n", str(ranks), sys.executable, "-m", "mpi4py", *command[1:]]
         command.append("--no-frames")
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))

@@ -9,6 +9,7 @@ gradient-jump terms kept, the same state costs ½γ₁ Σ_e |e|/h_e · |[∇y]|�
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 from mpi4py import MPI
 
@@ -180,7 +181,11 @@ def test_bad_crease_input(case, tmp_path, capsys):
 # the H² metric once the gradient jumps on C are dropped (with l2_metric = false the flow's
 # matrix is singular and results differ between partitions at O(1)).
 FLAP_MESH = {"h": 0.25, "structured": 1}
-FLAP = {"clamped": ["left"], "crease": ["crease"], "load": [0.0, 0.0, "where(x > 0, -0.5, 0.0)"]}
+FLAP: dict[str, Any] = {
+    "clamped": ["left"],
+    "crease": ["crease"],
+    "load": [0.0, 0.0, "where(x > 0, -0.5, 0.0)"],
+}
 
 
 def flap_toml(path: Path) -> Path:

@@ -1,5 +1,7 @@
 """The cell-wise numbering handed to MUMPS: a permutation, and the same on any number of ranks."""
 
+from typing import Any, cast
+
 from mpi4py import MPI
 
 import basix.ufl
@@ -58,7 +60,7 @@ def test_cellwise_step_matrix_does_not_depend_on_the_partition(comm):
 
 def _vec(A: PETSc.Mat, values: np.ndarray) -> PETSc.Vec:
     v = A.createVecRight()
-    v.setArray(values)
+    v.setArray(cast(Any, values))  # petsc4py's stub asks for a Sequence; it takes any array
     return v
 
 
