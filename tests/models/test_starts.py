@@ -1,10 +1,10 @@
 """The starts a problem file names (``model.start``, :mod:`dgplate.models.starts`)."""
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import PROBLEMS
 
 from dgplate import load_problem
 from dgplate.errors import InputError
@@ -54,7 +54,7 @@ def test_formula_start_on_a_mesh(comm):
 
 def test_flat_is_the_default_start(comm):
     tagged = rectangle(comm, [[0.0, 0.0], [1.0, 1.0]], [2, 2])
-    problem = load_problem(Path(__file__).parents[1] / "demos" / "problems" / "vertical_load.toml")
+    problem = load_problem(PROBLEMS / "vertical_load.toml")
     assert problem.model.start == "flat"
     assert resolve(problem.model, None, tagged.mesh) is None
     assert resolve(problem.model, "flat", tagged.mesh) is None
@@ -63,7 +63,7 @@ def test_flat_is_the_default_start(comm):
 
 def test_initial_takes_precedence_over_model_start(comm):
     tagged = rectangle(comm, [[0.0, 0.0], [1.0, 1.0]], [2, 2])
-    path = Path(__file__).parents[1] / "demos" / "problems" / "self_avoiding_strip.toml"
+    path = PROBLEMS / "self_avoiding_strip.toml"
     spec = load_problem(path).model
     assert spec.start_params.kind == "arc"
     assert resolve(spec, "flat", tagged.mesh) is None
