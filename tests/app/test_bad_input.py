@@ -13,6 +13,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 import pytest
+from helpers import mpirun as _mpirun
 
 from dgplate import check, expressions, load_problem
 from dgplate.cli import main
@@ -401,11 +402,6 @@ def test_bad_input_is_one_line_naming_the_key(name, verb, inputs, tmp_path, caps
     assert code == 2, captured.err
     assert_one_error(captured.err, case.expected)
     assert_nothing_written(tmp_path)
-
-
-def _mpirun() -> str | None:
-    beside = Path(sys.executable).parent / "mpirun"
-    return str(beside) if beside.exists() else shutil.which("mpirun")
 
 
 @pytest.mark.spawns_mpirun

@@ -23,6 +23,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from helpers import mpirun as _mpirun
 from helpers import summary_of
 from petsc4py import PETSc
 
@@ -46,11 +47,6 @@ RESUMABLE = [
     "--set",
     "output.progress=0",
 ]
-
-
-def _mpirun() -> str | None:
-    beside = Path(sys.executable).parent / "mpirun"
-    return str(beside) if beside.exists() else shutil.which("mpirun")
 
 
 #: Open MPI's launcher (Debian's route) ends the job itself on SIGTERM instead of leaving the
