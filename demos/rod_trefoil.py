@@ -49,7 +49,7 @@ import numpy as np
 
 import dgplate
 from dgplate import demo
-from dgplate.io.plotting import frames_to_gif
+from dgplate.io.images import frames_to_gif
 from dgplate.models.rod.start import RodStart
 
 PROBLEM = Path(__file__).parent / "problems" / "rod_trefoil.toml"
