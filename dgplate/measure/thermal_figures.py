@@ -1,4 +1,4 @@
-"""Measures of a thermal bilayer's shape: forms built on the deformation, region means.
+"""Measures of a thermal bilayer's shape built on the deformation Function.
 
 The measures themselves (hinge fold angles, closure gap, edge placements) are in
 :mod:`dgplate.measure.hinges`.
@@ -7,28 +7,15 @@ The measures themselves (hinge fold angles, closure gap, edge placements) are in
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
 import dolfinx.fem
 import numpy as np
-import ufl
-
-from dgplate.measure.hinges import RegionIntegrals
-from dgplate.mesh.tagged import TaggedMesh
-
-
-def cell_group_mean(tagged: TaggedMesh, expr: Any, region: str) -> float:
-    """Area-weighted mean of a scalar UFL expression over a cell group (collective)."""
-    one = ufl.as_ufl(1.0)  # type: ignore[no-untyped-call]
-    area, total = RegionIntegrals(tagged)([one, expr], region)
-    return float(total / area) if area else float(np.nan)
 
 
 class OnShape:
     """A measure whose forms need the deformation Function.
 
-    A measure whose forms need the deformation Function: built at the first call for a
-    given ``y`` (collective), then evaluated.
+    Built at the first call for a given ``y`` (collective), then evaluated.
     """
 
     def __init__(
