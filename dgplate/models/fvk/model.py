@@ -154,7 +154,16 @@ class FvKModel:
 
 
 def build_fvk(spec: FvKSpec, tagged: TaggedMesh) -> FvKModel:
-    """The FvK model of ``spec`` on ``tagged`` (checks the group names on the mesh)."""
+    """The FvK model of ``spec`` on ``tagged`` (checks the group names on the mesh).
+
+    Args:
+        spec: the validated ``[model]`` section.
+        tagged: the mesh with its named cell and facet groups.
+
+    Returns:
+        The model: its mixed space (u, w), energy, membrane conditions and the Newton
+        load path's settings.
+    """
     _check_group_names(spec, tagged)
     facets = fvk_facet_sets(tagged, spec)
     space = fvk_space(tagged.mesh, spec.degree)

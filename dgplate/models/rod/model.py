@@ -94,5 +94,13 @@ class RodModel:
 
 
 def build_rod(spec: RodSpec, tagged: TaggedMesh) -> RodModel:
-    """The rod on its own mesh (:func:`rod_mesh`) and its energy data."""
+    """The rod on its own mesh (:func:`rod_mesh`) and its energy data.
+
+    Args:
+        spec: the validated ``[model]`` section.
+        tagged: the mesh with its named cell and facet groups (built by :func:`rod_mesh`).
+
+    Returns:
+        The model: its energy data, start and figures.
+    """
     return RodModel(spec, tagged.mesh, RodData.of(spec, tagged.mesh, clamp_measure(spec, tagged)))

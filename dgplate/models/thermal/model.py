@@ -393,7 +393,16 @@ def _check_groups(spec: ThermalSpec, tagged: TaggedMesh) -> None:
 
 
 def build_thermal(spec: ThermalSpec, tagged: TaggedMesh) -> ThermalModel:
-    """Facets, μ, penalties and checked group names of a thermal problem (collective)."""
+    """Facets, μ, penalties and checked group names of a thermal problem (collective).
+
+    Args:
+        spec: the validated ``[model]`` section.
+        tagged: the mesh with its named cell and facet groups.
+
+    Returns:
+        The model: its facets, μ, penalties and heating schedule (α is calibrated
+        by the driver when ``model.alpha`` is ``calibrate``).
+    """
     _check_groups(spec, tagged)
     facets = facet_sets(tagged, clamped=spec.clamped, penalty_length=spec.penalty_length)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
