@@ -38,7 +38,7 @@ def plot_convergence(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.8))
+    fig, ax = plt.subplots(figsize=(9.0, 4.8))
     for name, (x, y) in drawn.items():
         ax.loglog(x, y, marker="o", label=name)
     _slopes(ax, drawn)
@@ -46,7 +46,7 @@ def plot_convergence(
     ax.set_ylabel("|f_level − f∞|")
     ax.set_title(title)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize="small")
+    ax.legend(fontsize="small", loc="center left", bbox_to_anchor=(1.02, 0.5))
     fig.tight_layout()
     save_figure(fig, path)
     return True

@@ -2,11 +2,11 @@
 
 ``converge(problem, levels=4)`` runs ``problem`` on ``levels`` meshes, each refined by a factor
 2 from the one before (level 1 is the problem as given): a rectangle's ``mesh.cells`` doubled,
-a ``.geo`` file's size parameters halved (``h`` and every ``*_h``; the counts ``n``, ``m``
-doubled), a rod's ``model.cells`` doubled. Each level of a plate's gradient flow starts from
-the previous level's solution, interpolated onto the finer mesh
-(:class:`~dgplate.solvers.transfer.MeshStart`); FvK's Newton and the rod start each level from
-the problem's own start. Each level is a normal run folder ``level-1``, ``level-2`` … of the
+a ``.geo`` file's size parameters halved (``h``, ``h_*`` and ``*_h`` set to a positive
+number; the counts ``n`` and ``m`` doubled), a rod's ``model.cells`` doubled. Each level of a
+plate's gradient flow starts from the previous level's solution, interpolated onto the finer
+mesh (:class:`~dgplate.solvers.transfer.MeshStart`); FvK's Newton and the rod start each level
+from the problem's own start. Each level is a normal run folder ``level-1``, ``level-2`` … of the
 study's folder, so that with ``resume`` a finished level is reused and an interrupted one
 continued (:mod:`dgplate.problems.folders`).
 
@@ -176,14 +176,14 @@ def _geo_sizes(problem: Problem) -> dict[str, float]:
     values: dict[str, Any] = {**geo_parameters(path), **problem.mesh.parameters}
     sizes = {}
     for key, value in values.items():
-        named = key in SIZE_NAMES or key.endswith("_h") or key in COUNT_NAMES
+        named = key in SIZE_NAMES + COUNT_NAMES or key.endswith("_h") or key.startswith("h_")
         number = _number(value)
         if named and number is not None and number > 0:
             sizes[key] = int(number) if key in COUNT_NAMES else number
     if not sizes:
         raise InputError(
-            f"mesh.parameters: {path.name} has no size to refine (a parameter h, *_h, n or m "
-            "with a number)"
+            f"mesh.parameters: {path.name} has no size to refine (a parameter h, h_*, *_h, n or "
+            "m with a number)"
         )
     return sizes
 
