@@ -235,9 +235,12 @@ def level_record(index: int, size: str, summary: dict[str, Any], reused: bool) -
 
 
 def progress_line(record: dict[str, Any], levels: int, seconds: float) -> str:
-    """``level 2/4: 32×32 cells, 30,720 dofs, 71 steps, E_h = 1.0e+00 (12 s)``."""
-    dofs = record["dofs"]
-    parts = [f"{record['size']}" + (" cells" if "×" in record["size"] else "")]
+    """``level 2/4: 32×32 cells, 30,720 dofs, 71 steps, E_h = 1.0e+00 (12 s)`` (on rank 0)."""
+    dofs, cells = record["dofs"], record["cells"]
+    if "×" in record["size"] or cells is None:
+        parts = [record["size"] + (" cells" if cells is not None else "")]
+    else:
+        parts = [record["size"], f"{cells:,} cells"]
     if dofs is not None:
         parts.append(f"{dofs:,} dofs")
     parts.append("reused" if record["reused"] else count_of(record["steps"] or 0, "step"))
