@@ -5,8 +5,8 @@
 a ``.geo`` file's size parameters halved (``h``, ``h_*`` and ``*_h`` set to a positive
 number; the counts ``n`` and ``m`` doubled), a rod's ``model.cells`` doubled. Each level of a
 plate's gradient flow starts from the previous level's solution, interpolated onto the finer
-mesh (:class:`~dgplate.solvers.transfer.MeshStart`); FvK's Newton and the rod start each level
-from the problem's own start. Each level is a normal run folder ``level-1``, ``level-2`` … of the
+mesh (:class:`~dgplate.solvers.transfer.MeshStart`); FvK's Newton, the rod and a continuation
+in the clamped data start each level from the problem's own start. Each level is a normal run folder ``level-1``, ``level-2`` … of the
 study's folder, so that with ``resume`` a finished level is reused and an interrupted one
 continued (:mod:`dgplate.problems.folders`).
 
@@ -133,11 +133,20 @@ def converge(
         study.interrupted = int(result.summary.get("interrupted") or 0)
         if study.interrupted:
             break
-        if problem.model.name not in COLD_START and result.shape is not None:
+        if warm_start(problem) and result.shape is not None:
             start = MeshStart(result.shape)
     study.figures = estimates(study.levels)
     _write(study, comm)
     return study
+
+
+def warm_start(problem: Problem) -> bool:
+    """Whether a level starts from the coarser level's solution (see :data:`COLD_START`).
+
+    A continuation in the clamped data (``model.schedule``) starts at its first α, which the
+    coarser level's final shape does not match: it starts from the problem's start too.
+    """
+    return problem.model.name not in COLD_START and getattr(problem.model, "schedule", None) is None
 
 
 def refinements(problem: Problem, levels: int) -> list[tuple[Problem, str]]:

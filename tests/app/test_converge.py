@@ -17,7 +17,7 @@ import dgplate
 from dgplate.cli import main
 from dgplate.measure.richardson import extrapolate
 from dgplate.mesh.tagged import rectangle
-from dgplate.problems.converge import refinements
+from dgplate.problems.converge import estimates, level_record, refinements, warm_start
 from dgplate.solvers.transfer import MeshStart, interpolate
 
 CYLINDER = PROBLEMS / "bilayer_cylinder.toml"
@@ -54,6 +54,49 @@ def test_richardson_says_why_there_is_no_estimate(values, reason):
         None,
         None,
     )
+
+
+def _levels(energies, converged=(True, True, True)):
+    """Level records of three runs with these energies and a radius going 1.4, 1.2, 1.1."""
+    summaries = [
+        {"energy": e, "converged": ok, "cylinder_fit": {"radius": r}, "cells": 8, "steps": 3}
+        for e, ok, r in zip(energies, converged, (1.4, 1.2, 1.1), strict=True)
+    ]
+    return [level_record(i, "n", s, False) for i, s in enumerate(summaries, 1)]
+
+
+def test_estimates_of_a_study():
+    found = estimates(_levels([1.4, 1.2, 1.1]))
+    assert set(found) == {"energy", "cylinder_fit.radius"}
+    assert found["cylinder_fit.radius"]["values"] == [1.4, 1.2, 1.1]
+    assert found["cylinder_fit.radius"]["order"] == pytest.approx(1.0, abs=1e-12)
+    assert found["cylinder_fit.radius"]["limit"] == pytest.approx(1.0, abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("energies", "converged", "reason"),
+    [
+        (
+            [1.0, 1.1, 1.5],
+            (True,) * 3,
+            "E_h jumps: it changes 4 times more from level 2 to 3 "
+            "than from 1 to 2 (a different local minimiser?)",
+        ),
+        ([1.4, 1.2, 1.1], (True, False, True), "level 2 did not converge"),
+    ],
+    ids=["jump", "not converged"],
+)
+def test_no_figure_is_extrapolated_past_a_jump_or_a_failed_level(energies, converged, reason):
+    found = estimates(_levels(energies, converged))
+    assert found["cylinder_fit.radius"]["reason"] == reason
+    assert found["cylinder_fit.radius"]["limit"] is None
+
+
+def test_warm_start_only_for_the_plates_gradient_flow():
+    cases = {"bilayer_cylinder": True, "rod_arc": False, "fvk_square": False}
+    cases["buckling_strip"] = False  # a continuation in the clamped data: starts at α = 0
+    for name, warm in cases.items():
+        assert warm_start(dgplate.load_problem(PROBLEMS / f"{name}.toml")) is warm, name
 
 
 def test_a_coarse_shape_is_interpolated_exactly_onto_a_finer_mesh():
