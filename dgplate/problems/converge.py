@@ -18,6 +18,7 @@ study writes ``converge.json``, ``converge.md`` (the table printed) and ``conver
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -114,6 +115,8 @@ def converge(
     """
     if not isinstance(problem, Problem):
         raise InputError(f"the problem must be a dgplate.Problem, got {type(problem).__name__}")
+    if out is not None and not isinstance(out, str | os.PathLike):
+        raise InputError(f"out must be a folder path, got {type(out).__name__} {out!r}")
     if not is_integer(levels) or levels < 2:
         raise InputError(f"--levels must be an integer ≥ 2, got {levels!r}")
     meshes = refinements(problem, levels)
