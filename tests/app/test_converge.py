@@ -99,6 +99,7 @@ def test_warm_start_only_for_the_plates_gradient_flow():
         assert warm_start(dgplate.load_problem(PROBLEMS / f"{name}.toml")) is warm, name
 
 
+@pytest.mark.mpi
 def test_a_coarse_shape_is_interpolated_exactly_onto_a_finer_mesh():
     """Q2 on 2×2 cells is Q2 on 4×4: the non-matching interpolation reproduces it (any ranks)."""
     comm = MPI.COMM_WORLD
