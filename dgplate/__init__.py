@@ -11,6 +11,8 @@ The Python API in two calls::
 ``run`` does what ``dgplate run`` does: it validates, writes the same outputs and returns a
 :class:`~dgplate.problems.result.Result`. ``check(problem)`` does what ``dgplate check`` does:
 it validates everything ``run`` would (output folder, mesh, model, start) without solving.
+``converge(problem, levels=4)`` runs it on successively refined meshes and extrapolates its
+figures (a :class:`~dgplate.problems.converge.ConvergenceStudy`).
 ``load_result(folder)`` reads a finished run back (summary, history, final state).
 """
 
@@ -21,6 +23,7 @@ from mpi4py import MPI  # noqa: F401  (MPI must be initialised before dolfinx is
 from dgplate.errors import DgplateError, InputError, SolverError, UnsupportedVersionError
 
 if TYPE_CHECKING:
+    from dgplate.problems.converge import ConvergenceStudy, converge
     from dgplate.problems.result import Result
     from dgplate.problems.results import load_result
     from dgplate.problems.runner import check, run
@@ -34,6 +37,8 @@ _LAZY = {
     "Problem": "dgplate.problems.specs",
     "run": "dgplate.problems.runner",
     "check": "dgplate.problems.runner",
+    "converge": "dgplate.problems.converge",
+    "ConvergenceStudy": "dgplate.problems.converge",
     "Result": "dgplate.problems.result",
     "load_result": "dgplate.problems.results",
 }
@@ -49,6 +54,7 @@ def __getattr__(name: str) -> Any:
 
 
 __all__ = [
+    "ConvergenceStudy",
     "DgplateError",
     "InputError",
     "Problem",
@@ -57,6 +63,7 @@ __all__ = [
     "UnsupportedVersionError",
     "__version__",
     "check",
+    "converge",
     "load_problem",
     "load_result",
     "problem_from_dict",

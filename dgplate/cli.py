@@ -1,5 +1,8 @@
 """Command line: ``dgplate run PROBLEM.toml [--out DIR] [--force] [--resume] [--set k=v ...]``.
 
+``dgplate converge PROBLEM.toml [--levels N]`` (and the options of ``run``) runs the problem on
+N meshes, each refined by 2, and extrapolates its figures (:mod:`dgplate.problems.converge`).
+
 ``dgplate check`` takes the same arguments and validates everything ``run`` would (the output
 folder, the mesh, the model, the start) without solving or writing: 0 valid, 2 bad input.
 ``dgplate show OUT [OUT ...]`` prints finished or running runs from their output folders: one
@@ -58,7 +61,15 @@ def _parser() -> argparse.ArgumentParser:
         help="validate a problem file as `run` would (mesh, model, output folder), "
         "without solving or writing",
     )
-    for command in (run, check):
+    converge = sub.add_parser(
+        "converge",
+        help="run a problem on successively refined meshes; observed orders and "
+        "Richardson-extrapolated figures",
+    )
+    converge.add_argument(
+        "--levels", type=int, default=4, help="the number of meshes, each refined by 2 (≥ 2)"
+    )
+    for command in (run, check, converge):
         command.add_argument("problem", help="a TOML problem file (see `dgplate schema`)")
         command.add_argument("--out", help="output directory (default: output.dir or out/<name>)")
         command.add_argument(
@@ -69,7 +80,8 @@ def _parser() -> argparse.ArgumentParser:
         command.add_argument(
             "--resume",
             action="store_true",
-            help="continue from the checkpoint in the output folder (same problem, any ranks)",
+            help="continue from the checkpoint in the output folder (same problem, any ranks); "
+            "converge: reuse the finished levels",
         )
         command.add_argument(
             "--allow-large",
@@ -149,6 +161,8 @@ def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
         if args.command == "check":
             return _check(problem, args, comm)
         options = {"force": args.force, "resume": args.resume, "allow_large": args.allow_large}
+        if args.command == "converge":
+            return _converge(problem, args, comm, options)
         summary = run(problem, args.out, comm, **options).summary
     if summary.get("interrupted"):
         if comm.rank == 0:
@@ -168,6 +182,23 @@ def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
             )
         return 1
     return 0
+
+
+def _converge(
+    problem: Problem, args: argparse.Namespace, comm: MPI.Comm, options: dict[str, bool]
+) -> int:
+    """``dgplate converge``: the levels, then the table; 1 if a level did not converge."""
+    from dgplate.problems.converge import converge, exit_code
+
+    study = converge(problem, args.levels, args.out, comm, **options)
+    if study.interrupted and comm.rank == 0:
+        print(
+            f"dgplate: interrupted: the levels so far are in {study.folder}; run again with "
+            "--resume to go on",
+            file=sys.stderr,
+            flush=True,
+        )
+    return exit_code(study)
 
 
 def _check(problem: Problem, args: argparse.Namespace, comm: MPI.Comm) -> int:

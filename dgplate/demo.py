@@ -43,7 +43,7 @@ import numpy as np
 
 from dgplate.errors import InputError
 from dgplate.io.output import OutputDir
-from dgplate.problems.runner import run as _run
+from dgplate.problems import folders
 from dgplate.problems.specs import Problem
 
 
@@ -196,65 +196,14 @@ def run(
             ``--resume`` holds the checkpoint of another problem.
     """
     if subfolder:
-        _claim_folder(Path(args.out), args.force, comm)
+        folders.claim(Path(args.out), args.force, comm)
     out = Path(args.out).joinpath(*subfolder)
     if getattr(args, "no_frames", False):
         problem = dataclasses.replace(
             problem, output=dataclasses.replace(problem.output, frames_every=0)
         )
-    resume = False
-    if args.resume:
-        state = _checkpoint_state(problem, out, comm)
-        if state is not None and state.get("finished"):
-            from dgplate.io.records import summary_is_current
-
-            done = comm.bcast(summary_is_current(out) if comm.rank == 0 else None)
-            if done:  # else it was stopped while writing its outputs: the resume writes them
-                from dgplate.problems.results import load_result
-
-                say(f"{out}: finished earlier, its results are reused", comm=comm)
-                return load_result(out, comm)
-        resume = state is not None
-    return _run(problem, out=out, comm=comm, force=args.force, resume=resume, **options)
-
-
-def _claim_folder(folder: Path, force: bool, comm: MPI.Comm) -> None:
-    """Take ``folder``, which holds a demo's several runs and its own pictures. Collective.
-
-    It is refused as a run's output folder is, when it holds a user's files (unless
-    ``force``; a folder whose subfolders are all dgplate's is an earlier run of the demo),
-    and otherwise marked as dgplate's (listing no file, so that no later run
-    deletes anything in it): the runs go into its subfolders, and the demo's pictures there
-    replace only those of an earlier run of the demo.
-    """
-    from dgplate.io.output import is_dgplate_output, write_marker
-
-    if comm.rank == 0 and folder.is_dir() and not is_dgplate_output(folder):
-        runs = [p for p in folder.iterdir() if p.is_dir()]
-        if runs and all(is_dgplate_output(p) for p in runs):  # an earlier run of the demo
-            write_marker(folder, [])
-    comm.barrier()
-    OutputDir.check(comm, folder, force)
-    if comm.rank == 0:
-        folder.mkdir(parents=True, exist_ok=True)
-        if not is_dgplate_output(folder) and not any(folder.iterdir()):
-            write_marker(folder, [])
-    comm.barrier()
-
-
-def _checkpoint_state(problem: Problem, out: Path, comm: MPI.Comm) -> dict[str, Any] | None:
-    """The state of the checkpoint of ``problem`` in ``out``, or ``None`` if there is none.
-
-    Collective. Raises ``InputError`` for another problem's checkpoint.
-    """
-    from dgplate.io import checkpoint
-    from dgplate.io.output import CHECKPOINT
-
-    folder = out / CHECKPOINT
-    exists = comm.bcast((folder / checkpoint.STATE_FILE).is_file() if comm.rank == 0 else None)
-    if not exists:
-        return None
-    return checkpoint.load(folder, comm, problem.identity()).state
+    result, _ = folders.run_or_reuse(problem, out, comm, args.force, args.resume, **options)
+    return result
 
 
 def say(*text: Any, comm: MPI.Comm = MPI.COMM_WORLD) -> None:

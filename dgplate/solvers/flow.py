@@ -43,7 +43,7 @@ from dgplate.dg.forms import FacetSets
 from dgplate.dg.geometry import max_cell_diameter
 from dgplate.errors import InputError, SolverError
 from dgplate.schema import is_integer, is_number, option
-from dgplate.solvers import linear
+from dgplate.solvers import linear, transfer
 from dgplate.solvers.constraint import IsometryDefect
 from dgplate.solvers.driver import EnergyFlow, Observer
 from dgplate.solvers.lagged import StepSolver
@@ -262,7 +262,7 @@ class GradientFlow(EnergyFlow):
         self.W = mixed_space(mesh, degree, settings)
         self.V, self._vdofs = compat.collapse(self.W.sub(0))
         self.y: Function = dolfinx.fem.Function(self.V, name="deformation")
-        self.y.interpolate(initial or _flat)
+        transfer.interpolate(self.y, initial or _flat)
         self.energy = energy_fn(self.y)
         self.defect = IsometryDefect(self.y)
         self.time, self.step_count = 0.0, 0
