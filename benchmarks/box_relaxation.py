@@ -29,8 +29,8 @@ from mpi4py import MPI
 from dgplate.coupling.thermal import ThermalBilayer
 from dgplate.dg.geometry import max_cell_diameter
 from dgplate.io.output import print0
+from dgplate.problems.prepare import build_mesh
 from dgplate.problems.registry import MODELS
-from dgplate.problems.runner import build_mesh
 from dgplate.problems.specs import load_problem
 
 BOX = Path(__file__).resolve().parent.parent / "demos" / "problems" / "box_folding.toml"

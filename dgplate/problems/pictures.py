@@ -16,31 +16,25 @@ FRAMES = "frames"
 FRAME_SIZE = (640, 480)
 
 
-def frames(
-    problem: Problem, model: Model, driver: Driver, folder: Path, earlier: Path | None
-) -> FrameWriter | None:
-    """The observer drawing ``output.frames_every``'s frames into ``folder`` (None: none asked).
+def frames(problem: Problem, model: Model) -> FrameWriter | None:
+    """The observer drawing ``output.frames_every``'s frames (None: none asked).
 
     Args:
         problem: the problem run.
         model: its model (which may draw its own pictures).
-        driver: the driver observed; the frame writer is appended to its observers.
-        folder: the frames' folder.
-        earlier: the frames of the run resumed (copied first), or None.
 
     Returns:
-        The frame writer, or None when ``output.frames_every`` is 0.
+        The frame writer (opened on the driver once it is built), or None when
+        ``output.frames_every`` is 0.
     """
     every = problem.output.frames_every
     if not every:
         return None
 
-    def draw(path: Path, title: str) -> None:
+    def draw(driver: Driver, path: Path, title: str) -> None:
         _draw(problem, model, driver, path, title, window_size=FRAME_SIZE, reference=False)
 
-    writer = FrameWriter(draw, folder, every, problem.name, driver, earlier)
-    driver.observers.append(writer)
-    return writer
+    return FrameWriter(draw, every, problem.name)
 
 
 def picture(
