@@ -111,6 +111,7 @@ def main(argv: list[str]) -> None:
     problem = load_problem(BOX, texts)
     tagged = build_mesh(problem.mesh, comm)
     model = MODELS["thermal"].build(problem.model, tagged)
+    model.calibrate(problem.flow)  # model.alpha = "calibrate", as a run does
     driver = model.driver(problem.flow, [], None)
     assert isinstance(driver, ThermalBilayer)
     tau = max_cell_diameter(tagged.mesh) if args.hold_tau == "h" else float(args.hold_tau)

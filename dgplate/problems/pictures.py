@@ -57,8 +57,7 @@ def held_pictures(problem: Problem, model: Model, driver: Driver, folder: Path) 
     where final.png shows it open again after cooling. Each is drawn as final.png is, from
     the driver's shape set to it for the picture and put back afterwards.
     """
-    held = getattr(model, "held_shapes", None)
-    shapes = held(driver) if held is not None else {}
+    shapes = model.held_shapes(driver)
     if not shapes:
         return
     final = driver.shape.x.array.copy()
@@ -78,9 +77,7 @@ def _draw(
     """
     from dgplate.io.plotting import plot_deformation
 
-    own = getattr(model, "picture", None)  # a model's own picture (a rod: a striped tube)
-    if own is not None:
-        own(driver, path, title)
+    if model.picture(driver, path, title):  # a model's own picture (a rod: a striped tube)
         return
     plot_deformation(
         driver.shape,

@@ -72,6 +72,7 @@ def run(
             prepared = prepare(problem, out, comm, (force, resume, allow_large), header=True)
             initial = starts.resolve(problem.model, initial, prepared.tagged.mesh)
             observers = RunObservers(prepared, wall0)
+            prepared.model.calibrate(problem.flow)  # a solve of its own (the box's α)
             driver = prepared.model.driver(problem.flow, observers.all, initial)
         # no destroy() on an error: it is collective, and the error may have hit one rank only
         result = _solve(prepared, driver, observers, initial, force)
@@ -95,8 +96,10 @@ def check(
     built and checked, so every ``InputError`` that :func:`run` would raise is raised here:
     the check for a cluster job before it queues. Returns what the run would be: problem,
     model, cells, dofs, ranks (and ``setting``, the three in words, as ``run`` prints them),
-    the output folder, the step a resume starts from (None) and the warnings ``run`` would
-    print. Collective on ``comm``.
+    the output folder, the step a resume starts from (None), the warnings ``run`` would
+    print and, for a model calibrated before its run (``model.alpha = 'calibrate'``), what
+    the run will calibrate (``calibration``; None: nothing), which check does not solve for.
+    Collective on ``comm``.
 
     Args: those of :func:`run`; nothing is written, so ``force`` only accepts a user's folder
     and ``resume`` checks the checkpoint there.
@@ -118,6 +121,7 @@ def check(
         "output": str(prepared.target.absolute()),
         "resume_step": driver.step_count if start is not None else None,
         "warnings": advice.before_run(problem, tagged, initial) if start is None else [],
+        "calibration": prepared.model.pending_calibration(),
     }
     driver.destroy()  # not on an error: it is collective, and the error may be on one rank
     return checked

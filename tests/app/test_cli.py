@@ -92,6 +92,7 @@ def test_check_validates_without_writing(tmp_path, capsys, monkeypatch):
     short = {"mesh.cells": [4, 4], "flow.max_steps": 2, "output.progress": 0}
     report = dgplate.check(dgplate.load_problem(VERTICAL, short), out=out)
     assert report["resume_step"] is None and report["warnings"] == [] and not out.exists()
+    assert report["calibration"] is None  # nothing for a run to calibrate first
     result = dgplate.run(dgplate.load_problem(VERTICAL, short), out=out)
     assert (report["dofs"], report["cells"]) == (result["dofs"], 16)
     assert f"vertical_load: {report['setting']}, output → {out}" in capsys.readouterr().out
@@ -108,6 +109,42 @@ def test_check_validates_without_writing(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)  # a relative folder is reported as run reports it: absolute
     assert dgplate.check(longer, out="rel")["output"] == str(tmp_path / "rel")
     assert not (tmp_path / "rel").exists()
+
+
+def test_check_of_the_box_calibrates_nothing_and_run_calibrates_first(
+    tmp_path, capsys, monkeypatch
+):
+    """`model.alpha = 'calibrate'` (the heat-driven box): `dgplate check` builds the driver
+    without the calibration, a coupled solve, and says that the run will calibrate; `run`
+    calibrates before it builds the driver (stopped there, it has written nothing)."""
+    from dgplate.models.thermal.model import ThermalModel
+
+    class Calibrated(Exception):
+        pass
+
+    calls: list[str] = []
+
+    def calibrate(self, flow):
+        calls.append(type(self).__name__)
+        raise Calibrated
+
+    monkeypatch.setattr(ThermalModel, "_calibrate", calibrate)
+    box = ROOT / "demos" / "problems" / "box_folding.toml"
+    small = {"mesh.parameters.n": 2, "mesh.parameters.m": 2}
+    out = tmp_path / "box"
+    sets = [f"--set={key}={value}" for key, value in small.items()]
+    assert main(["check", str(box), "--out", str(out), *sets]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert "box_folding: valid: model thermal" in printed[0]
+    assert printed[1:] == [
+        "dgplate: model.alpha = 'calibrate': α on the hinges will be calibrated at run time "
+        "(a strip like the first hinge, relaxed to fold by 90°)"
+    ]
+    assert calls == [] and not out.exists()
+    problem = dgplate.load_problem(box, {**small, "output.progress": 0})
+    with pytest.raises(Calibrated):
+        dgplate.run(problem, out=out)
+    assert calls == ["ThermalModel"] and not out.exists()
 
 
 def test_result_view_escapes_the_summary():
