@@ -1,11 +1,13 @@
 """Run a validated problem: mesh → model → driver → outputs (the CLI's engine, and the API).
 
 The runner is written once for every model: :mod:`~dgplate.problems.prepare` checks the
-output folder and builds the model (:mod:`dgplate.problems.registry`), the run's observers
-(:mod:`~dgplate.problems.run_observers`: progress, checkpoints, VTX series, frames) are made and
-handed to the driver the model builds (:class:`dgplate.solvers.driver.Driver`), and at the end
-:mod:`~dgplate.problems.outputs` commits ``history.csv``, the pictures and ``summary.json``. ``run(load_problem("p.toml", {"flow.tau": 0.1}))`` does what
-``dgplate run p.toml --set flow.tau=0.1`` does.
+output folder and builds the model (:mod:`dgplate.problems.registry`); the run's observers
+(:mod:`~dgplate.problems.run_observers`: progress, checkpoints, VTX series, frames) are made
+and handed to the driver that the model builds (:class:`dgplate.solvers.driver.Driver`), after
+the model's calibration, if any; at the end :mod:`~dgplate.problems.outputs` commits
+``history.csv``, the pictures and ``summary.json``.
+``run(load_problem("p.toml", {"flow.tau": 0.1}))`` does what ``dgplate run p.toml --set
+flow.tau=0.1`` does.
 """
 
 from __future__ import annotations
