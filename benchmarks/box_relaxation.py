@@ -29,8 +29,8 @@ from mpi4py import MPI
 from dgplate.coupling.thermal import ThermalBilayer
 from dgplate.dg.geometry import max_cell_diameter
 from dgplate.io.output import print0
+from dgplate.problems.prepare import build_mesh
 from dgplate.problems.registry import MODELS
-from dgplate.problems.runner import build_mesh
 from dgplate.problems.specs import load_problem
 
 BOX = Path(__file__).resolve().parent.parent / "demos" / "problems" / "box_folding.toml"
@@ -111,6 +111,7 @@ def main(argv: list[str]) -> None:
     problem = load_problem(BOX, texts)
     tagged = build_mesh(problem.mesh, comm)
     model = MODELS["thermal"].build(problem.model, tagged)
+    model.calibrate(problem.flow)  # model.alpha = "calibrate", as a run does
     driver = model.driver(problem.flow, [], None)
     assert isinstance(driver, ThermalBilayer)
     tau = max_cell_diameter(tagged.mesh) if args.hold_tau == "h" else float(args.hold_tau)

@@ -103,7 +103,8 @@ def bnn_flow(comm: MPI.Comm, cells: int, naive: bool = False, progress: int = 0)
 
 def factorisation_kind(flow: GradientFlow) -> str:
     """ "LDLᵀ" or "LU": the factors the flow's step solver holds."""
-    ksp = getattr(flow.solver, "factor_ksp", None) or getattr(flow.solver, "ksp", None)
+    solver = flow.system.solver
+    ksp = getattr(solver, "factor_ksp", None) or getattr(solver, "ksp", None)
     return "LDLᵀ" if ksp is not None and ksp.getPC().getType() == "cholesky" else "LU"
 
 

@@ -37,8 +37,8 @@ import dgplate
 from dgplate.dg import tangent_point as tp
 from dgplate.dg.self_avoidance import PlateTangentPoint
 from dgplate.io.output import print0
+from dgplate.problems.prepare import build_mesh
 from dgplate.problems.registry import MODELS
-from dgplate.problems.runner import build_mesh
 from dgplate.solvers.flow import GradientFlow
 
 DEMO = Path(__file__).resolve().parent.parent / "demos" / "problems" / "self_avoiding_strip.toml"

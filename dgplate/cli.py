@@ -202,7 +202,7 @@ def _converge(
 
 
 def _check(problem: Problem, args: argparse.Namespace, comm: MPI.Comm) -> int:
-    """``dgplate check``: one line saying what the run would be, and its warnings."""
+    """``dgplate check``: one line saying what the run would be, its warnings, and what it calibrates."""
     from dgplate.problems import advice
     from dgplate.problems.runner import check
 
@@ -217,6 +217,8 @@ def _check(problem: Problem, args: argparse.Namespace, comm: MPI.Comm) -> int:
             f"output → {report['output']}",
             flush=True,
         )
+        if report["calibration"]:
+            print(f"dgplate: {report['calibration']}", flush=True)
     return 0
 
 

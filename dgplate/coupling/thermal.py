@@ -34,7 +34,7 @@ from dgplate.coupling.heat import HeatSolver
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets
 from dgplate.errors import InputError
-from dgplate.solvers.driver import Observer, RunOutcome, RunResult
+from dgplate.solvers.driver import Driver, Observer, RunOutcome, RunResult
 from dgplate.solvers.flow import FlowSpec, GradientFlow
 from dgplate.solvers.steps import FlowResult
 
@@ -138,7 +138,7 @@ class Schedule:
         object.__setattr__(self, "holds", holds)
 
 
-class ThermalBilayer:
+class ThermalBilayer(Driver):
     """Heat steps, each followed by a warm-started relaxation of the plate (a Driver).
 
     ``energy(y, θ)`` builds the plate's energy (θ is ``heat.theta``); ``facets`` and
@@ -220,10 +220,9 @@ class ThermalBilayer:
         """Heat steps between checkpoints: ``flow.checkpoint_every``."""
         return self.flow.settings.checkpoint_every
 
-    @property
-    def solver(self) -> object:
-        """The flow's step solver (whose PETSc options the runner checks)."""
-        return self.flow.solver
+    def options_prefixes(self) -> list[str]:
+        """The options prefixes of the flow's step solver."""
+        return self.flow.options_prefixes()
 
     def remaining_steps(self) -> int:
         """1 while heat steps or holds remain, else 0."""

@@ -36,9 +36,8 @@ class ProgressPrinter:
     The time left: a driver with a path of known length (a continuation in α, a heating
     schedule, load steps) has ``path_progress() -> (fraction done, name of the end)``; the
     estimate is the pace since the first step (which holds the compilation and the first
-    factorisation, so it is left out): ``(12 s; α = 1 in ~3 min)``. Otherwise a flow (its
-    ``settings`` or its ``flow.settings`` are a :class:`~dgplate.solvers.flow.FlowSpec`)
-    whose records carry the stopping test (``rate``, or ``stationarity``) is extrapolated
+    factorisation, so it is left out): ``(12 s; α = 1 in ~3 min)``. Otherwise a driver with
+    a stopping test (``stopping_test(record)``: the flows' rate or ‖P DE_h‖) is extrapolated
     from the test's geometric decay over the last :data:`DECAY_WINDOW` steps:
     ``(12 s; ΔE/τ < 1e-06 in ~85 steps, ~40 s)``, or ``step budget spent in ~…`` when that
     comes first.
@@ -51,11 +50,12 @@ class ProgressPrinter:
         stream: TextIO | None = None,
         clock: Callable[[], float] = time.perf_counter,
         start: float | None = None,
+        earlier_steps: int = 0,
     ):
         self.comm, self.every, self.stream, self.clock = comm, every, stream or sys.stdout, clock
         self.start = clock() if start is None else start
-        #: steps done before a resume (the runner sets it), so the last line counts them all
-        self.earlier_steps = 0
+        #: steps done before a resume, so that the last line counts them all
+        self.earlier_steps = earlier_steps
         self._path_start: tuple[float, float] | None = None  # (clock, fraction) at step one
         self._last: tuple[int, float] | None = None  # (step, clock) of the last line printed
         self._decay: list[tuple[int, float, float]] = []  # (step, clock, log of the test)
@@ -84,8 +84,7 @@ class ProgressPrinter:
 
     def _path_left(self, driver: Driver, now: float) -> str:
         """``"; α = 1 in ~3 min"``, or ``""`` without a path or a pace yet."""
-        progress = getattr(driver, "path_progress", None)
-        done = progress() if progress is not None else None
+        done = driver.path_progress()
         if done is None:
             return ""
         fraction, end = done
@@ -100,7 +99,7 @@ class ProgressPrinter:
 
     def _decay_left(self, driver: Driver, record: Record, now: float) -> str:
         """``"; ΔE/τ < 1e-06 in ~85 steps, ~40 s"`` from the test's recent decay, or ``""``."""
-        test = _stopping_test(driver, record)
+        test = driver.stopping_test(record)
         if test is None:
             return ""
         value, tol, name, budget = test
@@ -131,11 +130,11 @@ class ProgressPrinter:
         if self.earlier_steps:
             whole = count_of(self.earlier_steps + result.steps, "step")
             steps = f"{whole} ({result.steps} since the resume)"
-        counts = getattr(driver, "step_counts", None)
-        if counts is not None:  # what a step was made of, named as in summary.json
-            steps += " [" + ", ".join(_counted(k, n) for k, n in counts().items()) + "]"
+        counts = driver.step_counts()
+        if counts:  # what a step was made of, named as in summary.json
+            steps += " [" + ", ".join(_counted(k, n) for k, n in counts.items()) + "]"
         self._print(f"{status} after {steps}: {result.reason}")
-        increases = getattr(result, "energy_increases", None)
+        increases = result.energy_increases
         if increases:
             self._print(f"dgplate: warning: the energy increased at step(s) {increases[:10]}")
 
@@ -143,20 +142,6 @@ class ProgressPrinter:
 def _counted(key: str, n: int) -> str:
     """``heat_steps``, 3 → ``3 heat steps`` (the summary's key in words)."""
     return count_of(n, key.replace("_", " ").removesuffix("s"))
-
-
-def _stopping_test(driver: Driver, record: Record) -> tuple[float, float, str, int] | None:
-    """A flow's stopping test at ``record``: (value, tol, name, step budget); None: no flow."""
-    settings = getattr(driver, "settings", None) or getattr(
-        getattr(driver, "flow", None), "settings", None
-    )
-    if settings is None or not hasattr(settings, "tol"):
-        return None
-    if getattr(settings, "stop", "rate") == "stationarity":
-        value, name = getattr(record, "stationarity", math.nan), "‖P DE_h‖"
-    else:
-        value, name = abs(getattr(record, "rate", math.nan)), "ΔE/τ"
-    return float(value), float(settings.tol), name, int(settings.max_steps)
 
 
 def duration(seconds: float) -> str:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
@@ -49,7 +50,9 @@ class Model(Protocol):
     """What the runner needs of a model (all methods collective).
 
     ``figures`` and ``lines`` take the driver that :meth:`driver` returned, whose type each
-    model knows (a protocol cannot say "the type of my driver"): hence ``Any``.
+    model knows (a protocol cannot say "the type of my driver"): hence ``Any``. Every model
+    subclasses it, and so inherits the defaults of the optional capabilities at the end (a
+    calibration before the driver, a picture of its own, shapes kept besides the final one).
     """
 
     def driver(
@@ -66,6 +69,42 @@ class Model(Protocol):
         """Polylines drawn on the picture of the final shape (e.g. deformed creases)."""
         ...
 
+    # -- optional capabilities, with their defaults --------------------------------------------
+    def pending_calibration(self) -> str | None:
+        """What :meth:`calibrate` has yet to solve for, in words; None: nothing.
+
+        ``dgplate check`` solves nothing: it says this instead (the box's α on the hinges).
+        """
+        return None
+
+    def calibrate(self, flow: FlowSpec) -> None:
+        """Solve for the model's calibrated data (a run does, before :meth:`driver`).
+
+        Args:
+            flow: the problem's [flow] section (the calibration's flow settings).
+        """
+        return None  # a body: the protocol's default (nothing to calibrate)
+
+    def picture(self, driver: Any, path: Path, title: str) -> bool:
+        """Draw the model's own picture of the current shape into ``path`` (a rod: a tube).
+
+        Args:
+            driver: the model's driver.
+            path: the PNG file.
+            title: the picture's title.
+
+        Returns:
+            False (the default) when the model has none: the runner draws the surface.
+        """
+        return False
+
+    def held_shapes(self, driver: Any) -> dict[str, tuple[Array, str]]:
+        """Shapes the run kept besides the final one: ``name → (values of the shape, title)``.
+
+        Each is drawn as ``<name>.png`` (the box closed at the switch). Default: none.
+        """
+        return {}
+
 
 @dataclass(frozen=True)
 class DataPath:
@@ -76,7 +115,7 @@ class DataPath:
 
 
 @dataclass
-class PlateModel:
+class PlateModel(Model):
     """An isometry-constrained plate: the energy of y ∈ [DG_k]³, run by the gradient flow.
 
     ``measures`` add numbers of the final deformation to ``summary.json``; fold angles of

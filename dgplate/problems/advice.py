@@ -30,6 +30,7 @@ if TYPE_CHECKING:
 
     from dgplate.mesh.tagged import TaggedMesh
     from dgplate.problems.specs import Problem
+    from dgplate.solvers.driver import Driver
 
     Mesh = dolfinx.mesh.Mesh[np.float64]
 
@@ -182,7 +183,9 @@ def tau_scale(tau: float, h: float) -> str | None:
 
 
 # -- after the flow ------------------------------------------------------------------------------
-def after_run(problem: Problem, driver: Any, summary: Mapping[str, Any], area: float) -> list[str]:
+def after_run(
+    problem: Problem, driver: Driver, summary: Mapping[str, Any], area: float
+) -> list[str]:
     """Warnings once the driver has stopped (before it is destroyed).
 
     Warnings once the driver has stopped (before it is destroyed): [flow] solver options
@@ -217,22 +220,19 @@ def advise_result(summary: Mapping[str, Any], area: float = 1.0) -> list[str]:
 
 
 def unused_solver_options(
-    options: Mapping[str, Any], driver: Any, key: str = "flow.solver"
+    options: Mapping[str, Any], driver: Driver, key: str = "flow.solver"
 ) -> list[str]:
     """Warnings for ``flow.solver`` (or ``model.snes``: ``key``) options PETSc never read.
 
     Warnings for the keys of ``options`` that PETSc never read (misspelt, or not used by the
     chosen solver); collective. Call after the run: MUMPS reads its options only at the first
-    factorisation. The KSPs of the driver's step solver (``driver.solver``) and the SNES of
-    FvK's Newton solver (``driver.newton``) give the options prefixes.
+    factorisation. The driver's ``options_prefixes()`` (its step solver's KSPs, FvK's SNES)
+    say where the options were read.
     """
     given = list(options)
     if not given:
         return []
-    parts = (getattr(driver, "solver", None), driver, getattr(driver, "newton", None))
-    attributes = [obj for part in parts for obj in getattr(part, "__dict__", {}).values()]
-    solvers = [obj for obj in attributes if isinstance(obj, PETSc.KSP | PETSc.SNES)]
-    prefixes = sorted({solver.getOptionsPrefix() or "" for solver in solvers})
+    prefixes = sorted(set(driver.options_prefixes()))
     present = PETSc.Options().getAll()
     unused = []
     for option in given:

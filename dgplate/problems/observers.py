@@ -1,7 +1,9 @@
 """The runner's observers of a driver: the VTX series, the frames and the checkpoints.
 
 Each has ``step(driver, record)`` and ``finish(driver, result)`` (the driver's observer
-protocol, :class:`dgplate.solvers.driver.Observer`).
+protocol, :class:`dgplate.solvers.driver.Observer`). Each is made before the driver, from the
+problem's settings, and handed to it; ``open(driver, …)`` then starts it on the driver's state
+(restored, on ``--resume``) once the output folder exists, before the first step.
 """
 
 from __future__ import annotations
@@ -25,11 +27,15 @@ FRAMES_PER_SECOND = 5.0
 class SeriesWriter:
     """VTX time series of ``driver.shape``, every ``every`` steps and at the end."""
 
-    def __init__(self, driver: Driver, path: Path, every: int):
+    def __init__(self, every: int):
+        self.every = every
+        self.writer: Any = None  # a DeformationWriter once opened
+
+    def open(self, driver: Driver, path: Path) -> None:
+        """Create the series at ``path`` and write the first state (collective)."""
         from dgplate.io.vtx import DeformationWriter
 
         self.writer = DeformationWriter(path, driver.shape, comm=driver.comm)
-        self.every = every
         self.writer.write(driver.time)
 
     def step(self, driver: Driver, record: Any) -> None:
@@ -44,39 +50,39 @@ class SeriesWriter:
         self.close()
 
     def close(self) -> None:
-        """Close the file (collective); the states written so far stay readable."""
-        self.writer.close()
+        """Close the file, if open (collective); the states written so far stay readable."""
+        if self.writer is not None:
+            self.writer.close()
 
 
 class FrameWriter:
     """Pictures of ``driver.shape`` at the start, every ``every`` steps and at the end; a GIF.
 
-    The pictures are drawn by ``draw(path, title)`` (the run's final.png function) into
-    ``folder`` as ``frame_<step>.png``; the title carries the step, the time, the energy and,
-    with self-avoidance, the least distance of non-neighbouring points. On ``--resume`` the
-    earlier run's frames (``earlier``) are copied first, so the GIF shows the whole run.
-    Collective (the pictures gather the shape); rank 0 writes.
+    The pictures are drawn by ``draw(driver, path, title)`` (the run's final.png function)
+    into the folder given to :meth:`open` as ``frame_<step>.png``; the title carries the step,
+    the time, the energy and, with self-avoidance, the least distance of non-neighbouring
+    points. Collective (the pictures gather the shape); rank 0 writes.
     """
 
-    def __init__(
-        self,
-        draw: Callable[[Path, str], None],
-        folder: Path,
-        every: int,
-        name: str,
-        driver: Driver,
-        earlier: Path | None = None,
-    ):
-        self.draw, self.folder, self.every, self.name = draw, folder, every, name
+    def __init__(self, draw: Callable[[Driver, Path, str], None], every: int, name: str):
+        self.draw, self.every, self.name = draw, every, name
+        self.folder = Path()
+        self.last = -1
+
+    def open(self, driver: Driver, folder: Path, earlier: Path | None = None) -> None:
+        """Draw the first frame into ``folder``, after the ``earlier`` run's (on ``--resume``).
+
+        The earlier run's frames are copied first, so that the GIF shows the whole run.
+        """
+        self.folder = folder
         self.comm: MPI.Comm = driver.comm
         if self.comm.rank == 0:
             folder.mkdir(parents=True, exist_ok=True)
             for old in sorted(earlier.glob("frame_*.png")) if earlier else ():
                 shutil.copyfile(old, folder / old.name)
-        self.last = -1
-        self._frame(driver.step_count, {"time": driver.time})
+        self._frame(driver, driver.step_count, {"time": driver.time})
 
-    def _frame(self, step: int, row: dict[str, Any]) -> None:
+    def _frame(self, driver: Driver, step: int, row: dict[str, Any]) -> None:
         lines = [self.name, f"step {step}"]
         for key, label, fmt, line in _FRAME_FIGURES:
             value = row.get(key)
@@ -84,19 +90,19 @@ class FrameWriter:
                 if line == len(lines):
                     lines.append("")
                 lines[line] += f"{', ' if lines[line] else ''}{label} = {value:{fmt}}"
-        self.draw(self.folder / f"frame_{step:06d}.png", "\n".join(lines))
+        self.draw(driver, self.folder / f"frame_{step:06d}.png", "\n".join(lines))
         self.last = step
 
     def step(self, driver: Driver, record: Any) -> None:
         """A frame every ``every`` steps."""
         if record.step % self.every == 0:
-            self._frame(record.step, history_row(record))
+            self._frame(driver, record.step, history_row(record))
 
     def finish(self, driver: Driver, result: Any) -> None:
         """A frame of the last state (unless just drawn), whatever ended the run."""
         if self.last != driver.step_count:
             row = history_row(result.history[-1]) if result.history else {"time": driver.time}
-            self._frame(driver.step_count, row)
+            self._frame(driver, driver.step_count, row)
 
     def gif(self, path: Path) -> None:
         """Assemble the frames into ``path`` (rank 0; written atomically)."""
@@ -128,7 +134,7 @@ def history_row(record: Any) -> dict[str, Any]:
 
 
 class Checkpoints:
-    """Checkpoints of a driver every ``every`` steps (0: none on the way) and on ``save()``.
+    """Checkpoints of a driver every ``driver.checkpoint_every`` steps and on ``save()``.
 
     The state holds the problem's input and fingerprint and the whole history so far (from the
     checkpoint a run resumed from, and this run's steps), so that a resumed run reports
@@ -138,19 +144,22 @@ class Checkpoints:
     def __init__(
         self,
         directory: Path,
-        every: int,
         problem: dict[str, Any],
         earlier: list[dict[str, Any]],
         wall: tuple[float, float] = (0.0, 0.0),
-        label: dict[str, Any] | None = None,
     ):
-        self.directory, self.every, self.problem = directory, every, problem
+        self.directory, self.problem = directory, problem
         self.fingerprint = checkpoint.fingerprint(problem)
         self.history: list[dict[str, Any]] = list(earlier)
         # (wall time of the runs this one resumes, perf_counter at this run's start)
         self.earlier_wall, self.wall0 = wall
+        self.every = 0  # steps between checkpoints (0: none on the way), set by ``open``
         #: what ``dgplate show`` prints of a run that has a checkpoint but no summary yet
-        self.label = label or {}
+        self.label: dict[str, Any] = {}
+
+    def open(self, driver: Driver, label: dict[str, Any]) -> None:
+        """Checkpoint ``driver`` every ``driver.checkpoint_every`` steps, with ``label``."""
+        self.every, self.label = driver.checkpoint_every, label
 
     def wall_time(self) -> float:
         """Seconds of wall time over this run and those it resumes."""

@@ -16,31 +16,25 @@ FRAMES = "frames"
 FRAME_SIZE = (640, 480)
 
 
-def frames(
-    problem: Problem, model: Model, driver: Driver, folder: Path, earlier: Path | None
-) -> FrameWriter | None:
-    """The observer drawing ``output.frames_every``'s frames into ``folder`` (None: none asked).
+def frames(problem: Problem, model: Model) -> FrameWriter | None:
+    """The observer drawing ``output.frames_every``'s frames (None: none asked).
 
     Args:
         problem: the problem run.
         model: its model (which may draw its own pictures).
-        driver: the driver observed; the frame writer is appended to its observers.
-        folder: the frames' folder.
-        earlier: the frames of the run resumed (copied first), or None.
 
     Returns:
-        The frame writer, or None when ``output.frames_every`` is 0.
+        The frame writer (opened on the driver once it is built), or None when
+        ``output.frames_every`` is 0.
     """
     every = problem.output.frames_every
     if not every:
         return None
 
-    def draw(path: Path, title: str) -> None:
+    def draw(driver: Driver, path: Path, title: str) -> None:
         _draw(problem, model, driver, path, title, window_size=FRAME_SIZE, reference=False)
 
-    writer = FrameWriter(draw, folder, every, problem.name, driver, earlier)
-    driver.observers.append(writer)
-    return writer
+    return FrameWriter(draw, every, problem.name)
 
 
 def picture(
@@ -63,8 +57,7 @@ def held_pictures(problem: Problem, model: Model, driver: Driver, folder: Path) 
     where final.png shows it open again after cooling. Each is drawn as final.png is, from
     the driver's shape set to it for the picture and put back afterwards.
     """
-    held = getattr(model, "held_shapes", None)
-    shapes = held(driver) if held is not None else {}
+    shapes = model.held_shapes(driver)
     if not shapes:
         return
     final = driver.shape.x.array.copy()
@@ -84,9 +77,7 @@ def _draw(
     """
     from dgplate.io.plotting import plot_deformation
 
-    own = getattr(model, "picture", None)  # a model's own picture (a rod: a striped tube)
-    if own is not None:
-        own(driver, path, title)
+    if model.picture(driver, path, title):  # a model's own picture (a rod: a striped tube)
         return
     plot_deformation(
         driver.shape,

@@ -23,11 +23,6 @@ from dgplate.problems.specs import Problem
 from dgplate.solvers.driver import Driver
 
 
-def dofs(driver: Driver) -> int:
-    """The driver's unknowns (its summary's ``dofs``)."""
-    return int(driver.summary().get("dofs", 0))
-
-
 def cells(tagged: TaggedMesh) -> int:
     """The mesh's cells over all ranks."""
     return int(tagged.mesh.topology.index_map(tagged.mesh.topology.dim).size_global)

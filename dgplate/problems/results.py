@@ -18,8 +18,8 @@ from dgplate.errors import InputError
 from dgplate.io import checkpoint
 from dgplate.io.output import CHECKPOINT
 from dgplate.io.records import read_history, read_summary, runs_in
+from dgplate.problems.prepare import build_model
 from dgplate.problems.result import Result
-from dgplate.problems.runner import build_model
 from dgplate.problems.specs import problem_from_dict
 
 

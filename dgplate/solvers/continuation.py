@@ -32,7 +32,7 @@ import numpy as np
 from dgplate.compat import Constant, Function
 from dgplate.errors import InputError
 from dgplate.schema import is_integer, is_number
-from dgplate.solvers.driver import Driver, Observer, Record, RunOutcome, RunResult
+from dgplate.solvers.driver import Driver, Observer, Record, RunOutcome, RunResult, StoppingTest
 from dgplate.solvers.flow import GradientFlow
 from dgplate.solvers.steps import FlowResult, StepInfo
 
@@ -155,7 +155,7 @@ class _Forward:
         """Nothing: the continuation tells its observers when its own run ends."""
 
 
-class ContinuationFlow:
+class ContinuationFlow(Driver):
     """The constrained gradient flow with clamped data moved along α (a Driver).
 
     The flow reports to this driver, which reports to its observers. Collective on the mesh
@@ -218,10 +218,13 @@ class ContinuationFlow:
         """Flow steps between checkpoints: ``flow.checkpoint_every``."""
         return self.flow.checkpoint_every
 
-    @property
-    def solver(self) -> object:
-        """The flow's step solver (whose PETSc options the runner checks)."""
-        return self.flow.solver
+    def options_prefixes(self) -> list[str]:
+        """The options prefixes of the flow's step solver."""
+        return self.flow.options_prefixes()
+
+    def stopping_test(self, record: Any) -> StoppingTest:
+        """The flow's stopping test at ``record`` (a flow step, with α)."""
+        return self.flow.stopping_test(record)
 
     @property
     def num_dofs(self) -> int:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol, cast
+from typing import Any, NamedTuple, Protocol, cast
 
 from mpi4py import MPI
 
@@ -65,6 +65,11 @@ class RunResult(Protocol):
         """The signal that stopped the run; 0: none."""
         ...
 
+    @property
+    def energy_increases(self) -> Sequence[int]:
+        """The steps of this run at which the energy went up (none for a driver without one)."""
+        ...
+
 
 @dataclass
 class RunOutcome:
@@ -75,6 +80,16 @@ class RunOutcome:
     steps: int
     history: list[Any] = field(default_factory=list)
     interrupted: int = 0
+    energy_increases: list[int] = field(default_factory=list)
+
+
+class StoppingTest(NamedTuple):
+    """A flow's stopping test at one step: its value, its tolerance, its name, the budget."""
+
+    value: float
+    tol: float
+    name: str  # in a progress line: ``ΔE/τ`` or ``‖P DE_h‖``
+    budget: int  # ``flow.max_steps``
 
 
 class Observer(Protocol):
@@ -90,7 +105,11 @@ class Observer(Protocol):
 
 
 class Driver(Protocol):
-    """The runner's view of a solver (all methods are collective on ``comm``)."""
+    """The runner's view of a solver (all methods are collective on ``comm``).
+
+    Every driver subclasses it, and so inherits the defaults of the optional capabilities at
+    the end (a path of known length, the parts of a step, a stopping test, PETSc solvers).
+    """
 
     comm: MPI.Comm
     observers: list[Observer]
@@ -139,6 +158,42 @@ class Driver(Protocol):
         """Free PETSc objects."""
         ...
 
+    @property
+    def num_dofs(self) -> int:
+        """The global number of unknowns (``summary.json``'s ``dofs``)."""
+        ...
+
+    # -- optional capabilities, with their defaults --------------------------------------------
+    def path_progress(self) -> tuple[float, str] | None:
+        """The part of a path of known length done and the name of its end; None: no path.
+
+        E.g. ``(0.25, "α = 1")``: the progress lines estimate the time left from it.
+        """
+        return None
+
+    def step_counts(self) -> dict[str, int]:
+        """What the steps so far were made of, by ``summary.json``'s names (default: nothing)."""
+        return {}
+
+    def stopping_test(self, record: Any) -> StoppingTest | None:
+        """The stopping test at ``record``, from whose decay the time left is estimated.
+
+        Args:
+            record: the record of the step just taken.
+
+        Returns:
+            The test, or None for a driver that stops otherwise (the default).
+        """
+        return None
+
+    def options_prefixes(self) -> list[str]:
+        """The options prefixes of the PETSc solvers that read the problem's solver options.
+
+        ``flow.solver`` (or FvK's ``model.snes``) options are read under these prefixes; the
+        options PETSc never read under any of them are reported after the run. Default: none.
+        """
+        return []
+
 
 class StepCounters:
     """The counters of a stepping driver that a checkpoint holds and a resume restores.
@@ -148,7 +203,8 @@ class StepCounters:
     """
 
     step_count: int
-    time: float
+    #: a class default, so that the flows may set the time the protocol reads as a property
+    time: float = 0.0
     _last_energy: float
     energy_increases: list[int]
     observers: list[Observer]
@@ -182,13 +238,15 @@ class StepCounters:
 
 
 class Budget(Protocol):
-    """The [flow] keys of a flow's step budget (:class:`dgplate.solvers.flow.FlowSpec`)."""
+    """The [flow] keys of a flow's step budget and stopping test (:class:`~.flow.FlowSpec`)."""
 
     max_steps: int
     checkpoint_every: int
+    tol: float
+    stop: str  # "rate" or "stationarity"
 
 
-class EnergyFlow(StepCounters):
+class EnergyFlow(StepCounters, Driver):
     """A flow of an :class:`~dgplate.dg.energy.Energy` on a mixed space ``W``.
 
     What the plate's and the rod's flows share: the size of the step system and the energy of
@@ -215,6 +273,16 @@ class EnergyFlow(StepCounters):
         """The global number of unknowns of the step system."""
         imap = self.W.dofmap.index_map
         return int(imap.size_global * self.W.dofmap.index_map_bs)
+
+    def stopping_test(self, record: Any) -> StoppingTest:
+        """``flow.stop``'s test at ``record``: (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ, or ‖P DE_h‖ < ``flow.tol``.
+
+        ``record`` is a flow's step, with its ``rate`` (and ``stationarity``).
+        """
+        s = self.settings
+        if s.stop == "stationarity":
+            return StoppingTest(record.stationarity, s.tol, "‖P DE_h‖", s.max_steps)
+        return StoppingTest(abs(record.rate), s.tol, "ΔE/τ", s.max_steps)
 
     def evaluate_energy(self) -> float:
         """The energy of the current state, nonlocal terms included (collective)."""

@@ -46,7 +46,6 @@ from dgplate.schema import is_integer, is_number, option
 from dgplate.solvers import linear, transfer
 from dgplate.solvers.constraint import IsometryDefect
 from dgplate.solvers.driver import EnergyFlow, Observer
-from dgplate.solvers.lagged import StepSolver
 from dgplate.solvers.linear import OptionValue
 from dgplate.solvers.projection import Projection
 from dgplate.solvers.stationarity import Stationarity
@@ -294,14 +293,14 @@ class GradientFlow(EnergyFlow):
         self.control.set_tau(value)
 
     @property
-    def solver(self) -> StepSolver | None:
-        """The step solver (its KSPs hold the options PETSc read)."""
-        return self.system.solver
-
-    @property
     def shape(self) -> Function:
         """The deformation y (the :class:`~dgplate.solvers.driver.Driver` protocol)."""
         return self.y
+
+    def options_prefixes(self) -> list[str]:
+        """The options prefixes of the step solver's KSPs (none while it is being built)."""
+        solver = self.system.solver
+        return solver.prefixes() if solver is not None else []
 
     def save(self) -> tuple[Array, float, float, int]:
         """The state a redone step starts from: y, the last energy, the time, the step count."""

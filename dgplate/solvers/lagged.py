@@ -188,6 +188,11 @@ class LaggedStepSolver:
         self._stale = True
         self.factorisations = 0
 
+    def prefixes(self) -> list[str]:
+        """The options prefixes of the Krylov KSP and of the factors' KSP (when separate)."""
+        kept = (self.ksp, self.factor_ksp)
+        return list(dict.fromkeys(ksp.getOptionsPrefix() or "" for ksp in kept))
+
     def constant_changed(self) -> None:
         """K changed by more than its constraint block: refactorise at the next solve."""
         self._stale = True

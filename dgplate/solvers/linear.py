@@ -241,6 +241,10 @@ class DirectStepSolver:
         its = solve(self.ksp, b, x)
         return SolveStats(factorised, its, (t1 - t0) * factorised, time.perf_counter() - t1)
 
+    def prefixes(self) -> list[str]:
+        """The options prefix of the KSP (where ``flow.solver``'s options are read)."""
+        return [self.ksp.getOptionsPrefix() or ""]
+
     def destroy(self) -> None:
         """Free the KSP, its factors and its options."""
         destroy_ksp(self.ksp)

@@ -50,7 +50,7 @@ import ufl
 from dgplate import interrupt
 from dgplate.errors import SolverError
 from dgplate.solvers.branch import BranchLeaving
-from dgplate.solvers.driver import Observer, RunOutcome, RunResult
+from dgplate.solvers.driver import Driver, Observer, RunOutcome, RunResult
 from dgplate.solvers.path_options import Leave, Relaxation, Stability
 from dgplate.solvers.snes import NewtonSolver, snes_reason
 from dgplate.solvers.stability import LOWEST, StabilityObserver
@@ -104,7 +104,7 @@ def record_type(probes: Sequence[str]) -> type[LoadStep]:
     return dataclasses.make_dataclass("LoadStepWithProbes", fields, bases=(LoadStep,))
 
 
-class Continuation:
+class Continuation(Driver):
     """Newton's method (PETSc SNES) on DΠ(u) = 0 at each load factor of a schedule.
 
     Args:
@@ -163,7 +163,7 @@ class Continuation:
         self._bc_values = [(c, np.asarray(v, dtype=float)) for c, v in bc_values]
         self.secant, self.observers, self.hint = secant, list(observers), hint
         self._shape_source, self._probes = shape, probes
-        self.step_count, self.checkpoint_every = 0, checkpoint_every
+        self.step_count, self._checkpoint_every = 0, checkpoint_every
         self.history: list[LoadStep] = []
         self.residual_norms: list[list[float]] = []
         self.relaxation, self.stability = relaxation, stability
@@ -188,6 +188,11 @@ class Continuation:
 
     # -- the Driver protocol ----------------------------------------------------------------
     @property
+    def checkpoint_every(self) -> int:
+        """Load steps between checkpoints."""
+        return self._checkpoint_every
+
+    @property
     def time(self) -> float:
         """The load factor of the current state."""
         return float(self._load_factor.value)
@@ -210,6 +215,10 @@ class Continuation:
     def path_progress(self) -> tuple[float, str]:
         """The part of the schedule solved and its end, for the progress lines' estimate."""
         return self.step_count / len(self.schedule), f"load factor {self.schedule[-1]:g}"
+
+    def options_prefixes(self) -> list[str]:
+        """The options prefix of the SNES (``model.snes``)."""
+        return self.newton.prefixes()
 
     def run(self, max_steps: int | None = None) -> RunResult:
         """Solve the rest of the schedule, at most ``max_steps`` load steps (None: all).
@@ -235,26 +244,11 @@ class Continuation:
             signum = interrupt.requested(self.comm)
             if signum:
                 break
-        result = RunOutcome(
-            *self._outcome(failure, signum), len(records), records, interrupted=signum
-        )
+        converged, reason = _outcome(self, failure, signum)
+        result = RunOutcome(converged, reason, len(records), records, interrupted=signum)
         for observer in self.observers:
             observer.finish(self, result)
         return result
-
-    def _outcome(self, failure: str | None, signum: int) -> tuple[bool, str]:
-        """(converged, reason) of a run that ended with ``failure`` or signal ``signum``."""
-        total = len(self.schedule)
-        if failure:
-            return False, failure
-        if signum:
-            return False, interrupt.reason(signum)
-        if self.step_count == total:
-            return True, f"all {total} load steps converged"
-        return False, (
-            f"step budget spent after {self.step_count} of {total} load steps "
-            f"(load factor {self.time:g})"
-        )
 
     def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function[np.float64]]:
         """The state and the one before it (the secant predictor's two points)."""
@@ -404,6 +398,21 @@ class Continuation:
     def energy_value(self) -> float:
         """Π of the current state (collective)."""
         return self.newton.energy_value()
+
+
+def _outcome(driver: Continuation, failure: str | None, signum: int) -> tuple[bool, str]:
+    """(converged, reason) of a run that ended with ``failure`` or signal ``signum``."""
+    total = len(driver.schedule)
+    if failure:
+        return False, failure
+    if signum:
+        return False, interrupt.reason(signum)
+    if driver.step_count == total:
+        return True, f"all {total} load steps converged"
+    return False, (
+        f"step budget spent after {driver.step_count} of {total} load steps "
+        f"(load factor {driver.time:g})"
+    )
 
 
 def _shape_of(source: Shape) -> dolfinx.fem.Function[np.float64]:

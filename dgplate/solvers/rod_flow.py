@@ -58,15 +58,7 @@ from dgplate.solvers.flow import FlowSpec
 from dgplate.solvers.safeguard import Safeguard
 from dgplate.solvers.steps import FlowResult, per_step
 
-__all__ = [
-    "RodFlow",
-    "RodState",
-    "RodStep",
-    "ip_jumps",
-    "ip_product",
-    "nitsche_slope",
-    "tangent",
-]
+__all__ = ["RodFlow", "RodState", "RodStep", "ip_jumps", "ip_product", "nitsche_slope", "tangent"]
 
 #: (u, b) ↦ the rod energy.
 RodEnergy = Callable[[Function, Function], Energy]
@@ -311,6 +303,10 @@ class RodFlow(EnergyFlow):
     def shape(self) -> Function:
         """The centreline u (written to VTX and drawn)."""
         return self.u
+
+    def options_prefixes(self) -> list[str]:
+        """The options prefix of the step solver's KSP."""
+        return self.solver.prefixes()
 
     def checkpoint_fields(self) -> dict[str, Function]:
         """The centreline and the frame."""

@@ -97,6 +97,10 @@ class NewtonSolver:
             self._free_petsc()
             raise linear.refused(options_key, err) from None
 
+    def prefixes(self) -> list[str]:
+        """The options prefix of the SNES (where ``model.snes``'s options are read)."""
+        return [self.snes.getOptionsPrefix() or ""]
+
     def _monitor(self, _snes: PETSc.SNES, _it: int, norm: float) -> None:
         self.norms.append(float(norm))
 

@@ -10,6 +10,7 @@ from helpers import PARITY_RTOL
 
 import dgplate
 from dgplate.cli import main
+from dgplate.solvers.driver import Driver, EnergyFlow
 
 ROOT = Path(__file__).resolve().parents[2]
 VERTICAL = ROOT / "demos" / "problems" / "vertical_load.toml"
@@ -91,6 +92,7 @@ def test_check_validates_without_writing(tmp_path, capsys, monkeypatch):
     short = {"mesh.cells": [4, 4], "flow.max_steps": 2, "output.progress": 0}
     report = dgplate.check(dgplate.load_problem(VERTICAL, short), out=out)
     assert report["resume_step"] is None and report["warnings"] == [] and not out.exists()
+    assert report["calibration"] is None  # nothing for a run to calibrate first
     result = dgplate.run(dgplate.load_problem(VERTICAL, short), out=out)
     assert (report["dofs"], report["cells"]) == (result["dofs"], 16)
     assert f"vertical_load: {report['setting']}, output → {out}" in capsys.readouterr().out
@@ -107,6 +109,42 @@ def test_check_validates_without_writing(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)  # a relative folder is reported as run reports it: absolute
     assert dgplate.check(longer, out="rel")["output"] == str(tmp_path / "rel")
     assert not (tmp_path / "rel").exists()
+
+
+def test_check_of_the_box_calibrates_nothing_and_run_calibrates_first(
+    tmp_path, capsys, monkeypatch
+):
+    """`model.alpha = 'calibrate'` (the heat-driven box): `dgplate check` builds the driver
+    without the calibration, a coupled solve, and says that the run will calibrate; `run`
+    calibrates before it builds the driver (stopped there, it has written nothing)."""
+    from dgplate.models.thermal.model import ThermalModel
+
+    class Calibrated(Exception):
+        pass
+
+    calls: list[str] = []
+
+    def calibrate(self, flow):
+        calls.append(type(self).__name__)
+        raise Calibrated
+
+    monkeypatch.setattr(ThermalModel, "_calibrate", calibrate)
+    box = ROOT / "demos" / "problems" / "box_folding.toml"
+    small = {"mesh.parameters.n": 2, "mesh.parameters.m": 2}
+    out = tmp_path / "box"
+    sets = [f"--set={key}={value}" for key, value in small.items()]
+    assert main(["check", str(box), "--out", str(out), *sets]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert "box_folding: valid: model thermal" in printed[0]
+    assert printed[1:] == [
+        "dgplate: model.alpha = 'calibrate': α on the hinges will be calibrated at run time "
+        "(a strip like the first hinge, relaxed to fold by 90°)"
+    ]
+    assert calls == [] and not out.exists()
+    problem = dgplate.load_problem(box, {**small, "output.progress": 0})
+    with pytest.raises(Calibrated):
+        dgplate.run(problem, out=out)
+    assert calls == ["ThermalModel"] and not out.exists()
 
 
 def test_result_view_escapes_the_summary():
@@ -172,7 +210,11 @@ def test_cli_in_parallel(tmp_path):
         assert (out / name).exists()
 
 
-class _PathDriver:
+class _NoPath(Driver):
+    """A driver with none of the optional capabilities: the protocol's defaults."""
+
+
+class _PathDriver(Driver):
     """A driver on a path of known length: a fifth of it per step."""
 
     def __init__(self) -> None:
@@ -233,7 +275,8 @@ def test_progress_printer_estimates_from_the_decay_of_the_stopping_test():
 
     records = [_record(step, 10.0 ** (-step)) for step in range(1, 8)]
     ticks = [10.0, 11.0, 12.0, 13.0, 14.0, 15.0, 16.0]
-    flow = SimpleNamespace(settings=SimpleNamespace(tol=1e-9, stop="rate", max_steps=100))
+    flow = EnergyFlow()  # its stopping test: ΔE/τ < flow.tol within flow.max_steps
+    flow.settings = SimpleNamespace(tol=1e-9, stop="rate", max_steps=100, checkpoint_every=0)
     lines = _printed(1, flow, records, ticks)
     assert lines[:5] == [f"line {n}  ({ticks[n - 1]:.0f} s)" for n in range(1, 6)]
     assert lines[5] == "line 6  (15 s; ΔE/τ < 1e-09 in ~3 steps, ~3.0 s)"
@@ -252,11 +295,11 @@ def test_progress_printer_auto_prints_a_line_a_second_and_every_ten_steps():
 
     records = [_record(step) for step in range(1, 46)]
     done = RunOutcome(True, "tol reached", 45, records)
-    fast = _printed("auto", object(), records, [0.05 * n for n in range(46)], done)
+    fast = _printed("auto", _NoPath(), records, [0.05 * n for n in range(46)], done)
     assert [line.split("  ")[0] for line in fast] == [
         "line 1", "line 21", "line 41", "line 45", "converged after 45 steps: tol reached"
     ]  # fmt: skip
-    slow = _printed("auto", object(), records, [float(n) for n in range(46)], done)
+    slow = _printed("auto", _NoPath(), records, [float(n) for n in range(46)], done)
     assert [line.split("  ")[0] for line in slow][1:4] == ["line 11", "line 21", "line 31"]
     assert AUTO_STEPS == 10
 
@@ -268,12 +311,12 @@ def test_progress_printer_every_n_and_none_end_with_the_final_line():
 
     records = [_record(step) for step in range(1, 11)]
     done = RunOutcome(False, "step budget of 10 steps spent", 10, records)
-    three = _printed(3, object(), records, [float(n) for n in range(11)], done)
+    three = _printed(3, _NoPath(), records, [float(n) for n in range(11)], done)
     assert [line.split("  ")[0] for line in three] == [
         "line 3", "line 6", "line 9", "NOT converged after 10 steps: step budget of 10 steps spent"
     ]  # fmt: skip
 
-    class Thermal:
+    class Thermal(_NoPath):
         def step_counts(self):
             return {"heat_steps": 8, "holds": 2, "flow_steps": 428}
 

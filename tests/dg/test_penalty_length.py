@@ -102,8 +102,8 @@ def test_thermal_key_reaches_the_facets():
     diameter there: ∫h_e over the interior facets falls."""
     from dgplate.errors import InputError
     from dgplate.models.thermal.spec import ThermalSpec
+    from dgplate.problems.prepare import build_mesh
     from dgplate.problems.registry import MODELS
-    from dgplate.problems.runner import build_mesh
     from dgplate.problems.specs import load_problem
 
     with pytest.raises(InputError, match=r"model\.penalty_length must be one of"):

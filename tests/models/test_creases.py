@@ -23,8 +23,9 @@ from dgplate.cli import main
 from dgplate.dg.forms import CREASE, facet_sets
 from dgplate.measure.creases import CreaseMeasure
 from dgplate.mesh.tagged import load_geo
+from dgplate.problems.prepare import build_mesh
 from dgplate.problems.registry import MODELS
-from dgplate.problems.runner import build_mesh, run
+from dgplate.problems.runner import run
 from dgplate.problems.specs import load_problem
 from dgplate.solvers.flow import FlowSpec, GradientFlow
 

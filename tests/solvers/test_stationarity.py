@@ -98,8 +98,8 @@ def _box(tau):
     """The box's net (2 × 2 cells per panel) after one heat step with flow τ = ``tau``."""
     from pathlib import Path
 
+    from dgplate.problems.prepare import build_mesh
     from dgplate.problems.registry import MODELS
-    from dgplate.problems.runner import build_mesh
     from dgplate.problems.specs import load_problem
 
     box = Path(__file__).resolve().parents[2] / "demos" / "problems" / "box_folding.toml"

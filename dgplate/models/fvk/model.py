@@ -20,7 +20,7 @@ from dgplate.dg.forms import FacetSets
 from dgplate.errors import InputError
 from dgplate.measure.probes import DeflectionProbes, PointProbe
 from dgplate.mesh.tagged import TaggedMesh
-from dgplate.models.base import Initial
+from dgplate.models.base import Initial, Model
 from dgplate.models.fvk.energy import BCValues, fvk_energy, fvk_facet_sets, fvk_space, membrane_bcs
 from dgplate.models.fvk.spec import FvKSpec
 from dgplate.mpi import bounds
@@ -89,7 +89,7 @@ def start_from(state: dolfinx.fem.Function[np.float64], initial: Initial) -> Non
 
 # -- the model -----------------------------------------------------------------------------------
 @dataclass
-class FvKModel:
+class FvKModel(Model):
     """An FvK plate on a mesh: facets, the mixed space, in-plane conditions and the probe.
 
     One driver at a time (the conditions' Constants and the options prefix are shared).

@@ -17,6 +17,7 @@ from dgplate.dg.energy import Energy
 from dgplate.dg.self_avoidance import CurveTangentPoint
 from dgplate.measure.rod_figures import StepFigures, arc_error, link, shape_figures
 from dgplate.mesh.tagged import TaggedMesh
+from dgplate.models.base import Model
 from dgplate.models.rod.energy import RodData, clamp_measure, energy_split, rod_energy
 from dgplate.models.rod.spec import RodSpec, _unit, start_of
 from dgplate.models.rod.start import RodStart
@@ -33,7 +34,7 @@ def exact_arc(s: Array, spec: RodSpec) -> Array:
 
 
 @dataclass
-class RodModel:
+class RodModel(Model):
     """A rod: its mesh, energy and start; run by :class:`RodFlow`."""
 
     spec: RodSpec
@@ -80,13 +81,14 @@ class RodModel:
         out["energy_rest"] = driver.evaluate_energy() - parts
         return out
 
-    def picture(self, driver: RodFlow, path: Path, title: str) -> None:
+    def picture(self, driver: RodFlow, path: Path, title: str) -> bool:
         """final.png: a tube around u with a stripe along b (the twist); a sphere that confines it."""
         ball = self.spec.sphere
         sphere = None if ball is None else (ball.radius, ball.center)
         from dgplate.io.rod_pictures import plot_rod  # pyvista: 1 s to import
 
         plot_rod(driver.u, driver.b, path, title, sphere=sphere)
+        return True
 
     def lines(self, driver: RodFlow) -> list[Array]:
         """No extra lines: the picture is the centreline itself."""

@@ -34,7 +34,7 @@ from dgplate.measure.hinges import (
 )
 from dgplate.measure.thermal_figures import OnShape
 from dgplate.mesh.tagged import TaggedMesh
-from dgplate.models.base import piecewise_constant
+from dgplate.models.base import Model, piecewise_constant
 from dgplate.models.self_avoidance import add_tangent_point
 from dgplate.models.thermal.energy import (
     anchor_energy,
@@ -128,12 +128,13 @@ def _closure_target(target: list[Any], key: str) -> Callable[[np.ndarray], np.nd
 
 
 @dataclass
-class ThermalModel:
+class ThermalModel(Model):
     """A thermal bilayer on a tagged mesh: what :func:`build_thermal` makes of a spec.
 
-    :meth:`driver` builds the heat solver and the coupled driver (after the α calibration,
-    when asked for); :meth:`figures` reports hinge angles, the closure gap and the holds'
-    numbers. The calibration's numbers are kept in :attr:`calibration`.
+    :meth:`calibrate` solves for α on the hinges when ``model.alpha = 'calibrate'`` (a run
+    does, before the driver; ``dgplate check`` does not); :meth:`driver` builds the heat
+    solver and the coupled driver; :meth:`figures` reports hinge angles, the closure gap and
+    the holds' numbers. The calibration's numbers are kept in :attr:`calibration`.
     """
 
     spec: ThermalSpec
@@ -151,17 +152,42 @@ class ThermalModel:
         """The hinges of the spec."""
         return [Hinge(name, *faces) for name, faces in self.spec.hinges.items()]
 
+    def pending_calibration(self) -> str | None:
+        """What :meth:`calibrate` has yet to solve for (``model.alpha = 'calibrate'``), or None."""
+        if self.spec.alpha != "calibrate" or self.calibration:
+            return None
+        return (
+            "model.alpha = 'calibrate': α on the hinges will be calibrated at run time (a "
+            f"strip like the first hinge, relaxed to fold by {self.spec.fold_angle:g}°)"
+        )
+
+    def calibrate(self, flow: FlowSpec) -> None:
+        """α on the hinges for ``model.alpha = 'calibrate'``: a coupled solve (collective).
+
+        Args:
+            flow: the problem's [flow] section (the strip's flow settings).
+        """
+        if self.pending_calibration() is not None:
+            self.alpha = self._calibrate(flow)
+
     def driver(
         self, flow: FlowSpec, observers: Sequence[Observer], initial: Initial | None
     ) -> ThermalBilayer:
-        """The heat-coupled driver; ``flow`` is the problem's [flow] section."""
+        """The heat-coupled driver; ``flow`` is the problem's [flow] section.
+
+        With ``model.alpha = 'calibrate'``, :meth:`calibrate` comes first; until then α is 0
+        on the hinges, which gives the same forms (what ``dgplate check`` builds).
+        """
         spec = self.spec
         if flow.l2_metric is False and not self.facets.has_clamped and not spec.anchor:
             raise InputError(
                 "flow.l2_metric = false needs clamped facets or model.anchor: otherwise rigid "
                 "motions leave the flow's metric singular"
             )
-        self.alpha = self._calibrate(flow) if isinstance(spec.alpha, str) else spec.alpha
+        if not isinstance(spec.alpha, str):
+            self.alpha = spec.alpha
+        elif not self.calibration:
+            self.alpha = {h.name: 0.0 for h in self.hinges}
         energy = self._energy()
         if spec.self_avoidance_params is not None:
             energy, self.tangent_point = add_tangent_point(energy, spec.self_avoidance_params)
