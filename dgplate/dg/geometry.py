@@ -61,6 +61,23 @@ def second_fundamental_form(y: Expr) -> Expr:
     return II
 
 
+def gauss_curvature(y: Expr) -> Expr:
+    """K = det(II) / det(∇yᵀ∇y), the Gaussian curvature of the deformed surface (cell-wise).
+
+    The determinant of the shape operator I⁻¹II; zero for a developable surface (an isometry
+    of the plane), 1/R² for a sphere of radius R.
+    """
+    metric = ufl.grad(y).T * ufl.grad(y)
+    K: Expr = ufl.det(second_fundamental_form(y)) / ufl.det(metric)
+    return K
+
+
+def pointwise_norm(a: Expr) -> Expr:
+    """|a| at each point: the absolute value of a scalar, the Frobenius norm of a tensor."""
+    norm: Expr = ufl.sqrt(ufl.inner(a, a))
+    return norm
+
+
 def image_of_direction(y: Expr, direction: Sequence[float]) -> Expr:
     """∇y·d: where y maps the reference direction d (a tangent of the deformed surface)."""
     image: Expr = ufl.dot(ufl.grad(y), ufl.as_vector([float(d) for d in direction]))

@@ -20,10 +20,20 @@ import pyvista
 
 from dgplate.io.images import frames_to_gif, offscreen_png, save_figure, start_offscreen
 from dgplate.io.montage import montage
-from dgplate.measure.fields import REFERENCE, bending_density, defect_density, surface_grid
+from dgplate.measure.fields import (
+    REFERENCE,
+    bending_density,
+    defect_density,
+    gauss_density,
+    surface_grid,
+)
 
 #: Scalar-bar labels of the fields ``plot_deformation`` can colour by.
-COLOR_LABELS = {"curvature": "bending |D²y|", "defect": "isometry defect density"}
+COLOR_LABELS = {
+    "curvature": "bending |D²y|",
+    "defect": "isometry defect density",
+    "gauss": "Gaussian curvature K",
+}
 _VIEWS = {"iso": (1.0, -1.4, 1.1), "top": (0.0, 0.0, 1.0), "front": (0.0, -1.0, 0.0)}
 _VIEWS.update({"xy": _VIEWS["top"], "xz": _VIEWS["front"], "yz": (1.0, 0.0, 0.0)})
 _LOOK = {"smooth_shading": True, "specular": 0.3, "specular_power": 25, "ambient": 0.15}
@@ -220,7 +230,8 @@ def plot_deformation(
     """Picture of the deformed plate, coloured or plain.
 
     Picture of the deformed plate coloured by |D²y| ("curvature"), the isometry-defect
-    density ("defect", vector y only) or nothing. Collective; rank 0 writes ``path``.
+    density ("defect", vector y only), the Gaussian curvature K = det(II)/det(∇yᵀ∇y) per cell
+    ("gauss") or nothing. Collective; rank 0 writes ``path``.
 
     ``options`` go to ``render_png`` (reference, window_size, cmap).
     """
@@ -234,11 +245,8 @@ def plot_deformation(
     scalars = COLOR_LABELS[color_by] if color_by else None
     if scalars and not u.ufl_shape:  # a scalar deflection w
         scalars = scalars.replace("y", "w")
-    values: dict[str, np.ndarray] = {}
-    if scalars and color_by == "curvature":
-        values[scalars] = bending_density(u)
-    elif scalars and color_by == "defect":
-        values[scalars] = defect_density(u)
+    densities = {"curvature": bending_density, "defect": defect_density, "gauss": gauss_density}
+    values = {scalars: densities[color_by](u)} if scalars and color_by else {}
     grid = surface_grid(u, cell_values=values)
     render_png(grid, path, scalars, title, camera, clim, show_edges, lines, **options)
 

@@ -1,7 +1,8 @@
 """Time series of the deformation for ParaView: VTX (ADIOS2) files, XDMF when ADIOS2 is absent.
 
 ``DeformationWriter`` writes the deformation y and the displacement u = y − x (so ParaView's
-"Warp By Vector" on u shows the deformed plate) as DG fields of y's degree. VTX takes DG
+"Warp By Vector" on u shows the deformed plate) as DG fields of y's degree and, for a plate,
+the Gaussian curvature ``gauss_curvature`` of the deformed surface per cell. VTX takes DG
 fields of any degree, but one writer needs one element for all its functions, so extra
 functions on other elements (a P1 temperature, a DG0 cell field) go to their own ``.bp``
 files next to the main one. XDMF stores only fields of the mesh's geometry degree: there
@@ -22,7 +23,13 @@ import dolfinx.io
 from dgplate import compat
 from dgplate.compat import Function
 from dgplate.errors import InputError
-from dgplate.measure.fields import output_element, set_displacement, to_output_space
+from dgplate.measure.fields import (
+    CellField,
+    gauss_field,
+    output_element,
+    set_displacement,
+    to_output_space,
+)
 
 BACKENDS = ("auto", "vtx", "xdmf")
 
@@ -39,7 +46,7 @@ def _is_cellwise(f: Function) -> bool:
 
 
 class DeformationWriter:
-    """Writes y, u = y − x and optional extra functions at each ``write(t)``.
+    """Writes y, u = y − x, K (on a plate) and optional extra functions at each ``write(t)``.
 
     ``path`` names the main file (``.bp`` for VTX, ``.xdmf`` for XDMF; the suffix is set
     from the backend). Extra functions need unique names; on VTX those whose element differs
@@ -68,7 +75,10 @@ class DeformationWriter:
         self.backend = backend
         self.comm = comm or y.function_space.mesh.comm
         self.y = y
-        self.extras = list(extras)
+        # the Gaussian curvature of a surface (not of a rod's centreline), a DG0 cell field
+        plate = y.function_space.mesh.topology.dim == 2
+        self._cell_fields: list[CellField] = [gauss_field(y)] if plate else []
+        self.extras = [*extras, *(field.function for field in self._cell_fields)]
         names = ["deformation", "displacement", *(f.name for f in self.extras)]
         if len(set(names)) != len(names):
             raise InputError(f"output function names must be unique, got {names}")
@@ -137,6 +147,8 @@ class DeformationWriter:
         else:
             self.y_out.interpolate(self.y)
         set_displacement(self.u_out, self.y_out, self._x)
+        for field in self._cell_fields:
+            field.update()
         for source, out in self._extra_outputs:
             if out is not source:
                 out.interpolate(source)

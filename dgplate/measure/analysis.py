@@ -1,4 +1,7 @@
-"""Shape figures of a deformed plate for summaries: principal curvatures and a cylinder fit.
+"""Shape figures of a deformed plate for summaries: curvatures, a cylinder fit, L¹ norms.
+
+The principal curvatures and a fitted cylinder; the L¹ norms of the Gaussian curvature and of
+the isometry defect, which every isometric plate model reports.
 
 All functions are collective and return the same numbers on every rank.
 """
@@ -7,10 +10,13 @@ from __future__ import annotations
 
 from typing import Any
 
+from mpi4py import MPI
+
 import dolfinx.fem
 import numpy as np
+import ufl
 
-from dgplate import mpi
+from dgplate import compat, mpi
 from dgplate.compat import Array, Function, Mesh
 from dgplate.dg import geometry
 from dgplate.measure.fields import cell_field, dg0_dofs_to_cells
@@ -31,6 +37,35 @@ def cell_areas(mesh: Mesh) -> Array:
     """Area of each owned cell, in owned-cell order."""
     space = dolfinx.fem.functionspace(mesh, ("DG", 0))
     return dg0_dofs_to_cells(geometry.cell_areas(space), space)
+
+
+def l1_norms(y: Function) -> dict[str, float]:
+    """‖K_h‖_L¹ = ∫|K_h| and ‖δI_h‖_L¹ = ∫|∇yᵀ∇y − I₂| (Frobenius norm) of a deformation y.
+
+    K_h = det(II)/det(∇yᵀ∇y) is the Gaussian curvature of the discrete surface (broken,
+    cell-wise): an isometry's limit is developable, K = 0. Both integrals use a quadrature of
+    degree 2k + 2 for y of degree k (their integrands are not polynomials).
+
+    Args:
+        y: a deformation in [DG_k]³ (or [P_k]³) on a plate mesh.
+
+    Returns:
+        ``gauss_curvature_l1`` and ``isometry_defect_l1``, the same on every rank.
+    """
+    from dgplate.solvers.constraint import metric_tensor_defect
+
+    mesh = y.function_space.mesh
+    degree = compat.ufl_element(y.function_space).embedded_superdegree
+    dx = ufl.dx(domain=mesh, metadata={"quadrature_degree": 2 * degree + 2})
+    integrands = {
+        "gauss_curvature_l1": geometry.pointwise_norm(geometry.gauss_curvature(y)),
+        "isometry_defect_l1": geometry.pointwise_norm(metric_tensor_defect(y)),
+    }
+    forms = {name: dolfinx.fem.form(f * dx) for name, f in integrands.items()}
+    return {
+        name: float(mesh.comm.allreduce(dolfinx.fem.assemble_scalar(form), op=MPI.SUM))
+        for name, form in forms.items()
+    }
 
 
 def curvature_summary(y: Function) -> dict[str, Any]:

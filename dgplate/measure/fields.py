@@ -24,6 +24,7 @@ from ufl.core.expr import Expr
 
 from dgplate import compat
 from dgplate.compat import Array, Function, FunctionSpace, Mesh
+from dgplate.dg import geometry
 from dgplate.dg.forms import hessian_norm
 
 if TYPE_CHECKING:
@@ -31,6 +32,8 @@ if TYPE_CHECKING:
 
 #: Point-data name of the reference (undeformed) positions stored on every gathered grid.
 REFERENCE = "reference position"
+#: Name of the Gaussian-curvature cell field in time series.
+GAUSS = "gauss_curvature"
 
 
 def num_owned_cells(mesh: Mesh) -> int:
@@ -56,19 +59,53 @@ def dg0_dofs_to_cells(values: Array, space: FunctionSpace) -> Array:
     return array[dofs]
 
 
+class CellField:
+    """A scalar UFL expression at each cell's midpoint, as a DG0 function re-evaluated on demand.
+
+    The expression is compiled once; :meth:`update` interpolates it into DG0 (one point per
+    cell: the reference midpoint), e.g. before each write of a time series.
+    """
+
+    def __init__(self, expr: Expr, mesh: Mesh, name: str = "cell field"):
+        space = dolfinx.fem.functionspace(mesh, ("DG", 0))
+        points = compat.interpolation_points(space.element)
+        self._expr: compat.Expression = dolfinx.fem.Expression(expr, points)
+        self.function: Function = dolfinx.fem.Function(space, name=name)
+
+    def update(self) -> Function:
+        """The DG0 function, set to the expression's current midpoint values."""
+        self.function.interpolate(self._expr)
+        return self.function
+
+    def values(self) -> Array:
+        """The current midpoint values in owned-cell order (for ``cell_values``)."""
+        field = self.update()
+        values: Array = field.x.array[owned_cell_dofs(field.function_space)].real.copy()
+        return values
+
+
 def cell_field(expr: Expr, mesh: Mesh) -> Array:
     """A scalar UFL expression at each owned cell's midpoint, in owned-cell order.
 
-    The expression is interpolated into DG0 (one point per cell: the reference midpoint)
-    and read back through the dofmap, so the result can be passed as ``cell_values``.
+    The expression is interpolated into DG0 and read back through the dofmap, so the result
+    can be passed as ``cell_values``.
     """
-    space = dolfinx.fem.functionspace(mesh, ("DG", 0))
-    points = compat.interpolation_points(space.element)
-    compiled: compat.Expression = dolfinx.fem.Expression(expr, points)
-    field: Function = dolfinx.fem.Function(space)
-    field.interpolate(compiled)
-    values: Array = field.x.array[owned_cell_dofs(space)].real.copy()
-    return values
+    return CellField(expr, mesh).values()
+
+
+def gauss_field(u: Function) -> CellField:
+    """The Gaussian curvature K of the deformed surface of ``u`` as a DG0 ``CellField``.
+
+    K = det(II)/det(∇yᵀ∇y) at each cell's midpoint (named ``gauss_curvature``), for a
+    deformation y or a scalar deflection w (surface (x₁, x₂, w)).
+    """
+    K = geometry.gauss_curvature(geometry.surface(u))
+    return CellField(K, u.function_space.mesh, name=GAUSS)
+
+
+def gauss_density(u: Function) -> Array:
+    """The Gaussian curvature K at the owned cells' midpoints (owned-cell order)."""
+    return gauss_field(u).values()
 
 
 def bending_density(y: Function) -> Array:
@@ -225,12 +262,16 @@ def surface_grid(
 
 
 __all__ = [
+    "GAUSS",
     "REFERENCE",
+    "CellField",
     "bending_density",
     "cell_field",
     "defect_density",
     "dg0_dofs_to_cells",
     "dof_values",
+    "gauss_density",
+    "gauss_field",
     "num_owned_cells",
     "output_element",
     "owned_cell_dofs",

@@ -25,6 +25,7 @@ from dgplate.compat import Array, Constant, Function, Mesh
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets
 from dgplate.errors import InputError
+from dgplate.measure.analysis import l1_norms
 from dgplate.measure.creases import crease_polylines, fold_angle_summary
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import is_matrix, is_number
@@ -118,8 +119,9 @@ class DataPath:
 class PlateModel(Model):
     """An isometry-constrained plate: the energy of y ∈ [DG_k]³, run by the gradient flow.
 
-    ``measures`` add numbers of the final deformation to ``summary.json``; fold angles of
-    crease facets are always reported. With ``continuation`` the clamped data move along α
+    ``measures`` add numbers of the final deformation to ``summary.json``; the L¹ norms of
+    the Gaussian curvature and of the isometry defect, and fold angles of crease facets, are
+    always reported. With ``continuation`` the clamped data move along α
     and the flow is staged (:class:`~dgplate.solvers.continuation.ContinuationFlow`).
     """
 
@@ -140,8 +142,8 @@ class PlateModel(Model):
         return ContinuationFlow(plain, path.alpha, path.schedule, observers)
 
     def figures(self, driver: GradientFlow | ContinuationFlow) -> dict[str, Any]:
-        """Fold angles along creases and the numbers of :attr:`measures`."""
-        out: dict[str, Any] = {}
+        """‖K_h‖_L¹, ‖δI_h‖_L¹, fold angles along creases and the numbers of :attr:`measures`."""
+        out: dict[str, Any] = l1_norms(driver.y)
         if self.facets.num_crease:
             out.update(fold_angle_summary(driver.y, self.facets))
         for measure in self.measures:

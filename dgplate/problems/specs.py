@@ -75,7 +75,9 @@ class OutputSpec:
     vtx: bool = option(True, "write a VTX time series (ParaView) of the deformation")
     every: int = option(1, "write the time series every n steps (the final state always)")
     png: bool = option(True, "render final.png off-screen, and history.png (the run step by step)")
-    color_by: str = option("curvature", "colour of final.png: 'curvature' (|D²y|) or 'defect'")
+    color_by: str = option(
+        "curvature", "colour of final.png: 'curvature' (|D²y|), 'defect' or 'gauss' (K)"
+    )
     progress: int | str = option(
         "auto",
         "progress lines on rank 0, each with the time elapsed and an estimate of the time left: 'auto' (the first step, then a line once both a second and 10 steps have passed since the last, and the last step), n (every n-th step) or 0 (none); the final converged / NOT converged line is always printed",
@@ -88,9 +90,9 @@ class OutputSpec:
     def __post_init__(self) -> None:
         if self.every < 1:
             raise InputError(f"output.every must be >= 1, got {self.every}")
-        if self.color_by not in ("curvature", "defect"):
+        if self.color_by not in ("curvature", "defect", "gauss"):
             raise InputError(
-                f"output.color_by must be 'curvature' or 'defect', got {self.color_by!r}"
+                f"output.color_by must be 'curvature', 'defect' or 'gauss', got {self.color_by!r}"
             )
         if self.progress != "auto" and (isinstance(self.progress, str) or self.progress < 0):
             raise InputError(

@@ -86,3 +86,26 @@ def test_accuracy_benchmark_smoke(tmp_path):
     assert record["energy_orders"] == [pytest.approx(math.log2(e0 / e1))]
     assert record["radius_orders"] == [None]
     assert "| 4×4 | 480 |" in accuracy.table(record)
+
+
+def test_seed000_benchmark_smoke(tmp_path):
+    """One level within the budget, the next left out; the table beside the lecture's."""
+    page = tmp_path / "verification.md"
+    page.write_text("# x\n\n<!-- seed000:begin -->\nold\n<!-- seed000:end -->\n\nafter\n")
+    out = tmp_path / "seed000.json"
+    args = ["--cells", "8", "16", "--budget", "1", "--out", str(tmp_path / "runs")]
+    record = _load("seed000_free_boundary").main([*args, "--json", str(out), "--page", str(page)])
+    (row,) = record["ours"]
+    assert record["not_run"] == [16]
+    assert (row["cells"], row["dofs"], row["converged"]) == (8, 2688, True)
+    assert row["defect_l1"] >= row["isometry_defect"] > 0 and row["gauss_l1"] > 0
+    assert json.loads(out.read_text()) == record
+    text = page.read_text()
+    assert "old" not in text and text.endswith("<!-- seed000:end -->\n\nafter\n")
+    assert f"| 2⁻³ | 8 | 2,688 | {row['steps']} / 40 |" in text
+    assert "| 2⁻⁴ | 16 | – | – / 71 | not run | −9.041e−3 |" in text
+    page.write_text("no markers\n")
+    with pytest.raises(SystemExit, match="markers"):
+        _load("seed000_free_boundary").main(
+            ["--table-only", "--json", str(out), "--page", str(page)]
+        )

@@ -157,7 +157,8 @@ def test_render_png(comm, shared_dir):
 def test_plot_deformation_and_gif(comm, shared_dir):
     y = rolled(comm, "triangle")
     frames = []
-    for i, (color_by, camera) in enumerate([("curvature", "iso"), ("defect", "top"), (None, "yz")]):
+    views = [("curvature", "iso"), ("defect", "top"), ("gauss", "xz"), (None, "yz")]
+    for i, (color_by, camera) in enumerate(views):
         frames.append(shared_dir / f"frame{i}.png")
         plot_deformation(y, frames[-1], f"frame {i}", color_by, camera, window_size=SMALL)
     comm.barrier()
@@ -166,7 +167,7 @@ def test_plot_deformation_and_gif(comm, shared_dir):
     frames_to_gif(frames, shared_dir / "roll.gif", fps=5)
     comm.barrier()
     with Image.open(shared_dir / "roll.gif") as gif:
-        assert gif.format == "GIF" and gif.n_frames == 3 and gif.size == SMALL
+        assert gif.format == "GIF" and gif.n_frames == 4 and gif.size == SMALL
     with pytest.raises(ValueError, match="color_by"):
         plot_deformation(y, shared_dir / "bad.png", color_by="energy")
 
@@ -205,12 +206,14 @@ def test_vtx_writer(comm, shared_dir, cell_type, degree):
             writer.write(t)
         y_written = writer.y_out.x.array.copy()
     main, extra = shared_dir / "flow.bp", shared_dir / "flow_theta.bp"
-    assert writer.paths == [main, extra]
+    gauss = shared_dir / "flow_gauss_curvature.bp"
+    assert writer.paths == [main, extra, gauss]
     comm.barrier()
     for path in writer.paths:
         assert path.is_dir() and (path / "data.0").stat().st_size > 0
     assert bp_variables(main) == {"deformation", "displacement"}
     assert bp_variables(extra) == {"theta"}
+    assert bp_variables(gauss) == {"gauss_curvature"}
     assert y_written.tobytes() in (main / "data.0").read_bytes()  # the last step, this rank
     u = writer.u_out.x.array.reshape(-1, 3)
     x = writer.u_out.function_space.tabulate_dof_coordinates()
@@ -229,6 +232,7 @@ def test_xdmf_fallback(comm, shared_dir):
     assert writer.paths == [shared_dir / "flow.xdmf", shared_dir / "flow.h5"]
     assert all(path.stat().st_size > 0 for path in writer.paths)
     text = (shared_dir / "flow.xdmf").read_text()
-    assert all(name in text for name in ("deformation", "displacement", "cells"))
+    names = ("deformation", "displacement", "cells", "gauss_curvature")
+    assert all(name in text for name in names)
     with pytest.raises(InputError, match="unique"):
         DeformationWriter(shared_dir / "x", y, [writer.y_out])

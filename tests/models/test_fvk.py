@@ -381,6 +381,9 @@ def test_run_writes_the_outputs_of_every_model(tmp_path):
     rows = (out / "history.csv").read_text().splitlines()
     assert rows[0].startswith("step,load_factor,") and len(rows) == 3
     assert (out / "deformation.bp").is_dir() and (out / "final.png").stat().st_size > 1000
+    # the Gaussian curvature of the deflected surface is written, but FvK is no isometric plate
+    assert (out / "deformation_gauss_curvature.bp").is_dir()
+    assert "gauss_curvature_l1" not in summary and "isometry_defect_l1" not in summary
 
 
 def test_cli_failed_fvk_exits_1_with_outputs_and_no_traceback(tmp_path):

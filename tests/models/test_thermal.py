@@ -212,6 +212,9 @@ def test_holds_observers_summary_and_figures():
     anchor = driver.records[-1].figures["anchor_energy"]  # the last record's, in summary.json
     assert figures["anchor_energy_final"] == pytest.approx(anchor) and anchor > 0
     assert "energy_at_switch" in figures
+    # the isometric plates' L¹ norms: D_h takes the norm of each cell's integral, so D_h ≤ ‖δI_h‖
+    assert figures["isometry_defect_l1"] >= driver.flow.defect() > 0
+    assert figures["gauss_curvature_l1"] >= 0
     # the shape at the switch's hold, for at_switch.png (final.png: the end, unfolded)
     shapes = model.held_shapes(driver)
     assert list(shapes) == ["at_switch"] and np.array_equal(shapes["at_switch"][0], held)

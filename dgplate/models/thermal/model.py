@@ -22,7 +22,7 @@ from dgplate.coupling.thermal import Measure, Schedule, ThermalBilayer
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets, Penalty, facet_sets
 from dgplate.errors import InputError
-from dgplate.measure.analysis import curvature_summary
+from dgplate.measure.analysis import curvature_summary, l1_norms
 from dgplate.measure.hinges import (
     ClosureGap,
     EdgePlacement,
@@ -337,7 +337,8 @@ class ThermalModel(Model):
 
         Hinge angles, closure gap and placements of the final shape, the same at each hold
         before the end (``…_at_switch`` for a hold at the source's one switch time, else
-        ``…_at_t<time>``), α and the calibration's numbers, principal curvatures.
+        ``…_at_t<time>``), α and the calibration's numbers, principal curvatures, and the L¹
+        norms of the final Gaussian curvature and isometry defect.
         """
         out: dict[str, Any] = {"alpha": self.alpha, "alpha_rule": self.spec.alpha}
         out.update(self.calibration)
@@ -354,6 +355,7 @@ class ThermalModel(Model):
                 out[f"isometry_defect_at_{label}"] = record.defect
                 out[f"converged_at_{label}"] = record.flow_converged
         out["principal_curvatures"] = curvature_summary(driver.y)["principal_curvatures"]
+        out.update(l1_norms(driver.y))
         if self.tangent_point is not None:  # the names of the other models' summary.json
             out.update(self.tangent_point(driver.y))
         return out
