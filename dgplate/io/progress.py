@@ -6,11 +6,13 @@ import math
 import sys
 import time
 from collections.abc import Callable
+from types import SimpleNamespace
 from typing import TYPE_CHECKING, TextIO
 
 from mpi4py import MPI
 
 from dgplate.io.output import count_of, print0
+from dgplate.solvers.steps import stopping_value
 
 if TYPE_CHECKING:
     from dgplate.solvers.driver import Driver, Record, RunResult
@@ -152,11 +154,17 @@ def _stopping_test(driver: Driver, record: Record) -> tuple[float, float, str, i
     )
     if settings is None or not hasattr(settings, "tol"):
         return None
-    if getattr(settings, "stop", "rate") == "stationarity":
-        value, name = getattr(record, "stationarity", math.nan), "‖P DE_h‖"
-    else:
-        value, name = abs(getattr(record, "rate", math.nan)), "ΔE/τ"
-    return float(value), float(settings.tol), name, int(settings.max_steps)
+    rule = SimpleNamespace(
+        stop=getattr(settings, "stop", "rate"),
+        tol=float(settings.tol),
+        adaptive_tau=getattr(settings, "adaptive_tau", False),
+    )
+    value, _ = stopping_value(
+        rule, getattr(record, "rate", math.nan), getattr(record, "stationarity", math.nan)
+    )
+    name = "‖P DE_h‖" if rule.stop == "stationarity" else "ΔE/τ"
+    name = "‖P DE_h‖²" if rule.stop == "rate" and rule.adaptive_tau else name
+    return float(value), rule.tol, name, int(settings.max_steps)
 
 
 def duration(seconds: float) -> str:
