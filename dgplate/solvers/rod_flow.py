@@ -64,6 +64,16 @@ from dgplate.errors import SolverError
 from dgplate.solvers import linear as solvers
 from dgplate.solvers.driver import EnergyFlow, Observer
 from dgplate.solvers.flow import FlowSpec
+from dgplate.solvers.rod_forms import (
+    Defects,
+    RodStationarity,
+    ip_jumps,
+    ip_product,
+    metric,
+    nitsche_slope,
+    nodal,
+    tangent,
+)
 from dgplate.solvers.safeguard import Safeguard
 from dgplate.solvers.steps import FlowResult, measured, per_step, stop_reason, stopping_value
 
@@ -88,23 +98,6 @@ DEFAULTS: dict[str, Any] = {"adaptive_tau": True, "projection_steps": 2, "stop":
 
 #: (u, b) ↦ the rod energy.
 RodEnergy = Callable[[Function, Function], Energy]
-
-
-def tangent(u: Expr) -> Expr:
-    """u′ = du/ds on the 1D mesh (a 3-vector).
-
-    On an interval of ℝ, d/dx. On a closed polygon in ℝ² (a closed rod), the derivative along
-    the unit tangent T = J/|J| of each cell; the cells are numbered around the polygon, so T
-    turns one way and u′ is continuous where u is smooth.
-    """
-    domain = ufl.domain.extract_unique_domain(u)
-    if ufl.SpatialCoordinate(domain).ufl_shape[0] == 1:
-        out: Expr = u.dx(0)
-        return out
-    J = ufl.Jacobian(domain)
-    column = ufl.as_vector([J[0, 0], J[1, 0]])
-    along: Expr = ufl.dot(ufl.grad(u), column / ufl.sqrt(ufl.dot(column, column)))
-    return along
 
 
 @dataclass
@@ -154,96 +147,6 @@ def _space(mesh: Mesh, degree: int) -> FunctionSpace:
         basix.ufl.element("P", cell, 1),
     ]
     return dolfinx.fem.functionspace(mesh, basix.ufl.mixed_element(elements))
-
-
-def nodal(mesh: Mesh) -> ufl.Measure:
-    """The measure dx with the vertex rule: ∫ f q becomes Σ_nodes w_z f(z) q(z) for P₁ functions."""
-    return ufl.Measure(
-        "dx", domain=mesh, metadata={"quadrature_rule": "vertex", "quadrature_degree": 1}
-    )
-
-
-class Defects:
-    """The constraint defects of (u, b) (collective).
-
-    ∫ ||u′|² − 1| and ∫ |u′·b| over the rod, the largest nodal ||b|² − 1|, and the largest
-    ||u′|² − 1| and |u′·b| at the two Gauss points of each cell. For k = 2 the latter are the
-    constraints the flow imposes: (|u′|² − 1)q and (u′·b)q are cubics for q ∈ DG₁, which the
-    two-point Gauss rule integrates exactly, so the two moments vanish exactly when the values
-    at the two points do.
-    """
-
-    def __init__(self, u: Function, b: Function):
-        mesh = u.function_space.mesh
-        t = tangent(u)
-        self.u, self.b = u, b
-        self.forms = {
-            "defect_tangent": dolfinx.fem.form(abs(ufl.dot(t, t) - 1.0) * ufl.dx(domain=mesh)),
-            "defect_orthogonality": dolfinx.fem.form(abs(ufl.dot(t, b)) * ufl.dx(domain=mesh)),
-        }
-        gauss = basix.ufl.quadrature_element(mesh.basix_cell(), value_shape=(2,), degree=3)
-        self._at_points: Function = dolfinx.fem.Function(dolfinx.fem.functionspace(mesh, gauss))
-        space = self._at_points.function_space
-        self._points: compat.Expression = dolfinx.fem.Expression(
-            ufl.as_vector([ufl.dot(t, t) - 1.0, ufl.dot(t, b)]),
-            compat.interpolation_points(space.element),
-        )
-        self._dofs = space.dofmap.list[: mesh.topology.index_map(1).size_local].ravel()
-
-    def __call__(self) -> dict[str, float]:
-        """The five defects now."""
-        comm = self.u.function_space.mesh.comm
-        out = {key: integral(form, comm) for key, form in self.forms.items()}
-        owned = self.b.function_space.dofmap.index_map.size_local
-        nodes = self.b.x.array.reshape(-1, 3)[:owned]
-        local = float(np.max(np.abs(np.sum(nodes**2, axis=1) - 1.0), initial=0.0))
-        out["defect_frame"] = mpi.global_max(comm, local)
-        self._at_points.interpolate(self._points)
-        values = np.abs(self._at_points.x.array.reshape(-1, 2)[self._dofs])
-        for column, key in enumerate(("max_defect_tangent", "max_defect_orthogonality")):
-            out[key] = mpi.global_max(comm, float(np.max(values[:, column], initial=0.0)))
-        return out
-
-
-class RodStationarity:
-    """‖P DE[u, b]‖_*': the KKT residual of the rod's constrained problem, free of τ.
-
-    With M the metric (its L² parts included), g solves M g + B_n(·, μ) = −DE[uⁿ, bⁿ],
-    B_n(g, q) = 0, and the measure is ‖g‖_M = (−DE[uⁿ, bⁿ](g))^½, as the plates'
-    :class:`dgplate.solvers.stationarity.Stationarity`. One assembly and one LU solve per call,
-    compiled at the first.
-    """
-
-    def __init__(self, flow: RodFlow, form: ufl.Form):
-        """The measure of ``flow``'s state; ``form``: M + B_n + B_nᵀ."""
-        self.flow, self._ufl = flow, form
-        self._built: tuple[compat.Form, Any, solvers.DirectStepSolver] | None = None
-        self._g: Function = dolfinx.fem.Function(flow.W)
-
-    def __call__(self) -> float:
-        """The measure at the current state (collective)."""
-        flow = self.flow
-        if self._built is None:
-            form = dolfinx.fem.form(self._ufl)
-            matrix = dolfinx.fem.petsc.create_matrix(form)
-            solver = solvers.DirectStepSolver(flow.comm, matrix, flow.settings.solver, None)
-            self._built = form, matrix, solver
-        form, matrix, solver = self._built
-        matrix.zeroEntries()
-        dolfinx.fem.petsc.assemble_matrix(matrix, form, flow._bcs)  # type: ignore[arg-type]
-        matrix.assemble()
-        compat.assemble_vector_into(flow.rhs, flow._L)
-        dolfinx.fem.petsc.set_bc(flow.rhs, flow._bcs)
-        g = self._g.x.petsc_vec
-        g.set(0.0)
-        solver.solve(flow.rhs, g)
-        return math.sqrt(max(float(flow.rhs.dot(g)), 0.0))
-
-    def destroy(self) -> None:
-        """Free the solver and the matrix (if built)."""
-        if self._built is not None:
-            self._built[2].destroy()
-            self._built[1].destroy()
 
 
 class RodTau:
@@ -369,7 +272,7 @@ class RodFlow(EnergyFlow):
             return out
 
         hessian = first(first(self.energy.implicit, v, c), du, db)
-        metric = _metric(du, db, v, c, mesh, self._l2)
+        step_metric = metric(du, db, v, c, mesh, self._l2)
         t = tangent(u)
         dx, dv = ufl.dx(domain=mesh), nodal(mesh)
 
@@ -387,10 +290,7 @@ class RodFlow(EnergyFlow):
             return first(residual(p1, p2, p3), x, y)
 
         kkt = constraint(v, c, l1, l2, l3) + constraint(du, db, q1, q2, q3)
-        self._a = dolfinx.fem.form((1.0 / self._tau) * metric + hessian + kkt)
-        # the measure's metric has the L² parts always: the straight clamped rod's motion
-        # δu = s·(u′ × b) has δu″ = 0 and meets the linearised constraints
-        self.measure = RodStationarity(self, _metric(du, db, v, c, mesh, True) + kkt)
+        self._a = dolfinx.fem.form((1.0 / self._tau) * step_metric + hessian + kkt)
         rhs = first(self.energy.total, v, c)
         for term in self.energy.nonlocal_terms:  # depend on u only
             rhs += ufl.derivative(term.linearisation, u, v)
@@ -400,6 +300,12 @@ class RodFlow(EnergyFlow):
         self._rhs_fn: Function = dolfinx.fem.Function(self.W)  # a ghosted vector in every version
         self.rhs = self._rhs_fn.x.petsc_vec
         self.solution: Function = dolfinx.fem.Function(self.W)
+        # the measure's metric has the L² parts always: the straight clamped rod's motion
+        # δu = s·(u′ × b) has δu″ = 0 and meets the linearised constraints
+        kkt_l2 = metric(du, db, v, c, mesh, True) + kkt
+        self.measure = RodStationarity(
+            self.W, kkt_l2, self._bcs, self.rhs, self._L, self.settings.solver
+        )
         self.solver = solvers.DirectStepSolver(self.comm, self.K, self.settings.solver, None)
 
     # -- the Driver protocol ----------------------------------------------------------------
@@ -573,60 +479,3 @@ class RodFlow(EnergyFlow):
         self.solver.destroy()
         self.K.destroy()
         self.measure.destroy()
-
-
-def ip_product(x: Expr, y: Expr, mesh: Mesh, penalty: Expr) -> ufl.Form:
-    """∫x″·y″ by C⁰ interior penalty: symmetric and penalised jumps of the slopes at the nodes.
-
-    The cell integrals Σ_T∫_T x″·y″ plus :func:`ip_jumps`.
-    """
-    cells: ufl.Form = ufl.dot(tangent(tangent(x)), tangent(tangent(y))) * ufl.dx(domain=mesh)
-    form: ufl.Form = cells + ip_jumps(x, y, mesh, penalty)
-    return form
-
-
-def ip_jumps(x: Expr, y: Expr, mesh: Mesh, penalty: Expr) -> ufl.Form:
-    """The node terms of the C⁰-IP product: −{x″}·[[y′]] − {y″}·[[x′]] + (σ/h)[[x′]]·[[y′]].
-
-    In 1D a facet is a node, n = ±1 and [[x′]] = x′⁺n⁺ + x′⁻n⁻; ``penalty``/h is the
-    stability term (σ ≳ 1 for k = 2). They vanish for a C¹ function.
-    """
-    h = ufl.avg(ufl.CellDiameter(mesh))
-    n = ufl.FacetNormal(mesh)
-
-    def jump(w: Expr) -> Expr:
-        """[[∂_n w]] = ∇w⁺n⁺ + ∇w⁻n⁻ (n = ±T: the jump of w′ up to its sign)."""
-        out: Expr = ufl.dot(ufl.grad(w)("+"), n("+")) + ufl.dot(ufl.grad(w)("-"), n("-"))
-        return out
-
-    def avg2(w: Expr) -> Expr:
-        out: Expr = ufl.avg(tangent(tangent(w)))
-        return out
-
-    form: ufl.Form = (
-        -ufl.dot(avg2(x), jump(y))
-        - ufl.dot(avg2(y), jump(x))
-        + penalty / h * ufl.dot(jump(x), jump(y))
-    ) * ufl.dS(domain=mesh)
-    return form
-
-
-def nitsche_slope(u: Expr, datum: Expr, mesh: Mesh, penalty: Expr, ds: ufl.Measure) -> ufl.Form:
-    """½·(the C⁰-IP boundary terms) imposing u′ = ``datum`` weakly at the nodes of ``ds``."""
-    h = ufl.CellDiameter(mesh)
-    n = ufl.FacetNormal(mesh)
-    gap = tangent(u) - datum
-    form: ufl.Form = (
-        -ufl.dot(tangent(tangent(u)), gap) * n[0] + 0.5 * penalty / h * ufl.dot(gap, gap)
-    ) * ds
-    return form
-
-
-def _metric(du: Expr, db: Expr, v: Expr, c: Expr, mesh: Mesh, l2: bool) -> ufl.Form:
-    """m((δu, δb), (v, c)): the C⁰-IP H² product of u + H¹ of b (+ L² of both if ``l2``)."""
-    dx = ufl.dx(domain=mesh)
-    penalty = values.constant(mesh, 10.0)
-    form: ufl.Form = ip_product(du, v, mesh, penalty) + ufl.dot(tangent(db), tangent(c)) * dx
-    if l2:
-        form += (ufl.dot(du, v) + ufl.dot(db, c)) * dx
-    return form
