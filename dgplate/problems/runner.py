@@ -43,6 +43,7 @@ from dgplate.problems.registry import MODELS
 from dgplate.problems.result import Result
 from dgplate.problems.specs import MeshSpec, Problem
 from dgplate.solvers.driver import Driver
+from dgplate.solvers.steps import stopping_column
 
 Initial = Callable[[np.ndarray], np.ndarray]
 
@@ -317,10 +318,8 @@ def _run_driver(job: _Job, model: Model, driver: Driver) -> Result:
         pictures.picture(problem, model, driver, summary, out.path / "final.png")
         pictures.held_pictures(problem, model, driver, out.path)
         if comm.rank == 0:
-            flow = problem.flow
-            plot_history(
-                checkpoints.history, out.path / "history.png", problem.name, flow.tol, flow.stop
-            )
+            tol, column = stopping_column(problem.flow)
+            plot_history(checkpoints.history, out.path / "history.png", problem.name, tol, column)
     summary["wall_time_s"] = checkpoints.wall_time()
     if start is not None:
         summary["wall_time_since_resume_s"] = time.perf_counter() - wall0

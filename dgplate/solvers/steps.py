@@ -77,6 +77,17 @@ def stopping_value(settings: StopRule, rate: float, stationarity: float) -> tupl
     return abs(rate), "(E_h[yⁿ⁻¹] − E_h[yⁿ])/τ"
 
 
+def stopping_column(settings: StopRule) -> tuple[float, str]:
+    """The tolerance and the history.csv column of the stopping test, to draw them together.
+
+    With adaptive τ the rate test is ‖P DE_h‖_*'² < tol, i.e. the column ``stationarity``
+    below √tol.
+    """
+    if settings.stop == "rate" and settings.adaptive_tau:
+        return math.sqrt(settings.tol), "stationarity"
+    return settings.tol, settings.stop
+
+
 def stop_reason(settings: StopRule, rate: float, stationarity: float) -> str:
     """Why the flow stops converged after a step ('' to go on): :func:`stopping_value` < tol."""
     value, name = stopping_value(settings, rate, stationarity)
