@@ -307,8 +307,12 @@ def _schema(model: str) -> int:
         # should end quietly, with Python's BrokenPipeError (see main)
         previous = signal.signal(signal.SIGPIPE, signal.SIG_IGN)
         try:
-            skip = MODELS[model].ignored_keys
-            print("\n\n".join(describe(spec, sec, skip(sec)) for sec, spec in sections(model)))
+            entry = MODELS[model]
+            texts = [
+                describe(spec, sec, entry.ignored_keys(sec), entry.defaults(sec))
+                for sec, spec in sections(model)
+            ]
+            print("\n\n".join(texts))
         finally:
             signal.signal(signal.SIGPIPE, previous)
     return 0

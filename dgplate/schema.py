@@ -13,7 +13,7 @@ import dataclasses
 import math
 import types
 import typing
-from collections.abc import Collection
+from collections.abc import Collection, Mapping
 from typing import TYPE_CHECKING, Any, TypeGuard, TypeVar
 
 from dgplate.errors import InputError
@@ -119,14 +119,19 @@ def options(cls: type) -> list[tuple[str, str, str]]:
     return rows
 
 
-def describe(cls: type, section: str, skip: Collection[str] = ()) -> str:
-    """The section's keys, defaults and documentation, as commented TOML (but ``skip``)."""
-    lines = [f"[{section}]"]
+def describe(
+    cls: type, section: str, skip: Collection[str] = (), defaults: Mapping[str, Any] | None = None
+) -> str:
+    """The section's keys, defaults and documentation, as commented TOML (but ``skip``).
+
+    ``defaults``: a model's own defaults of some keys, shown instead of the spec's.
+    """
+    lines, defaults = [f"[{section}]"], defaults or {}
     for key, default, doc in options(cls):
         if key in skip:
             continue
         lines.append(f"# {doc}")
-        lines.append(f"{key} = {default}")
+        lines.append(f"{key} = {_toml(defaults[key]) if key in defaults else default}")
     return "\n".join(lines)
 
 

@@ -15,6 +15,7 @@ from dgplate.problems.prepare import Prepared
 from dgplate.problems.result import Result
 from dgplate.problems.run_observers import RunObservers
 from dgplate.solvers.driver import Driver, RunResult
+from dgplate.solvers.steps import stopping_column
 
 
 def write_outputs(
@@ -52,10 +53,8 @@ def write_outputs(
         pictures.picture(problem, prepared.model, driver, summary, out.path / "final.png")
         pictures.held_pictures(problem, prepared.model, driver, out.path)
         if comm.rank == 0:
-            flow = problem.flow
-            plot_history(
-                checkpoints.history, out.path / "history.png", problem.name, flow.tol, flow.stop
-            )
+            tol, column = stopping_column(problem.flow)
+            plot_history(checkpoints.history, out.path / "history.png", problem.name, tol, column)
     summary["wall_time_s"] = checkpoints.wall_time()
     if prepared.start is not None:
         summary["wall_time_since_resume_s"] = time.perf_counter() - checkpoints.wall0

@@ -23,6 +23,7 @@ from dgplate.models.rod.spec import ROD_IGNORES, RodSpec
 from dgplate.models.thermal.model import build_thermal
 from dgplate.models.thermal.spec import ThermalSpec
 from dgplate.schema import from_dict
+from dgplate.solvers import rod_flow
 
 
 @dataclass(frozen=True)
@@ -33,13 +34,25 @@ class ModelEntry:
     keys that do nothing for this model ("section" for a whole table, or "section.key"), with
     the reason: giving one is an input error rather than a silently ignored setting. ``mesh``,
     when given, builds the model's own mesh from its spec (``mesh(spec, comm)``, e.g. a rod's
-    interval): the [mesh] section then does not exist for the model.
+    interval): the [mesh] section then does not exist for the model. ``flow_defaults`` are
+    the model's own defaults of [flow] keys, under the problem's (a rod's flow).
     """
 
     spec: type
     build: Callable[[Any, TaggedMesh], Model]
     ignores: Mapping[str, str] = field(default_factory=dict)
     mesh: Callable[[Any, MPI.Comm], TaggedMesh] | None = None
+    flow_defaults: Mapping[str, Any] = field(default_factory=dict)
+
+    def defaults(self, section: str) -> Mapping[str, Any]:
+        """The model's own defaults of the keys of ``section`` (those of its spec otherwise)."""
+        return self.flow_defaults if section == "flow" else {}
+
+    def flow_table(self, table: object) -> object:
+        """The problem's [flow] table over the model's defaults (not a table: as it is)."""
+        if table is None:
+            return dict(self.flow_defaults)
+        return {**self.flow_defaults, **table} if isinstance(table, dict) else table
 
     def ignored_keys(self, section: str) -> set[str]:
         """The keys of ``section`` that this model ignores (what its schema leaves out)."""
@@ -68,7 +81,9 @@ MODELS: dict[str, ModelEntry] = {
     "foundation": ModelEntry(FoundationSpec, build_foundation),
     "thermal": ModelEntry(ThermalSpec, build_thermal),
     "lce": ModelEntry(LCESpec, build_lce),
-    "rod": ModelEntry(RodSpec, build_rod, ignores=ROD_IGNORES, mesh=rod_mesh),
+    "rod": ModelEntry(
+        RodSpec, build_rod, ignores=ROD_IGNORES, mesh=rod_mesh, flow_defaults=rod_flow.DEFAULTS
+    ),
     "fvk": ModelEntry(
         FvKSpec,
         build_fvk,

@@ -248,7 +248,7 @@ def problem_from_dict(data: dict[str, Any], name: str, overrides: Overrides = ()
     model = model_spec(data.get("model"))
     MODELS[model.name].reject_ignored(data, model.name)
     mesh = from_dict(MeshSpec, data.get("mesh"), "mesh")
-    flow = from_dict(FlowSpec, data.get("flow"), "flow")
+    flow = from_dict(FlowSpec, MODELS[model.name].flow_table(data.get("flow")), "flow")
     output = from_dict(OutputSpec, data.get("output"), "output")
     if (
         flow.l2 is False

@@ -21,6 +21,7 @@ from mpi4py import MPI
 from dgplate.compat import Form, Function, FunctionSpace
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import integral
+from dgplate.solvers.steps import stopping_value
 
 
 class Record(Protocol):
@@ -244,6 +245,7 @@ class Budget(Protocol):
     checkpoint_every: int
     tol: float
     stop: str  # "rate" or "stationarity"
+    adaptive_tau: bool
 
 
 class EnergyFlow(StepCounters, Driver):
@@ -275,14 +277,17 @@ class EnergyFlow(StepCounters, Driver):
         return int(imap.size_global * self.W.dofmap.index_map_bs)
 
     def stopping_test(self, record: Any) -> StoppingTest:
-        """``flow.stop``'s test at ``record``: (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ, or ‖P DE_h‖ < ``flow.tol``.
+        """``flow.stop``'s test at ``record`` (:func:`dgplate.solvers.steps.stopping_value`).
 
         ``record`` is a flow's step, with its ``rate`` (and ``stationarity``).
         """
         s = self.settings
+        value, _ = stopping_value(s, record.rate, record.stationarity)
         if s.stop == "stationarity":
-            return StoppingTest(record.stationarity, s.tol, "‖P DE_h‖", s.max_steps)
-        return StoppingTest(abs(record.rate), s.tol, "ΔE/τ", s.max_steps)
+            name = "‖P DE_h‖"
+        else:
+            name = "‖P DE_h‖²" if s.adaptive_tau else "ΔE/τ"
+        return StoppingTest(float(value), s.tol, name, s.max_steps)
 
     def evaluate_energy(self) -> float:
         """The energy of the current state, nonlocal terms included (collective)."""

@@ -50,7 +50,7 @@ from dgplate.solvers.linear import OptionValue
 from dgplate.solvers.projection import Projection
 from dgplate.solvers.stationarity import Stationarity
 from dgplate.solvers.step_system import FlowCounts, Spaces, StepSystem, mixed_space
-from dgplate.solvers.steps import FlowResult, StepInfo
+from dgplate.solvers.steps import FlowResult, StepInfo, stopping_value
 from dgplate.solvers.tau import TauController
 
 _OPTION = re.compile(r"^[A-Za-z0-9_]+$")
@@ -103,7 +103,7 @@ class FlowSpec:
     )
     stop: str = option(
         "rate",
-        "stopping test: 'rate' ((E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < tol, the published test) or 'stationarity' (‖P DE_h[yⁿ]‖_*' < tol, the dual norm of the projected gradient: does not depend on τ)",
+        "stopping test: 'rate' ((E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < tol, the published test; with adaptive_tau, whose growing τ lowers the rate whatever the state, its limit τ → 0, ‖P DE_h[yⁿ]‖_*'² < tol) or 'stationarity' (‖P DE_h[yⁿ]‖_*' < tol, the dual norm of the projected gradient: does not depend on τ)",
     )
     adaptive_tau: bool = option(
         False,
@@ -398,9 +398,7 @@ class GradientFlow(EnergyFlow):
         budget = max_steps or self.remaining_steps()
         history: list[StepInfo] = []
         increases: list[int] = []
-        test = (
-            "‖P DE_h[yⁿ]‖_*'" if self.settings.stop == "stationarity" else "(E_h[yⁿ⁻¹] − E_h[yⁿ])/τ"
-        )
+        test = stopping_value(self.settings, math.nan, math.nan)[1]
         # the budget as the user set it (flow.max_steps counts the steps of resumed runs too)
         total = max_steps or self.settings.max_steps
         converged, reason = (

@@ -15,18 +15,15 @@ from dgplate.solvers import lagged, linear, ordering
 from dgplate.solvers.lagged import StepSolver
 from dgplate.solvers.linear import OptionValue
 from dgplate.solvers.step_system import StepSettings, StepSystem
-from dgplate.solvers.steps import StepInfo
+from dgplate.solvers.steps import StepInfo, StopRule, measured, stop_reason
 
 #: The measure's Krylov tolerance: near a critical point ‖P DE_h‖ is a small part of ‖DE_h‖,
 #: the right-hand side, and the step's 10⁻⁹ left it reproducible to only ~10⁻⁵ (2 ranks).
 STATIONARITY_KRYLOV: dict[str, OptionValue] = {"ksp_rtol": 1e-13}
 
 
-class StopSettings(StepSettings, Protocol):
+class StopSettings(StepSettings, StopRule, Protocol):
     """The [flow] keys of the stopping tests, besides the step system's."""
-
-    stop: str
-    tol: float
 
 
 class Stationarity:
@@ -96,22 +93,17 @@ class Stationarity:
     def stop_reason(self, info: StepInfo) -> str:
         """Why the flow stops converged after the step ``info`` ('' to go on): ``flow.stop``.
 
-        With the stationarity test the measure is stored in the record, and its solves'
-        fall-backs are added to the record's and the flow's counts.
+        The rule is :func:`dgplate.solvers.steps.stop_reason`. When it needs the measure, it
+        is stored in the record, and its solves' fall-backs are added to the record's and the
+        flow's counts.
         """
-        tol = self.settings.tol
-        if self.settings.stop == "stationarity":
+        if measured(self.settings):
             before = self.fallbacks
             info.stationarity = self()
             more = self.fallbacks - before  # in the record and in the total
             info.fallbacks += more
             self.system.counts.fallbacks += more
-            if info.stationarity < tol:
-                return f"‖P DE_h[yⁿ]‖_*' = {info.stationarity:.3e} < {tol:g}"
-            return ""
-        if abs(info.rate) < tol:
-            return f"(E_h[yⁿ⁻¹] − E_h[yⁿ])/τ = {info.rate:.3e} < {tol:g}"
-        return ""
+        return stop_reason(self.settings, info.rate, info.stationarity)
 
     def destroy(self) -> None:
         """Free the solver and the matrix (if built)."""

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 
 @dataclass
@@ -34,6 +34,64 @@ class StepInfo:
             f"E_h = {self.energy:+.6e}  D_h = {self.defect:.3e}  "
             f"ΔE/τ = {self.rate:.2e}  {per_step(self.seconds)}"
         )
+
+
+class StopRule(Protocol):
+    """The [flow] keys of the stopping test (:class:`dgplate.solvers.flow.FlowSpec`)."""
+
+    stop: str
+    tol: float
+    adaptive_tau: bool
+
+
+def measured(settings: StopRule) -> bool:
+    """Whether the stopping test needs ‖P DE_h[yⁿ]‖_*' after every step.
+
+    With ``flow.stop = 'stationarity'``, and with the rate stop while τ is adaptive
+    (:func:`stopping_value`).
+    """
+    return settings.stop == "stationarity" or settings.adaptive_tau
+
+
+def stopping_value(settings: StopRule, rate: float, stationarity: float) -> tuple[float, str]:
+    """The stopping test's value after a step and its name (``flow.stop``).
+
+    'stationarity': ‖P DE_h[yⁿ]‖_*'. 'rate': |E_h[yⁿ⁻¹] − E_h[yⁿ]|/τ with a fixed τ. With
+    adaptive τ the rate falls as τ grows, whatever the state (a run with τ grown a
+    thousandfold stopped far from its tolerance), so the rate test then takes the rate's
+    limit τ → 0, ‖P DE_h[yⁿ]‖_*'²: a small step is τ times the projected gradient, and lowers
+    E_h by τ‖P DE_h‖_*'².
+
+    Args:
+        settings: the [flow] keys ``stop``, ``tol`` and ``adaptive_tau``.
+        rate: the step's (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ.
+        stationarity: ‖P DE_h[yⁿ]‖_*' (nan when not :func:`measured`).
+
+    Returns:
+        The value compared with ``flow.tol`` and its name.
+    """
+    if settings.stop == "stationarity":
+        return stationarity, "‖P DE_h[yⁿ]‖_*'"
+    if settings.adaptive_tau:
+        return stationarity**2, "‖P DE_h[yⁿ]‖_*'² (the rate's limit τ → 0: τ is adaptive)"
+    return abs(rate), "(E_h[yⁿ⁻¹] − E_h[yⁿ])/τ"
+
+
+def stopping_column(settings: StopRule) -> tuple[float, str]:
+    """The tolerance and the history.csv column of the stopping test, to draw them together.
+
+    With adaptive τ the rate test is ‖P DE_h‖_*'² < tol, i.e. the column ``stationarity``
+    below √tol.
+    """
+    if settings.stop == "rate" and settings.adaptive_tau:
+        return math.sqrt(settings.tol), "stationarity"
+    return settings.tol, settings.stop
+
+
+def stop_reason(settings: StopRule, rate: float, stationarity: float) -> str:
+    """Why the flow stops converged after a step ('' to go on): :func:`stopping_value` < tol."""
+    value, name = stopping_value(settings, rate, stationarity)
+    return f"{name} = {value:.3e} < {settings.tol:g}" if value < settings.tol else ""
 
 
 def per_step(seconds: float) -> str:

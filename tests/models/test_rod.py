@@ -7,6 +7,7 @@ twists uniformly: I = (c_t/2)φ²/L. The flow imposes the constraints linearised
 grow like τ; the energy decreases at every step.
 """
 
+import json
 import math
 from pathlib import Path
 
@@ -20,6 +21,7 @@ from dgplate.cli import main
 
 PROBLEMS = Path(__file__).resolve().parents[2] / "demos" / "problems"
 ARC, TWIST, CLOSED = (PROBLEMS / f"rod_{name}.toml" for name in ("arc", "twist", "closed"))
+HALF = PROBLEMS / "rod_half_circle.toml"
 
 
 def run(tmp_path, overrides, comm=MPI.COMM_SELF, name="out", path=ARC):
@@ -37,6 +39,28 @@ def test_clamped_rod_rolls_into_the_arc(tmp_path):
     assert result["length"] == pytest.approx(1.0, rel=0.01)
     assert (tmp_path / "out" / "final.png").is_file()
     assert (tmp_path / "out" / "deformation.bp").is_dir()
+
+
+def test_half_circle_at_the_defaults(tmp_path):
+    """κ = π from a file that sets only the model: the rod flow's defaults reach the half circle.
+
+    Measured (32 cells, τ from h = 1/32 grown to 10³h, two projection steps, the stationarity
+    stop at 10⁻⁶): 76 steps, 30 of them redone with τ/2, arc error 0.38 %, E_h = +0.0059, defects
+    ≤ 3·10⁻¹⁴. With the plates' defaults (fixed τ = h, no projection, the rate stop) the run
+    spent its 1000 steps: arc error 2.0 %, E_h = −0.035, defects up to 5 %.
+    """
+    out = tmp_path / "out"
+    sets = [f"--set={key}={str(value).lower()}" for key, value in QUIET.items()]
+    assert main(["run", str(HALF), "--out", str(out), *sets]) == 0
+    result = json.loads((out / "summary.json").read_text())
+    assert result["converged"] and result["energy_increases"] == []
+    assert result["reason"].startswith("‖P DE_h[yⁿ]‖_*' = ")
+    assert result["steps"] <= 200 and result["rejected_steps"] > 0
+    assert result["arc_error"] < 0.005  # max |u − arc| / L at the nodes
+    assert result["energy"] >= -1e-12  # the exact minimum is 0
+    for key in ("max_defect_tangent", "max_defect_orthogonality", "defect_frame"):
+        assert result[key] < 1e-12, key
+    assert result["tau"] == pytest.approx(1000 / 32)  # grown to its cap
 
 
 def test_free_rod_rolls_into_an_arc_of_the_right_chord(tmp_path):
@@ -124,8 +148,8 @@ def test_defects_grow_like_tau(tmp_path):
         ("mesh.cells=[4, 4]", "mesh.cells has no effect with model.name = 'rod'"),
         ("mesh.type=gmsh", "mesh.type has no effect with model.name = 'rod'"),
         ("flow.linear_solver=direct", "flow.linear_solver has no effect with model.name"),
-        ("flow.adaptive_tau=true", "flow.adaptive_tau has no effect with model.name = 'rod'"),
-        ("flow.stop=stationarity", "flow.stop has no effect with model.name = 'rod'"),
+        ("flow.newton_finish=true", "flow.newton_finish has no effect with model.name = 'rod'"),
+        ("flow.refactor_factor=2.0", "flow.refactor_factor has no effect with model.name"),
     ],
 )
 def test_bad_input_is_one_line_with_exit_2(tmp_path, capsys, setting, message):
@@ -137,11 +161,14 @@ def test_bad_input_is_one_line_with_exit_2(tmp_path, capsys, setting, message):
 
 
 def test_schema_of_a_rod_prints_no_key_the_rod_rejects(capsys):
-    """No [mesh] (the rod builds its own from model.length and model.cells), no ignored flow keys."""
+    """No [mesh] (the rod builds its own from model.length and model.cells), no ignored flow
+    keys, and the rod flow's own defaults."""
     assert main(["schema", "--model", "rod"]) == 0
     out = capsys.readouterr().out
     assert "[mesh]" not in out and "[model]" in out and "[flow]" in out and "cells = 32" in out
-    assert "projection_steps" in out and "l2_metric" not in out
+    assert "l2_metric" not in out and "newton_finish" not in out
+    for line in ("projection_steps = 2", "adaptive_tau = true", 'stop = "stationarity"'):
+        assert f"\n{line}\n" in out, line
     assert "[mesh]" in (main(["schema", "--model", "kirchhoff"]), capsys.readouterr().out)[1]
 
 

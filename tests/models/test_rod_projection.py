@@ -24,6 +24,7 @@ from dgplate.cli import main
 
 PROBLEMS = Path(__file__).resolve().parents[2] / "demos" / "problems"
 ARC, TWIST, CLOSED = (PROBLEMS / f"rod_{name}.toml" for name in ("arc", "twist", "closed"))
+HALF = PROBLEMS / "rod_half_circle.toml"  # only the model: the rod flow's defaults
 #: the constraints at the points where the flow imposes them
 POINTWISE = ("max_defect_tangent", "max_defect_orthogonality", "defect_frame")
 #: a ring twisted 5 times far above Michell's threshold, perturbed, self-avoiding
@@ -112,6 +113,24 @@ def test_projected_run_resumes_exactly(tmp_path):
         assert resumed[key] == pytest.approx(expected[key], rel=1e-10, abs=1e-14), key
 
 
+def test_adaptive_run_resumes_with_its_tau(tmp_path):
+    """The half circle at the defaults stopped after 20 steps and resumed to 40: the 40-step
+    run's τ, redone steps and energy (the checkpoint holds the grown τ)."""
+    common = [str(HALF), "--set=output.vtx=false", "--set=output.png=false"]
+    common += ["--set=output.progress=0"]
+    reference, out = tmp_path / "reference", tmp_path / "resumed"
+    assert main(["run", *common, "--out", str(reference), "--set=flow.max_steps=40"]) == 1
+    assert main(["run", *common, "--out", str(out), "--set=flow.max_steps=20"]) == 1
+    stopped = json.loads((out / "summary.json").read_text())
+    assert main(["run", *common, "--out", str(out), "--set=flow.max_steps=40", "--resume"]) == 1
+    expected, resumed = (json.loads((p / "summary.json").read_text()) for p in (reference, out))
+    assert stopped["tau"] < expected["tau"]  # τ grew after step 20
+    for key in ("steps", "rejected_steps", "tau"):
+        assert resumed[key] == expected[key], key
+    # measured: 2.5·10⁻¹⁰ relative (7·10⁻¹² absolute) after 20 resumed steps of τ up to 10³h
+    assert resumed["energy"] == pytest.approx(expected["energy"], rel=1e-8)
+
+
 def test_link_is_conserved_while_twist_turns_into_writhe(tmp_path):
     """A ring twisted 5 times far above Michell's threshold (c_t k = 2.6 √3 c_b), perturbed by
     the saddle a = 0.05, self-avoiding (ρ = 0.1), 96 cells, one projection per step.
@@ -148,14 +167,16 @@ def test_negative_projection_steps_is_an_input_error(tmp_path, capsys):
     [
         (ARC, {"model.c_t": 0.3, "model.frame": [0.0, 0.6, 0.8]}),
         (CLOSED, {"model.kappa": 3.0, "model.twist": 2 * math.pi}),
+        (HALF, {}),
     ],
-    ids=["arc", "closed"],
+    ids=["arc", "closed", "adaptive"],
 )
 def test_projected_rod_same_on_any_number_of_ranks(tmp_path, path, overrides):
     overrides = {"flow.max_steps": 30, "flow.projection_steps": 2, **overrides}
     serial = run(tmp_path, overrides, "serial", path=path)
     parallel = run(tmp_path, overrides, "parallel", path=path, comm=MPI.COMM_WORLD)
     assert parallel["steps"] == serial["steps"]
+    assert parallel.get("rejected_steps") == serial.get("rejected_steps")
     assert parallel["energy"] == pytest.approx(serial["energy"], rel=PARITY_RTOL)
     # the arc's twist angle is 0 up to round-off (~10⁻¹²): hence the absolute tolerance
     for key in ("energy_torsion", "twist_angle", "link", "arc_error"):

@@ -15,8 +15,9 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
-from helpers import bnn_flow, stop_and_resume
+from helpers import PROBLEMS, QUIET, bnn_flow, stop_and_resume
 
+import dgplate
 from dgplate.errors import InputError
 from dgplate.solvers.flow import FlowSpec
 
@@ -165,3 +166,29 @@ def test_tau_grows_by_the_defect_until_the_first_rejection(newton_finish, bound)
 def test_bad_controller_numbers_are_refused(key, value):
     with pytest.raises(InputError, match=rf"^flow\.{key} must be a number"):
         FlowSpec(adaptive_tau=True, **{key: value})
+
+
+def test_growing_tau_does_not_end_the_rate_test_early(tmp_path):
+    """Plain adaptive τ with the rate test (bilayer cylinder 8×4, the file's τ = 0.25, tol 10⁻⁶).
+
+    τ grows a thousandfold, and with it the rate (E_h[yⁿ⁻¹] − E_h[yⁿ])/τ falls whatever the
+    state: measured, the raw rate ended the run after 24 steps with E_h 3.2·10⁻⁵ above the
+    critical point's 0.98752852 (the fixed-τ run of 71 steps: 1.1·10⁻⁶). With a changing τ the
+    rate test takes the rate's limit τ → 0, ‖P DE_h‖_*'²: 30 steps, 5·10⁻⁸ above it.
+    """
+    overrides = {
+        **QUIET,
+        "mesh.cells": [8, 4],
+        "flow.adaptive_tau": True,
+        "flow.newton_finish": False,
+        "flow.stop": "rate",
+        "flow.max_steps": 300,
+    }
+    problem = dgplate.load_problem(PROBLEMS / "bilayer_cylinder.toml", overrides=overrides)
+    result = dgplate.run(problem, out=tmp_path / "out", comm=MPI.COMM_SELF)
+    assert result["converged"] and result["tau"] == 250.0  # τ at its cap, 10³ τ⁰
+    assert result["reason"].startswith("‖P DE_h[yⁿ]‖_*'² (the rate's limit τ → 0")
+    rows = (tmp_path / "out" / "history.csv").read_text().splitlines()
+    header, last = rows[0].split(","), rows[-1].split(",")
+    assert float(last[header.index("stationarity")]) ** 2 < 1e-6
+    assert 0 <= result["energy"] - 0.98752852 < 1e-6

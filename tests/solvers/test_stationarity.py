@@ -16,6 +16,7 @@ from helpers import bnn_flow
 from dgplate.errors import InputError
 from dgplate.reference.bnn import bnn_h
 from dgplate.solvers.flow import FlowSpec
+from dgplate.solvers.steps import stop_reason, stopping_column, stopping_value
 
 TOL = 1e-5
 
@@ -124,3 +125,22 @@ def test_measure_is_regular_on_a_free_plate():
     assert second.flow.stationarity() == pytest.approx(measure, rel=1e-8)
     first.destroy()
     second.destroy()
+
+
+@pytest.mark.parametrize(
+    "settings,value,column",
+    [
+        ({"stop": "rate"}, 3e-6, (1e-6, "rate")),  # |ΔE/τ|
+        ({"stop": "stationarity"}, 2e-3, (1e-6, "stationarity")),
+        ({"stop": "rate", "adaptive_tau": True}, 4e-6, (1e-3, "stationarity")),  # ‖P DE_h‖²
+    ],
+    ids=["rate", "stationarity", "rate with adaptive tau"],
+)
+def test_stopping_value_and_its_column(settings, value, column):
+    """The rate −3·10⁻⁶, the measure 2·10⁻³: which the test compares, and the chart's column."""
+    spec = FlowSpec(tol=1e-6, **settings)
+    assert stopping_value(spec, -3e-6, 2e-3)[0] == pytest.approx(value, rel=1e-15)
+    tol, name = stopping_column(spec)
+    assert tol == pytest.approx(column[0], rel=1e-15) and name == column[1]
+    assert stop_reason(spec, -3e-6, 2e-3) == ""  # each above 1e-6
+    assert stop_reason(spec, -3e-7, 5e-7).endswith(" < 1e-06")

@@ -19,7 +19,6 @@ from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.errors import InputError
 from dgplate.models.rod.start import Start, closed_start, curve_start
 from dgplate.schema import is_integer, is_number, option
-from dgplate.solvers.tau import ADAPTIVE_ONLY
 
 ENDS = ("clamped-free", "clamped-guided", "free-free", "closed")
 #: Keys that do nothing for a rod (an input error, see the registry).
@@ -37,9 +36,9 @@ ROD_IGNORES = {
         )
     },
     **{
-        f"flow.{key}": "the rod flow has a fixed τ (its self-avoidance safety net halves it for "
-        "single steps) and stops at (E[xⁿ⁻¹] − E[xⁿ])/τ < tol"
-        for key in ("stop", "adaptive_tau", *ADAPTIVE_ONLY)
+        f"flow.{key}": "the rod flow's adaptive τ has no SQP finish and reassembles its matrix "
+        "at every step (its keys: adaptive_tau, defect_bound, tau_growth, tau_max_ratio)"
+        for key in ("tau_growth_max", "refactor_factor", "newton_finish", "newton_tau_ratio")
     },
 }
 
