@@ -141,12 +141,19 @@ class Schedule:
 class ThermalBilayer(Driver):
     """Heat steps, each followed by a warm-started relaxation of the plate (a Driver).
 
-    ``energy(y, θ)`` builds the plate's energy (θ is ``heat.theta``); ``facets`` and
-    ``degree`` define the deformation's space, ``flow`` the gradient flow and ``schedule`` the
-    heat steps and holds. ``measures`` add figures of the shape to every record;
-    ``observers`` are told of every record (``step(driver, record)``) and of the end of
-    :meth:`run` (``finish(driver, result)``). ``initial`` (x ↦ y(x)) replaces the flat start.
     Collective on the mesh communicator.
+
+    Args:
+        facets: the plate's facet sets (with its mesh).
+        degree: the deformation's polynomial degree.
+        energy: (y, θ) ↦ the plate's energy (θ is ``heat.theta``).
+        heat: the heat equation's solver.
+        flow: the [flow] section of the relaxations.
+        schedule: the heat steps and holds.
+        measures: figures of the shape added to every record.
+        observers: told of every record (``step(driver, record)``) and of the end of
+            :meth:`run` (``finish(driver, result)``).
+        initial: x ↦ y(x), in place of the flat start.
     """
 
     def __init__(

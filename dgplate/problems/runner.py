@@ -62,6 +62,9 @@ def run(
         allow_large: run a problem that needs more memory than the job has, or a degree
             beyond :data:`~dgplate.problems.sizing.MAX_DEGREE` (refused otherwise).
 
+    Returns:
+        The run's summary figures, history, final state and output folder.
+
     Everything that can be validated is validated before the output folder is touched, and
     the folder is checked before anything is computed (:class:`~dgplate.io.output.OutputDir`).
     A run that does not converge, fails or is interrupted by SIGINT/SIGTERM still writes its
@@ -96,15 +99,23 @@ def check(
     The output folder, the checkpoint (``resume``), the mesh, the model and its driver with
     the start's checks (an obstacle the start penetrates, a self-intersecting start) are all
     built and checked, so every ``InputError`` that :func:`run` would raise is raised here:
-    the check for a cluster job before it queues. Returns what the run would be: problem,
-    model, cells, dofs, ranks (and ``setting``, the three in words, as ``run`` prints them),
-    the output folder, the step a resume starts from (None), the warnings ``run`` would
-    print and, for a model calibrated before its run (``model.alpha = 'calibrate'``), what
-    the run will calibrate (``calibration``; None: nothing), which check does not solve for.
-    Collective on ``comm``.
+    the check for a cluster job before it queues. Collective on ``comm``.
 
-    Args: those of :func:`run`; nothing is written, so ``force`` only accepts a user's folder
-    and ``resume`` checks the checkpoint there.
+    Args:
+        problem: a validated problem (:func:`dgplate.load_problem`).
+        out: the output folder :func:`run` would write (checked, not written).
+        comm: the communicator of the ranks that would solve it.
+        initial: the start, as for :func:`run` (its checks are made).
+        force: accept a folder of a user's files, as :func:`run` would.
+        resume: check the checkpoint in the output folder, as a resumed run would.
+        allow_large: accept a problem beyond the size guard, as :func:`run` would.
+
+    Returns:
+        What the run would be: problem, model, cells, dofs, ranks (and ``setting``, the
+        three in words, as ``run`` prints them), the output folder, the step a resume starts
+        from (None), the warnings ``run`` would print and, for a model calibrated before its
+        run (``model.alpha = 'calibrate'``), what the run will calibrate (``calibration``;
+        None: nothing), which check does not solve for.
     """
     # a compilation left unfinished by a signal is given up (the next run compiles it)
     with interrupt.setting_up(), compat.on_first_compile(lambda: None):

@@ -195,7 +195,17 @@ class RodTau:
 
 
 class RodFlow(EnergyFlow):
-    """The constrained gradient flow of a rod energy E(u, b) (a Driver)."""
+    """The constrained gradient flow of a rod energy E(u, b) (a Driver).
+
+    Args:
+        mesh: the rod's interval mesh.
+        degree: the polynomial degree of the centreline u.
+        energy_fn: (u, b) ↦ the rod energy.
+        settings: the [flow] section (with the rod's defaults).
+        state: the start: centreline, frame and end conditions.
+        observers: told of every step and of the end of the run.
+        measures: figures of the state recorded with every step (e.g. the writhe).
+    """
 
     settings: FlowSpec
 
@@ -209,7 +219,6 @@ class RodFlow(EnergyFlow):
         observers: Sequence[Observer] = (),
         measures: Callable[[RodFlow], dict[str, float]] | None = None,
     ):
-        """``measures``: figures of the state recorded with every step (e.g. the writhe)."""
         self.comm: MPI.Comm = mesh.comm
         self._measures = measures
         self.settings, self.observers = settings, list(observers)
