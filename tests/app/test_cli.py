@@ -247,7 +247,9 @@ def _printed(every, driver, records, ticks, result=None):
 def _record(step, rate=float("nan")):
     from types import SimpleNamespace
 
-    return SimpleNamespace(step=step, rate=rate, line=lambda: f"line {step}")
+    return SimpleNamespace(
+        step=step, rate=rate, stationarity=float("nan"), line=lambda: f"line {step}"
+    )
 
 
 def test_progress_printer_estimates_the_time_left():
@@ -276,7 +278,9 @@ def test_progress_printer_estimates_from_the_decay_of_the_stopping_test():
     records = [_record(step, 10.0 ** (-step)) for step in range(1, 8)]
     ticks = [10.0, 11.0, 12.0, 13.0, 14.0, 15.0, 16.0]
     flow = EnergyFlow()  # its stopping test: ΔE/τ < flow.tol within flow.max_steps
-    flow.settings = SimpleNamespace(tol=1e-9, stop="rate", max_steps=100, checkpoint_every=0)
+    flow.settings = SimpleNamespace(
+        tol=1e-9, stop="rate", adaptive_tau=False, max_steps=100, checkpoint_every=0
+    )
     lines = _printed(1, flow, records, ticks)
     assert lines[:5] == [f"line {n}  ({ticks[n - 1]:.0f} s)" for n in range(1, 6)]
     assert lines[5] == "line 6  (15 s; ΔE/τ < 1e-09 in ~3 steps, ~3.0 s)"

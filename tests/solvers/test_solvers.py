@@ -131,7 +131,7 @@ def test_lagged_solver_refactorises_ldlt_without_a_copy_cache(comm):
         flow = bnn_flow(comm, max_steps=4, linear_solver=kind, refactor_its=1)
         results[kind] = flow.run()
         if kind == "lagged":
-            solver = flow.solver
+            solver = flow.system.solver
             assert solver.factor_ksp.getPC().getType() == "cholesky"
             assert solver.factorisations >= 2  # a refactorisation with a new copy
             assert solver.P.query("SubMatrix") is None
@@ -155,7 +155,7 @@ def test_lagged_solver_keeps_lu_for_another_factor_package(comm):
     for package in ("superlu_dist", "mumps"):
         flow = bnn_flow(comm, max_steps=3, solver={"pc_factor_mat_solver_type": package})
         energies[package] = [h.energy for h in flow.run().history]
-        pc = flow.solver.factor_ksp.getPC()
+        pc = flow.system.solver.factor_ksp.getPC()
         assert pc.getFactorSolverType() == package
         assert pc.getType() == ("lu" if package == "superlu_dist" else "cholesky")
         flow.destroy()
