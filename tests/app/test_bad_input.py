@@ -112,15 +112,13 @@ BAD_INPUT = {
         "error: model.clamped: unknown facet group 'botom'",
     ),
     "load not a list": Case(("model.load={a=1}",), "model.load must be list"),
-    "load entry a boolean": Case(
-        ("model.load=[0,0,true]",), "model.load[2] must be a number or a formula string"
-    ),
+    "load entry a boolean": Case(("model.load=[0,0,true]",), "model.load[2] must be float or str"),
     "huge integer": Case(("mesh.cells=[99999999999,4]",), "mesh.cells[0] must be at most"),
     "solver option name": Case(
         ("flow.solver={'ksp type'='cg'}",), "flow.solver.ksp type is not a PETSc option name"
     ),
     "solver option table": Case(
-        ("flow.solver={ksp_type={a=1}}",), "flow.solver.ksp_type must be a string, a number"
+        ("flow.solver={ksp_type={a=1}}",), "flow.solver.ksp_type must be str or int or float"
     ),
     # -- group names the mesh does not have: the message begins with the key ------------------------
     "unknown crease group": Case(
