@@ -202,6 +202,8 @@ def _value(value: object, tp: Any, key: str) -> Any:
     if not _matches(value, tp):
         raise InputError(f"{key} must be {_type_name(tp)}, got {value!r} ({type(value).__name__})")
     tp = _branch(value, tp)
+    if tp is float and not math.isfinite(value):  # type: ignore[arg-type]
+        raise InputError(f"{key} must be a finite number, got {value!r}")
     if dataclasses.is_dataclass(tp) and isinstance(tp, type):
         return from_dict(tp, value, key)
     args = typing.get_args(tp)

@@ -15,6 +15,7 @@ from helpers import bnn_flow
 
 from dgplate.errors import InputError
 from dgplate.reference.bnn import bnn_h
+from dgplate.schema import from_dict
 from dgplate.solvers.flow import FlowSpec
 
 TOL = 1e-5
@@ -59,7 +60,7 @@ def test_published_test_stops_far_from_stationary():
 
 def test_unknown_stop_is_refused():
     with pytest.raises(InputError, match=r"flow\.stop"):
-        FlowSpec(stop="gradient")
+        from_dict(FlowSpec, {"stop": "gradient"}, "flow")
 
 
 @pytest.mark.mpi
@@ -80,7 +81,7 @@ def test_adaptive_tau_reaches_the_same_state_in_fewer_steps():
 
 def test_bad_defect_bound_is_refused():
     with pytest.raises(InputError, match=r"flow\.defect_bound"):
-        FlowSpec(adaptive_tau=True, defect_bound=0.0)
+        from_dict(FlowSpec, {"adaptive_tau": True, "defect_bound": 0.0}, "flow")
 
 
 def test_measure_of_one_state_does_not_depend_on_tau():
