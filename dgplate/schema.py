@@ -122,20 +122,21 @@ def _entries(value: object, key: str) -> list[tuple[str, object]]:
     return []
 
 
-def option(default: Any, doc: str, **constraints: Any) -> Any:
+def option(default: Any, doc: str, shown: str = "", **constraints: Any) -> Any:
     """A dataclass field with a default (copied if mutable), a documentation string and checks.
 
     Args:
         default: the value of a key the problem does not give (a list, table or spec
             dataclass is copied for each instance); :data:`REQUIRED` for a required key.
         doc: what the key means, as printed by ``dgplate schema``.
+        shown: the default as documented, when the value is no TOML (e.g. None: not given).
         constraints: the keyword arguments of :class:`Check` (``ge=1``, ``choices=(...)``,
             ``each=Check(gt=0)``, …), checked by :func:`from_dict` and shown in the docs.
 
     Returns:
         ``Any``, like :func:`dataclasses.field`, so that a field of any type may take it.
     """
-    metadata = {"doc": doc, "check": Check(**constraints)}
+    metadata = {"doc": doc, "check": Check(**constraints), "shown": shown}
     if default is REQUIRED:
         return dataclasses.field(metadata=metadata)
     if isinstance(default, list | dict) or dataclasses.is_dataclass(default):
@@ -193,19 +194,22 @@ def _branch(value: object, tp: Any) -> Any:
     return tp
 
 
-def _value(value: object, tp: Any, key: str) -> Any:
+def _value(value: object, tp: Any, key: str, base: Any = None) -> Any:
     """``value`` checked against the type ``tp``, entries too.
 
-    A table of a spec dataclass is parsed by :func:`from_dict`. ``InputError`` names ``key``
-    (``key[i]``, ``key.name``).
+    A table of a spec dataclass is parsed by :func:`from_dict` (keys it leaves out take the
+    values of ``base``, the field's default instance); an int for a float becomes a float.
+    ``InputError`` names ``key`` (``key[i]``, ``key.name``).
     """
     if not _matches(value, tp):
         raise InputError(f"{key} must be {_type_name(tp)}, got {value!r} ({type(value).__name__})")
     tp = _branch(value, tp)
-    if tp is float and not math.isfinite(value):  # type: ignore[arg-type]
-        raise InputError(f"{key} must be a finite number, got {value!r}")
+    if tp is float:
+        if not math.isfinite(value):  # type: ignore[arg-type]
+            raise InputError(f"{key} must be a finite number, got {value!r}")
+        return float(value)  # type: ignore[arg-type]
     if dataclasses.is_dataclass(tp) and isinstance(tp, type):
-        return from_dict(tp, value, key)
+        return from_dict(tp, value, key, base)
     args = typing.get_args(tp)
     origin = typing.get_origin(tp)
     if origin is list and args and isinstance(value, list):
@@ -215,7 +219,7 @@ def _value(value: object, tp: Any, key: str) -> Any:
     return value
 
 
-def from_dict(cls: type[T], data: object, section: str) -> T:
+def from_dict(cls: type[T], data: object, section: str, base: T | None = None) -> T:
     """Build ``cls`` from a problem-file table, checking keys, types and constraints.
 
     Fields whose type is a spec dataclass are parsed recursively from their tables (dotted
@@ -225,9 +229,11 @@ def from_dict(cls: type[T], data: object, section: str) -> T:
         cls: the spec dataclass (its fields made by :func:`option`).
         data: the table (None: every default).
         section: the dotted key of the table, as named in messages.
+        base: an instance whose values the keys left out take (default: the fields' defaults).
 
     Returns:
-        The spec; its ``__post_init__`` then checks what involves several keys.
+        The spec. What involves several keys its ``__post_init__`` checks, or, in a spec that
+        may be nested (whose messages need the table's key), its method ``validate(key)``.
     """
     if data is None:
         data = {}
@@ -235,22 +241,50 @@ def from_dict(cls: type[T], data: object, section: str) -> T:
         raise InputError(f"[{section}] must be a table, got {data!r}")
     fields = {f.name: f for f in dataclasses.fields(cls)}
     hints = typing.get_type_hints(cls)
-    for key in data:
-        if key not in fields:
-            known = ", ".join(sorted(fields))
-            raise InputError(f"unknown key {section}.{key} (known keys: {known})")
+    _check_keys(cls, data, section)
+    values = {name: getattr(base, name) for name in fields} if base is not None else {}
     for name, f in fields.items():
-        if name not in data and _required(f):
+        if name not in data and name not in values and _required(f):
             raise InputError(f"{section}.{name} is required")
-    values: dict[str, Any] = {}
     for key, value in data.items():
         where = f"{section}.{key}"
         if value == {} and _optional_spec(hints[key]):
             values[key] = None
             continue
-        values[key] = _value(value, hints[key], where)
+        default = _default(fields[key])
+        nested = default if dataclasses.is_dataclass(default) else None
+        values[key] = _value(value, hints[key], where, nested)
         fields[key].metadata.get("check", Check()).validate(value, where)
-    return cls(**values)
+    spec = cls(**values)
+    validate = getattr(spec, "validate", None)
+    if validate is not None:
+        validate(section)
+    return spec
+
+
+def _check_keys(cls: type, data: dict[str, Any], section: str) -> None:
+    """Every key of ``data`` must be a field of ``cls``, and one its ``type`` takes.
+
+    A spec with variants (``type = 'plane'``, ``'sphere'``, …) names in a class attribute
+    ``TYPE_KEYS`` the keys that only some types take: ``{type: (its own keys)}``.
+    """
+    fields = [f.name for f in dataclasses.fields(cls)]
+    for key in data:
+        if key not in fields:
+            raise InputError(
+                f"unknown key {section}.{key} (known keys: {', '.join(sorted(fields))})"
+            )
+    variants: dict[str, tuple[str, ...]] = getattr(cls, "TYPE_KEYS", {})
+    kind = data.get("type")
+    if not (isinstance(kind, str) and kind in variants):
+        return
+    others = {key for keys in variants.values() for key in keys} - set(variants[kind])
+    known = [name for name in fields if name not in others]
+    for key in data:
+        if key in others:
+            raise InputError(
+                f"unknown key {section}.{key} for type '{kind}' (known: {', '.join(known)})"
+            )
 
 
 def _required(f: dataclasses.Field[Any]) -> bool:
@@ -288,7 +322,7 @@ def options(cls: type, prefix: str = "", given: object = None) -> list[tuple[str
         doc = f"{doc} ({constraints})" if constraints else doc
         nested = _spec_of(hints[f.name])
         if nested is None:
-            rows.append((prefix + f.name, _toml(default), doc))
+            rows.append((prefix + f.name, f.metadata.get("shown") or _toml(default), doc))
             continue
         if default is None:
             rows.append((prefix + f.name, "{}", doc))

@@ -27,7 +27,7 @@ from dgplate.errors import InputError
 from dgplate.measure.creases import crease_polylines, fold_angle_summary
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import is_matrix, is_number
-from dgplate.solvers.continuation import AlphaSchedule, ContinuationFlow
+from dgplate.solvers.continuation import AlphaSchedule, Continuation, ContinuationFlow
 from dgplate.solvers.driver import Driver, Observer
 from dgplate.solvers.flow import FlowSpec, GradientFlow, Initial
 
@@ -140,27 +140,27 @@ def piecewise_constant(tagged: TaggedMesh, data: object, key: str) -> Expr:
 
 
 def continuation_schedule(
-    table: dict[str, object], clamped: Sequence[str], data: object, key: str = "model.continuation"
+    continuation: Continuation | None, clamped: Sequence[str], data: object
 ) -> AlphaSchedule | None:
-    """The schedule of ``model.continuation`` (None if empty), checked against the data.
+    """The schedule of ``model.continuation`` (None without one), checked against the data.
 
     A continuation needs clamped faces and data other than 'flat' (the end of the path);
     formulas in ``alpha`` need a continuation.
     """
-    if not table:
+    key = "model.continuation"
+    if continuation is None:
         if mentions(data, "alpha"):
             raise InputError(
                 "model.boundary_data uses alpha, which needs model.continuation (e.g. {steps = 10})"
             )
         return None
-    schedule = AlphaSchedule.from_table(table, key)
     if not clamped:
         raise InputError(f"{key} moves clamped data, but model.clamped is empty")
     if data == "flat":
         raise InputError(
             f"{key} needs model.boundary_data = {{g = [...]}}: the data at the end of the path"
         )
-    return schedule
+    return continuation.schedule()
 
 
 def continuation_path(schedule: AlphaSchedule | None, mesh: Mesh) -> DataPath | None:

@@ -215,7 +215,7 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
     Z = spontaneous_curvature(spec.Z, tagged)
     path = continuation_path(spec.schedule, tagged.mesh)
     g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path)
-    penalty = spec.penalty_params
+    penalty = spec.penalty
     degree = 3 * spec.degree + 2
 
     def energy_fn(y: Function) -> Energy:
@@ -226,6 +226,4 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
     plate = PlateModel(
         facets, spec.degree, energy_fn, measures=[curvature_summary], continuation=path
     )
-    return with_self_avoidance(
-        with_obstacle(plate, spec.obstacle_params, g, path), spec.self_avoidance_params
-    )
+    return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)

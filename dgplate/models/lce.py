@@ -99,7 +99,7 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
     second = values.constant(mesh, DIRECTORS[spec.director])
     gamma = values.constant(mesh, spec.gamma)
     A = director_curvature(gamma, theta, second)
-    penalty = spec.penalty_params
+    penalty = spec.penalty
     degree = 3 * spec.degree + 2
 
     def energy_fn(y: Function) -> Energy:
@@ -117,6 +117,4 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
         measures=[curvature_summary, lower_bound],
         continuation=path,
     )
-    return with_self_avoidance(
-        with_obstacle(plate, spec.obstacle_params, g, path), spec.self_avoidance_params
-    )
+    return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)

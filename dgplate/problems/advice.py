@@ -20,6 +20,7 @@ from petsc4py import PETSc
 
 from dgplate import expressions
 from dgplate.dg.geometry import max_cell_diameter
+from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.errors import InputError
 from dgplate.io.output import print0
 from dgplate.solvers.tau import ADAPTIVE_ONLY
@@ -85,8 +86,8 @@ def adaptive_only(problem: Problem) -> list[str]:
 
 def weak_self_avoidance(problem: Problem) -> str | None:
     """A warning when a plate's tangent-point exponent q ≤ 4 does not keep it from crossing."""
-    params = getattr(problem.model, "self_avoidance_params", None)
-    if params is None or problem.model.name == "rod" or params.q > 4:
+    params = getattr(problem.model, "self_avoidance", None)
+    if not isinstance(params, SelfAvoidance) or problem.model.name == "rod" or params.q > 4:
         return None
     return (
         f"model.self_avoidance.q = {params.q:g} <= 4: the tangent-point energy is then finite "

@@ -262,7 +262,7 @@ BAD_INPUT = {
     ),
     "self-avoidance quadrature degree 0": Case(
         ("model.self_avoidance={rho=1e-4, quadrature_degree=0}",),
-        "model.self_avoidance.quadrature_degree must be an integer >= 1, got 0",
+        "model.self_avoidance.quadrature_degree must be >= 1, got 0",
     ),
     # -- the start (model.start) ----------------------------------------------------------------
     "start of unknown type": Case(

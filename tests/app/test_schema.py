@@ -75,7 +75,7 @@ def test_a_broken_constraint_is_one_line_naming_the_dotted_key(data, message):
 def test_nested_specs_are_built_with_their_defaults():
     spec = from_dict(Spec, {"tau": 0.1, "part": {"power": 2}, "inner": {"kind": "b"}}, "s")
     assert spec.tau == 0.1 and spec.cells == [4, 4]
-    assert spec.part == Part(gamma=2.0, power=2)  # a given table: the class's defaults
+    assert spec.part == Part(gamma=3.0, power=2.0)  # keys left out: the outer default's
     assert spec.inner == Inner(kind="b", size=1.0)
     default = from_dict(Spec, {"inner": {}}, "s")
     assert default.part == Part(gamma=3.0) and default.inner is None

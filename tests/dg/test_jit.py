@@ -93,7 +93,7 @@ SHIFTED = {"g": ["x", "y", 0.5], "Phi": [[1.0, 0.0], [0.0, 1.0], [0.1, 0.0]]}
                 clamped=["left"],
                 load=[0.1, 0.0, -2.0],
                 mu=3.0,
-                penalty={"gamma0": 50.0, "gamma1": 7.0, "gradient_power": 1},
+                penalty=Penalty(50.0, 7.0, 1.0),
                 boundary_data=SHIFTED,
             ),
             KirchhoffSpec(clamped=["left"], load=[0.0, 0.0, "0.1*x"], boundary_data=BOUNDARY),
@@ -107,7 +107,7 @@ SHIFTED = {"g": ["x", "y", 0.5], "Phi": [[1.0, 0.0], [0.0, 1.0], [0.1, 0.0]]}
         (
             build_bilayer,
             BilayerSpec(Z=[[1.0, 0.0], [0.0, 2.0]]),
-            BilayerSpec(Z=[[-5.0, 0.5], [0.5, 0.0]], penalty={"gamma0": 1.0, "gamma1": 2.0}),
+            BilayerSpec(Z=[[-5.0, 0.5], [0.5, 0.0]], penalty=Penalty(1.0, 2.0)),
             BilayerSpec(Z=[[1.0, "x"], ["x", 2.0]]),
         ),
         (

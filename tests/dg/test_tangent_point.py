@@ -117,8 +117,8 @@ def strip_problem(**self_avoidance: float) -> dict:
 BAD = {
     "rho negative": ({"rho": -1.0}, r"model\.self_avoidance\.rho must be >= 0"),
     "q too small": ({"q": 2.0}, r"model\.self_avoidance\.q must be > 2"),
-    "unknown key": ({"p": 2.0}, r"model\.self_avoidance: unknown keys \['p'\]"),
-    "theta text": ({"theta": "fast"}, r"model\.self_avoidance\.theta must be a finite number"),
+    "unknown key": ({"p": 2.0}, r"unknown key model\.self_avoidance\.p \(known keys: "),
+    "theta text": ({"theta": "fast"}, r"model\.self_avoidance\.theta must be float, got 'fast'"),
     "approach": ({"approach": 1.5}, r"model\.self_avoidance\.approach must be in"),
 }  # fmt: skip
 
