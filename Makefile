@@ -48,7 +48,7 @@ format: setup
 	$(VENV)/bin/ruff check --fix $(LINT_DIRS)
 
 # The performance study (about 45 min on 2 cores): JSON in benchmarks/results, then the plot
-# and the README's performance section. Growth and scaling use the 2-rank rows; 64² also runs
+# and the performance page's tables (docs/performance.md). Growth and scaling use the 2-rank rows; 64² also runs
 # on 1 rank with the naive flow to the end (same step count, same E_h), and 128² on 1 rank for
 # the scaling. The 64² optimised runs are repeated three times on 1 and 2 ranks; the scaling
 # uses the median runs. The memory bandwidth on 1 and on 2 ranks at once (the ceiling of the
@@ -76,7 +76,7 @@ bench-large: setup
 
 # Time to solution (about 35 min on 2 cores, 1 rank): fixed τ = h against adaptive τ and the
 # SQP finish, each to the τ-independent stop, on the BNN 64² plate, the bilayer cylinder 32×16
-# and the box's two holds; then the README's performance section again (its table below the
+# and the box's two holds; then the performance page's tables again (its table below the
 # flow study's).
 bench-tau: setup
 	$(PY) benchmarks/adaptive_tau.py --problem bnn --cells 64 \

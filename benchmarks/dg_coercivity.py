@@ -29,7 +29,7 @@ from slepc4py import SLEPc
 
 from dgplate.dg.forms import PENALTY_LENGTHS, Penalty, facet_sets
 from dgplate.mesh.tagged import TaggedMesh, load_geo
-from dgplate.models.fvk import fvk_bending_energy
+from dgplate.models.fvk.energy import fvk_bending_energy
 from dgplate.solvers.eigen import negative_count
 
 

@@ -42,7 +42,8 @@ import numpy as np
 from dgplate.compat import Function
 from dgplate.measure.wrinkles import line_values, wrinkle_profile
 from dgplate.mesh.tagged import rectangle
-from dgplate.models.fvk import FvKSpec, build_fvk
+from dgplate.models.fvk.model import build_fvk
+from dgplate.models.fvk.spec import FvKSpec
 from dgplate.solvers.stability import LOWEST
 
 DISTANCES = (0.0, 0.05, 0.1, 0.2, 0.6)

@@ -1,12 +1,12 @@
-"""Turn the benchmark JSON files into a plot and the README's performance section.
+"""Turn the benchmark JSON files into a plot and the performance page's tables.
 
-    python benchmarks/report.py [--results benchmarks/results] [--readme README.md]
+    python benchmarks/report.py [--results benchmarks/results] [--page docs/performance.md]
 
 Reads ``flow_<cells>_np<ranks>.json`` (written by benchmarks/flow.py) and, if present, the
 time-to-solution records of ``make bench-tau`` (benchmarks/adaptive_tau.py and
 benchmarks/box_relaxation.py), fits the per-step cost
 against the number of unknowns on the largest rank count that has three or more sizes, draws
-``performance.png`` next to the JSON files and replaces the text between the README markers
+``performance.png`` next to the JSON files and replaces the text between the page's markers
 ``<!-- performance:begin -->`` and ``<!-- performance:end -->``.
 """
 
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -308,7 +309,7 @@ def time_to_solution(folder: Path) -> list[str]:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--results", type=Path, default=Path("benchmarks/results"))
-    parser.add_argument("--readme", type=Path, default=Path("README.md"))
+    parser.add_argument("--page", type=Path, default=Path("docs/performance.md"))
     args = parser.parse_args(argv)
     records = load(args.results)
     if not records:
@@ -316,17 +317,18 @@ def main(argv: list[str] | None = None) -> None:
     fit = growth_fit(records)
     image = args.results / "performance.png"
     plot(records, fit, image)
-    text = section(records, fit, scaling(records), image.as_posix(), args.results)
+    picture = os.path.relpath(image, args.page.parent)  # as the page links it
+    text = section(records, fit, scaling(records), Path(picture).as_posix(), args.results)
     extra = large_section(load_large(args.results), fit) + time_to_solution(args.results)
     if extra:
         text = text.replace(f"\n\n{END}", "\n" + "\n".join(extra) + f"\n\n{END}")
-    readme = args.readme.read_text()
-    if BEGIN in readme and END in readme:
-        head, rest = readme.split(BEGIN, 1)
-        readme = head + text + rest.split(END, 1)[1]
+    page = args.page.read_text()
+    if BEGIN in page and END in page:
+        head, rest = page.split(BEGIN, 1)
+        page = head + text + rest.split(END, 1)[1]
     else:
-        readme = readme.rstrip("\n") + "\n\n## Performance\n\n" + text + "\n"
-    args.readme.write_text(readme)
+        page = page.rstrip("\n") + "\n\n## Performance\n\n" + text + "\n"
+    args.page.write_text(page)
     print(text)
 
 

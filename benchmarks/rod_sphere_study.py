@@ -60,8 +60,8 @@ import numpy as np
 import dgplate
 from dgplate.io.output import print0
 from dgplate.io.rod_pictures import plot_rod
+from dgplate.measure.rod_figures import nodes_in_order
 from dgplate.measure.rod_shapes import classify
-from dgplate.models.rod import nodes_in_order
 
 SPHERE = Path(__file__).resolve().parent.parent / "demos" / "problems" / "rod_sphere.toml"
 TORUS_R = 0.15  # the tube radius of the wound start, relative to its core radius 1

@@ -35,9 +35,9 @@ from pathlib import Path
 from mpi4py import MPI
 
 import dgplate
+from dgplate.io.images import frames_to_gif
 from dgplate.io.output import print0
-from dgplate.io.plotting import frames_to_gif
-from dgplate.models.rod import RodStart
+from dgplate.models.rod.start import RodStart
 
 CLOSED = Path(__file__).resolve().parent.parent / "demos" / "problems" / "rod_closed.toml"
 

@@ -56,7 +56,7 @@ from pathlib import Path
 
 import dgplate
 from dgplate import demo
-from dgplate.io.plotting import montage
+from dgplate.io.montage import montage
 
 PROBLEM = Path(__file__).parent / "problems" / "bilayer_aspect_ratios.toml"
 RATIOS, CURVATURES = (0.5, 1.0, 1.75, 2.5), (1.0, 2.0, 5.0)

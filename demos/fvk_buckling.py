@@ -42,7 +42,8 @@ import numpy as np
 from dgplate import demo
 from dgplate.io.output import write_json
 from dgplate.mesh.tagged import rectangle
-from dgplate.models.fvk import FvKSpec, build_fvk
+from dgplate.models.fvk.model import build_fvk
+from dgplate.models.fvk.spec import FvKSpec
 
 parser = demo.parser("fvk_buckling", "FvK: buckling of a compressed plate", "24 × 24, 60 steps")
 parser.add_argument("--fine", dest="paper", action="store_true", help=argparse.SUPPRESS)

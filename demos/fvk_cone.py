@@ -73,7 +73,8 @@ from dgplate.errors import SolverError
 from dgplate.io.output import write_json
 from dgplate.measure.wrinkles import line_values
 from dgplate.mesh.tagged import load_geo
-from dgplate.models.fvk import FvKSpec, build_fvk
+from dgplate.models.fvk.model import build_fvk
+from dgplate.models.fvk.spec import FvKSpec
 from dgplate.solvers.newton import Leave, Relaxation
 
 parser = demo.parser("fvk_cone", "FvK: an indented elastic cone", "h = 0.07")

@@ -38,7 +38,8 @@ import numpy as np
 from dgplate import demo
 from dgplate.io.output import write_json
 from dgplate.mesh.tagged import load_geo
-from dgplate.models.fvk import FvKSpec, build_fvk
+from dgplate.models.fvk.model import build_fvk
+from dgplate.models.fvk.spec import FvKSpec
 from dgplate.reference.fvk import strip_centre_deflection
 
 parser = demo.parser("fvk_crease", "FvK: a plate with a crease", "h = 0.05")

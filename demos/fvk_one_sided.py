@@ -43,7 +43,8 @@ from dgplate.compat import Function
 from dgplate.io.output import write_json
 from dgplate.measure.wrinkles import wrinkle_profile
 from dgplate.mesh.tagged import rectangle
-from dgplate.models.fvk import FvKSpec, build_fvk
+from dgplate.models.fvk.model import build_fvk
+from dgplate.models.fvk.spec import FvKSpec
 
 parser = demo.parser("fvk_one_sided", "FvK: one-sided compression", "32 × 32 cells")
 args = demo.parse(parser)

@@ -45,7 +45,8 @@ import numpy as np
 from dgplate import demo
 from dgplate.io.output import write_json
 from dgplate.mesh.tagged import RECTANGLE_SIDES, rectangle
-from dgplate.models.fvk import FvKSpec, build_fvk
+from dgplate.models.fvk.model import build_fvk
+from dgplate.models.fvk.spec import FvKSpec
 from dgplate.reference import fvk as ref
 
 LEVY_Q, LEVY_W = ref.LEVY_Q, ref.LEVY_W

@@ -42,8 +42,8 @@ from mpi4py import MPI
 import dgplate
 from dgplate import demo
 from dgplate.io.output import write_json
+from dgplate.measure.rod_figures import nodes_in_order
 from dgplate.measure.rod_shapes import classify
-from dgplate.models.rod import nodes_in_order
 
 PROBLEM = Path(__file__).parent / "problems" / "rod_sphere.toml"
 RADIUS, LENGTH = 0.1464, 1.0

@@ -27,7 +27,7 @@
 # The minimisers of $I + \rho\,TP$ are the *elastic knots* as $\rho \to 0$ (Gallotti and
 # von der Mosel; Bartels and Reiter 2021 compute them by a flow). This demo relaxes the
 # trefoil at a decreasing $\rho$, each stage started from the previous stage's final
-# centreline and frame (`dgplate.models.rod.RodStart`), and watches the bending energy approach
+# centreline and frame (`dgplate.models.rod.start.RodStart`), and watches the bending energy approach
 # the doubly covered circle's from above while the least distance of non-neighbouring
 # points stays positive.
 #
@@ -49,8 +49,8 @@ import numpy as np
 
 import dgplate
 from dgplate import demo
-from dgplate.io.plotting import frames_to_gif
-from dgplate.models.rod import RodStart
+from dgplate.io.images import frames_to_gif
+from dgplate.models.rod.start import RodStart
 
 PROBLEM = Path(__file__).parent / "problems" / "rod_trefoil.toml"
 LENGTH, C_B = 1.0, 1.0

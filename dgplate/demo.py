@@ -17,8 +17,9 @@ test suite can run every demo), ``--out DIR``, ``--force``, ``--resume`` and ``-
 (a copy of the final picture, e.g. for the documentation). The checks raise
 :class:`AssertionError`, so a demo that no longer reproduces its number fails; they print one
 line on rank 0 either way. Pictures beyond each run's final.png are drawn with the public
-functions of :mod:`dgplate.io.plotting` (``plot_deformation``, ``render_png``, ``montage``,
-``frames_to_gif``; ``start_offscreen`` before a pyvista plotter of one's own). All functions
+functions of :mod:`dgplate.io.plotting` (``plot_deformation``, ``render_png``),
+:mod:`dgplate.io.montage` (``montage``) and :mod:`dgplate.io.images` (``frames_to_gif``;
+``start_offscreen`` before a pyvista plotter of one's own). All functions
 here are collective only where they say so. Bad input (an output folder of a user's files, a
 wrong override) ends a demo with one line on stderr, as it ends ``dgplate run``.
 """

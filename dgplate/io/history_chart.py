@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from dgplate.io.plotting import save_figure
+from dgplate.io.images import save_figure
 
 #: Columns drawn on the stopping panel, with their labels (log scale, absolute values).
 STOPPING = {"rate": "|ΔE/τ|", "stationarity": "stationarity", "residual": "Newton residual"}

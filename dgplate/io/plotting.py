@@ -2,25 +2,24 @@
 
 ``surface_grid`` (from :mod:`dgplate.measure.fields`) gathers the surface as VTK Lagrange cells;
 ``render_png`` draws it with pyvista without a display; ``plot_deformation`` does both for a
-deformation coloured by bending or isometry defect; ``frames_to_gif`` makes an animation.
+deformation coloured by bending or isometry defect; ``plot_curve`` draws a rod's centreline.
+Picture files and animations are written by :mod:`dgplate.io.images`, montages of pictures by
+:mod:`dgplate.io.montage` (both re-exported here).
 Functions taking a DOLFINx function are collective; only rank 0 renders and writes.
 """
 
 from __future__ import annotations
 
-import os
-import tempfile
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
-
-from mpi4py import MPI
 
 import dolfinx.fem
 import numpy as np
 import pyvista
 
+from dgplate.io.images import frames_to_gif, offscreen_png, save_figure, start_offscreen
+from dgplate.io.montage import montage
 from dgplate.measure.fields import REFERENCE, bending_density, defect_density, surface_grid
 
 #: Scalar-bar labels of the fields ``plot_deformation`` can colour by.
@@ -127,83 +126,6 @@ def _colour_range(values: np.ndarray, clim: tuple[float, float] | None) -> tuple
     return mid - half, mid + half
 
 
-@contextmanager
-def _plain_text() -> Iterator[None]:
-    """Render all text with FreeType.
-
-    Render all text with FreeType: VTK hands strings containing '|' to matplotlib's
-    mathtext, which reads '|' as a table-cell separator and drops it ("|D²y|" → "D²y").
-    """
-    from vtkmodules.vtkRenderingCore import vtkTextRenderer
-
-    renderer = vtkTextRenderer.GetInstance()
-    if renderer is None:
-        yield
-        return
-    previous = renderer.GetDefaultBackend()
-    renderer.SetDefaultBackend(vtkTextRenderer.FreeType)
-    try:
-        yield
-    finally:
-        renderer.SetDefaultBackend(previous)
-
-
-def start_offscreen() -> None:
-    """Make off-screen rendering possible without a display; call before ``pyvista.Plotter``.
-
-    VTK wheels have an EGL window: use it directly (saves an X probe and a warning). X-only VTK
-    builds (Debian's) need a virtual X server: start Xvfb when it is installed, otherwise fail
-    with a clear message instead of letting VTK abort the process. Does nothing when a display
-    is set; safe to call more than once.
-
-    Raises:
-        RuntimeError: No display, no EGL and no Xvfb.
-    """
-    if os.environ.get("DISPLAY") or "VTK_DEFAULT_OPENGL_WINDOW" in os.environ:
-        return
-    from vtkmodules import vtkRenderingOpenGL2
-
-    if hasattr(vtkRenderingOpenGL2, "vtkEGLRenderWindow"):
-        os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
-        return
-    import shutil
-
-    if shutil.which("Xvfb") is None:
-        raise RuntimeError(
-            "off-screen rendering needs a display: this VTK has no EGL support and Xvfb is not "
-            "installed (apt install xvfb), or set output.png = false"
-        )
-    pyvista.start_xvfb()
-
-
-_headless = start_offscreen  # the former private name, until every caller uses the public one
-
-
-def _publish(tmp: str, path: Path) -> None:
-    """Move a finished temporary file into place with the usual permissions (mkstemp: 0600)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    os.chmod(tmp, 0o666 & ~mask)
-    os.replace(tmp, path)
-
-
-def save_figure(fig: Any, path: str | Path, dpi: int = 110) -> None:
-    """Write a matplotlib figure to the PNG ``path`` atomically, then close it."""
-    import matplotlib.pyplot as plt
-
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=dpi, format="png")
-        _publish(tmp, path)
-    finally:
-        plt.close(fig)
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
 def render_png(
     grid: pyvista.UnstructuredGrid | None,
     path: str | Path,
@@ -230,30 +152,6 @@ def render_png(
         return
     with offscreen_png(path, window_size) as plotter:
         _draw(plotter, grid, scalars, title, camera, clim, show_edges, lines, reference, cmap)
-
-
-@contextmanager
-def offscreen_png(path: str | Path, window_size: tuple[int, int]) -> Iterator[Any]:
-    """An off-screen pyvista plotter whose picture goes to ``path`` when the block ends.
-
-    The PNG is written under a temporary name and moved into place, so a reader never sees
-    half a file; nothing is written if the block raises.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    start_offscreen()
-    plotter = pyvista.Plotter(off_screen=True, window_size=list(window_size))
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
-    os.close(fd)
-    try:
-        yield plotter
-        with _plain_text():
-            plotter.screenshot(tmp)
-        _publish(tmp, path)
-    finally:
-        plotter.close()
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 def _draw(  # the plotter is Any: pyvista's stubs reject its documented keyword tables
@@ -380,117 +278,6 @@ def plot_curve(u: dolfinx.fem.Function[np.float64], path: str | Path, title: str
     ax.set_box_aspect((1, 1, 1))
     ax.set_title(title, fontsize=9)
     save_figure(fig, path, dpi=120)
-
-
-def frames_to_gif(
-    pngs: Sequence[str | Path],
-    gif_path: str | Path,
-    fps: float = 10.0,
-    comm: MPI.Comm | None = None,
-) -> None:
-    """Assemble PNG frames into a looping GIF (rank 0 of ``comm`` only; written atomically)."""
-    if (comm or MPI.COMM_WORLD).rank != 0:
-        return
-    from PIL import Image
-
-    if not pngs:
-        raise ValueError("frames_to_gif needs at least one frame")
-    frames = [Image.open(p).convert("RGB") for p in pngs]
-    palette = [f.quantize(colors=256, method=Image.Quantize.MEDIANCUT) for f in frames]
-    gif_path = Path(gif_path)
-    gif_path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{gif_path.stem}-", suffix=".gif", dir=gif_path.parent)
-    os.close(fd)
-    try:
-        palette[0].save(
-            tmp, save_all=True, append_images=palette[1:], duration=round(1000 / fps), loop=0
-        )
-        _publish(tmp, gif_path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
-def _blank_panel(ax: Any, xlabel: str | None, ylabel: str | None) -> None:
-    """A montage panel without ticks or frame, with its column and row labels if any."""
-    ax.set_xticks([])
-    ax.set_yticks([])
-    for side in ax.spines.values():
-        side.set_visible(False)
-    if xlabel is not None:
-        ax.set_xlabel(xlabel, fontsize=11)
-    if ylabel is not None:
-        ax.set_ylabel(ylabel, fontsize=11)
-
-
-def _show_cropped(ax: Any, image: np.ndarray, crop: tuple[float, float, float, float]) -> None:
-    """Draw the (top, bottom, left, right) fractions ``crop`` of ``image`` in ``ax``."""
-    top, bottom, left, right = crop
-    h, w = image.shape[:2]
-    ax.imshow(image[int(top * h) : int(bottom * h), int(left * w) : int(right * w)])
-
-
-def montage(
-    images: Sequence[Sequence[str | Path | None]],
-    path: str | Path,
-    *,
-    captions: Sequence[Sequence[str]] | None = None,
-    row_labels: Sequence[str] = (),
-    column_labels: Sequence[str] = (),
-    title: str = "",
-    note: str = "",
-    crop: tuple[float, float, float, float] = (0.07, 0.80, 0.05, 0.95),
-    comm: MPI.Comm | None = None,
-) -> None:
-    """Put pictures (e.g. several runs' final.png) into one image, as a grid of panels.
-
-    Rank 0 of ``comm`` only (not collective); written atomically. Needs matplotlib.
-
-    Args:
-        images: Rows of PNG paths; ``None`` leaves a panel empty.
-        path: The PNG to write.
-        captions: A caption above each panel (same shape as ``images``).
-        row_labels: A label left of each row.
-        column_labels: A label below each column of the last row.
-        title: The image's title.
-        note: A line of small print at the bottom.
-        crop: The part of each picture shown, as fractions (top, bottom, left, right): the
-            default drops the title and the colour bar of :func:`render_png`.
-        comm: Rank 0 of it writes (default ``MPI.COMM_WORLD``).
-    """
-    if (comm or MPI.COMM_WORLD).rank != 0:
-        return
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.image as mpimg
-    import matplotlib.pyplot as plt
-
-    rows, cols = len(images), max((len(row) for row in images), default=0)
-    if not rows or not cols:
-        raise ValueError("montage needs at least one picture")
-    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.6 * rows), squeeze=False)
-    for i, row in enumerate(images):
-        for j in range(cols):
-            ax = axes[i][j]
-            xlabel = column_labels[j] if i == rows - 1 and j < len(column_labels) else None
-            _blank_panel(ax, xlabel, row_labels[i] if j == 0 and i < len(row_labels) else None)
-            picture = row[j] if j < len(row) else None
-            if picture is None:
-                continue
-            _show_cropped(ax, mpimg.imread(picture), crop)
-            if captions is not None:
-                ax.set_title(captions[i][j], fontsize=9)
-    if title:
-        fig.suptitle(title, fontsize=13)
-    import textwrap
-
-    note = textwrap.fill(note, width=int(3.2 * cols * 72 / 5.5))  # about 5.5 pt per character
-    room = (0.02 + 0.16 * (note.count("\n") + 1) / (2.6 * rows)) if note else 0.0  # 9 pt lines
-    fig.tight_layout(rect=(0, room, 1, 1))
-    if note:
-        fig.text(0.5, 0.01, note, ha="center", va="bottom", fontsize=9)
-    save_figure(fig, path, dpi=110)
 
 
 __all__ = [

@@ -15,7 +15,8 @@ import dolfinx.fem
 import numpy as np
 import pyvista
 
-from dgplate.io.plotting import _set_camera, offscreen_png
+from dgplate.io.images import offscreen_png
+from dgplate.io.plotting import _set_camera
 
 __all__ = ["plot_rod", "rod_polyline"]
 

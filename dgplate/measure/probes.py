@@ -14,6 +14,8 @@ import dolfinx.geometry
 import dolfinx.mesh
 import numpy as np
 
+from dgplate import compat
+
 
 class PointProbe:
     """The value of functions at one point of the mesh.
@@ -54,3 +56,17 @@ def signed_extreme(u: dolfinx.fem.Function[np.float64]) -> float:
     lo = float(comm.allreduce(float(owned.min(initial=np.inf)), op=MPI.MIN))
     hi = float(comm.allreduce(float(owned.max(initial=-np.inf)), op=MPI.MAX))
     return hi if hi >= -lo else lo
+
+
+class DeflectionProbes:
+    """The probes hook of an FvK state (w, u): ``w_max`` (signed extreme) and ``w_center``."""
+
+    def __init__(self, state: dolfinx.fem.Function[np.float64], probe: PointProbe) -> None:
+        self.state, self.probe = state, probe
+        space, self._dofs = compat.collapse(state.function_space.sub(0))
+        self.w: dolfinx.fem.Function[np.float64] = dolfinx.fem.Function(space, name="w")
+
+    def __call__(self) -> dict[str, float]:
+        """The two numbers of the current state (collective)."""
+        self.w.x.array[:] = self.state.x.array[self._dofs]
+        return {"w_max": signed_extreme(self.w), "w_center": self.probe(self.w)}

@@ -4,7 +4,7 @@ Bartels and Weyer describe the energy minimising closed rods of length L in a ba
 R as μ-circles (a circle covered μ times) and μ-ν-clews (curves that wind μ times about a
 discrete rotation axis and whose curvature is 2ν-periodic along the arc length). This module
 reads both numbers off a closed polygon through the nodes of a rod (rows of an (n, 3) array in
-the order of the parameter, e.g. ``dgplate.models.rod.nodes_in_order``):
+the order of the parameter, e.g. ``dgplate.measure.rod_figures.nodes_in_order``):
 
 - **the axis** a is the direction of the polygon's angular momentum ∮ u × u′ ds (twice its
   vector area), which for a curve winding about an axis points along it;

@@ -206,7 +206,16 @@ class BilayerSpec(KirchhoffSpec):
 
 
 def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
-    """Facet sets, the energy and the curvature figures of a bilayer problem."""
+    """Facet sets, the energy and the curvature figures of a bilayer problem.
+
+    Args:
+        spec: the validated ``[model]`` section.
+        tagged: the mesh with its named cell and facet groups.
+
+    Returns:
+        The model: its facet sets, energy (with the spontaneous curvature Z), flow
+        settings and curvature figures.
+    """
     from dgplate.measure.analysis import curvature_summary
 
     facets = facet_sets(tagged, spec.clamped, spec.crease, spec.penalty_length)

@@ -36,7 +36,15 @@ class FoundationSpec(KirchhoffSpec):
 
 
 def build_foundation(spec: FoundationSpec, tagged: TaggedMesh) -> PlateModel:
-    """The Kirchhoff plate of ``spec`` with the foundation's energy added."""
+    """The Kirchhoff plate of ``spec`` with the foundation's energy added.
+
+    Args:
+        spec: the validated ``[model]`` section.
+        tagged: the mesh with its named cell and facet groups.
+
+    Returns:
+        The Kirchhoff model whose energy adds ½∫k|y − x|².
+    """
     plate = build_kirchhoff(spec, tagged)
     k = values.constant(tagged.mesh, spec.k)
     rest, _ = flat_identity(tagged.mesh)

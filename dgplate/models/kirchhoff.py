@@ -118,7 +118,15 @@ class KirchhoffSpec:
 
 
 def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
-    """Facet sets and the energy of a Kirchhoff problem (validates group names)."""
+    """Facet sets and the energy of a Kirchhoff problem (validates group names).
+
+    Args:
+        spec: the validated ``[model]`` section.
+        tagged: the mesh with its named cell and facet groups.
+
+    Returns:
+        The model: its facet sets, energy, flow settings and figures.
+    """
     facets = facet_sets(tagged, spec.clamped, spec.crease, spec.penalty_length)
     load = values.vector(spec.load, tagged.mesh, "model.load", 3)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")

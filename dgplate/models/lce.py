@@ -86,6 +86,13 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
 
     Moving clamped data (``continuation``), an ``obstacle`` and self-avoidance act as on the
     Kirchhoff plate and the bilayer.
+
+    Args:
+        spec: the validated ``[model]`` section.
+        tagged: the mesh with its named cell and facet groups.
+
+    Returns:
+        The model: its facet sets, energy, flow settings and curvature figures.
     """
     from dgplate.measure.analysis import curvature_summary
 

@@ -100,7 +100,7 @@ class FrameWriter:
 
     def gif(self, path: Path) -> None:
         """Assemble the frames into ``path`` (rank 0; written atomically)."""
-        from dgplate.io.plotting import frames_to_gif
+        from dgplate.io.images import frames_to_gif
 
         if self.comm.rank == 0:
             frames = sorted(self.folder.glob("frame_*.png"))

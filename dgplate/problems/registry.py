@@ -13,12 +13,15 @@ from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import Model
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.foundation import FoundationSpec, build_foundation
-from dgplate.models.fvk import FvKSpec, build_fvk
+from dgplate.models.fvk.model import build_fvk
+from dgplate.models.fvk.spec import FvKSpec
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
 from dgplate.models.lce import LCESpec, build_lce
-from dgplate.models.rod import ROD_IGNORES, RodSpec, build_rod, rod_mesh
-from dgplate.models.thermal import build_thermal
-from dgplate.models.thermal_spec import ThermalSpec
+from dgplate.models.rod.energy import rod_mesh
+from dgplate.models.rod.model import build_rod
+from dgplate.models.rod.spec import ROD_IGNORES, RodSpec
+from dgplate.models.thermal.model import build_thermal
+from dgplate.models.thermal.spec import ThermalSpec
 from dgplate.schema import from_dict
 
 

@@ -32,6 +32,9 @@ def load_result(folder: str | Path, comm: MPI.Comm = MPI.COMM_WORLD, state: bool
         state: rebuild the mesh and the model and restore the final state from the
             checkpoint (``shape``, ``fields``); False reads the files only.
 
+    Returns:
+        The run's summary, history and folder, with the final state when ``state``.
+
     Raises ``InputError`` for a folder dgplate did not write or that cannot be read; with
     ``state`` also for a run whose summary is missing or older than its checkpoint (still
     running, or killed: ``state=False`` reads what it has), a mesh file that cannot be found

@@ -166,9 +166,14 @@ class _Forward:
 class ContinuationFlow:
     """The constrained gradient flow with clamped data moved along α (a Driver).
 
-    ``flow`` is the gradient flow of an energy whose clamped data reference the Constant
-    ``alpha``; ``schedule`` advances it. The flow reports to this driver, which reports to
-    ``observers``. Collective on the mesh communicator.
+    The flow reports to this driver, which reports to its observers. Collective on the mesh
+    communicator.
+
+    Args:
+        flow: the gradient flow of an energy whose clamped data reference ``alpha``.
+        alpha: the Constant α that moves the clamped data.
+        schedule: the values of α, stage by stage, and when a stage ends.
+        observers: told of every flow step (with α) and of the end of the run.
     """
 
     def __init__(

@@ -129,6 +129,8 @@ class Continuation:
         checkpoint_every: load steps between checkpoints (a load step is expensive: each).
         stability: the lowest Hessian eigenvalue after each step (:class:`Stability`) or None.
         relaxation: a proximal gradient flow (:class:`Relaxation`) before Newton, or None.
+        options_key: the problem-file key of ``options``, named by the error for options
+            PETSc refuses.
 
     All methods are collective on the state's communicator.
     """

@@ -46,10 +46,10 @@ def test_flow_benchmark_smoke(tmp_path):
     assert record["peak_memory_mb"]["max_rank"] > 0
     if comm.rank == 0:
         assert json.loads(out.read_text())["energy"] == record["energy"]
-        readme = tmp_path / "README.md"
-        readme.write_text("# x\n")
-        _load("report").main(["--results", str(out.parent), "--readme", str(readme)])
-        text = readme.read_text()
+        page = tmp_path / "performance.md"
+        page.write_text("# x\n")
+        _load("report").main(["--results", str(out.parent), "--page", str(page)])
+        text = page.read_text()
         assert "## Performance" in text and "| 8² |" in text
         assert (out.parent / "performance.png").stat().st_size > 1000
 

@@ -23,9 +23,9 @@ from dgplate.dg.forms import Penalty, facet_sets
 from dgplate.measure.hinges import hinge_strip
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
-from dgplate.models.fvk import fvk_bending_energy
+from dgplate.models.fvk.energy import fvk_bending_energy
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
-from dgplate.models.thermal import anchor_energy, region_coefficient, thermal_energy
+from dgplate.models.thermal.energy import anchor_energy, region_coefficient, thermal_energy
 from dgplate.values import constant
 
 VERTICAL = Path(__file__).resolve().parents[2] / "demos" / "problems" / "vertical_load.toml"

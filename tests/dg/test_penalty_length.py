@@ -101,7 +101,7 @@ def test_thermal_key_reaches_the_facets():
     the facets of the box's net, whose thin hinge cells make |T|/|F| much smaller than the
     diameter there: ∫h_e over the interior facets falls."""
     from dgplate.errors import InputError
-    from dgplate.models.thermal_spec import ThermalSpec
+    from dgplate.models.thermal.spec import ThermalSpec
     from dgplate.problems.registry import MODELS
     from dgplate.problems.runner import build_mesh
     from dgplate.problems.specs import load_problem

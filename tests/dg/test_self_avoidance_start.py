@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import dgplate
+from dgplate.dg import pair_search
 from dgplate.dg import tangent_point as tp
 
 
@@ -32,8 +33,8 @@ def test_sweep_finds_every_crossing_pair():
         (i, j)
         for i in range(120)
         for j in range(i + 1, 120)
-        if (tp._edges_through(triangles[[i]], triangles[[j]])
-            | tp._edges_through(triangles[[j]], triangles[[i]]))[0]
+        if (pair_search._edges_through(triangles[[i]], triangles[[j]])
+            | pair_search._edges_through(triangles[[j]], triangles[[i]]))[0]
     ]  # fmt: skip
     assert len(everything) > 100
     assert sorted(map(tuple, tp.crossings(triangles, ids).tolist())) == everything

@@ -16,6 +16,7 @@ from helpers import PARITY_RTOL, check_load_is_derivative, check_pair_sum_deriva
 
 import dgplate
 from dgplate.dg import tangent_point as tp
+from dgplate.dg import tp_kernel
 from dgplate.dg.self_avoidance import PlateTangentPoint, SelfAvoidance
 
 
@@ -199,7 +200,7 @@ def test_exact_sums_do_not_depend_on_leaf_or_block_size(curve, monkeypatch):
         cloud = tp.Cloud(cloud.points, cloud.normals, cloud.weights, cloud.vertices, True)
     results = []
     for leaf, block in ((64, 1 << 17), (4, 1 << 8)):
-        monkeypatch.setattr(tp, "_BLOCK", block)
+        monkeypatch.setattr(tp_kernel, "BLOCK", block)
         results.append(tp.evaluate(cloud, 4.5, theta=0.0, reach=3 * h, leaf=leaf))
     a, b = results
     assert a.pairs_exact == b.pairs_exact and a.min_distance == pytest.approx(b.min_distance)
@@ -212,4 +213,4 @@ def test_exact_sums_do_not_depend_on_leaf_or_block_size(curve, monkeypatch):
 def test_power_by_products_is_pow(q):
     """x**q by products and one square root (half-integer q), ``pow`` otherwise."""
     x = np.linspace(0.0, 3.0, 31)
-    assert np.allclose(tp._power(x, q), x**q, rtol=1e-14, atol=0)
+    assert np.allclose(tp_kernel._power(x, q), x**q, rtol=1e-14, atol=0)

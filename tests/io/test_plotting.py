@@ -16,14 +16,9 @@ from PIL import Image
 
 from dgplate import compat
 from dgplate.errors import InputError
-from dgplate.io.plotting import (
-    REFERENCE,
-    frames_to_gif,
-    montage,
-    plot_deformation,
-    render_png,
-    surface_grid,
-)
+from dgplate.io.images import frames_to_gif
+from dgplate.io.montage import montage
+from dgplate.io.plotting import REFERENCE, plot_deformation, render_png, surface_grid
 from dgplate.io.vtx import DeformationWriter, bp_variables
 from dgplate.measure.fields import bending_density, cell_field, defect_density, dg0_dofs_to_cells
 from dgplate.mesh.tagged import rectangle

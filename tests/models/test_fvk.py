@@ -26,7 +26,8 @@ from dgplate import interrupt
 from dgplate.errors import InputError, SolverError
 from dgplate.io import checkpoint
 from dgplate.mesh.tagged import RECTANGLE_SIDES, load_geo, rectangle
-from dgplate.models.fvk import PREFIX, FvKSpec, build_fvk
+from dgplate.models.fvk.model import PREFIX, build_fvk
+from dgplate.models.fvk.spec import FvKSpec
 from dgplate.problems.registry import MODELS, model_spec
 from dgplate.problems.specs import problem_from_dict
 from dgplate.reference.fvk import (

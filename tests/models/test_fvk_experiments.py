@@ -15,7 +15,8 @@ from dgplate.compat import geometry_dofmap
 from dgplate.errors import InputError
 from dgplate.measure.wrinkles import dominant_wavelength, wrinkle_profile
 from dgplate.mesh.tagged import RECTANGLE_SIDES, rectangle
-from dgplate.models.fvk import FvKSpec, build_fvk
+from dgplate.models.fvk.model import build_fvk
+from dgplate.models.fvk.spec import FvKSpec
 from dgplate.schema import from_dict
 
 

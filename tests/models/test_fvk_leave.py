@@ -22,7 +22,8 @@ from dgplate.compat import Function
 from dgplate.errors import InputError
 from dgplate.measure.wrinkles import line_values
 from dgplate.mesh.tagged import load_geo
-from dgplate.models.fvk import FvKSpec, build_fvk
+from dgplate.models.fvk.model import build_fvk
+from dgplate.models.fvk.spec import FvKSpec
 from dgplate.solvers.stability import LOWEST
 
 H, T, DEPTH = 0.15, 0.02, 0.045  # mesh size, thickness, indentation (past the onset on H)

@@ -17,7 +17,8 @@ import pytest
 
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import rectangle
-from dgplate.models.fvk import FvKSpec, build_fvk
+from dgplate.models.fvk.model import build_fvk
+from dgplate.models.fvk.spec import FvKSpec
 
 T = 0.01
 PLATE: dict[str, Any] = {

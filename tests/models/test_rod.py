@@ -233,7 +233,7 @@ def test_closed_rod_longer_than_the_great_circle_stays_in_the_sphere(tmp_path):
     sphere. The penalty (1/2ε)∫(R − |u|)₋² keeps it inside up to O(ε) times the contact
     pressure; the energy falls at every step (quadratic–concave splitting).
     """
-    from dgplate.models.rod import RodSpec, start_extent
+    from dgplate.models.rod.spec import RodSpec, start_extent
 
     radius = start_extent(RodSpec(ends="closed", saddle=0.5), [0.0, 0.0, 0.0])
     assert 2 * math.pi * radius < 0.92  # the rod is 9 % longer than the great circle
@@ -256,7 +256,7 @@ def test_writhe_is_a_geometric_invariant_of_the_polygon():
     """Wr of a (2, 3) torus knot polygon: unchanged by rotation and scaling, negated by a mirror."""
     import numpy as np
 
-    from dgplate.models.rod import writhe
+    from dgplate.measure.rod_figures import writhe
 
     t = np.linspace(0.0, 2 * np.pi, 400, endpoint=False)
     knot = np.c_[(2 + np.cos(3 * t)) * np.cos(2 * t), (2 + np.cos(3 * t)) * np.sin(2 * t)]

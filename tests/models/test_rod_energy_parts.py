@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 
 import dgplate
-from dgplate.models.rod import RodData, RodSpec, clamp_measure, energy_split, rod_mesh
+from dgplate.models.rod.energy import RodData, clamp_measure, energy_split, rod_mesh
+from dgplate.models.rod.spec import RodSpec
 
 THETA, A = 0.7, 2.0
 

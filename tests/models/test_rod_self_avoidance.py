@@ -18,7 +18,7 @@ from helpers import PARITY_RTOL, QUIET, check_load_is_derivative, check_pair_sum
 
 import dgplate
 from dgplate.dg import tangent_point as tp
-from dgplate.models.rod import RodStart
+from dgplate.models.rod.start import RodStart
 
 
 def trefoil_cloud(segments: int, per: int = 2) -> tuple[tp.Cloud, float]:
@@ -194,7 +194,9 @@ def test_rod_load_is_the_derivative_of_the_rod_energy(ends):
     import dolfinx.fem.petsc
 
     from dgplate.dg.self_avoidance import CurveTangentPoint, SelfAvoidance
-    from dgplate.models.rod import RodSpec, closed_start, rod_mesh
+    from dgplate.models.rod.energy import rod_mesh
+    from dgplate.models.rod.spec import RodSpec
+    from dgplate.models.rod.start import closed_start
     from dgplate.solvers.rod_flow import tangent
 
     comm = MPI.COMM_WORLD

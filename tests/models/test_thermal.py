@@ -27,13 +27,9 @@ from dgplate.measure.hinges import (
     hinge_strip,
 )
 from dgplate.mesh.tagged import load_geo
-from dgplate.models.thermal import (
-    build_thermal,
-    calibrate_alpha,
-    cell_aspect_ratio,
-    hinge_penalty,
-)
-from dgplate.models.thermal_spec import ThermalSpec
+from dgplate.models.thermal.energy import cell_aspect_ratio, hinge_penalty
+from dgplate.models.thermal.model import build_thermal, calibrate_alpha
+from dgplate.models.thermal.spec import ThermalSpec
 from dgplate.problems.registry import MODELS, model_spec
 from dgplate.schema import describe
 from dgplate.solvers.flow import FlowSpec

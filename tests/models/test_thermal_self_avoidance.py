@@ -18,8 +18,8 @@ from test_thermal import STRIP_FLOW, W, strip_spec
 from dgplate.dg.self_avoidance import PlateTangentPoint
 from dgplate.errors import InputError
 from dgplate.measure.hinges import hinge_strip
-from dgplate.models.thermal import build_thermal
-from dgplate.models.thermal_spec import ThermalSpec
+from dgplate.models.thermal.model import build_thermal
+from dgplate.models.thermal.spec import ThermalSpec
 from dgplate.solvers.flow import FlowSpec
 
 TP = {"rho": 1e-3, "q": 4.5, "theta": 0.5}

@@ -1,54 +1,26 @@
-"""Heat-coupled thermal bilayer (docs/design.md §1, "Thermal bilayer"): ``model.name = "thermal"``.
+"""The thermal bilayer's model: :class:`ThermalModel`, :func:`build_thermal` and the α calibration.
 
-A bilayer whose layers expand differently with temperature θ has the spontaneous curvature
-
-    Z = −α θ I₂,     E[y] = ½∫ μ |II(y) − Z|²   (isometry constrained),
-
-where α (per unit temperature) is the curvature the thermal strain mismatch produces and μ the
-bending rigidity. Both are piecewise constant over cell groups: soft bilayer hinges (μ = 1,
-α > 0) between stiff passive panels (μ = 20, α = 0). The panels need α = 0, not only a large μ:
-with Z on a panel too, the panel pays ½μ|II − Z|² = μ|Z|² flat but only ½μ|Z|² rolled to a
-cylinder of curvature |Z| (isometries can match one principal curvature), so any μ lets it
-roll. θ solves the heat equation of :mod:`dgplate.coupling.heat`; the driver
-:class:`dgplate.coupling.thermal.ThermalBilayer` alternates heat steps and relaxations of the
-plate by the constrained gradient flow. The compiled energy references the temperature
-Function, so a heat step changes Z without recompiling anything.
-
-Rigid motions. A free net has none of its edges clamped; by default the flow then adds the L²
-product to its metric. ``anchor`` ties one panel to its reference placement by a weak spring
-½k∫_anchor |y − (x, 0)|² (quadratic: part of the constant matrix). The anchored panel stays
-flat and in place in every folded state, so the spring is (nearly) unloaded at equilibrium and
-biases no fold; it keeps positions in a fixed frame, and it makes the energy's Hessian definite
-on rigid motions, so the L² term may be left out (``flow.l2_metric = false``), which lets far
-panels fold as fast as near ones (the L² metric weighs a panel by its lever arm).
-
-This module holds the energy (pure UFL) and the model :class:`ThermalModel` that builds the
-driver (:func:`build_thermal`); the problem-file section is :mod:`dgplate.models.thermal_spec`.
+The model is described in the docstring of :mod:`dgplate.models.thermal`.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 from mpi4py import MPI
 
 import dolfinx.fem
 import numpy as np
-import ufl
 
 from dgplate import expressions
 from dgplate.compat import Mesh
 from dgplate.coupling.heat import HeatSolver
 from dgplate.coupling.thermal import Measure, Schedule, ThermalBilayer
 from dgplate.dg.energy import Energy
-from dgplate.dg.forms import (
-    FacetSets,
-    Penalty,
-    facet_sets,
-)
+from dgplate.dg.forms import FacetSets, Penalty, facet_sets
 from dgplate.errors import InputError
 from dgplate.measure.analysis import curvature_summary
 from dgplate.measure.hinges import (
@@ -56,112 +28,27 @@ from dgplate.measure.hinges import (
     EdgePlacement,
     FoldAngles,
     Hinge,
-    RegionIntegrals,
     edge_segments,
     hinge_geometry,
     hinge_strip,
 )
+from dgplate.measure.thermal_figures import OnShape
 from dgplate.mesh.tagged import TaggedMesh
-from dgplate.models.base import flat_identity, piecewise_constant
-from dgplate.models.bilayer import bilayer_energy
+from dgplate.models.base import piecewise_constant
 from dgplate.models.self_avoidance import add_tangent_point
-from dgplate.models.thermal_spec import ThermalSpec, is_plain_number
+from dgplate.models.thermal.energy import (
+    anchor_energy,
+    aspect_penalty,
+    cell_aspect_ratio,
+    hinge_penalty,
+    region_coefficient,
+    thermal_energy,
+)
+from dgplate.models.thermal.spec import ThermalSpec, is_plain_number
 from dgplate.solvers.driver import Observer
 from dgplate.solvers.flow import FlowSpec
-from dgplate.values import constant
 
 Initial = Callable[[np.ndarray], np.ndarray]
-
-
-# -- the energy --------------------------------------------------------------------------------
-def region_coefficient(tagged: TaggedMesh, values: Any, key: str, default: float = 0.0) -> Any:
-    """A coefficient that may vanish: a number or {cell group: number}.
-
-    A coefficient that may vanish: a number (everywhere, a Constant), or {cell group: number}
-    with ``default`` on the cells of no listed group (a DG0 field). Unlike μ it may be 0 or < 0.
-    """
-    if isinstance(values, int | float) and not isinstance(values, bool):
-        return constant(tagged.mesh, values)
-    if not isinstance(values, dict) or not values:
-        raise InputError(f"{key} must be a number or a table {{group = value}}, got {values!r}")
-    for name, value in values.items():
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise InputError(f"{key}.{name} must be a number, got {value!r}")
-    return tagged.group_function(values, default=default, key=key)
-
-
-def thermal_curvature(theta: Any, alpha: Any) -> Any:
-    """Z = −α θ I₂ (a UFL 2×2 expression; θ a Function, α a number or a DG0 field)."""
-    return -alpha * theta * ufl.Identity(2)
-
-
-def anchor_energy(y: Any, tagged: TaggedMesh, region: str, stiffness: float) -> ufl.Form:
-    """½k∫_region |y − (x₁, x₂, 0)|²: a weak spring holding a panel in its reference place."""
-    if not stiffness > 0:
-        raise InputError(f"anchor stiffness must be > 0, got {stiffness!r}")
-    mesh = tagged.mesh
-    # an indicator field rather than dx(tag): DOLFINx 0.9 wants one subdomain_data per
-    # integral type in a form, and the bending energy's dx carries none
-    indicator = tagged.group_function({region: 1.0}, default=0.0, key="model.anchor")
-    g, _ = flat_identity(mesh)
-    k = constant(mesh, stiffness)
-    form: ufl.Form = 0.5 * k * indicator * ufl.inner(y - g, y - g) * ufl.dx(domain=mesh)
-    return form
-
-
-def thermal_energy(
-    y: Any,
-    facets: FacetSets,
-    penalty: Penalty,
-    theta: Any,
-    alpha: Any,
-    mu: Any = None,
-    degree: int | None = None,
-    anchor: ufl.Form | None = None,
-) -> Energy:
-    """The bilayer energy with Z = −αθI, plus an optional anchor term.
-
-    The bilayer energy with Z = −αθI (flat clamped data where facets are clamped), plus an
-    optional anchor term (``anchor`` a UFL form from :func:`anchor_energy`, implicit).
-    """
-    g, Phi = flat_identity(facets.mesh)
-    Z = thermal_curvature(theta, alpha)
-    energy = bilayer_energy(y, facets, penalty, Z, mu, None, g, Phi, True, degree)
-    if anchor is not None:
-        energy.implicit = energy.implicit + anchor
-    return energy
-
-
-def hinge_penalty(width: float, n: int, m: int, base: Penalty | None = None) -> Penalty:
-    """IP penalties for hinge strips of m cells across (width/m) and 1/n along.
-
-    The dG forms take h_e as the cell diameter, which on a thin hinge cell is its long side
-    1/n, not the width w/m across which the hinge bends: the value-jump penalty γ₀h_e⁻³ is then
-    (aspect)³ too weak and the coupling term −∫[y]·{div T·n} (which rewards value jumps
-    linearly) makes the discrete hinge fold far too much (108° instead of 90° on a strip with
-    m = 8, n = 4). Scaling γ₀ by A³ and γ₁ by A, A = (1/n)/(w/m), restores the penalties a
-    facet-normal h_e would give. On the square panels this only stiffens the jumps more.
-    """
-    return aspect_penalty(max(1.0, (1.0 / n) / (width / m)), base)
-
-
-def aspect_penalty(aspect: float, base: Penalty | None = None) -> Penalty:
-    """γ₀ scaled by A³ and γ₁ by A (see :func:`hinge_penalty`)."""
-    base = base or Penalty()
-    return replace(base, gamma0=base.gamma0 * aspect**3, gamma1=base.gamma1 * aspect)
-
-
-def cell_aspect_ratio(tagged: TaggedMesh) -> float:
-    """The largest ratio of a cell's longest to its shortest edge (collective)."""
-    mesh = tagged.mesh
-    tdim = mesh.topology.dim
-    mesh.topology.create_connectivity(tdim, 1)
-    owned = mesh.topology.index_map(tdim).size_local
-    edges = mesh.topology.connectivity(tdim, 1)
-    cell_edges = edges.array[: edges.offsets[owned]].reshape(owned, -1)  # one cell type
-    lengths = mesh.h(1, cell_edges.reshape(-1).astype(np.int32)).reshape(owned, -1)
-    ratio = float((lengths.max(axis=1) / lengths.min(axis=1)).max(initial=1.0))
-    return float(mesh.comm.allreduce(ratio, op=MPI.MAX))
 
 
 def calibrate_alpha(
@@ -222,33 +109,6 @@ def calibrate_alpha(
         "factor": float(target / phi),
     }
     return alpha_cw * target / phi, info
-
-
-def cell_group_mean(tagged: TaggedMesh, expr: Any, region: str) -> float:
-    """Area-weighted mean of a scalar UFL expression over a cell group (collective)."""
-    area, total = RegionIntegrals(tagged)([ufl.as_ufl(1.0), expr], region)
-    return float(total / area) if area else float(np.nan)
-
-
-# -- the problem-file section --------------------------------------------------------------------
-class _OnShape:
-    """A measure whose forms need the deformation Function.
-
-    A measure whose forms need the deformation Function: built at the first call for a
-    given ``y`` (collective), then evaluated.
-    """
-
-    def __init__(
-        self, make: Callable[[dolfinx.fem.Function[np.float64]], Callable[[], dict[str, float]]]
-    ):
-        self.make = make
-        self._y: dolfinx.fem.Function[np.float64] | None = None
-        self._measure: Callable[[], dict[str, float]] | None = None
-
-    def __call__(self, y: dolfinx.fem.Function[np.float64]) -> dict[str, float]:
-        if self._measure is None or y is not self._y:
-            self._y, self._measure = y, self.make(y)
-        return self._measure()
 
 
 def _closure_target(target: list[Any], key: str) -> Callable[[np.ndarray], np.ndarray]:
@@ -400,7 +260,7 @@ class ThermalModel:
                 fold = FoldAngles(y, tagged, hinges, sense=sense)
                 return lambda: {f"angle_{k}": v for k, v in fold.degrees().items()}
 
-            measures.append(_OnShape(angles))
+            measures.append(OnShape(angles))
         if spec.closure:
             c = spec.closure
             target = _closure_target(c["target"], "model.closure.target")
@@ -409,10 +269,10 @@ class ThermalModel:
                 closure = ClosureGap(y, tagged, c["edge"], c["panel"], target)
                 return lambda: {"closure_gap": closure()}
 
-            measures.append(_OnShape(gap))
-        measures += [_OnShape(self._placement(e, p)) for e, p in spec.edges.items()]
+            measures.append(OnShape(gap))
+        measures += [OnShape(self._placement(e, p)) for e, p in spec.edges.items()]
         if spec.anchor:
-            measures.append(_OnShape(self._anchor_energy))
+            measures.append(OnShape(self._anchor_energy))
         if self.tangent_point is not None:
             measures.append(self.tangent_point)
         return measures
@@ -533,7 +393,16 @@ def _check_groups(spec: ThermalSpec, tagged: TaggedMesh) -> None:
 
 
 def build_thermal(spec: ThermalSpec, tagged: TaggedMesh) -> ThermalModel:
-    """Facets, μ, penalties and checked group names of a thermal problem (collective)."""
+    """Facets, μ, penalties and checked group names of a thermal problem (collective).
+
+    Args:
+        spec: the validated ``[model]`` section.
+        tagged: the mesh with its named cell and facet groups.
+
+    Returns:
+        The model: its facets, μ, penalties and heating schedule (α is calibrated
+        by the driver when ``model.alpha`` is ``calibrate``).
+    """
     _check_groups(spec, tagged)
     facets = facet_sets(tagged, clamped=spec.clamped, penalty_length=spec.penalty_length)
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
@@ -543,19 +412,3 @@ def build_thermal(spec: ThermalSpec, tagged: TaggedMesh) -> ThermalModel:
     aspect = cell_aspect_ratio(tagged) if aspect == "mesh" else float(aspect)
     penalty = aspect_penalty(aspect, spec.penalty_params) if aspect > 1 else spec.penalty_params
     return ThermalModel(spec, tagged, facets, penalty, mu)
-
-
-__all__ = [
-    "ThermalModel",
-    "ThermalSpec",
-    "anchor_energy",
-    "aspect_penalty",
-    "build_thermal",
-    "calibrate_alpha",
-    "cell_aspect_ratio",
-    "cell_group_mean",
-    "hinge_penalty",
-    "region_coefficient",
-    "thermal_curvature",
-    "thermal_energy",
-]

@@ -1,0 +1,147 @@
+"""Picture files: written atomically, rendered off-screen with pyvista, joined into a GIF.
+
+A picture is written under a temporary name and moved into place, so a reader never sees half a
+file. ``start_offscreen`` makes rendering possible without a display; ``offscreen_png`` is a
+pyvista plotter whose picture goes to a file; ``save_figure`` writes a matplotlib figure;
+``frames_to_gif`` makes an animation (rank 0 only).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+import pyvista
+
+
+@contextmanager
+def _plain_text() -> Iterator[None]:
+    """Render all text with FreeType.
+
+    Render all text with FreeType: VTK hands strings containing '|' to matplotlib's
+    mathtext, which reads '|' as a table-cell separator and drops it ("|D²y|" → "D²y").
+    """
+    from vtkmodules.vtkRenderingCore import vtkTextRenderer
+
+    renderer = vtkTextRenderer.GetInstance()
+    if renderer is None:
+        yield
+        return
+    previous = renderer.GetDefaultBackend()
+    renderer.SetDefaultBackend(vtkTextRenderer.FreeType)
+    try:
+        yield
+    finally:
+        renderer.SetDefaultBackend(previous)
+
+
+def start_offscreen() -> None:
+    """Make off-screen rendering possible without a display; call before ``pyvista.Plotter``.
+
+    VTK wheels have an EGL window: use it directly (saves an X probe and a warning). X-only VTK
+    builds (Debian's) need a virtual X server: start Xvfb when it is installed, otherwise fail
+    with a clear message instead of letting VTK abort the process. Does nothing when a display
+    is set; safe to call more than once.
+
+    Raises:
+        RuntimeError: No display, no EGL and no Xvfb.
+    """
+    if os.environ.get("DISPLAY") or "VTK_DEFAULT_OPENGL_WINDOW" in os.environ:
+        return
+    from vtkmodules import vtkRenderingOpenGL2
+
+    if hasattr(vtkRenderingOpenGL2, "vtkEGLRenderWindow"):
+        os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"
+        return
+    import shutil
+
+    if shutil.which("Xvfb") is None:
+        raise RuntimeError(
+            "off-screen rendering needs a display: this VTK has no EGL support and Xvfb is not "
+            "installed (apt install xvfb), or set output.png = false"
+        )
+    pyvista.start_xvfb()
+
+
+def _publish(tmp: str, path: Path) -> None:
+    """Move a finished temporary file into place with the usual permissions (mkstemp: 0600)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    os.chmod(tmp, 0o666 & ~mask)
+    os.replace(tmp, path)
+
+
+def save_figure(fig: Any, path: str | Path, dpi: int = 110) -> None:
+    """Write a matplotlib figure to the PNG ``path`` atomically, then close it."""
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=dpi, format="png")
+        _publish(tmp, path)
+    finally:
+        plt.close(fig)
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+@contextmanager
+def offscreen_png(path: str | Path, window_size: tuple[int, int]) -> Iterator[Any]:
+    """An off-screen pyvista plotter whose picture goes to ``path`` when the block ends.
+
+    The PNG is written under a temporary name and moved into place, so a reader never sees
+    half a file; nothing is written if the block raises.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    start_offscreen()
+    plotter = pyvista.Plotter(off_screen=True, window_size=list(window_size))
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
+    os.close(fd)
+    try:
+        yield plotter
+        with _plain_text():
+            plotter.screenshot(tmp)
+        _publish(tmp, path)
+    finally:
+        plotter.close()
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def frames_to_gif(
+    pngs: Sequence[str | Path],
+    gif_path: str | Path,
+    fps: float = 10.0,
+    comm: MPI.Comm | None = None,
+) -> None:
+    """Assemble PNG frames into a looping GIF (rank 0 of ``comm`` only; written atomically)."""
+    if (comm or MPI.COMM_WORLD).rank != 0:
+        return
+    from PIL import Image
+
+    if not pngs:
+        raise ValueError("frames_to_gif needs at least one frame")
+    frames = [Image.open(p).convert("RGB") for p in pngs]
+    palette = [f.quantize(colors=256, method=Image.Quantize.MEDIANCUT) for f in frames]
+    gif_path = Path(gif_path)
+    gif_path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{gif_path.stem}-", suffix=".gif", dir=gif_path.parent)
+    os.close(fd)
+    try:
+        palette[0].save(
+            tmp, save_all=True, append_images=palette[1:], duration=round(1000 / fps), loop=0
+        )
+        _publish(tmp, gif_path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)

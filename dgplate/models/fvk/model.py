@@ -1,0 +1,199 @@
+"""The FvK model: :class:`FvKModel` and :func:`build_fvk`, which make Newton's driver of a spec.
+
+The model is described in the docstring of :mod:`dgplate.models.fvk`.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import dolfinx.fem
+import dolfinx.mesh
+import numpy as np
+import ufl
+
+from dgplate import compat, expressions, values
+from dgplate.dg.forms import FacetSets
+from dgplate.errors import InputError
+from dgplate.measure.probes import DeflectionProbes, PointProbe
+from dgplate.mesh.tagged import TaggedMesh
+from dgplate.models.base import Initial
+from dgplate.models.fvk.energy import BCValues, fvk_energy, fvk_facet_sets, fvk_space, membrane_bcs
+from dgplate.models.fvk.spec import FvKSpec
+from dgplate.mpi import bounds
+from dgplate.solvers.driver import Observer
+from dgplate.solvers.newton import Continuation, Relaxation
+
+#: PETSc options prefix of the FvK driver: ``-dgplate_fvk_snes_monitor`` on the command line.
+PREFIX = "dgplate_fvk_"
+
+_HINT = "try more model.load_steps or other model.snes options"
+
+
+def _check_group_names(spec: FvKSpec, tagged: TaggedMesh) -> None:
+    for key in ("clamped", "simply_supported", "crease", "membrane"):
+        for group in getattr(spec, key):
+            tagged.facets(group, f"model.{key}")
+
+
+def _probe(spec: FvKSpec, mesh: dolfinx.mesh.Mesh[np.float64]) -> PointProbe:
+    """The probe of w_center: ``model.probe``, or the centre of the mesh's bounding box."""
+    if spec.probe is None:
+        lo, hi = bounds(mesh.comm, mesh.geometry.x[:, :2])
+        point = [float(c) for c in (lo + hi) / 2]
+    else:
+        point = [float(c) for c in spec.probe]
+    try:
+        return PointProbe(mesh, point)
+    except ValueError:
+        raise InputError(f"model.probe {point} lies outside the mesh") from None
+
+
+# -- hooks of the driver -------------------------------------------------------------------------
+class Deformation:
+    """The shape hook: y = (x₁ + u₁, x₂ + u₂, w) ∈ [DG_k]³ of a state (w, u)."""
+
+    def __init__(self, state: dolfinx.fem.Function[np.float64], degree: int) -> None:
+        mesh = state.function_space.mesh
+        space = dolfinx.fem.functionspace(mesh, ("DG", degree, (3,)))
+        w, u = ufl.split(state)
+        x = ufl.SpatialCoordinate(mesh)
+        y = ufl.as_vector([x[0] + u[0], x[1] + u[1], w])
+        self.y: dolfinx.fem.Function[np.float64] = dolfinx.fem.Function(space, name="deformation")
+        self._expr: dolfinx.fem.Expression[np.float64] = dolfinx.fem.Expression(
+            y, compat.interpolation_points(space.element)
+        )
+
+    def __call__(self) -> dolfinx.fem.Function[np.float64]:
+        """Y of the current state."""
+        self.y.interpolate(self._expr)
+        return self.y
+
+
+def start_from(state: dolfinx.fem.Function[np.float64], initial: Initial) -> None:
+    """W = y₃ and u = (y₁, y₂) − x of a deformation x ↦ y(x), as the first iterate."""
+    parts: list[Callable[[np.ndarray], np.ndarray]] = [
+        lambda x: initial(x)[2],
+        lambda x: initial(x)[:2] - x[:2],
+    ]
+    for index, part in enumerate(parts):
+        space, dofs = compat.collapse(state.function_space.sub(index))
+        function = dolfinx.fem.Function(space)
+        function.interpolate(part)
+        state.x.array[dofs] = function.x.array
+    state.x.scatter_forward()
+
+
+# -- the model -----------------------------------------------------------------------------------
+@dataclass
+class FvKModel:
+    """An FvK plate on a mesh: facets, the mixed space, in-plane conditions and the probe.
+
+    One driver at a time (the conditions' Constants and the options prefix are shared).
+    """
+
+    spec: FvKSpec
+    facets: FacetSets
+    space: dolfinx.fem.FunctionSpace[np.float64]
+    bcs: list[dolfinx.fem.DirichletBC[np.float64]]
+    bc_values: BCValues
+    probe: PointProbe
+    tip: dolfinx.fem.Function[np.float64] | None = None
+
+    def driver(
+        self, flow: object, observers: Sequence[Observer], initial: Initial | None
+    ) -> Continuation:
+        """Newton over the load schedule, from the unloaded flat plate or from ``initial``.
+
+        ``flow`` (the problem's [flow] section) is ignored: FvK is not a gradient flow.
+        """
+        state: dolfinx.fem.Function[np.float64] = dolfinx.fem.Function(self.space, name="state")
+        if initial is not None:
+            start_from(state, initial)
+        load_factor = values.constant(self.facets.mesh, 0.0)
+        return Continuation(
+            state,
+            fvk_energy(state, self.facets, self.spec, load_factor, self.tip),
+            self.bcs,
+            load_factor,
+            self.spec.load_factors,
+            PREFIX,
+            self.spec.snes,
+            bc_values=self.bc_values,
+            observers=observers,
+            shape=Deformation(state, self.spec.degree),
+            probes=DeflectionProbes(state, self.probe),
+            hint=_HINT,
+            stability=self.spec.stability_options,
+            relaxation=Relaxation(tau=self.spec.relaxation_tau) if self.spec.relaxation else None,
+        )
+
+    def figures(self, driver: Continuation) -> dict[str, Any]:
+        """The FvK numbers of the last converged load step (None before the first)."""
+        spec = self.spec
+        last = asdict(driver.history[-1]) if driver.history else {}
+        w_center = last.get("w_center")
+        return {
+            "load": last["load_factor"] * spec.pressure
+            if last and not isinstance(spec.pressure, str)
+            else None,
+            "pressure": spec.pressure,
+            "w_max": last.get("w_max"),
+            "w_center": w_center,
+            "probe": [float(c) for c in self.probe.point[0, :2]],
+            "w_center_over_thickness": None if w_center is None else w_center / spec.thickness,
+            "D": spec.D,
+        }
+
+    def lines(self, driver: Continuation) -> list[np.ndarray]:
+        """No lines are drawn on an FvK plate."""
+        return []
+
+
+def build_fvk(spec: FvKSpec, tagged: TaggedMesh) -> FvKModel:
+    """The FvK model of ``spec`` on ``tagged`` (checks the group names on the mesh).
+
+    Args:
+        spec: the validated ``[model]`` section.
+        tagged: the mesh with its named cell and facet groups.
+
+    Returns:
+        The model: its mixed space (u, w), energy, membrane conditions and the Newton
+        load path's settings.
+    """
+    _check_group_names(spec, tagged)
+    facets = fvk_facet_sets(tagged, spec)
+    space = fvk_space(tagged.mesh, spec.degree)
+    bcs, bc_values = membrane_bcs(space, tagged, spec)
+    tip = None
+    if spec.indenter is not None:
+        tip = tagged.group_function({spec.indenter: 1.0}, 0.0, key="model.indenter")
+        _check_indentation(spec, tagged.mesh)
+    return FvKModel(spec, facets, space, bcs, bc_values, _probe(spec, tagged.mesh), tip)
+
+
+def _check_indentation(spec: FvKSpec, mesh: dolfinx.mesh.Mesh[np.float64]) -> None:
+    """Warn (rank 0, stderr) when the indentation exceeds the height of the natural shape.
+
+    The height is max w₀ − min w₀ over the mesh nodes: pushed further, the cone would invert.
+    """
+    shape = spec.natural_shape
+    points = mesh.geometry.x[:, :2]
+    local = (
+        expressions.evaluate(shape, points, "model.natural_shape")
+        if isinstance(shape, str)
+        else np.full(len(points), float(shape))
+    )
+    local = np.broadcast_to(np.asarray(local, dtype=float), (len(points),))
+    lo, hi = bounds(mesh.comm, local[:, None])
+    height = float(hi[0] - lo[0])
+    if spec.indentation > height and mesh.comm.rank == 0:
+        print(
+            f"dgplate: warning: model.indentation = {spec.indentation:g} exceeds the height "
+            f"{height:g} of model.natural_shape: the cone would invert",
+            file=sys.stderr,
+            flush=True,
+        )
