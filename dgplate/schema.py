@@ -13,7 +13,7 @@ import dataclasses
 import math
 import types
 import typing
-from collections.abc import Collection
+from collections.abc import Collection, Mapping
 from typing import TYPE_CHECKING, Any, TypeGuard, TypeVar
 
 from dgplate.errors import InputError
@@ -48,8 +48,9 @@ class Check:
     """Constraints of a key beyond its type, checked by :func:`from_dict` and documented.
 
     Bounds (``ge``, ``gt``, ``le``, ``lt``) apply to numbers (a string of a union such as
-    ``float | Literal["h"]`` passes them), ``choices`` to any value, ``length`` to a list, and
-    ``each`` to every entry of a list or value of a table.
+    ``float | Literal["h"]`` passes them), ``choices`` to any value, ``length`` and
+    ``nonzero`` (not all entries zero) to a list, and ``each`` to every entry of a list or
+    value of a table.
     """
 
     ge: float | None = None
@@ -58,22 +59,32 @@ class Check:
     lt: float | None = None
     choices: tuple[Any, ...] | None = None
     length: int | None = None
+    nonzero: bool = False
     each: Check | None = None
     note: str = ""  # appended to a message about a value in ``retired``
     retired: tuple[Any, ...] = ()
 
     def validate(self, value: object, key: str) -> None:
         """Raise ``InputError`` (one line naming ``key``) if ``value`` breaks a constraint."""
-        if self.choices is not None and value not in self.choices:
+        broken = self._broken(value)
+        if broken:
             note = f" ({self.note})" if value in self.retired else ""
-            raise InputError(f"{key} must be one of {_listed(self.choices)}, got {value!r}{note}")
-        if is_number(value) and not self._within(value):
-            raise InputError(f"{key} must be {self._bounds()}, got {value!r}")
-        if isinstance(value, list) and self.length is not None and len(value) != self.length:
-            raise InputError(f"{key} must have {self.length} entries, got {value!r}")
+            raise InputError(f"{key} must {broken}, got {value!r}{note}")
         if self.each is not None:
             for where, entry in _entries(value, key):
                 self.each.validate(entry, where)
+
+    def _broken(self, value: object) -> str:
+        """The constraint ``value`` breaks (``be >= 1``, ``have 3 entries``), or ''."""
+        if self.choices is not None and value not in self.choices:
+            return f"be one of {_listed(self.choices)}"
+        if is_number(value) and not self._within(value):
+            return f"be {self._bounds()}"
+        if isinstance(value, list) and self.length is not None and len(value) != self.length:
+            return f"have {self.length} entries"
+        if isinstance(value, list) and self.nonzero and not any(value):
+            return "not be the zero vector"
+        return ""
 
     def _within(self, value: float) -> bool:
         return not (
@@ -103,6 +114,8 @@ class Check:
             parts.append(self._bounds())
         if self.length is not None:
             parts.append(f"{self.length} entries")
+        if self.nonzero:
+            parts.append("not all 0")
         if self.each is not None and self.each.describe():
             parts.append(f"each {self.each.describe()}")
         return ", ".join(parts)
@@ -146,6 +159,37 @@ def option(default: Any, doc: str, shown: str = "", **constraints: Any) -> Any:
 
 #: The default of a key that must be given (:func:`option`).
 REQUIRED: Any = object()
+
+
+def section(spec: type, name: str) -> Any:
+    """A field of a [model] spec that holds a driver's settings, given in their own section.
+
+    :func:`from_dict` builds it from the problem's table ``[name]`` (not from a key of the
+    model's table), e.g. FvK's ``[newton]``.
+
+    Args:
+        spec: the section's spec dataclass.
+        name: the section's name in problem files.
+
+    Returns:
+        The field, defaulting to ``spec()``.
+    """
+    return dataclasses.field(default_factory=spec, metadata={"section": name})
+
+
+def _field_of(cls: type, name: str) -> str:
+    """The field of a [model] spec that holds the section ``name``."""
+    return next(f.name for f in dataclasses.fields(cls) if f.metadata.get("section") == name)
+
+
+def driver_sections(cls: type) -> list[tuple[str, type]]:
+    """The sections of a [model] spec's drivers: ``(name, spec dataclass)`` (:func:`section`)."""
+    hints = typing.get_type_hints(cls)
+    return [
+        (f.metadata["section"], hints[f.name])
+        for f in dataclasses.fields(cls)
+        if "section" in f.metadata
+    ]
 
 
 def _type_name(tp: Any) -> str:
@@ -219,7 +263,13 @@ def _value(value: object, tp: Any, key: str, base: Any = None) -> Any:
     return value
 
 
-def from_dict(cls: type[T], data: object, section: str, base: T | None = None) -> T:
+def from_dict(
+    cls: type[T],
+    data: object,
+    section: str,
+    base: T | None = None,
+    problem: Mapping[str, Any] | None = None,
+) -> T:
     """Build ``cls`` from a problem-file table, checking keys, types and constraints.
 
     Fields whose type is a spec dataclass are parsed recursively from their tables (dotted
@@ -230,6 +280,7 @@ def from_dict(cls: type[T], data: object, section: str, base: T | None = None) -
         data: the table (None: every default).
         section: the dotted key of the table, as named in messages.
         base: an instance whose values the keys left out take (default: the fields' defaults).
+        problem: the whole problem, whose sections fill the fields made by :func:`section`.
 
     Returns:
         The spec. What involves several keys its ``__post_init__`` checks, or, in a spec that
@@ -239,10 +290,12 @@ def from_dict(cls: type[T], data: object, section: str, base: T | None = None) -
         data = {}
     if not isinstance(data, dict):
         raise InputError(f"[{section}] must be a table, got {data!r}")
-    fields = {f.name: f for f in dataclasses.fields(cls)}
+    fields = {f.name: f for f in dataclasses.fields(cls) if "section" not in f.metadata}
     hints = typing.get_type_hints(cls)
     _check_keys(cls, data, section)
     values = {name: getattr(base, name) for name in fields} if base is not None else {}
+    for name, settings in driver_sections(cls):
+        values[_field_of(cls, name)] = from_dict(settings, (problem or {}).get(name), name)
     for name, f in fields.items():
         if name not in data and name not in values and _required(f):
             raise InputError(f"{section}.{name} is required")
@@ -266,10 +319,14 @@ def _check_keys(cls: type, data: dict[str, Any], section: str) -> None:
     """Every key of ``data`` must be a field of ``cls``, and one its ``type`` takes.
 
     A spec with variants (``type = 'plane'``, ``'sphere'``, …) names in a class attribute
-    ``TYPE_KEYS`` the keys that only some types take: ``{type: (its own keys)}``.
+    ``TYPE_KEYS`` the keys that only some types take: ``{type: (its own keys)}``. A key that
+    moved to another section is named in a class attribute ``MOVED``: ``{key: new dotted key}``.
     """
-    fields = [f.name for f in dataclasses.fields(cls)]
+    fields = [f.name for f in dataclasses.fields(cls) if "section" not in f.metadata]
+    moved: dict[str, str] = getattr(cls, "MOVED", {})
     for key in data:
+        if key in moved:
+            raise InputError(f"{section}.{key} moved to {moved[key]}")
         if key not in fields:
             raise InputError(
                 f"unknown key {section}.{key} (known keys: {', '.join(sorted(fields))})"
@@ -316,17 +373,19 @@ def options(cls: type, prefix: str = "", given: object = None) -> list[tuple[str
     rows = []
     hints = typing.get_type_hints(cls)
     for f in dataclasses.fields(cls):
+        if "section" in f.metadata:
+            continue
         default = _default(f) if given is None else getattr(given, f.name)
         doc = str(f.metadata.get("doc", ""))
         constraints = f.metadata.get("check", Check()).describe()
         doc = f"{doc} ({constraints})" if constraints else doc
         nested = _spec_of(hints[f.name])
-        if nested is None:
-            rows.append((prefix + f.name, f.metadata.get("shown") or _toml(default), doc))
-            continue
-        if default is None:
-            rows.append((prefix + f.name, "{}", doc))
-        rows += options(nested, f"{prefix}{f.name}.", default)
+        given_spec = nested is not None and isinstance(default, nested)
+        if not given_spec:  # a key, or a nested spec that is not always there: a row
+            shown = "{}" if nested is not None and default is None else _toml(default)
+            rows.append((prefix + f.name, f.metadata.get("shown") or shown, doc))
+        if nested is not None:
+            rows += options(nested, f"{prefix}{f.name}.", default if given_spec else None)
     return rows
 
 
@@ -342,18 +401,18 @@ def _default(f: dataclasses.Field[Any]) -> Any:
 def describe(cls: type, section: str, skip: Collection[str] = ()) -> str:
     """The section's keys, defaults and documentation, as commented TOML (but ``skip``).
 
-    The keys of an optional nested spec (``obstacle``, by default none) are commented out.
+    The keys of a nested spec that is not there by default (``obstacle = {}``,
+    ``boundary_data = "flat"``) are commented out.
     """
     lines = [f"[{section}]"]
-    off: list[str] = []
-    for key, default, doc in options(cls):
+    rows = options(cls)
+    given = {key for key, _, _ in rows}
+    for key, default, doc in rows:
         if key.split(".")[0] in skip:
             continue
         lines.append(f"# {doc}")
-        commented = any(key.startswith(f"{parent}.") for parent in off)
+        commented = "." in key and key.rsplit(".", 1)[0] in given
         lines.append(f"{'# ' if commented else ''}{key} = {default}")
-        if default == "{}" and "." not in key:
-            off.append(key)
     return "\n".join(lines)
 
 

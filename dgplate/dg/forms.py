@@ -14,9 +14,9 @@ triangles and quadrilaterals: the same UFL expressions cover all cases.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, TypedDict, Unpack
+from typing import TypedDict, Unpack
 
 from mpi4py import MPI
 
@@ -31,7 +31,7 @@ from dgplate import compat, mpi, values
 from dgplate.compat import Constant, Form, Mesh, MeshTags
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh, local_entities, make_tags
-from dgplate.schema import from_dict, option
+from dgplate.schema import option
 
 #: Facet-set ids of the measures ``FacetSets.dS`` / ``FacetSets.ds``.
 SMOOTH, CREASE, CLAMPED, FREE = 1, 2, 3, 4
@@ -67,13 +67,6 @@ class Penalty:
         1.0, "p: 1 is the standard method, p > 1 over-penalises gradient jumps", ge=1, le=3
     )
 
-    @classmethod
-    def from_table(
-        cls, table: Mapping[str, Any], key: str = "model.penalty", defaults: Penalty | None = None
-    ) -> Penalty:
-        """The penalty of a problem file's table; missing keys keep ``defaults``' values."""
-        return from_dict(cls, dict(table), key, defaults)
-
     def constants(self, mesh: Mesh) -> tuple[Constant, Constant]:
         """γ₀ and γ₁ as Constants of ``mesh``, for the forms."""
         return values.constant(mesh, self.gamma0), values.constant(mesh, self.gamma1)
@@ -101,13 +94,6 @@ def cell_size(mesh: Mesh) -> Expr:
     field: compat.Function = dolfinx.fem.Function(space, name="h")
     field.x.array[space.dofmap.list[cells, 0]] = mesh.h(tdim, cells)
     return field
-
-
-def check_penalty_length(value: object, key: str = "model.penalty_length") -> str:
-    """``value`` if it is one of :data:`PENALTY_LENGTHS`, else a one-line InputError naming ``key``."""
-    if not (isinstance(value, str) and value in PENALTY_LENGTHS):
-        raise InputError(f"{key} must be one of {', '.join(PENALTY_LENGTHS)}, got {value!r}")
-    return value
 
 
 def penalty_lengths(mesh: Mesh) -> tuple[Expr, Expr]:
@@ -174,7 +160,6 @@ class FacetSets:
     penalty_length: str = "diameter"
 
     def __post_init__(self) -> None:
-        check_penalty_length(self.penalty_length, "penalty_length")
         self.dx = ufl.Measure("dx", domain=self.mesh)
         self.dS = ufl.Measure("dS", domain=self.mesh, subdomain_data=self.tags)
         self.ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.tags)
@@ -360,8 +345,7 @@ def bending_energy(
     ) * facets.dS_all()
 
     if facets.has_clamped:
-        if g is None or Phi is None:
-            raise InputError("clamped faces need boundary data g and Φ")
+        assert g is not None and Phi is not None, "clamped faces need boundary data g and Φ"
         bgrad = ufl.grad(y) - Phi
         bval = y - g
         energy += (

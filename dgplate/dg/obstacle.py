@@ -49,7 +49,7 @@ from dgplate import compat, expressions, mpi, values
 from dgplate.compat import Function, Mesh
 from dgplate.dg.energy import Energy
 from dgplate.errors import InputError
-from dgplate.schema import REQUIRED, from_dict, option
+from dgplate.schema import REQUIRED, option
 
 #: The obstacle types of ``model.obstacle.type``.
 TYPES = ("above", "below", "plane", "sphere")
@@ -87,14 +87,14 @@ class Obstacle:
     psi: float | str | None = option(
         None, "above, below: the height ψ, a number or a formula in x, y", shown="(required)"
     )
-    normal: list[float] = option([0.0, 0.0, 1.0], "plane: the normal n (not zero)", length=3)
+    normal: list[float] = option([0.0, 0.0, 1.0], "plane: the normal n", length=3, nonzero=True)
     point: list[float] = option([0.0, 0.0, 0.0], "plane: a point p of the plane", length=3)
     center: list[float] = option([0.0, 0.0, 0.0], "sphere: the centre c", length=3)
     radius: float = option(1.0, "sphere: the radius R", gt=0)
     side: str = option("outside", "sphere: which side the plate keeps to", choices=_SIDES)
 
     def validate(self, key: str) -> None:
-        """ψ of above and below (given, a valid formula); a plane's normal (not zero).
+        """ψ of above and below: given, and a valid formula.
 
         Args:
             key: the table's dotted key (``model.obstacle``), as named in messages.
@@ -106,13 +106,6 @@ class Obstacle:
                     "(a number or a formula in x, y)"
                 )
             expressions.check(self.psi, f"{key}.psi")
-        if self.type == "plane" and not any(self.normal):
-            raise InputError(f"{key}.normal must not be the zero vector")
-
-    @classmethod
-    def from_table(cls, table: object, key: str = "model.obstacle") -> Obstacle | None:
-        """The obstacle of a problem file's table; ``{}`` (no obstacle) gives None."""
-        return None if table == {} else from_dict(cls, table, key)
 
     @property
     def linear(self) -> bool:

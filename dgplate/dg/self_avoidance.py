@@ -41,7 +41,7 @@ from dgplate import compat, mpi
 from dgplate.compat import Array, Function
 from dgplate.dg import tangent_point as tp
 from dgplate.errors import InputError
-from dgplate.schema import from_dict, option
+from dgplate.schema import option
 
 
 @dataclass(frozen=True)
@@ -68,17 +68,6 @@ class SelfAvoidance:
         gt=0,
         lt=1,
     )
-
-    @classmethod
-    def from_table(
-        cls, table: object, key: str = "model.self_avoidance", curve: bool = False
-    ) -> SelfAvoidance | None:
-        """The parameters, or None for an empty table (no self-avoidance).
-
-        ``curve``: the table of a rod (:class:`CurveSelfAvoidance`).
-        """
-        spec = CurveSelfAvoidance if curve else SelfAvoidance
-        return None if table == {} else from_dict(spec, table, key)
 
 
 @dataclass(frozen=True)

@@ -32,6 +32,7 @@ from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.mesh.tagged import TaggedMesh, rectangle
 from dgplate.models import starts
 from dgplate.models.base import (
+    BoundaryData,
     PlateModel,
     clamped_data,
     continuation_path,
@@ -81,7 +82,7 @@ class KirchhoffSpec:
         None,
         "move the clamped data along α ∈ (0, 1] (docs/continuation.md): {} none. Path: boundary_data formulas in x, y, alpha, else (1 − α)·id + α·g",
     )
-    boundary_data: Literal["flat"] | dict[str, object] = option(
+    boundary_data: Literal["flat"] | BoundaryData = option(
         "flat",
         "clamped data: 'flat' (g = (x, y, 0), Φ = [I; 0]) or {g = [3 formulas], Phi = [[..], [..], [..]]} (Φ defaults to ∇g)",
     )
@@ -97,14 +98,15 @@ class KirchhoffSpec:
     def __post_init__(self) -> None:
         self._start = starts.Start.from_table(self.start)
         expressions.check(self.load, "model.load")
-        self._schedule = continuation_schedule(self.continuation, self.clamped, self.boundary_data)
+        data = self.boundary_data
+        self._schedule = continuation_schedule(
+            self.continuation, self.clamped, data if data == "flat" else data.formulas()
+        )
         moving = {"alpha": 1.0} if self.continuation else None
-        if isinstance(self.boundary_data, dict):
-            for name in ("g", "Phi"):
-                if name in self.boundary_data:
-                    expressions.check(
-                        self.boundary_data[name], f"model.boundary_data.{name}", moving
-                    )
+        if isinstance(data, BoundaryData):
+            expressions.check(data.g, "model.boundary_data.g", moving)
+            if data.Phi is not None:
+                expressions.check(data.Phi, "model.boundary_data.Phi", moving)
 
     @property
     def schedule(self) -> AlphaSchedule | None:

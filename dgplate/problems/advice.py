@@ -129,10 +129,8 @@ def _flat_data(value: Any, mesh: Mesh) -> bool:
     """Clamped data g = (x, y, 0), Φ = [I₂; 0]: 'flat', or numbers and formulas equal to it."""
     if value == "flat":
         return True
-    if not isinstance(value, dict) or "g" not in value:
-        return False
-    return _same_shape_and_values(value["g"], _FLAT["g"], mesh) and _same_shape_and_values(
-        value.get("Phi", _FLAT["Phi"]), _FLAT["Phi"], mesh
+    return _same_shape_and_values(value.g, _FLAT["g"], mesh) and _same_shape_and_values(
+        value.Phi or _FLAT["Phi"], _FLAT["Phi"], mesh
     )
 
 
@@ -187,13 +185,14 @@ def after_run(problem: Problem, driver: Any, summary: Mapping[str, Any], area: f
     """Warnings once the driver has stopped (before it is destroyed).
 
     Warnings once the driver has stopped (before it is destroyed): [flow] solver options
-    and FvK's ``model.snes`` options that PETSc never read, and a final state far from an
+    and FvK's ``newton.snes`` options that PETSc never read, and a final state far from an
     isometry (``area`` = |Ω|).
     """
     unused = unused_solver_options(problem.flow.solver, driver)
-    snes = getattr(problem.model, "snes", None)
+    newton = getattr(problem.model, "newton", None)
+    snes = getattr(newton, "snes", None)
     if snes:
-        unused += unused_solver_options(snes, driver, "model.snes")
+        unused += unused_solver_options(snes, driver, "newton.snes")
     return unused + advise_result(summary, area)
 
 
@@ -220,7 +219,7 @@ def advise_result(summary: Mapping[str, Any], area: float = 1.0) -> list[str]:
 def unused_solver_options(
     options: Mapping[str, Any], driver: Any, key: str = "flow.solver"
 ) -> list[str]:
-    """Warnings for ``flow.solver`` (or ``model.snes``: ``key``) options PETSc never read.
+    """Warnings for ``flow.solver`` (or ``newton.snes``: ``key``) options PETSc never read.
 
     Warnings for the keys of ``options`` that PETSc never read (misspelt, or not used by the
     chosen solver); collective. Call after the run: MUMPS reads its options only at the first

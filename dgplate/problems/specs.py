@@ -1,5 +1,7 @@
 """Problem descriptions: TOML files with the sections [mesh], [model], [flow], [output].
 
+A model whose driver has settings of its own adds their section (FvK's [newton]).
+
 ``load_problem(path, overrides)`` reads a file, applies ``--set dotted.key=value`` overrides and
 validates every section before anything is computed or written. The model section is checked
 by the model named in ``model.name`` (see :mod:`dgplate.problems.registry`).
@@ -15,7 +17,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from dgplate.errors import InputError, read_user_text
-from dgplate.schema import Check, from_dict, option, require_finite
+from dgplate.schema import Check, driver_sections, from_dict, option, require_finite
 from dgplate.solvers.flow import FlowSpec
 
 SECTIONS = ("mesh", "model", "flow", "output")
@@ -129,13 +131,18 @@ _BARE = re.compile(r"^[A-Za-z_][A-Za-z0-9_./+-]*$")
 
 def parse_override(text: str) -> tuple[list[str], Any]:
     """``'flow.tau=0.1'`` → (['flow', 'tau'], 0.1). Values are TOML; bare words are strings."""
-    if "=" not in text:
-        raise InputError(f"malformed --set {text!r}: expected dotted.key=value")
-    key, value = (part.strip() for part in text.split("=", 1))
-    if not _KEY.match(key) or "." not in key:
-        raise InputError(f"malformed --set {text!r}: the key must be section.name, e.g. flow.tau")
-    if value == "":
-        raise InputError(f"malformed --set {text!r}: no value after '='")
+    key, equals, value = (part.strip() for part in text.partition("="))
+    problem = (
+        "expected dotted.key=value"
+        if not equals
+        else "the key must be section.name, e.g. flow.tau"
+        if not _KEY.match(key) or "." not in key
+        else "no value after '='"
+        if value == ""
+        else ""
+    )
+    if problem:
+        raise InputError(f"malformed --set {text!r}: {problem}")
     try:
         parsed = tomllib.loads(f"v = {value}")["v"]
     except tomllib.TOMLDecodeError as err:
@@ -233,10 +240,12 @@ def problem_from_dict(data: dict[str, Any], name: str, overrides: Overrides = ()
             "every key and its default)"
         )
     for section in data:
-        if section not in SECTIONS:
-            raise InputError(f"unknown section [{section}] (known: {', '.join(SECTIONS)})")
         require_finite(data[section], section)
-    model = model_spec(data.get("model"))
+    model = model_spec(data.get("model"), data)
+    known = [*SECTIONS, *(name for name, _ in driver_sections(type(model)))]
+    for section in data:
+        if section not in known:
+            raise InputError(f"unknown section [{section}] (known: {', '.join(known)})")
     MODELS[model.name].reject_ignored(data, model.name)
     mesh = from_dict(MeshSpec, data.get("mesh"), "mesh")
     flow = from_dict(FlowSpec, data.get("flow"), "flow")
@@ -275,6 +284,7 @@ def sections(model: str) -> list[tuple[str, type]]:
 
     entry = MODELS[model]
     mesh = [] if entry.mesh else [("mesh", MeshSpec)]  # a rod builds its own mesh
-    every = [*mesh, ("model", entry.spec), ("flow", FlowSpec), ("output", OutputSpec)]
+    drivers = driver_sections(entry.spec)
+    every = [*mesh, ("model", entry.spec), *drivers, ("flow", FlowSpec), ("output", OutputSpec)]
     # a section the model ignores as a whole (FvK's [flow]) is not part of its files
     return [(name, spec) for name, spec in every if "" not in entry.ignored_keys(name)]

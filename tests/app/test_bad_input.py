@@ -124,7 +124,10 @@ BAD_INPUT = {
         ("model.Z={nogroup=1.0}",), "error: model.Z: unknown cell group 'nogroup'", BILAYER
     ),
     "negative Gauss penalty": Case(
-        ("model.gauss_penalty=-1",), "model.gauss_penalty must be a number >= 0, got -1", BILAYER
+        ("model.gauss_penalty=-1",), "model.gauss_penalty must be >= 0, got -1", BILAYER
+    ),
+    "fvk key of the driver in [model]": Case(
+        ("model.load_steps=3",), "model.load_steps moved to newton.load_steps", FVK
     ),
     "fvk unknown indenter": Case(
         ("model.indenter='tip'",), "error: model.indenter: unknown cell group 'tip'", FVK
@@ -176,18 +179,18 @@ BAD_INPUT = {
         "factorization type ILU",
     ),
     "fvk unknown snes type": Case(
-        ("model.snes={snes_type='bogus'}",),
-        "model.snes: PETSc refused the options: Unable to find requested SNES type bogus",
+        ("newton.snes={snes_type='bogus'}",),
+        "newton.snes: PETSc refused the options: Unable to find requested SNES type bogus",
         FVK,
     ),
     "fvk unknown pc type": Case(
-        ("model.snes={pc_type='bogus'}",),
-        "model.snes: PETSc refused the options: Unable to find requested PC type bogus",
+        ("newton.snes={pc_type='bogus'}",),
+        "newton.snes: PETSc refused the options: Unable to find requested PC type bogus",
         FVK,
     ),
     "fvk unknown factor package": Case(
-        ("model.snes={pc_factor_mat_solver_type='nosuchpkg'}",),
-        "model.snes: PETSc refused the options: Could not locate solver type nosuchpkg",
+        ("newton.snes={pc_factor_mat_solver_type='nosuchpkg'}",),
+        "newton.snes: PETSc refused the options: Could not locate solver type nosuchpkg",
         FVK,
     ),
     # -- non-finite numbers ---------------------------------------------------------------------
@@ -266,7 +269,8 @@ BAD_INPUT = {
     ),
     # -- the start (model.start) ----------------------------------------------------------------
     "start of unknown type": Case(
-        ("model.start={type='cone'}",), "model.start must be 'flat' or a table {type = 'flat'"
+        ("model.start={type='cone'}",),
+        "model.start.type must be one of flat, arc, formula, elastica, got 'cone'",
     ),
     "start arc without radius": Case(
         ("model.start={type='arc'}",), "model.start.radius is required for type 'arc'"
@@ -595,15 +599,19 @@ def test_warning_adaptive_key_without_adaptive_tau(tmp_path, capsys):
 
 @pytest.mark.mpi
 def test_warning_unused_snes_option(tmp_path, capsys):
-    """FvK's model.snes is checked as flow.solver is: a misspelt option is named."""
+    """FvK's newton.snes is checked as flow.solver is: a misspelt option is named."""
     code, warnings = run_warned(
-        tmp_path, capsys, FVK, "model.snes={snes_rtoll=1e-8, snes_rtol=1e-9}", "model.load_steps=1"
+        tmp_path,
+        capsys,
+        FVK,
+        "newton.snes={snes_rtoll=1e-8, snes_rtol=1e-9}",
+        "newton.load_steps=1",
     )
     assert code == 0
     if MPI.COMM_WORLD.rank == 0:
         assert len(warnings) == 1, warnings
         assert (
-            "model.snes.snes_rtoll was never read by PETSc (options prefix -dgplate_fvk_)"
+            "newton.snes.snes_rtoll was never read by PETSc (options prefix -dgplate_fvk_)"
             in (warnings[0])
         )
     else:

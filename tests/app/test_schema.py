@@ -39,6 +39,7 @@ class Spec:
     tau: float | Literal["h"] = option("h", "τ or 'h'", gt=0)
     cells: list[int] = option([4, 4], "cells", length=2, each=Check(ge=1))
     table: dict[str, float] = option({}, "numbers by name", each=Check(gt=0))
+    direction: list[float] = option([1.0, 0.0], "a direction", length=2, nonzero=True)
     part: Part = option(Part(gamma=3.0), "a nested spec")
     inner: Inner | None = option(None, "an optional nested spec")
 
@@ -60,6 +61,7 @@ class Spec:
         ({"cells": [4, 0]}, "s.cells[1] must be >= 1, got 0"),
         ({"table": {"a": 0.0}}, "s.table.a must be > 0, got 0.0"),
         ({"table": {"a": "x"}}, "s.table.a must be float, got 'x' (str)"),
+        ({"direction": [0, 0.0]}, "s.direction must not be the zero vector, got [0, 0.0]"),
         ({"part": {"power": 5}}, "s.part.power must be in [1, 3], got 5"),
         ({"part": {"gama": 1.0}}, "unknown key s.part.gama (known keys: gamma, power)"),
         ({"part": 3}, "s.part must be a table, got 3 (int)"),
@@ -87,6 +89,7 @@ def test_the_constraints_are_documented_and_the_schema_is_toml():
     assert rows["solver"] == ('"lu"', "a solver (one of: lu, cg)")
     assert rows["rate"][1] == "a rate (in (0, 1])"
     assert rows["cells"] == ("[4, 4]", "cells (2 entries, each >= 1)")
+    assert rows["direction"] == ("[1.0, 0.0]", "a direction (2 entries, not all 0)")
     assert rows["part.gamma"] == ("3.0", "a penalty (> 0)")  # the outer spec's default
     assert "part" not in rows and rows["inner"][0] == "{}"
     assert rows["inner.kind"] == ("(required)", "the kind (one of: a, b)")

@@ -22,6 +22,7 @@ import pytest
 from dgplate.dg.forms import Penalty, facet_sets
 from dgplate.measure.hinges import hinge_strip
 from dgplate.mesh.tagged import rectangle
+from dgplate.models.base import BoundaryData
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.fvk.energy import fvk_bending_energy
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
@@ -79,8 +80,8 @@ def signature(build, spec, tagged) -> str:
     return build(spec, tagged).energy(deformation(tagged)).total.signature()
 
 
-BOUNDARY = {"g": ["x", "y", 0.0], "Phi": [[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]]}
-SHIFTED = {"g": ["x", "y", 0.5], "Phi": [[1.0, 0.0], [0.0, 1.0], [0.1, 0.0]]}
+BOUNDARY = BoundaryData(["x", "y", 0.0], [[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])
+SHIFTED = BoundaryData(["x", "y", 0.5], [[1.0, 0.0], [0.0, 1.0], [0.1, 0.0]])
 
 
 @pytest.mark.parametrize(

@@ -87,7 +87,7 @@ def test_plate_load_is_the_derivative_of_the_plate_energy(comm):
     V = dolfinx.fem.functionspace(mesh, ("DG", 2, (3,)))
     y = dolfinx.fem.Function(V)
     y.interpolate(rolled)
-    params = SelfAvoidance.from_table({"rho": 2.0, "theta": 0.0})
+    params = SelfAvoidance(rho=2.0, theta=0.0)
     term = PlateTangentPoint(y, params)
     direction = dolfinx.fem.Function(V)
     direction.interpolate(lambda x: np.vstack([np.sin(3 * x[1]), x[0] * x[1], np.cos(2 * x[0])]))

@@ -105,7 +105,7 @@ def _box(tau):
 
     box = Path(__file__).resolve().parents[2] / "demos" / "problems" / "box_folding.toml"
     overrides = ["mesh.parameters.n=2", "mesh.parameters.m=2", "model.alpha=1.0"]
-    overrides += ["model.flow_steps=3", f"flow.tau={tau}", "flow.checkpoint_every=0"]
+    overrides += ["schedule.flow_steps=3", f"flow.tau={tau}", "flow.checkpoint_every=0"]
     problem = load_problem(box, overrides)
     tagged = build_mesh(problem.mesh, MPI.COMM_WORLD)
     driver = MODELS["thermal"].build(problem.model, tagged).driver(problem.flow, [], None)
