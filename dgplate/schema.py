@@ -11,6 +11,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import tomllib
 import types
 import typing
 from collections.abc import Collection, Mapping
@@ -402,7 +403,8 @@ def describe(cls: type, section: str, skip: Collection[str] = ()) -> str:
     """The section's keys, defaults and documentation, as commented TOML (but ``skip``).
 
     The keys of a nested spec that is not there by default (``obstacle = {}``,
-    ``boundary_data = "flat"``) are commented out.
+    ``boundary_data = "flat"``) and defaults that are no TOML value (``(required)``) are
+    commented out: the output is a valid problem file.
     """
     lines = [f"[{section}]"]
     rows = options(cls)
@@ -411,9 +413,18 @@ def describe(cls: type, section: str, skip: Collection[str] = ()) -> str:
         if key.split(".")[0] in skip:
             continue
         lines.append(f"# {doc}")
-        commented = "." in key and key.rsplit(".", 1)[0] in given
+        commented = ("." in key and key.rsplit(".", 1)[0] in given) or not _is_toml(default)
         lines.append(f"{'# ' if commented else ''}{key} = {default}")
     return "\n".join(lines)
+
+
+def _is_toml(text: str) -> bool:
+    """Whether ``text`` is a TOML value (a default shown as text, e.g. ``(required)``, is not)."""
+    try:
+        tomllib.loads(f"v = {text}")
+    except tomllib.TOMLDecodeError:
+        return False
+    return True
 
 
 def _toml(value: object) -> str:

@@ -9,7 +9,10 @@ from typing import Literal
 
 import pytest
 
+from dgplate.cli import main
 from dgplate.errors import InputError
+from dgplate.problems.registry import MODELS
+from dgplate.problems.specs import SECTIONS, problem_from_dict
 from dgplate.schema import REQUIRED, Check, describe, from_dict, option, options
 
 
@@ -98,3 +101,14 @@ def test_the_constraints_are_documented_and_the_schema_is_toml():
     parsed = tomllib.loads(text)["s"]
     assert parsed["part"] == {"gamma": 3.0, "power": 1.0} and parsed["inner"] == {}
     assert from_dict(Spec, parsed, "s") == Spec()
+
+
+@pytest.mark.parametrize("model", sorted(MODELS))
+def test_the_schema_of_every_model_is_a_problem_file_of_its_defaults(model, capsys):
+    """`dgplate schema --model NAME` prints TOML that validates: every section, every default."""
+    assert main(["schema", "--model", model]) == 0
+    data = tomllib.loads(capsys.readouterr().out)
+    problem = problem_from_dict(data, "defaults")
+    assert problem.model.name == model
+    driver_section = {"fvk": "newton", "thermal": "schedule"}.get(model)
+    assert (driver_section in data) if driver_section else set(data) <= set(SECTIONS)

@@ -141,10 +141,12 @@ class FvKSpec:
     penalty: Penalty = option(PENALTY, "IP penalties γ₀ (h⁻³[w]²) and γ₁ (h⁻ᵖ[∇w]²)")
     penalty_length: str = option("diameter", PENALTY_LENGTH_HELP, choices=PENALTY_LENGTHS)
     probe: list[float] | None = option(
-        None, "point [x, y] for w_center (default: bounding-box centre)", length=2
+        None, "point [x, y] for w_center", shown="(the bounding-box centre)", length=2
     )
     indenter: str | None = option(
-        None, "cell group pushed down rigidly by the indentation (w − w₀ = −λδ there, penalty)"
+        None,
+        "cell group pushed down rigidly by the indentation (w − w₀ = −λδ there, penalty)",
+        shown="(none)",
     )
     indentation: float = option(0.0, "indentation depth δ of the indenter at full load", ge=0)
     indenter_stiffness: float = option(
