@@ -20,7 +20,7 @@ or the flat one, anew):
         --json benchmarks/results/fvk_one_sided_nested.json
 
 With ``--relaxation TAU`` every solve is the energy-decreasing proximal gradient flow of
-``model.relaxation`` (first pseudo-time step TAU) followed by Newton, so the push along the
+``newton.relaxation`` (first pseudo-time step TAU) followed by Newton, so the push along the
 unstable mode slides down to a stable state instead of returning to the flat one:
 
     python benchmarks/fvk_one_sided.py --relaxation 1e6 --cells 16 24 --thickness 0.005 0.0035 \
@@ -43,7 +43,7 @@ from dgplate.compat import Function
 from dgplate.measure.wrinkles import line_values, wrinkle_profile
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk.model import build_fvk
-from dgplate.models.fvk.spec import FvKSpec
+from dgplate.models.fvk.spec import FvKSpec, NewtonSpec
 from dgplate.solvers.stability import LOWEST
 
 DISTANCES = (0.0, 0.05, 0.1, 0.2, 0.6)
@@ -84,7 +84,7 @@ def run(
     """One sheet: its path, wavelengths and amplitudes at :data:`DISTANCES` (collective).
 
     From ``initial`` (at full load, one step, no push) when given; also returns the final
-    state as the start of a finer mesh. ``tau`` > 0: the relaxation (``model.relaxation``)
+    state as the start of a finer mesh. ``tau`` > 0: the relaxation (``newton.relaxation``)
     with that first pseudo-time step.
     """
     tagged = rectangle(MPI.COMM_WORLD, [[0.0, 0.0], [1.0, 1.0]], [cells, cells])
@@ -94,10 +94,12 @@ def run(
         thickness=thickness,
         clamped=["right"],
         membrane={"left": [-pull, f"-{shortening}*(y - 0.5)"], "right": "fixed"},
-        load_steps=1 if initial else steps,
-        perturb_unstable=0.0 if initial else push * thickness,
-        relaxation=tau > 0,
-        relaxation_tau=tau or 1.0,
+        newton=NewtonSpec(
+            load_steps=1 if initial else steps,
+            perturb_unstable=0.0 if initial else push * thickness,
+            relaxation=tau > 0,
+            relaxation_tau=tau or 1.0,
+        ),
     )
     model = build_fvk(spec, tagged)
     driver = model.driver(None, [], initial)

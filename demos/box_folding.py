@@ -74,16 +74,16 @@ PROBLEM = Path(__file__).resolve().parent / "problems" / "box_folding.toml"
 SMALL = {
     "mesh.parameters.n": 2,
     "mesh.parameters.m": 2,
-    "model.heat_step": 7.05,
-    "model.flow_steps": 30,
+    "schedule.heat_step": 7.05,
+    "schedule.flow_steps": 30,
     "output.frames_every": 1,  # a picture after every heat step and hold: box_folding.gif
 }
 PAPER = {
     "mesh.parameters.n": 8,
     "mesh.parameters.m": 8,
-    "model.heat_step": 0.1,
-    "model.flow_steps": 20,
-    "model.hold_steps": 2000,
+    "schedule.heat_step": 0.1,
+    "schedule.flow_steps": 20,
+    "schedule.hold_steps": 2000,
     "output.frames_every": 20,
 }
 args = demo.arguments(

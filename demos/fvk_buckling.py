@@ -43,7 +43,7 @@ from dgplate import demo
 from dgplate.io.output import write_json
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk.model import build_fvk
-from dgplate.models.fvk.spec import FvKSpec
+from dgplate.models.fvk.spec import FvKSpec, NewtonSpec
 
 parser = demo.parser("fvk_buckling", "FvK: buckling of a compressed plate", "24 × 24, 60 steps")
 parser.add_argument("--fine", dest="paper", action="store_true", help=argparse.SUPPRESS)
@@ -76,8 +76,7 @@ spec = FvKSpec(
         "bottom": "normal",
         "top": "free",
     },
-    load_steps=steps,
-    stability=False,  # the eigenvalues are the subject of the next section
+    newton=NewtonSpec(load_steps=steps, stability=False),  # eigenvalues: the next section
 )
 model = build_fvk(spec, tagged)
 driver = model.driver(None, [], None)
@@ -112,7 +111,7 @@ for s, w in zip(shortening[1::3], w_t[1::3]):
 # D²Π, which on the flat branch is the bending operator minus the geometric stiffness of the
 # compression, ∫D κ(w):κ(v) − N_x ∫∂ₓw ∂ₓv: its lowest eigenvalue decreases with Δ and crosses
 # zero at the discrete buckling load. The driver computes it after every load step
-# (`model.stability`, on by default) and interpolates the crossing; with `perturb_unstable`
+# (`newton.stability`, on by default) and interpolates the crossing; with `perturb_unstable`
 # (here 0.5 t) the first state past the crossing is pushed along the unstable mode, and Newton
 # finds the buckled, stable branch.
 
@@ -122,9 +121,12 @@ perfect = replace(  # the same plate, without the imperfection, pushed past Δ_c
     spec,
     pressure=0.0,
     membrane={**spec.membrane, "right": [-factors[-1] * delta_cr, "free"]},
-    load_steps=list(factors / factors[-1]),
-    stability=True,
-    perturb_unstable=0.5 * T,
+    newton=replace(
+        spec.newton,
+        load_steps=list(factors / factors[-1]),
+        stability=True,
+        perturb_unstable=0.5 * T,
+    ),
 )
 model = build_fvk(perfect, tagged)
 driver = model.driver(None, [], None)

@@ -36,7 +36,7 @@
 # symmetric to round-off, the critical mode is a pair cos nθ, sin nθ (a double eigenvalue),
 # and the eigenvalue crosses zero at an indentation δ_c, located here by regula falsi on the
 # lowest eigenvalue. Then the state is pushed along the unstable mode
-# (`model.perturb_unstable`) and Newton finds the non-symmetric shape.
+# (`newton.perturb_unstable`) and Newton finds the non-symmetric shape.
 #
 # The interior-penalty terms scale with 1/h_e. With h_e the cell diameter (dgplate's default,
 # the published reproductions' choice) the dG bending energy is *not* coercive on this mesh:
@@ -52,7 +52,7 @@
 # to round-off for a discretely symmetric state.
 #
 # Newton from a push may fall back onto the symmetric saddle; `--leave A` instead leaves it
-# like `model.leave_unstable`: push by A × the deflection scale along the unstable mode, relax
+# like `newton.leave_unstable`: push by A × the deflection scale along the unstable mode, relax
 # by the energy-decreasing proximal flow (first pseudo-time step `--tau`), repeat until the
 # lowest eigenvalue is ≥ −10⁻³ × its scale on the path. The non-symmetric state is
 # characterised by its angular Fourier modes of w − w₀ₕ on the circles r = 0.3, 0.5, 0.7.
@@ -74,7 +74,7 @@ from dgplate.io.output import write_json
 from dgplate.measure.wrinkles import line_values
 from dgplate.mesh.tagged import load_geo
 from dgplate.models.fvk.model import build_fvk
-from dgplate.models.fvk.spec import FvKSpec
+from dgplate.models.fvk.spec import FvKSpec, NewtonSpec
 from dgplate.solvers.newton import Leave, Relaxation
 
 parser = demo.parser("fvk_cone", "FvK: an indented elastic cone", "h = 0.07")
@@ -121,10 +121,9 @@ spec = FvKSpec(
     clamped=["outer"],
     indenter="inner_ring",
     indentation=DEPTH,
-    load_steps=COARSE,
-    stability_modes=4,
     probe=[0.0, 0.0],
     penalty_length=args.penalty_length,
+    newton=NewtonSpec(load_steps=COARSE, stability_modes=4),
 )
 model = build_fvk(spec, tagged)
 
@@ -294,7 +293,7 @@ def push(driver, beyond: float) -> tuple[dict | None, np.ndarray | None]:
     driver.stability = type(driver.stability)(
         **{**vars(driver.stability), "perturb": args.push * T, "leave": leave}
     )
-    if args.relax:  # the energy-decreasing flow (model.relaxation) for the solve after the push
+    if args.relax:  # the energy-decreasing flow (newton.relaxation) for the solve after the push
         driver.relaxation = Relaxation(tau=args.relax)
     try:
         solve(driver, beyond)

@@ -39,7 +39,7 @@ from dgplate import demo
 from dgplate.io.output import write_json
 from dgplate.mesh.tagged import load_geo
 from dgplate.models.fvk.model import build_fvk
-from dgplate.models.fvk.spec import FvKSpec
+from dgplate.models.fvk.spec import FvKSpec, NewtonSpec
 from dgplate.reference.fvk import strip_centre_deflection
 
 parser = demo.parser("fvk_crease", "FvK: a plate with a crease", "h = 0.05")
@@ -70,8 +70,8 @@ for crease in (True, False):
         pressure=q_max,
         clamped=["left", "right"],
         crease=["crease"] if crease else [],
-        load_steps=factors,
         probe=[L / 2, WIDTH / 2],
+        newton=NewtonSpec(load_steps=factors),
     )
     name = "creased" if crease else "plain"
     driver = build_fvk(spec, tagged).driver(None, [], None)

@@ -23,7 +23,7 @@
 # 55 (2017); the boundary conditions here are our choice (docs/fvk_experiments.md).
 #
 # The flat sheet is a solution at every load (the energy is even in w); Newton leaves it only
-# when pushed: `model.perturb_unstable` moves the first state whose lowest Hessian eigenvalue is
+# when pushed: `newton.perturb_unstable` moves the first state whose lowest Hessian eigenvalue is
 # negative along the unstable mode. The wavelength is measured by FFT of w along the lines
 # x = d (`dgplate.measure.wrinkles`). Tension-field theory (Cerda & Mahadevan, Phys. Rev. Lett.
 # 90 (2003) 074302) predicts λ ~ (B/T)^{1/4} ℓ^{1/2} for wrinkles of length ℓ under the tension
@@ -44,7 +44,7 @@ from dgplate.io.output import write_json
 from dgplate.measure.wrinkles import wrinkle_profile
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk.model import build_fvk
-from dgplate.models.fvk.spec import FvKSpec
+from dgplate.models.fvk.spec import FvKSpec, NewtonSpec
 
 parser = demo.parser("fvk_one_sided", "FvK: one-sided compression", "32 × 32 cells")
 args = demo.parse(parser)
@@ -66,8 +66,7 @@ spec = FvKSpec(
     thickness=T,
     clamped=["right"],
     membrane={"left": [-PULL, f"-{SHORTENING}*(y - 0.5)"], "right": "fixed"},
-    load_steps=1,
-    perturb_unstable=0.1 * T,
+    newton=NewtonSpec(load_steps=1, perturb_unstable=0.1 * T),
 )
 model = build_fvk(spec, tagged)
 driver = model.driver(None, [], None)

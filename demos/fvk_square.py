@@ -46,7 +46,7 @@ from dgplate import demo
 from dgplate.io.output import write_json
 from dgplate.mesh.tagged import RECTANGLE_SIDES, rectangle
 from dgplate.models.fvk.model import build_fvk
-from dgplate.models.fvk.spec import FvKSpec
+from dgplate.models.fvk.spec import FvKSpec, NewtonSpec
 from dgplate.reference import fvk as ref
 
 LEVY_Q, LEVY_W = ref.LEVY_Q, ref.LEVY_W
@@ -100,7 +100,9 @@ for support, (published, series) in LINEAR.items():
         tagged = rectangle(comm, [[0, 0], [1, 1]], [n, n])
         q = 1e-4 * D
         sides: dict[str, Any] = {support: list(RECTANGLE_SIDES)}
-        spec = FvKSpec(E=E, nu=NU, thickness=T, pressure=q, load_steps=1, **sides)
+        spec = FvKSpec(
+            E=E, nu=NU, thickness=T, pressure=q, **sides, newton=NewtonSpec(load_steps=1)
+        )
         steps, figures = solve(tagged, spec)
         coeff = steps[-1].w_center * D / q
         linear_rows.append(
@@ -133,7 +135,7 @@ spec = FvKSpec(
     pressure=LEVY_Q[-1] * E * T**4,
     clamped=list(RECTANGLE_SIDES),
     membrane={side: "normal" for side in RECTANGLE_SIDES},
-    load_steps=[q / LEVY_Q[-1] for q in q_grid],
+    newton=NewtonSpec(load_steps=[q / LEVY_Q[-1] for q in q_grid]),
 )
 start = time.perf_counter()
 steps, summary = solve(tagged, spec, out / "levy")

@@ -40,7 +40,7 @@ from dgplate import demo
 PROBLEM = Path(__file__).resolve().parent / "problems" / "microcapsule.toml"
 # small by default (4 cells per flap side, 4 heat steps, about 15 s); the problem file has 8,
 # --paper 16
-SMALL = {"mesh.parameters.n": 4, "model.heat_step": 0.25, "model.hold_steps": 100}
+SMALL = {"mesh.parameters.n": 4, "schedule.heat_step": 0.25, "schedule.hold_steps": 100}
 args = demo.arguments(
     "microcapsule", "Self-folding microcapsule (after Stoychev, Puretskiy and Ionov).", "n = 16"
 )

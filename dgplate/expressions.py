@@ -136,9 +136,8 @@ def formula(text: str, mesh: Mesh, key: str, names: Names | None = None) -> floa
 def parse_vector(
     values: object, mesh: Mesh, key: str, size: int, names: Names | None = None
 ) -> Expr:
-    """A UFL vector from a list of numbers/formulas of the given size."""
-    if not isinstance(values, list | tuple) or len(values) != size:
-        raise InputError(f"{key} must be a list of {size} numbers or formulas, got {values!r}")
+    """A UFL vector from a list of numbers/formulas (of ``size`` entries: a spec's list)."""
+    assert isinstance(values, list | tuple) and len(values) == size
     return compat.as_vector([parse(v, mesh, f"{key}[{i}]", names) for i, v in enumerate(values)])
 
 

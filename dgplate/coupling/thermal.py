@@ -18,7 +18,6 @@ hold, each reported to the observers as a :class:`HeatStepRecord`.
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
@@ -91,20 +90,6 @@ class HeatStepRecord:
         )
 
 
-def _positive(value: Any, key: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise InputError(f"{key} must be a number, got {value!r}")
-    if not (value > 0 and math.isfinite(value)):
-        raise InputError(f"{key} must be a finite number > 0, got {value!r}")
-    return float(value)
-
-
-def _count(value: Any, key: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise InputError(f"{key} must be an integer >= 1, got {value!r}")
-    return value
-
-
 @dataclass(frozen=True)
 class Schedule:
     """When the driver steps the heat equation and when it holds.
@@ -112,7 +97,8 @@ class Schedule:
     Heat steps continue until ``end_time``; after each one the flow takes at most
     ``flow_steps`` steps. When the time reaches a hold time (``holds``, increasing, at most
     ``end_time``) the plate is relaxed at that temperature for at most ``hold_steps`` steps
-    with τ = ``hold_tau`` (None: the flow's τ), before the next heat step.
+    with τ = ``hold_tau`` (None: the flow's τ), before the next heat step. The values are
+    those of a checked [schedule] (:class:`dgplate.models.thermal.spec.ScheduleSpec`).
     """
 
     end_time: float
@@ -120,22 +106,6 @@ class Schedule:
     holds: tuple[float, ...] = ()
     hold_steps: int = 300
     hold_tau: float | None = None
-
-    def __post_init__(self) -> None:
-        _positive(self.end_time, "end_time")
-        _count(self.flow_steps, "flow_steps")
-        _count(self.hold_steps, "hold_steps")
-        if self.hold_tau is not None:
-            _positive(self.hold_tau, "hold_tau")
-        holds = tuple(float(t) for t in self.holds)
-        for i, t in enumerate(holds):
-            if not 0 <= t <= self.end_time:
-                raise InputError(
-                    f"holds must lie in [0, end_time = {self.end_time:g}], got {t:g} (entry {i})"
-                )
-            if i and not t > holds[i - 1]:
-                raise InputError(f"holds must increase strictly, got {list(holds)}")
-        object.__setattr__(self, "holds", holds)
 
 
 class ThermalBilayer(Driver):

@@ -14,10 +14,9 @@ triangles and quadrilaterals: the same UFL expressions cover all cases.
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass
-from typing import Any, TypedDict, Unpack
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TypedDict, Unpack
 
 from mpi4py import MPI
 
@@ -32,6 +31,7 @@ from dgplate import compat, mpi, values
 from dgplate.compat import Constant, Form, Mesh, MeshTags
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh, local_entities, make_tags
+from dgplate.schema import option
 
 #: Facet-set ids of the measures ``FacetSets.dS`` / ``FacetSets.ds``.
 SMOOTH, CREASE, CLAMPED, FREE = 1, 2, 3, 4
@@ -39,9 +39,6 @@ SMOOTH, CREASE, CLAMPED, FREE = 1, 2, 3, 4
 #: A coefficient of the forms: a number, a Constant, a DG0 field or a UFL expression.
 Coefficient = float | Expr
 
-
-#: The keys of a penalty table in a problem file (``model.penalty``).
-PENALTY_KEYS = ("gamma0", "gamma1", "gradient_power")
 
 #: The length scales h_e of the penalties (``model.penalty_length``), the default first.
 PENALTY_LENGTHS = ("diameter", "facet_normal")
@@ -60,34 +57,15 @@ class Penalty:
     layer along free edges from trading metric error for energy (docs/bilayer.md, cylinder).
     In the forms γ₀ and γ₁ are Constants (:meth:`constants`, values: no recompilation when
     they change), p a literal (it chooses the form, see :mod:`dgplate.values`). The limits
-    (γ₀, γ₁ > 0 and finite, 1 ≤ p ≤ 3) are checked here for every model.
+    (γ₀, γ₁ > 0 and finite, 1 ≤ p ≤ 3) are declared here for every model's
+    ``penalty`` table (:func:`dgplate.schema.from_dict`).
     """
 
-    gamma0: float = 5000.0
-    gamma1: float = 1100.0
-    gradient_power: float = 1.0
-
-    def __post_init__(self) -> None:
-        _check_penalty_limits(asdict(self), "penalty")
-
-    @classmethod
-    def from_table(
-        cls, table: Mapping[str, Any], key: str = "model.penalty", defaults: Penalty | None = None
-    ) -> Penalty:
-        """The penalty of a problem file's table; missing keys keep ``defaults``' values.
-
-        Unknown keys, values that are no numbers and values out of the limits are one-line
-        ``InputError``s naming ``key.<name>``.
-        """
-        unknown = sorted(set(table) - set(PENALTY_KEYS))
-        if unknown:
-            raise InputError(f"unknown key {key}.{unknown[0]} (known: {', '.join(PENALTY_KEYS)})")
-        for name, value in table.items():
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise InputError(f"{key}.{name} must be a number, got {value!r}")
-        values = {**asdict(defaults or cls()), **{k: float(v) for k, v in table.items()}}
-        _check_penalty_limits(values, key)
-        return cls(**values)
+    gamma0: float = option(5000.0, "γ₀, the weight of h⁻³[y]·[y]", gt=0)
+    gamma1: float = option(1100.0, "γ₁, the weight of h⁻ᵖ[∇y]:[∇y]", gt=0)
+    gradient_power: float = option(
+        1.0, "p: 1 is the standard method, p > 1 over-penalises gradient jumps", ge=1, le=3
+    )
 
     def constants(self, mesh: Mesh) -> tuple[Constant, Constant]:
         """γ₀ and γ₁ as Constants of ``mesh``, for the forms."""
@@ -98,17 +76,6 @@ class Penalty:
         power = self.gradient_power
         weight: Expr = gamma1 / (h if power == 1 else h**power)
         return weight
-
-
-def _check_penalty_limits(values: Mapping[str, float], key: str) -> None:
-    """γ₀, γ₁ > 0 and finite, 1 ≤ p ≤ 3: the one place of the penalty limits."""
-    for name in ("gamma0", "gamma1"):
-        value = values[name]
-        if not (value > 0 and math.isfinite(value)):
-            raise InputError(f"{key}.{name} must be a number > 0, got {value!r}")
-    power = values["gradient_power"]
-    if not 1.0 <= power <= 3.0:
-        raise InputError(f"{key}.gradient_power must be in [1, 3], got {power!r}")
 
 
 def cell_size(mesh: Mesh) -> Expr:
@@ -127,13 +94,6 @@ def cell_size(mesh: Mesh) -> Expr:
     field: compat.Function = dolfinx.fem.Function(space, name="h")
     field.x.array[space.dofmap.list[cells, 0]] = mesh.h(tdim, cells)
     return field
-
-
-def check_penalty_length(value: object, key: str = "model.penalty_length") -> str:
-    """``value`` if it is one of :data:`PENALTY_LENGTHS`, else a one-line InputError naming ``key``."""
-    if not (isinstance(value, str) and value in PENALTY_LENGTHS):
-        raise InputError(f"{key} must be one of {', '.join(PENALTY_LENGTHS)}, got {value!r}")
-    return value
 
 
 def penalty_lengths(mesh: Mesh) -> tuple[Expr, Expr]:
@@ -200,7 +160,6 @@ class FacetSets:
     penalty_length: str = "diameter"
 
     def __post_init__(self) -> None:
-        check_penalty_length(self.penalty_length, "penalty_length")
         self.dx = ufl.Measure("dx", domain=self.mesh)
         self.dS = ufl.Measure("dS", domain=self.mesh, subdomain_data=self.tags)
         self.ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=self.tags)
@@ -386,8 +345,7 @@ def bending_energy(
     ) * facets.dS_all()
 
     if facets.has_clamped:
-        if g is None or Phi is None:
-            raise InputError("clamped faces need boundary data g and Φ")
+        assert g is not None and Phi is not None, "clamped faces need boundary data g and Φ"
         bgrad = ufl.grad(y) - Phi
         bval = y - g
         energy += (

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import ClassVar
 
 import basix.ufl
 import dolfinx.fem
@@ -49,30 +49,13 @@ from dgplate import compat, expressions, mpi, values
 from dgplate.compat import Function, Mesh
 from dgplate.dg.energy import Energy
 from dgplate.errors import InputError
-from dgplate.schema import is_number
+from dgplate.schema import REQUIRED, option
 
 #: The obstacle types of ``model.obstacle.type``.
 TYPES = ("above", "below", "plane", "sphere")
-#: The keys of ``model.obstacle``: which each type takes besides ``type`` and ``epsilon``.
-_KEYS = {
-    "above": ("psi",),
-    "below": ("psi",),
-    "plane": ("normal", "point"),
-    "sphere": ("center", "radius", "side"),
-}
 _SIDES = ("outside", "inside")
 #: How the penalty enters the flow (``model.obstacle.treatment``).
 TREATMENTS = ("splitting", "active_set")
-
-
-def _vector(value: object, key: str) -> tuple[float, float, float]:
-    """Three finite numbers."""
-    if not isinstance(value, list) or len(value) != 3 or not all(is_number(v) for v in value):
-        raise InputError(f"{key} must be a list of 3 numbers, got {value!r}")
-    numbers = tuple(float(v) for v in value)
-    if not all(math.isfinite(v) for v in numbers):
-        raise InputError(f"{key} must be finite, got {value!r}")
-    return numbers[0], numbers[1], numbers[2]
 
 
 @dataclass(frozen=True)
@@ -84,60 +67,58 @@ class Obstacle:
     (``side = "outside"``) or ≤ R (``"inside"``). ``epsilon`` is the penalty parameter ε > 0.
     """
 
-    kind: str
-    epsilon: float
-    treatment: str = "splitting"
-    psi: float | str = 0.0
-    normal: tuple[float, float, float] = (0.0, 0.0, 1.0)
-    point: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    center: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    radius: float = 1.0
-    side: str = "outside"
+    #: The keys that only some types take (:func:`dgplate.schema.from_dict`).
+    TYPE_KEYS: ClassVar[dict[str, tuple[str, ...]]] = {
+        "above": ("psi",),
+        "below": ("psi",),
+        "plane": ("normal", "point"),
+        "sphere": ("center", "radius", "side"),
+    }
 
-    @classmethod
-    def from_table(cls, table: object, key: str = "model.obstacle") -> Obstacle | None:
-        """The obstacle of a problem file's table; ``{}`` (no obstacle) gives None.
+    type: str = option(
+        REQUIRED, "above: y₃ ≥ ψ, below: y₃ ≤ ψ, plane: n·(y − p) ≥ 0, sphere", choices=TYPES
+    )
+    epsilon: float = option(1e-4, "the penalty parameter ε of (1/2ε)∫(s)₋²", gt=0)
+    treatment: str = option(
+        "splitting",
+        "'splitting' (the convex part implicit, the concave part explicit) or 'active_set' (the implicit part on the last contact set only)",
+        choices=TREATMENTS,
+    )
+    psi: float | str | None = option(
+        None, "above, below: the height ψ, a number or a formula in x, y", shown="(required)"
+    )
+    normal: list[float] = option([0.0, 0.0, 1.0], "plane: the normal n", length=3, nonzero=True)
+    point: list[float] = option([0.0, 0.0, 0.0], "plane: a point p of the plane", length=3)
+    center: list[float] = option([0.0, 0.0, 0.0], "sphere: the centre c", length=3)
+    radius: float = option(1.0, "sphere: the radius R", gt=0)
+    side: str = option("outside", "sphere: which side the plate keeps to", choices=_SIDES)
 
-        Unknown types and keys, ε ≤ 0, malformed vectors, radii and formulas are one-line
-        ``InputError`` lines naming the key.
+    def validate(self, key: str) -> None:
+        """ψ of above and below: given, and a valid formula.
+
+        Args:
+            key: the table's dotted key (``model.obstacle``), as named in messages.
         """
-        if not isinstance(table, dict):
-            raise InputError(f"{key} must be a table {{type = ..., epsilon = ...}}, got {table!r}")
-        if not table:
-            return None
-        kind = table.get("type")
-        if kind not in TYPES:
-            raise InputError(f"{key}.type must be one of {', '.join(TYPES)}, got {kind!r}")
-        known = ("type", "epsilon", "treatment", *_KEYS[kind])
-        unknown = sorted(set(table) - set(known))
-        if unknown:
-            raise InputError(
-                f"unknown key {key}.{unknown[0]} for type '{kind}' (known: {', '.join(known)})"
-            )
-        epsilon = table.get("epsilon", 1e-4)
-        if not (is_number(epsilon) and epsilon > 0 and math.isfinite(epsilon)):
-            raise InputError(f"{key}.epsilon must be a number > 0, got {epsilon!r}")
-        treatment = table.get("treatment", "splitting")
-        if treatment not in TREATMENTS:
-            raise InputError(
-                f"{key}.treatment must be 'splitting' or 'active_set', got {treatment!r}"
-            )
-        data: dict[str, Any] = {"kind": kind, "epsilon": float(epsilon), "treatment": treatment}
-        data.update(_parse_geometry(kind, table, key))
-        return cls(**data)
+        if self.type in ("above", "below"):
+            if self.psi is None:
+                raise InputError(
+                    f"{key}.psi is required for type '{self.type}': the obstacle's height ψ "
+                    "(a number or a formula in x, y)"
+                )
+            expressions.check(self.psi, f"{key}.psi")
 
     @property
     def linear(self) -> bool:
         """Whether s(y) is affine in y (exact quadratic–concave splitting)."""
-        return self.kind != "sphere"
+        return self.type != "sphere"
 
     def distance(self, y: Expr, mesh: Mesh, key: str = "model.obstacle") -> Expr:
         """s(y): ≥ 0 where y is admissible, < 0 by the penetration depth (a UFL scalar)."""
-        if self.kind in ("above", "below"):
+        if self.type in ("above", "below"):
             height = _height(expressions.parse(self.psi, mesh, f"{key}.psi"), mesh)
-            gap: Expr = y[2] - height if self.kind == "above" else height - y[2]
+            gap: Expr = y[2] - height if self.type == "above" else height - y[2]
             return gap
-        if self.kind == "plane":
+        if self.type == "plane":
             norm = math.sqrt(sum(v * v for v in self.normal))
             n = values.constant(mesh, [v / norm for v in self.normal])
             p = values.constant(mesh, list(self.point))
@@ -185,7 +166,7 @@ class Obstacle:
         return Energy(implicit=implicit, explicit=explicit)
 
 
-def _squared_distance(y: Expr, center: tuple[float, float, float], mesh: Mesh) -> Expr:
+def _squared_distance(y: Expr, center: list[float], mesh: Mesh) -> Expr:
     """|y − c|², the sphere's isotropic stabilisation."""
     shift = y - values.constant(mesh, list(center))
     square: Expr = ufl.dot(shift, shift)
@@ -242,32 +223,3 @@ def _height(psi: float | Expr, mesh: Mesh) -> Expr:
     if isinstance(psi, float | ufl.constantvalue.ScalarValue):  # "0.2 + 0*x" folds to 0.2
         return values.constant(mesh, float(psi))
     return psi
-
-
-def _parse_geometry(kind: str, table: dict[str, Any], key: str) -> dict[str, Any]:
-    """The keys of one obstacle type, checked (ψ as a formula, vectors, radius, side)."""
-    if kind in ("above", "below"):
-        if "psi" not in table:
-            raise InputError(
-                f"{key}.psi is required for type '{kind}': the obstacle's height ψ "
-                "(a number or a formula in x, y)"
-            )
-        psi = table["psi"]
-        expressions.check(psi, f"{key}.psi")
-        return {"psi": float(psi) if is_number(psi) else psi}
-    if kind == "plane":
-        normal = _vector(table.get("normal", [0.0, 0.0, 1.0]), f"{key}.normal")
-        if math.sqrt(sum(v * v for v in normal)) == 0.0:
-            raise InputError(f"{key}.normal must not be the zero vector")
-        return {
-            "normal": normal,
-            "point": _vector(table.get("point", [0.0, 0.0, 0.0]), f"{key}.point"),
-        }
-    radius = table.get("radius", 1.0)
-    if not (is_number(radius) and radius > 0 and math.isfinite(radius)):
-        raise InputError(f"{key}.radius must be a number > 0, got {radius!r}")
-    side = table.get("side", "outside")
-    if side not in _SIDES:
-        raise InputError(f"{key}.side must be 'outside' or 'inside', got {side!r}")
-    center = _vector(table.get("center", [0.0, 0.0, 0.0]), f"{key}.center")
-    return {"center": center, "radius": float(radius), "side": side}

@@ -41,83 +41,48 @@ from dgplate import compat, mpi
 from dgplate.compat import Array, Function
 from dgplate.dg import tangent_point as tp
 from dgplate.errors import InputError
-from dgplate.schema import is_integer, is_number
-
-#: The keys of ``model.self_avoidance`` and their defaults.
-DEFAULTS: dict[str, float] = {
-    "rho": 1e-4,
-    "q": 4.5,
-    "theta": 0.5,
-    "quadrature_degree": 2,
-    "max_redo": 8,
-    "approach": 0.5,
-}
-#: The defaults of a curve's table: [BL]'s ρ = 0.1 of the twisted-circle experiment, an
-#: exponent q = 3 > 2 (self-avoiding for curves) and exact sums (a rod has few points).
-CURVE_DEFAULTS: dict[str, float] = {**DEFAULTS, "rho": 0.1, "q": 3.0, "theta": 0.0}
+from dgplate.schema import option
 
 
 @dataclass(frozen=True)
 class SelfAvoidance:
-    """A validated ``model.self_avoidance`` table: ρ·TP with exponent q.
+    """A validated ``model.self_avoidance`` table of a surface: ρ·TP with exponent q.
 
     ``theta``: the cluster tree's admissibility (0: exact all-pairs sums); ``max_redo``: how
     often a step may be redone with τ/2; ``approach``: a step is redone when the least distance
-    of non-neighbouring points falls below this fraction of its value before the step.
+    of non-neighbouring points falls below this fraction of its value before the step. q ≤ 4
+    is accepted for surfaces: a warning before the run says that such a q is not
+    self-avoiding (:func:`dgplate.problems.advice.before_run`).
     """
 
-    rho: float
-    q: float
-    theta: float
-    quadrature_degree: int
-    max_redo: int
-    approach: float
+    rho: float = option(1e-4, "the weight ρ of TP[y]", ge=0)
+    q: float = option(4.5, "the exponent (> 4 to avoid self-contact)", gt=2)
+    theta: float = option(
+        0.5, "the cluster tree's admissibility (0: exact all-pairs sums)", ge=0, lt=2
+    )
+    quadrature_degree: int = option(2, "the quadrature degree of the sums", ge=1)
+    max_redo: int = option(8, "how often a step may be redone with τ/2", ge=0)
+    approach: float = option(
+        0.5,
+        "redo a step when the least distance of non-neighbouring points falls below this fraction of its value before the step",
+        gt=0,
+        lt=1,
+    )
 
-    @classmethod
-    def from_table(
-        cls, table: object, key: str = "model.self_avoidance", curve: bool = False
-    ) -> SelfAvoidance | None:
-        """The parameters, or None for an empty table (no self-avoidance).
 
-        ``curve``: the table of a rod (:data:`CURVE_DEFAULTS`; q > 2 is self-avoiding).
-        """
-        if not isinstance(table, dict):
-            raise InputError(f"{key} must be a table {{rho = ..., q = ...}}, got {table!r}")
-        if not table:
-            return None
-        defaults = CURVE_DEFAULTS if curve else DEFAULTS
-        unknown = set(table) - set(defaults)
-        if unknown:
-            raise InputError(f"{key}: unknown keys {sorted(unknown)} (known: {sorted(defaults)})")
-        values = {**defaults, **table}
-        for name, value in values.items():
-            if not (is_number(value) and math.isfinite(value)):
-                raise InputError(f"{key}.{name} must be a finite number, got {value!r}")
-        cls._check(values, key, curve)
-        return cls(**{name: type(DEFAULTS[name])(v) for name, v in values.items()})  # type: ignore[arg-type]
+@dataclass(frozen=True)
+class CurveSelfAvoidance(SelfAvoidance):
+    """The table of a rod's self-avoidance.
 
-    @staticmethod
-    def _check(values: dict[str, Any], key: str, curve: bool = False) -> None:
-        """Ranges of the keys; q ≤ 4 is accepted for surfaces.
+    [BL]'s ρ = 0.1 of the twisted-circle experiment, an exponent q = 3 > 2 (self-avoiding for
+    curves) and exact sums (a rod has few points).
+    """
 
-        A warning before the run says that such a q is not self-avoiding
-        (:func:`dgplate.problems.advice.before_run`).
-        """
-        if values["rho"] < 0:
-            raise InputError(f"{key}.rho must be >= 0, got {values['rho']}")
-        if curve and values["q"] <= 2:
-            raise InputError(f"{key}.q must be > 2 (self-avoidance of curves), got {values['q']}")
-        if values["q"] <= 2:
-            raise InputError(
-                f"{key}.q must be > 2 (and > 4 to avoid self-contact), got {values['q']}"
-            )
-        if not 0 <= values["theta"] < 2:
-            raise InputError(f"{key}.theta must be in [0, 2), got {values['theta']}")
-        for name, least in (("quadrature_degree", 1), ("max_redo", 0)):
-            if not is_integer(values[name]) or values[name] < least:
-                raise InputError(f"{key}.{name} must be an integer >= {least}, got {values[name]}")
-        if not 0 < values["approach"] < 1:
-            raise InputError(f"{key}.approach must be in (0, 1), got {values['approach']}")
+    rho: float = option(0.1, "the weight ρ of TP[u]", ge=0)
+    q: float = option(3.0, "the exponent (> 2: self-avoiding for curves)", gt=2)
+    theta: float = option(
+        0.0, "the cluster tree's admissibility (0: exact all-pairs sums)", ge=0, lt=2
+    )
 
 
 def unit_normal(y: Expr) -> Expr:

@@ -77,10 +77,7 @@ class FoldAngles:
     """
 
     def __init__(self, y: Function, tagged: TaggedMesh, hinges: Sequence[Hinge], sense: int = 1):
-        if sense not in (1, -1):
-            raise InputError(f"fold-angle sense must be +1 or -1, got {sense!r}")
-        if not hinges:
-            raise InputError("FoldAngles needs at least one hinge")
+        assert sense in (1, -1) and hinges, "a sense ±1 and at least one hinge"
         self.y, self.hinges, self.sense = y, list(hinges), sense
         self._int = RegionIntegrals(tagged)
         x = compat.spatial_coordinate(tagged.mesh)

@@ -133,20 +133,8 @@ def rectangle(
 ) -> TaggedMesh:
     """A structured rectangle with facet groups left/right/bottom/top and cell group 'plate'."""
     (x0, y0), (x1, y1) = corners
-    if not (x1 > x0 and y1 > y0):
-        raise InputError(f"mesh.corners must be [[xmin, ymin], [xmax, ymax]], got {corners}")
-    if len(cells) != 2 or min(cells) < 1:
-        raise InputError(f"mesh.cells must be two positive integers, got {list(cells)}")
-    try:
-        ctype = dolfinx.mesh.CellType[cell_type]
-        diag = dolfinx.mesh.DiagonalType[diagonal]
-    except KeyError as err:
-        raise InputError(
-            f"mesh.cell_type must be 'triangle' or 'quadrilateral' and mesh.diagonal one of "
-            f"left/right/crossed, got {err.args[0]!r}"
-        ) from None
-    if ctype not in (dolfinx.mesh.CellType.triangle, dolfinx.mesh.CellType.quadrilateral):
-        raise InputError(f"mesh.cell_type must be 'triangle' or 'quadrilateral', not {cell_type}")
+    ctype = dolfinx.mesh.CellType[cell_type]
+    diag = dolfinx.mesh.DiagonalType[diagonal]
     mesh = dolfinx.mesh.create_rectangle(
         comm,
         [np.array([x0, y0]), np.array([x1, y1])],

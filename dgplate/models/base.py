@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Literal, Protocol
 
 import numpy as np
 import ufl
@@ -28,12 +28,13 @@ from dgplate.errors import InputError
 from dgplate.measure.analysis import l1_norms
 from dgplate.measure.creases import crease_polylines, fold_angle_summary
 from dgplate.mesh.tagged import TaggedMesh
-from dgplate.schema import is_matrix, is_number
-from dgplate.solvers.continuation import AlphaSchedule, ContinuationFlow
+from dgplate.schema import REQUIRED, Check, option
+from dgplate.solvers.continuation import AlphaSchedule, Continuation, ContinuationFlow
 from dgplate.solvers.driver import Driver, Observer
 from dgplate.solvers.flow import FlowSpec, GradientFlow, Initial
 
 __all__ = [
+    "BoundaryData",
     "DataPath",
     "Initial",
     "Model",
@@ -163,45 +164,39 @@ def flat_identity(mesh: Mesh) -> tuple[Expr, Expr]:
     return g, Phi
 
 
-def piecewise_constant(tagged: TaggedMesh, data: object, key: str) -> Expr:
+def piecewise_constant(tagged: TaggedMesh, data: float | dict[str, float], key: str) -> Expr:
     """μ-like data: a number (a Constant), or {cell group name: number} as a DG0 function.
 
-    Either way a value of the forms, not part of their code (:mod:`dgplate.values`).
+    Either way a value of the forms, not part of their code (:mod:`dgplate.values`). The
+    numbers are those of a checked spec (> 0); unknown group names are an error naming ``key``.
     """
-    if is_number(data):
-        if not data > 0:
-            raise InputError(f"{key} must be > 0, got {data}")
+    if not isinstance(data, dict):
         return values.constant(tagged.mesh, data)
-    if not isinstance(data, dict) or not data:
-        raise InputError(f"{key} must be a number or a table {{group = value}}, got {data!r}")
-    for name, value in data.items():
-        if not (is_number(value) and value > 0):
-            raise InputError(f"{key}.{name} must be a number > 0, got {value!r}")
     return tagged.group_function(data, key=key)
 
 
 def continuation_schedule(
-    table: dict[str, object], clamped: Sequence[str], data: object, key: str = "model.continuation"
+    continuation: Continuation | None, clamped: Sequence[str], data: object
 ) -> AlphaSchedule | None:
-    """The schedule of ``model.continuation`` (None if empty), checked against the data.
+    """The schedule of ``model.continuation`` (None without one), checked against the data.
 
     A continuation needs clamped faces and data other than 'flat' (the end of the path);
     formulas in ``alpha`` need a continuation.
     """
-    if not table:
+    key = "model.continuation"
+    if continuation is None:
         if mentions(data, "alpha"):
             raise InputError(
                 "model.boundary_data uses alpha, which needs model.continuation (e.g. {steps = 10})"
             )
         return None
-    schedule = AlphaSchedule.from_table(table, key)
     if not clamped:
         raise InputError(f"{key} moves clamped data, but model.clamped is empty")
     if data == "flat":
         raise InputError(
             f"{key} needs model.boundary_data = {{g = [...]}}: the data at the end of the path"
         )
-    return schedule
+    return continuation.schedule()
 
 
 def continuation_path(schedule: AlphaSchedule | None, mesh: Mesh) -> DataPath | None:
@@ -245,10 +240,26 @@ def along_path(path: DataPath | None, check: Callable[[], None], samples: int = 
         path.alpha.value = np.asarray(path.schedule.alpha(0))
 
 
-def _check_path_formulas(value: dict[str, Any], mesh: Mesh, key: str, path: DataPath) -> None:
+@dataclass(frozen=True)
+class BoundaryData:
+    """``model.boundary_data`` as a table: clamped data g and Φ (numbers or formulas)."""
+
+    g: list[float | str] = option(
+        REQUIRED, "g: three numbers or formulas in x, y (and alpha on a path)", length=3
+    )
+    Phi: list[list[float | str]] | None = option(
+        None, "Φ: a 3×2 matrix [[..], [..], [..]]", shown="∇g", length=3, each=Check(length=2)
+    )
+
+    def formulas(self) -> list[object]:
+        """G and Φ (what :func:`mentions` searches)."""
+        return [self.g, self.Phi or []]
+
+
+def _check_path_formulas(value: BoundaryData, mesh: Mesh, key: str, path: DataPath) -> None:
     """Formulas in α of the clamped data must be finite on the plate all along the path."""
-    texts = [(f"{key}.g[{i}]", t) for i, t in enumerate(value["g"]) if isinstance(t, str)]
-    for i, row in enumerate(value.get("Phi") or []):
+    texts = [(f"{key}.g[{i}]", t) for i, t in enumerate(value.g) if isinstance(t, str)]
+    for i, row in enumerate(value.Phi or []):
         texts += [(f"{key}.Phi[{i}][{j}]", t) for j, t in enumerate(row) if isinstance(t, str)]
 
     def check() -> None:
@@ -261,7 +272,7 @@ def _check_path_formulas(value: dict[str, Any], mesh: Mesh, key: str, path: Data
 
 
 def clamped_data(
-    value: object,
+    value: Literal["flat"] | BoundaryData,
     mesh: Mesh,
     key: str = "model.boundary_data",
     path: DataPath | None = None,
@@ -276,25 +287,19 @@ def clamped_data(
     """
     if value == "flat":
         return flat_identity(mesh)
-    if not isinstance(value, dict) or "g" not in value or set(value) - {"g", "Phi"}:
-        raise InputError(
-            f"{key} must be 'flat' or a table {{g = [..3..], Phi = [[..2..] x3]}}, got {value!r}"
-        )
     alpha = path.alpha if path is not None else None
     names = {"alpha": alpha} if alpha is not None else None
-    g = values.vector(value["g"], mesh, f"{key}.g", 3, names)
-    if "Phi" not in value:
+    g = values.vector(value.g, mesh, f"{key}.g", 3, names)
+    if value.Phi is None:
         Phi: Expr = ufl.grad(g)
     else:
-        rows = value["Phi"]
-        if not is_matrix(rows, 3, 2):
-            raise InputError(f"{key}.Phi must be a 3×2 matrix [[..], [..], [..]], got {rows!r}")
-        matrix = values.array(rows, mesh, f"{key}.Phi", names)
+        matrix = values.array(value.Phi, mesh, f"{key}.Phi", names)
         assert not isinstance(matrix, float)  # a matrix gives a tensor
         Phi = matrix
-    if path is not None and mentions(value, "alpha"):
+    along_alpha = mentions(value.formulas(), "alpha")
+    if path is not None and along_alpha:
         _check_path_formulas(value, mesh, key, path)
-    if alpha is None or mentions(value, "alpha"):
+    if alpha is None or along_alpha:
         return g, Phi
     identity, gradient = flat_identity(mesh)
     moving: Expr = (1 - alpha) * identity + alpha * g

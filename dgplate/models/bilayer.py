@@ -19,7 +19,6 @@ The coupling term is not quadratic: the gradient flow treats it explicitly (at y
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import ufl
@@ -44,7 +43,7 @@ from dgplate.models.base import PlateModel, clamped_data, continuation_path, pie
 from dgplate.models.kirchhoff import KirchhoffSpec
 from dgplate.models.obstacle import with_obstacle
 from dgplate.models.self_avoidance import with_self_avoidance
-from dgplate.schema import is_matrix, is_number, option
+from dgplate.schema import Check, is_matrix, is_number, option
 
 __all__ = [
     "BilayerSpec",
@@ -128,9 +127,8 @@ def bilayer_energy(
 
 # -- problem files -----------------------------------------------------------------------------
 def _check_symmetric(matrix: object, key: str) -> None:
-    """A 2×2 matrix whose off-diagonal entries agree (formulas: up to spaces)."""
-    if not is_matrix(matrix, 2, 2):
-        raise InputError(f"{key} must be a 2×2 matrix [[Z11, Z12], [Z21, Z22]], got {matrix!r}")
+    """A 2×2 matrix (a spec's) whose off-diagonal entries agree (formulas: up to spaces)."""
+    assert is_matrix(matrix, 2, 2)
     a, b = matrix[0][1], matrix[1][0]
     same = (
         (a == b)
@@ -159,12 +157,9 @@ def spontaneous_curvature(value: object, tagged: TaggedMesh, key: str = "model.Z
         matrix = values.array(value, mesh, key)
         assert not isinstance(matrix, float)  # a 2×2 matrix gives a tensor
         return matrix
-    if isinstance(value, dict) and value:
-        matrices = {name: _group_matrix(entry, f"{key}.{name}") for name, entry in value.items()}
-        return tagged.group_function(matrices, shape=(2, 2), key=key)
-    raise InputError(
-        f"{key} must be a number, a 2×2 matrix or a table {{group = value}}, got {value!r}"
-    )
+    assert isinstance(value, dict)
+    matrices = {name: _group_matrix(entry, f"{key}.{name}") for name, entry in value.items()}
+    return tagged.group_function(matrices, shape=(2, 2), key=key)
 
 
 def _group_matrix(entry: object, key: str) -> list[list[float]]:
@@ -173,10 +168,7 @@ def _group_matrix(entry: object, key: str) -> list[list[float]]:
         entry = [[float(entry), 0.0], [0.0, float(entry)]]
     _check_symmetric(entry, key)
     assert is_matrix(entry, 2, 2)
-    numbers = [[float(v) for v in row if is_number(v)] for row in entry]
-    if any(len(row) != 2 for row in numbers):  # an entry is no number
-        raise InputError(f"{key} must hold numbers (formulas go in a single matrix), got {entry!r}")
-    return numbers
+    return [[float(v) for v in row if is_number(v)] for row in entry]
 
 
 @dataclass
@@ -186,23 +178,23 @@ class BilayerSpec(KirchhoffSpec):
     name: str = option("bilayer", "the model")
     Z: float | list[list[float | str]] | dict[str, float | list[list[float]]] = option(
         1.0,
-        "spontaneous curvature: α (Z = αI), [[Z11, Z12], [Z12, Z22]] (numbers or formulas in x, y), or {cell group = value}",
+        "spontaneous curvature: α (Z = αI), [[Z11, Z12], [Z12, Z22]] (numbers or formulas in x, y), or {cell group = α or a matrix of numbers}",
+        length=2,
+        each=Check(length=2, each=Check(length=2)),
     )
     consistent: bool = option(
         True, "include the face terms of the distributional Hessian in the Z coupling"
     )
     gauss_penalty: float = option(
         0.0,
-        "β ≥ 0: add (β/2)Σ_T h⁻¹∫_T K² (K: Gauss curvature, zero for isometries) against doubly curved free-edge layers",
+        "β: add (β/2)Σ_T h⁻¹∫_T K² (K: Gauss curvature, zero for isometries) against doubly curved free-edge layers",
+        ge=0,
     )
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if isinstance(self.Z, list):  # formulas are checked now; the shape when it is built
             expressions.check(self.Z, "model.Z")
-        beta = self.gauss_penalty
-        if not (is_number(beta) and math.isfinite(beta) and beta >= 0):
-            raise InputError(f"model.gauss_penalty must be a number >= 0, got {beta!r}")
 
 
 def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
@@ -224,7 +216,7 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
     Z = spontaneous_curvature(spec.Z, tagged)
     path = continuation_path(spec.schedule, tagged.mesh)
     g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path)
-    penalty = spec.penalty_params
+    penalty = spec.penalty
     degree = 3 * spec.degree + 2
 
     def energy_fn(y: Function) -> Energy:
@@ -235,6 +227,4 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
     plate = PlateModel(
         facets, spec.degree, energy_fn, measures=[curvature_summary], continuation=path
     )
-    return with_self_avoidance(
-        with_obstacle(plate, spec.obstacle_params, g, path), spec.self_avoidance_params
-    )
+    return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)

@@ -30,7 +30,6 @@ from dgplate import expressions, values
 from dgplate.compat import Function
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import facet_sets, integral
-from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import PlateModel, clamped_data, continuation_path, piecewise_constant
 from dgplate.models.bilayer import bilayer_energy
@@ -61,6 +60,7 @@ class LCESpec(KirchhoffSpec):
     director: str = option(
         "twist",
         "director profile through the thickness: 'twist' (A₀ = diag(−1, 1)) or 'splay' (A₀ = diag(−1, 0))",
+        choices=tuple(sorted(DIRECTORS)),
     )
     gamma: float = option(
         1.0, "actuation strength γ (a curvature; γ < 0 bends the other way): A = γ R(θ) A₀ R(θ)ᵀ"
@@ -72,12 +72,6 @@ class LCESpec(KirchhoffSpec):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if self.director not in DIRECTORS:
-            raise InputError(
-                f"model.director must be one of {', '.join(sorted(DIRECTORS))}, "
-                f"got {self.director!r}"
-            )
-        expressions.finite_number(self.gamma, "model.gamma")
         expressions.check(self.theta, "model.theta")
 
 
@@ -106,7 +100,7 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
     second = values.constant(mesh, DIRECTORS[spec.director])
     gamma = values.constant(mesh, spec.gamma)
     A = director_curvature(gamma, theta, second)
-    penalty = spec.penalty_params
+    penalty = spec.penalty
     degree = 3 * spec.degree + 2
 
     def energy_fn(y: Function) -> Energy:
@@ -124,6 +118,4 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
         measures=[curvature_summary, lower_bound],
         continuation=path,
     )
-    return with_self_avoidance(
-        with_obstacle(plate, spec.obstacle_params, g, path), spec.self_avoidance_params
-    )
+    return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)

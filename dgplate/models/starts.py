@@ -22,9 +22,8 @@ one of these tables, or ``"flat"``) if given, else ``model.start``.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -32,16 +31,8 @@ from dgplate import expressions
 from dgplate.compat import Array, Mesh
 from dgplate.errors import InputError
 from dgplate.reference.elastica import clamped_elastica_curve
-from dgplate.schema import is_number
+from dgplate.schema import REQUIRED, from_dict, option
 from dgplate.solvers.flow import Initial
-
-#: The keys of each type of start besides ``type``: (key, required).
-_KEYS: dict[str, tuple[tuple[str, bool], ...]] = {
-    "flat": (),
-    "arc": (("radius", True), ("at", False), ("along", False)),
-    "formula": (("g", True),),
-    "elastica": (("length", True), ("shortening", True), ("at", False)),
-}
 
 #: ``dgplate schema``'s line for ``model.start``.
 HELP = (
@@ -57,68 +48,58 @@ HELP = (
 class Start:
     """A validated start table (:func:`Start.from_table`); :meth:`function` evaluates it."""
 
-    kind: str
-    radius: float = 1.0
-    at: float = 0.0
-    along: int = 0  # the coordinate along which the arc runs: 0 (x₁) or 1 (x₂)
-    g: tuple[float | str, ...] = ()
-    length: float = 0.0
-    shortening: float = 0.0
+    #: The keys that only some types take (:func:`dgplate.schema.from_dict`).
+    TYPE_KEYS: ClassVar[dict[str, tuple[str, ...]]] = {
+        "flat": (),
+        "arc": ("radius", "at", "along"),
+        "formula": ("g",),
+        "elastica": ("length", "shortening", "at"),
+    }
+    #: The keys each type needs.
+    _NEEDS: ClassVar[dict[str, tuple[str, ...]]] = {
+        "arc": ("radius",),
+        "formula": ("g",),
+        "elastica": ("length", "shortening"),
+    }
+
+    type: str = option(REQUIRED, "the start", choices=tuple(TYPE_KEYS))
+    radius: float | None = option(None, "arc: the radius R ≠ 0 (R < 0 bends down)")
+    at: float = option(0.0, "arc, elastica: where the shape begins along x₁ (or x₂)")
+    along: str = option("x", "arc: the direction it rolls along", choices=("x", "y"))
+    g: list[float | str] | None = option(None, "formula: y⁰ = g(x, y)", length=3)
+    length: float | None = option(None, "elastica: the strip's length L")
+    shortening: float | None = option(None, "elastica: its ends Δ closer, 0 < Δ < L")
 
     @classmethod
     def from_table(cls, value: object, key: str = "model.start") -> Start:
         """The start of ``'flat'`` or a table ``{type = ..., ...}``; InputError naming the key."""
         if value == "flat":
             return cls("flat")
-        if not isinstance(value, dict) or value.get("type") not in _KEYS:
+        if not isinstance(value, dict):
             raise InputError(
                 f"{key} must be 'flat' or a table {{type = 'flat' | 'arc' | 'formula', ...}}, "
                 f"got {value!r}"
             )
-        kind = value["type"]
-        known = [name for name, _ in _KEYS[kind]]
-        unknown = sorted(set(value) - {"type", *known})
-        if unknown:
-            raise InputError(
-                f"unknown key {key}.{unknown[0]} for type '{kind}' (known: type, {', '.join(known)})"
-            )
-        missing = [name for name, required in _KEYS[kind] if required and name not in value]
+        return from_dict(cls, value, key)
+
+    def validate(self, key: str) -> None:
+        """The keys the type needs, R ≠ 0, 0 < Δ < L and the formulas.
+
+        Args:
+            key: the table's dotted key (``model.start``), as named in messages.
+        """
+        missing = [name for name in self._NEEDS.get(self.type, ()) if getattr(self, name) is None]
         if missing:
-            raise InputError(f"{key}.{missing[0]} is required for type '{kind}'")
-        if kind == "arc":
-            return cls._arc(value, key)
-        if kind == "elastica":
-            return cls._elastica(value, key)
-        if kind == "formula":
-            g = value["g"]
-            if not isinstance(g, list) or len(g) != 3:
-                raise InputError(f"{key}.g must be a list of 3 numbers or formulas, got {g!r}")
-            expressions.check(g, f"{key}.g")
-            return cls(kind, g=tuple(float(v) if is_number(v) else v for v in g))
-        return cls(kind)
-
-    @classmethod
-    def _arc(cls, value: dict[str, Any], key: str) -> Start:
-        radius = value["radius"]
-        if not (is_number(radius) and radius != 0 and math.isfinite(radius)):
-            raise InputError(f"{key}.radius must be a finite number ≠ 0, got {radius!r}")
-        at = expressions.finite_number(value.get("at", 0.0), f"{key}.at")
-        along = value.get("along", "x")
-        if along not in ("x", "y"):
-            raise InputError(f"{key}.along must be 'x' or 'y', got {along!r}")
-        return cls("arc", radius=float(radius), at=at, along=0 if along == "x" else 1)
-
-    @classmethod
-    def _elastica(cls, value: dict[str, Any], key: str) -> Start:
-        length = expressions.finite_number(value["length"], f"{key}.length")
-        shortening = expressions.finite_number(value["shortening"], f"{key}.shortening")
-        if not 0 < shortening < length:
+            raise InputError(f"{key}.{missing[0]} is required for type '{self.type}'")
+        if self.radius == 0:
+            raise InputError(f"{key}.radius must be a finite number ≠ 0, got 0")
+        if self.type == "elastica" and not 0 < self.shortening < self.length:  # type: ignore[operator]
             raise InputError(
                 f"{key}: the shortening must lie in (0, length), got shortening = "
-                f"{shortening:g}, length = {length:g}"
+                f"{self.shortening:g}, length = {self.length:g}"
             )
-        at = expressions.finite_number(value.get("at", 0.0), f"{key}.at")
-        return cls("elastica", at=at, length=length, shortening=shortening)
+        if self.g is not None:
+            expressions.check(self.g, f"{key}.g")
 
     def function(self, mesh: Mesh, key: str = "model.start") -> Initial | None:
         """y⁰ as a function of the points; None for the flat start.
@@ -132,19 +113,19 @@ class Start:
         Returns:
             The function x ↦ y⁰(x), or None for the flat start.
         """
-        if self.kind == "arc":
+        if self.type == "arc":
             return self._arc_function
-        if self.kind == "elastica":
+        if self.type == "elastica":
             return self._elastica_function
-        if self.kind == "formula":
-            for i, entry in enumerate(self.g):
+        if self.type == "formula":
+            for i, entry in enumerate(self.g or ()):
                 if isinstance(entry, str):
                     expressions.check_finite_on_mesh(entry, mesh, f"{key}.g[{i}]")
             return self._formula_function
         return None
 
     def _arc_function(self, x: Array) -> Array:
-        radius, i = self.radius, self.along
+        radius, i = float(self.radius or 1.0), "xy".index(self.along)
         angle = (x[i] - self.at) / radius
         y = np.array(x, dtype=np.float64, copy=True)
         y[i] = self.at + radius * np.sin(angle)
@@ -152,15 +133,16 @@ class Start:
         return y
 
     def _elastica_function(self, x: Array) -> Array:
-        s, xs, zs = clamped_elastica_curve(self.length, self.shortening)
+        length, shortening = float(self.length or 0.0), float(self.shortening or 0.0)
+        s, xs, zs = clamped_elastica_curve(length, shortening)
         arc = x[0] - self.at
-        left = self.at + self.shortening / 2
+        left = self.at + shortening / 2
         return np.vstack([left + np.interp(arc, s, xs), x[1], np.interp(arc, s, zs)])
 
     def _formula_function(self, x: Array) -> Array:
         points = np.ascontiguousarray(x[:2].T)
         rows = []
-        for i, entry in enumerate(self.g):
+        for i, entry in enumerate(self.g or ()):
             key = f"start.g[{i}]"
             value = entry if isinstance(entry, float) else expressions.evaluate(entry, points, key)
             rows.append(np.broadcast_to(np.asarray(value, dtype=np.float64), x.shape[1]))

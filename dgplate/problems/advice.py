@@ -20,6 +20,7 @@ from petsc4py import PETSc
 
 from dgplate import expressions
 from dgplate.dg.geometry import max_cell_diameter
+from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.errors import InputError
 from dgplate.io.output import print0
 from dgplate.solvers.tau import ADAPTIVE_ONLY
@@ -86,8 +87,8 @@ def adaptive_only(problem: Problem) -> list[str]:
 
 def weak_self_avoidance(problem: Problem) -> str | None:
     """A warning when a plate's tangent-point exponent q ≤ 4 does not keep it from crossing."""
-    params = getattr(problem.model, "self_avoidance_params", None)
-    if params is None or problem.model.name == "rod" or params.q > 4:
+    params = getattr(problem.model, "self_avoidance", None)
+    if not isinstance(params, SelfAvoidance) or problem.model.name == "rod" or params.q > 4:
         return None
     return (
         f"model.self_avoidance.q = {params.q:g} <= 4: the tangent-point energy is then finite "
@@ -129,10 +130,8 @@ def _flat_data(value: Any, mesh: Mesh) -> bool:
     """Clamped data g = (x, y, 0), Φ = [I₂; 0]: 'flat', or numbers and formulas equal to it."""
     if value == "flat":
         return True
-    if not isinstance(value, dict) or "g" not in value:
-        return False
-    return _same_shape_and_values(value["g"], _FLAT["g"], mesh) and _same_shape_and_values(
-        value.get("Phi", _FLAT["Phi"]), _FLAT["Phi"], mesh
+    return _same_shape_and_values(value.g, _FLAT["g"], mesh) and _same_shape_and_values(
+        value.Phi or _FLAT["Phi"], _FLAT["Phi"], mesh
     )
 
 
@@ -189,13 +188,14 @@ def after_run(
     """Warnings once the driver has stopped (before it is destroyed).
 
     Warnings once the driver has stopped (before it is destroyed): [flow] solver options
-    and FvK's ``model.snes`` options that PETSc never read, and a final state far from an
+    and FvK's ``newton.snes`` options that PETSc never read, and a final state far from an
     isometry (``area`` = |Ω|).
     """
     unused = unused_solver_options(problem.flow.solver, driver)
-    snes = getattr(problem.model, "snes", None)
+    newton = getattr(problem.model, "newton", None)
+    snes = getattr(newton, "snes", None)
     if snes:
-        unused += unused_solver_options(snes, driver, "model.snes")
+        unused += unused_solver_options(snes, driver, "newton.snes")
     return unused + advise_result(summary, area)
 
 
@@ -222,7 +222,7 @@ def advise_result(summary: Mapping[str, Any], area: float = 1.0) -> list[str]:
 def unused_solver_options(
     options: Mapping[str, Any], driver: Driver, key: str = "flow.solver"
 ) -> list[str]:
-    """Warnings for ``flow.solver`` (or ``model.snes``: ``key``) options PETSc never read.
+    """Warnings for ``flow.solver`` (or ``newton.snes``: ``key``) options PETSc never read.
 
     Warnings for the keys of ``options`` that PETSc never read (misspelt, or not used by the
     chosen solver); collective. Call after the run: MUMPS reads its options only at the first

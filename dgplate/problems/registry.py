@@ -89,18 +89,23 @@ MODELS: dict[str, ModelEntry] = {
         build_fvk,
         ignores={
             "flow": "the fvk model is solved by Newton's method over load steps "
-            "(model.load_steps, model.snes), not by the gradient flow",
+            "([newton]), not by the gradient flow",
         },
     ),
 }
 
 
-def model_spec(data: Any) -> Any:
-    """Validate the [model] table with the spec of the model it names."""
-    if data is not None and not isinstance(data, dict):
-        raise InputError(f"[model] must be a table, got {data!r}")
-    data = dict(data or {})
-    name = data.get("name", "kirchhoff")
+def model_spec(data: Any, problem: Mapping[str, Any] | None = None) -> Any:
+    """Validate the [model] table with the spec of the model it names.
+
+    Args:
+        data: the [model] table.
+        problem: the whole problem, whose driver sections (FvK's [newton]) the spec takes.
+
+    Returns:
+        The model's spec.
+    """
+    name = data.get("name", "kirchhoff") if isinstance(data, dict) else "kirchhoff"
     if not isinstance(name, str) or name not in MODELS:
         raise InputError(f"model.name must be one of {', '.join(sorted(MODELS))}, got {name!r}")
-    return from_dict(MODELS[name].spec, data, "model")
+    return from_dict(MODELS[name].spec, data, "model", problem=problem)

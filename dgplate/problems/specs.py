@@ -1,5 +1,7 @@
 """Problem descriptions: TOML files with the sections [mesh], [model], [flow], [output].
 
+A model whose driver has settings of its own adds their section (FvK's [newton]).
+
 ``load_problem(path, overrides)`` reads a file, applies ``--set dotted.key=value`` overrides and
 validates every section before anything is computed or written. The model section is checked
 by the model named in ``model.name`` (see :mod:`dgplate.problems.registry`).
@@ -12,10 +14,10 @@ import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from dgplate.errors import InputError, read_user_text
-from dgplate.schema import from_dict, option, require_finite
+from dgplate.schema import Check, driver_sections, from_dict, option, require_finite
 from dgplate.solvers.flow import FlowSpec
 
 SECTIONS = ("mesh", "model", "flow", "output")
@@ -25,18 +27,33 @@ SECTIONS = ("mesh", "model", "flow", "output")
 class MeshSpec:
     """The [mesh] section: a built-in rectangle or a gmsh .geo file."""
 
-    type: str = option("rectangle", "'rectangle' (built-in) or 'gmsh' (a .geo file)")
-    corners: list[Any] = option([[0.0, 0.0], [1.0, 1.0]], "rectangle: [[xmin, ymin], [xmax, ymax]]")
-    cells: list[Any] = option([16, 16], "rectangle: number of cells in x and y")
-    cell_type: str = option("quadrilateral", "rectangle: 'quadrilateral' or 'triangle'")
-    diagonal: str = option("right", "rectangle with triangles: 'left', 'right' or 'crossed'")
+    type: str = option(
+        "rectangle", "'rectangle' (built-in) or 'gmsh' (a .geo file)", choices=("rectangle", "gmsh")
+    )
+    corners: list[list[float]] = option(
+        [[0.0, 0.0], [1.0, 1.0]],
+        "rectangle: [[xmin, ymin], [xmax, ymax]]",
+        length=2,
+        each=Check(length=2),
+    )
+    cells: list[int] = option(
+        [16, 16], "rectangle: number of cells in x and y", length=2, each=Check(ge=1)
+    )
+    cell_type: str = option(
+        "quadrilateral",
+        "rectangle: 'quadrilateral' or 'triangle'",
+        choices=("quadrilateral", "triangle"),
+    )
+    diagonal: str = option(
+        "right",
+        "rectangle with triangles: 'left', 'right' or 'crossed'",
+        choices=("left", "right", "crossed"),
+    )
     file: str = option("", "gmsh: a .geo file, as a path or a name in meshes/")
-    parameters: dict[str, Any] = option({}, "gmsh: DefineConstant overrides, e.g. {h = 0.1}")
+    parameters: dict[str, float] = option({}, "gmsh: DefineConstant overrides, e.g. {h = 0.1}")
     recombine: bool = option(False, "gmsh: recombine triangles into quadrilaterals")
 
     def __post_init__(self) -> None:
-        if self.type not in ("rectangle", "gmsh"):
-            raise InputError(f"mesh.type must be 'rectangle' or 'gmsh', got {self.type!r}")
         if self.type == "gmsh" and not self.file:
             raise InputError("mesh.file is required when mesh.type = 'gmsh'")
         gmsh_only = {"file": self.file, "parameters": self.parameters, "recombine": self.recombine}
@@ -46,25 +63,11 @@ class MeshSpec:
                 f"mesh.{unused[0]} has no effect with mesh.type = 'rectangle' (a gmsh key); "
                 "remove it, or set mesh.type = 'gmsh'"
             )
-        if self.type == "rectangle":
-            c = self.cells
-            if len(c) != 2 or not all(
-                isinstance(n, int) and not isinstance(n, bool) and n > 0 for n in c
-            ):
-                raise InputError(f"mesh.cells must be two positive integers, got {c!r}")
-            try:
-                (x0, y0), (x1, y1) = ((float(a), float(b)) for a, b in self.corners)
-            except (TypeError, ValueError):
-                raise InputError(
-                    f"mesh.corners must be [[xmin, ymin], [xmax, ymax]], got {self.corners!r}"
-                ) from None
-            if not (x1 > x0 and y1 > y0):
-                raise InputError(
-                    f"mesh.corners must have xmax > xmin and ymax > ymin, got {self.corners!r}"
-                )
-        for key, value in self.parameters.items():
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise InputError(f"mesh.parameters.{key} must be a number, got {value!r}")
+        (x0, y0), (x1, y1) = self.corners
+        if self.type == "rectangle" and not (x1 > x0 and y1 > y0):
+            raise InputError(
+                f"mesh.corners must have xmax > xmin and ymax > ymin, got {self.corners!r}"
+            )
 
 
 @dataclass
@@ -73,33 +76,23 @@ class OutputSpec:
 
     dir: str = option("", "output directory (default out/<problem name>); --out overrides it")
     vtx: bool = option(True, "write a VTX time series (ParaView) of the deformation")
-    every: int = option(1, "write the time series every n steps (the final state always)")
+    every: int = option(1, "write the time series every n steps (the final state always)", ge=1)
     png: bool = option(True, "render final.png off-screen, and history.png (the run step by step)")
     color_by: str = option(
-        "curvature", "colour of final.png: 'curvature' (|D²y|), 'defect' or 'gauss' (K)"
+        "curvature",
+        "colour of final.png: 'curvature' (|D²y|), 'defect' or 'gauss' (K, the Gaussian curvature)",
+        choices=("curvature", "defect", "gauss"),
     )
-    progress: int | str = option(
+    progress: int | Literal["auto"] = option(
         "auto",
         "progress lines on rank 0, each with the time elapsed and an estimate of the time left: 'auto' (the first step, then a line once both a second and 10 steps have passed since the last, and the last step), n (every n-th step) or 0 (none); the final converged / NOT converged line is always printed",
+        ge=0,
     )
     frames_every: int = option(
         0,
         "render a picture of the shape (as final.png) at the start, every n steps and at the end into frames/, and assemble them into <name>.gif (0: none)",
+        ge=0,
     )
-
-    def __post_init__(self) -> None:
-        if self.every < 1:
-            raise InputError(f"output.every must be >= 1, got {self.every}")
-        if self.color_by not in ("curvature", "defect", "gauss"):
-            raise InputError(
-                f"output.color_by must be 'curvature', 'defect' or 'gauss', got {self.color_by!r}"
-            )
-        if self.progress != "auto" and (isinstance(self.progress, str) or self.progress < 0):
-            raise InputError(
-                f"output.progress must be 'auto' or an integer >= 0, got {self.progress!r}"
-            )
-        if self.frames_every < 0:
-            raise InputError(f"output.frames_every must be >= 0, got {self.frames_every}")
 
 
 @dataclass
@@ -138,13 +131,18 @@ _BARE = re.compile(r"^[A-Za-z_][A-Za-z0-9_./+-]*$")
 
 def parse_override(text: str) -> tuple[list[str], Any]:
     """``'flow.tau=0.1'`` → (['flow', 'tau'], 0.1). Values are TOML; bare words are strings."""
-    if "=" not in text:
-        raise InputError(f"malformed --set {text!r}: expected dotted.key=value")
-    key, value = (part.strip() for part in text.split("=", 1))
-    if not _KEY.match(key) or "." not in key:
-        raise InputError(f"malformed --set {text!r}: the key must be section.name, e.g. flow.tau")
-    if value == "":
-        raise InputError(f"malformed --set {text!r}: no value after '='")
+    key, equals, value = (part.strip() for part in text.partition("="))
+    problem = (
+        "expected dotted.key=value"
+        if not equals
+        else "the key must be section.name, e.g. flow.tau"
+        if not _KEY.match(key) or "." not in key
+        else "no value after '='"
+        if value == ""
+        else ""
+    )
+    if problem:
+        raise InputError(f"malformed --set {text!r}: {problem}")
     try:
         parsed = tomllib.loads(f"v = {value}")["v"]
     except tomllib.TOMLDecodeError as err:
@@ -207,8 +205,13 @@ def _dotted(key: Any) -> list[str]:
 def load_problem(path: str | Path, overrides: Overrides = ()) -> Problem:
     """Read, override and validate a problem file. Raises ``InputError`` on any bad input.
 
-    ``overrides``: ``{"mesh.cells": [32, 32]}`` (Python values) or ``["mesh.cells=[32, 32]"]``
-    (the CLI's ``--set`` texts).
+    Args:
+        path: the TOML problem file.
+        overrides: ``{"mesh.cells": [32, 32]}`` (Python values) or ``["mesh.cells=[32, 32]"]``
+            (the CLI's ``--set`` texts).
+
+    Returns:
+        The validated problem, named after the file's stem.
     """
     path = Path(path)
     try:
@@ -242,10 +245,12 @@ def problem_from_dict(data: dict[str, Any], name: str, overrides: Overrides = ()
             "every key and its default)"
         )
     for section in data:
-        if section not in SECTIONS:
-            raise InputError(f"unknown section [{section}] (known: {', '.join(SECTIONS)})")
         require_finite(data[section], section)
-    model = model_spec(data.get("model"))
+    model = model_spec(data.get("model"), data)
+    known = [*SECTIONS, *(name for name, _ in driver_sections(type(model)))]
+    for section in data:
+        if section not in known:
+            raise InputError(f"unknown section [{section}] (known: {', '.join(known)})")
     MODELS[model.name].reject_ignored(data, model.name)
     mesh = from_dict(MeshSpec, data.get("mesh"), "mesh")
     flow = from_dict(FlowSpec, MODELS[model.name].flow_table(data.get("flow")), "flow")
@@ -284,6 +289,7 @@ def sections(model: str) -> list[tuple[str, type]]:
 
     entry = MODELS[model]
     mesh = [] if entry.mesh else [("mesh", MeshSpec)]  # a rod builds its own mesh
-    every = [*mesh, ("model", entry.spec), ("flow", FlowSpec), ("output", OutputSpec)]
+    drivers = driver_sections(entry.spec)
+    every = [*mesh, ("model", entry.spec), *drivers, ("flow", FlowSpec), ("output", OutputSpec)]
     # a section the model ignores as a whole (FvK's [flow]) is not part of its files
     return [(name, spec) for name, spec in every if "" not in entry.ignored_keys(name)]

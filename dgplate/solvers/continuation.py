@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
+from itertools import pairwise
 from typing import Any
 
 from mpi4py import MPI
@@ -31,14 +32,13 @@ import numpy as np
 
 from dgplate.compat import Constant, Function
 from dgplate.errors import InputError
-from dgplate.schema import is_integer, is_number
+from dgplate.schema import Check, option
 from dgplate.solvers.driver import Driver, Observer, Record, RunOutcome, RunResult, StoppingTest
 from dgplate.solvers.flow import GradientFlow
 from dgplate.solvers.steps import FlowResult, StepInfo
 
-__all__ = ["AlphaSchedule", "ContinuationFlow", "ContinuationStep", "StageRecord"]
+__all__ = ["AlphaSchedule", "Continuation", "ContinuationFlow", "ContinuationStep", "StageRecord"]
 
-_KEYS = ("steps", "alpha", "rate", "stage_steps")
 _MAX_PATH = 200  # stages listed in summary.json (a δα schedule has thousands)
 
 
@@ -55,31 +55,6 @@ class AlphaSchedule:
     alphas: tuple[float, ...] = ()
     rate: float = 0.0
     stage_steps: int = 200
-
-    @classmethod
-    def from_table(cls, table: dict[str, Any], key: str = "model.continuation") -> AlphaSchedule:
-        """The schedule of a problem file's table: exactly one of steps, alpha, rate."""
-        unknown = sorted(set(table) - set(_KEYS))
-        if unknown:
-            raise InputError(f"unknown key {key}.{unknown[0]} (known keys: {', '.join(_KEYS)})")
-        given = [name for name in ("steps", "alpha", "rate") if name in table]
-        if len(given) != 1:
-            raise InputError(
-                f"{key} needs exactly one of steps = N, alpha = [increasing values in (0, 1]] "
-                f"or rate = δα, got {sorted(table)!r}"
-            )
-        stage_steps = table.get("stage_steps", 200)
-        if not is_integer(stage_steps) or stage_steps < 1:
-            raise InputError(f"{key}.stage_steps must be an integer >= 1, got {stage_steps!r}")
-        if "rate" in table:
-            return cls(rate=_rate(table["rate"], f"{key}.rate"), stage_steps=stage_steps)
-        if "steps" in table:
-            steps = table["steps"]
-            if not is_integer(steps) or steps < 1:
-                raise InputError(f"{key}.steps must be an integer >= 1, got {steps!r}")
-            alphas = tuple((i + 1) / steps for i in range(steps))
-            return cls(alphas=alphas, stage_steps=stage_steps)
-        return cls(alphas=_alphas(table["alpha"], f"{key}.alpha"), stage_steps=stage_steps)
 
     @property
     def stages(self) -> int:
@@ -99,22 +74,55 @@ class AlphaSchedule:
         return 1 if self.rate else self.stage_steps
 
 
-def _rate(value: object, key: str) -> float:
-    if not (is_number(value) and 0 < value <= 1):
-        raise InputError(f"{key} must be a number in (0, 1], got {value!r}")
-    return float(value)
+@dataclass(frozen=True)
+class Continuation:
+    """The table ``model.continuation``: how the clamped data move along α ∈ (0, 1].
 
+    Exactly one of ``steps``, ``alpha`` and ``rate``; :meth:`schedule` gives the stages.
+    """
 
-def _alphas(value: object, key: str) -> tuple[float, ...]:
-    if not isinstance(value, list) or not value or not all(is_number(a) for a in value):
-        raise InputError(f"{key} must be a non-empty list of numbers in (0, 1], got {value!r}")
-    alphas = tuple(float(a) for a in value)
-    for i, a in enumerate(alphas):
-        if not 0 < a <= 1:
-            raise InputError(f"{key}[{i}] must lie in (0, 1], got {a:g}")
-        if i and not a > alphas[i - 1]:
-            raise InputError(f"{key} must increase strictly, got {list(alphas)}")
-    return alphas
+    steps: int | None = option(
+        None, "α = 1/N, 2/N, …, 1: N stages", shown="(one of steps, alpha, rate)", ge=1
+    )
+    alpha: list[float] | None = option(
+        None,
+        "the values of α, increasing",
+        shown="(one of steps, alpha, rate)",
+        each=Check(gt=0, le=1),
+    )
+    rate: float | None = option(
+        None,
+        "α grows by δα per flow step",
+        shown="(one of steps, alpha, rate)",
+        gt=0,
+        le=1,
+    )
+    stage_steps: int = option(200, "flow steps per stage (the last: until converged)", ge=1)
+
+    def validate(self, key: str) -> None:
+        """Exactly one of steps, alpha and rate; the values of alpha increasing.
+
+        Args:
+            key: the table's dotted key (``model.continuation``), as named in messages.
+        """
+        given = [name for name in ("steps", "alpha", "rate") if getattr(self, name) is not None]
+        if len(given) != 1:
+            raise InputError(
+                f"{key} needs exactly one of steps = N, alpha = [increasing values in (0, 1]] "
+                f"or rate = δα, got {given!r}"
+            )
+        alphas = self.alpha
+        if alphas is not None and not (alphas and all(b > a for a, b in pairwise(alphas))):
+            raise InputError(f"{key}.alpha must increase strictly (and not be empty), got {alphas}")
+
+    def schedule(self) -> AlphaSchedule:
+        """The stages of α."""
+        if self.rate is not None:
+            return AlphaSchedule(rate=self.rate, stage_steps=self.stage_steps)
+        if self.steps is not None:
+            alphas = tuple((i + 1) / self.steps for i in range(self.steps))
+            return AlphaSchedule(alphas=alphas, stage_steps=self.stage_steps)
+        return AlphaSchedule(alphas=tuple(self.alpha or ()), stage_steps=self.stage_steps)
 
 
 @dataclass

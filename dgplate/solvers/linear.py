@@ -30,6 +30,24 @@ OptionValue = str | int | float
 #: PETSc options without the leading '-' and the solver's prefix: ``{"ksp_type": "cg"}``.
 Options = Mapping[str, OptionValue]
 
+_OPTION_NAME = re.compile(r"^[A-Za-z0-9_]+$")
+
+
+def check_option_names(options: Options, key: str) -> None:
+    """Every name of ``options`` must be a PETSc option name (its values are typed by the spec).
+
+    Args:
+        options: the table of a problem file (``flow.solver``, ``newton.snes``).
+        key: its dotted key, as named in the message.
+    """
+    for name in options:
+        if not _OPTION_NAME.match(name):
+            raise InputError(
+                f"{key}.{name} is not a PETSc option name (letters, digits and _, without the "
+                "leading '-', e.g. ksp_type)"
+            )
+
+
 DIRECT_MUMPS: dict[str, OptionValue] = {
     # one step of iterative refinement after the LU solve: the saddle-point systems are
     # ill-conditioned (h⁻³ penalties), and refinement makes the results agree between

@@ -153,7 +153,7 @@ class Continuation(Driver):
         checkpoint_every: int = 1,
         stability: Stability | None = None,
         relaxation: Relaxation | None = None,
-        options_key: str = "model.snes",
+        options_key: str = "newton.snes",
     ) -> None:
         self.schedule = _checked_schedule(schedule, float(load_factor.value))
         if prefix in _LIVE_PREFIXES:

@@ -537,7 +537,7 @@ def test_killed_fvk_schedule_resumes(ranks_after, tmp_path):
     if ranks_after > 1 and _mpirun() is None:
         pytest.skip("no mpirun")
     problem = ROOT / "demos" / "problems" / "fvk_square.toml"
-    small = ["--set", "mesh.cells=[6,6]", "--set", "model.load_steps=6"]
+    small = ["--set", "mesh.cells=[6,6]", "--set", "newton.load_steps=6"]
     small += ["--set", "output.progress=0"]
     reference = tmp_path / "reference"
     assert dgplate("run", str(problem), "--out", str(reference), *small).returncode == 0
@@ -552,8 +552,8 @@ def test_killed_fvk_schedule_resumes(ranks_after, tmp_path):
 
 BOX = ROOT / "demos" / "problems" / "box_folding.toml"
 # the box on a short schedule: 4 heat steps to the switch, a hold, 4 back, a hold
-SHORT_BOX = ["mesh.parameters.n=2", "mesh.parameters.m=2", "model.heat_step=7.05"]
-SHORT_BOX += ["model.flow_steps=30", "output.png=false"]
+SHORT_BOX = ["mesh.parameters.n=2", "mesh.parameters.m=2", "schedule.heat_step=7.05"]
+SHORT_BOX += ["schedule.flow_steps=30", "output.png=false"]
 SHORT_BOX += ["output.progress=0"]
 
 

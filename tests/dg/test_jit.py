@@ -22,6 +22,7 @@ import pytest
 from dgplate.dg.forms import Penalty, facet_sets
 from dgplate.measure.hinges import hinge_strip
 from dgplate.mesh.tagged import rectangle
+from dgplate.models.base import BoundaryData
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.models.fvk.energy import fvk_bending_energy
 from dgplate.models.kirchhoff import KirchhoffSpec, build_kirchhoff
@@ -79,8 +80,8 @@ def signature(build, spec, tagged) -> str:
     return build(spec, tagged).energy(deformation(tagged)).total.signature()
 
 
-BOUNDARY = {"g": ["x", "y", 0.0], "Phi": [[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]]}
-SHIFTED = {"g": ["x", "y", 0.5], "Phi": [[1.0, 0.0], [0.0, 1.0], [0.1, 0.0]]}
+BOUNDARY = BoundaryData(["x", "y", 0.0], [[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]])
+SHIFTED = BoundaryData(["x", "y", 0.5], [[1.0, 0.0], [0.0, 1.0], [0.1, 0.0]])
 
 
 @pytest.mark.parametrize(
@@ -93,7 +94,7 @@ SHIFTED = {"g": ["x", "y", 0.5], "Phi": [[1.0, 0.0], [0.0, 1.0], [0.1, 0.0]]}
                 clamped=["left"],
                 load=[0.1, 0.0, -2.0],
                 mu=3.0,
-                penalty={"gamma0": 50.0, "gamma1": 7.0, "gradient_power": 1},
+                penalty=Penalty(50.0, 7.0, 1.0),
                 boundary_data=SHIFTED,
             ),
             KirchhoffSpec(clamped=["left"], load=[0.0, 0.0, "0.1*x"], boundary_data=BOUNDARY),
@@ -107,7 +108,7 @@ SHIFTED = {"g": ["x", "y", 0.5], "Phi": [[1.0, 0.0], [0.0, 1.0], [0.1, 0.0]]}
         (
             build_bilayer,
             BilayerSpec(Z=[[1.0, 0.0], [0.0, 2.0]]),
-            BilayerSpec(Z=[[-5.0, 0.5], [0.5, 0.0]], penalty={"gamma0": 1.0, "gamma1": 2.0}),
+            BilayerSpec(Z=[[-5.0, 0.5], [0.5, 0.0]], penalty=Penalty(1.0, 2.0)),
             BilayerSpec(Z=[[1.0, "x"], ["x", 2.0]]),
         ),
         (

@@ -10,6 +10,7 @@ import pytest
 from helpers import PARITY_RTOL
 
 from dgplate.cli import main
+from dgplate.dg.forms import Penalty
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.bilayer import BilayerSpec, build_bilayer
 from dgplate.solvers.flow import FlowSpec, GradientFlow
@@ -31,7 +32,7 @@ def roll(
     gradient_power=1.0,
 ):
     tagged = rectangle(comm, [[0, 0], [2, 1]], [2 * n, n])
-    penalty = {"gamma0": 5000.0, "gamma1": gamma1, "gradient_power": gradient_power}
+    penalty = Penalty(5000.0, gamma1, gradient_power)
     spec = BilayerSpec(clamped=["left"], Z=alpha, consistent=consistent, penalty=penalty)
     model = build_bilayer(spec, tagged)
     settings = FlowSpec(

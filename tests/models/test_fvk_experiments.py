@@ -16,7 +16,7 @@ from dgplate.errors import InputError
 from dgplate.measure.wrinkles import dominant_wavelength, wrinkle_profile
 from dgplate.mesh.tagged import RECTANGLE_SIDES, rectangle
 from dgplate.models.fvk.model import build_fvk
-from dgplate.models.fvk.spec import FvKSpec
+from dgplate.models.fvk.spec import FvKSpec, NewtonSpec
 from dgplate.schema import from_dict
 
 
@@ -50,7 +50,7 @@ def test_formula_edge_data_give_the_exact_homogeneous_strain():
     a = 0.02
     tagged = rectangle(MPI.COMM_WORLD, [[0, 0], [1, 1]], [4, 4])
     membrane = {side: [f"{a}*x", f"{a}*y"] for side in RECTANGLE_SIDES}
-    spec = FvKSpec(membrane=membrane, load_steps=[0.5, 1.0], stability=False)
+    spec = FvKSpec(membrane=membrane, newton=NewtonSpec(load_steps=[0.5, 1.0], stability=False))
     model = build_fvk(spec, tagged)
     driver = model.driver(None, [], None)
     for factor in (0.5, 1.0):
@@ -90,9 +90,7 @@ def test_edge_data_on_a_group_that_does_not_exist():
 def _one_sided(comm, cells=24):
     """The demo's sheet (demos/fvk_one_sided.py): one load step, pushed off the flat state."""
     tagged = rectangle(comm, [[0.0, 0.0], [1.0, 1.0]], [cells, cells])
-    spec = FvKSpec(nu=0.0, thickness=0.005, clamped=["right"], load_steps=1,
-                   membrane={"left": [-0.005, "-0.002*(y - 0.5)"], "right": "fixed"},
-                   perturb_unstable=0.0005)  # fmt: skip
+    spec = FvKSpec(nu=0.0, thickness=0.005, clamped=["right"], membrane={"left": [-0.005, "-0.002*(y - 0.5)"], "right": "fixed"}, newton=NewtonSpec(load_steps=1, perturb_unstable=0.0005))  # fmt: skip
     model = build_fvk(spec, tagged)
     driver = model.driver(None, [], None)
     assert driver.run().converged
@@ -119,9 +117,7 @@ def _cone(comm, h, steps, depth, stability=True):
 
     tagged = load_geo(comm, "annulus_crease.geo", {"R_in": 0.0, "R_out": 1.0, "Rc": 0.15, "h": h},
                       recombine=True)  # fmt: skip
-    spec = FvKSpec(nu=0.0, thickness=0.02, natural_shape="0.1*(1 - sqrt(x**2 + y**2))",
-                   clamped=["outer"], indenter="inner_ring", indentation=depth,
-                   load_steps=steps, stability=stability, probe=[0.0, 0.0])  # fmt: skip
+    spec = FvKSpec(nu=0.0, thickness=0.02, natural_shape="0.1*(1 - sqrt(x**2 + y**2))", clamped=["outer"], indenter="inner_ring", indentation=depth, probe=[0.0, 0.0], newton=NewtonSpec(load_steps=steps, stability=stability))  # fmt: skip
     model = build_fvk(spec, tagged)
     cone = lambda x: np.vstack([x[0], x[1], 0.1 * (1 - np.hypot(x[0], x[1]))])  # noqa: E731
     return model, model.driver(None, [], cone)

@@ -1,4 +1,4 @@
-"""Leaving an unstable branch (``model.leave_unstable``): push along the unstable mode, relax by
+"""Leaving an unstable branch (``newton.leave_unstable``): push along the unstable mode, relax by
 the energy-decreasing flow, repeat until the lowest Hessian eigenvalue is ≥ −tol.
 
 The case is the indented cone of ``demos/fvk_cone.py`` on the symmetric polar disc
@@ -23,7 +23,8 @@ from dgplate.errors import InputError
 from dgplate.measure.wrinkles import line_values
 from dgplate.mesh.tagged import load_geo
 from dgplate.models.fvk.model import build_fvk
-from dgplate.models.fvk.spec import FvKSpec
+from dgplate.models.fvk.spec import FvKSpec, NewtonSpec
+from dgplate.schema import from_dict
 from dgplate.solvers.stability import LOWEST
 
 H, T, DEPTH = 0.15, 0.02, 0.045  # mesh size, thickness, indentation (past the onset on H)
@@ -32,10 +33,7 @@ H, T, DEPTH = 0.15, 0.02, 0.045  # mesh size, thickness, indentation (past the o
 def _cone(comm: MPI.Comm) -> dict:
     """The cone to δ = DEPTH with leave_unstable: summary, mode spectrum on r = ½."""
     tagged = load_geo(comm, "polar_disc.geo", {"R": 1.0, "Rc": 0.15, "N": 16, "h": H})
-    spec = FvKSpec(nu=0.0, thickness=T, degree=3, natural_shape="0.1*(1 - sqrt(x**2 + y**2))",
-                   clamped=["outer"], indenter="inner_ring", indentation=DEPTH, load_steps=[1 / 3, 2 / 3, 1.0],
-                   stability_modes=4, probe=[0.0, 0.0], leave_unstable=True,
-                   relaxation_tau=1.0, penalty_length="facet_normal")  # fmt: skip
+    spec = FvKSpec(nu=0.0, thickness=T, degree=3, natural_shape="0.1*(1 - sqrt(x**2 + y**2))", clamped=["outer"], indenter="inner_ring", indentation=DEPTH, probe=[0.0, 0.0], penalty_length="facet_normal", newton=NewtonSpec(load_steps=[1 / 3, 2 / 3, 1.0], stability_modes=4, leave_unstable=True, relaxation_tau=1.0))  # fmt: skip
     model = build_fvk(spec, tagged)
     cone = lambda x: np.vstack([x[0], x[1], 0.1 * (1 - np.hypot(x[0], x[1]))])  # noqa: E731
     driver = model.driver(None, [], cone)
@@ -121,15 +119,15 @@ def test_same_state_on_any_number_of_ranks(left):
 @pytest.mark.parametrize(
     ("keys", "message"),
     [
-        ({"leave_unstable": 1}, "model.leave_unstable must be true or false"),
-        ({"leave_unstable_push": 0.0}, r"model.leave_unstable_push must be in \(0, 1\]"),
-        ({"leave_unstable_push": "x"}, r"model.leave_unstable_push must be in \(0, 1\]"),
+        ({"leave_unstable": 1}, "newton.leave_unstable must be bool, got 1"),
+        ({"leave_unstable_push": 0.0}, r"newton.leave_unstable_push must be in \(0, 1\]"),
+        ({"leave_unstable_push": "x"}, r"newton.leave_unstable_push must be float"),
         (
             {"leave_unstable": True, "stability": False},
-            "model.leave_unstable needs model.stability = true",
+            "newton.leave_unstable needs newton.stability = true",
         ),
     ],
 )
 def test_bad_leave_keys(keys, message):
     with pytest.raises(InputError, match=message):
-        FvKSpec(**keys)
+        from_dict(NewtonSpec, keys, "newton")

@@ -1,4 +1,4 @@
-"""The relaxation of the FvK driver (``model.relaxation``): an energy-decreasing proximal
+"""The relaxation of the FvK driver (``newton.relaxation``): an energy-decreasing proximal
 gradient flow that leaves an unstable flat plate for the stable buckled one, where Newton from
 the same push returns to the flat state.
 
@@ -18,7 +18,8 @@ import pytest
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk.model import build_fvk
-from dgplate.models.fvk.spec import FvKSpec
+from dgplate.models.fvk.spec import FvKSpec, NewtonSpec
+from dgplate.schema import from_dict
 
 T = 0.01
 PLATE: dict[str, Any] = {
@@ -32,14 +33,17 @@ PLATE: dict[str, Any] = {
         "bottom": "normal",
         "top": "free",
     },
-    "load_steps": [1.0],
-    "perturb_unstable": 1e-3 * T,
 }
 
 
 def _buckle(comm: MPI.Comm, relaxation: bool) -> dict:
     tagged = rectangle(comm, [[0.0, 0.0], [1.0, 1.0]], [8, 8])
-    spec = FvKSpec(**PLATE, relaxation=relaxation, relaxation_tau=1e4)
+    spec = FvKSpec(
+        **PLATE,
+        newton=NewtonSpec(
+            load_steps=[1.0], perturb_unstable=1e-3 * T, relaxation=relaxation, relaxation_tau=1e4
+        ),
+    )
     driver = build_fvk(spec, tagged).driver(None, [], None)
     try:
         assert driver.run().converged
@@ -103,11 +107,11 @@ def test_relaxation_same_state_on_any_number_of_ranks():
 @pytest.mark.parametrize(
     ("keys", "message"),
     [
-        ({"relaxation": 1}, "model.relaxation must be true or false"),
-        ({"relaxation_tau": 0.0}, "model.relaxation_tau must be a number > 0"),
-        ({"relaxation_tau": "x"}, "model.relaxation_tau must be a number > 0"),
+        ({"relaxation": 1}, "newton.relaxation must be bool, got 1"),
+        ({"relaxation_tau": 0.0}, "newton.relaxation_tau must be > 0, got 0.0"),
+        ({"relaxation_tau": "x"}, "newton.relaxation_tau must be float"),
     ],
 )
 def test_bad_relaxation_keys(keys, message):
     with pytest.raises(InputError, match=message):
-        FvKSpec(**keys)
+        from_dict(NewtonSpec, keys, "newton")

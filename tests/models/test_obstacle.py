@@ -188,14 +188,14 @@ BAD = {
     "epsilon zero": ({"type": "above", "epsilon": 0.0}, r"model\.obstacle\.epsilon must be"),
     "epsilon text": ({"type": "above", "epsilon": "small"}, r"model\.obstacle\.epsilon must be"),
     "key of another type": ({"type": "above", "radius": 1.0}, r"unknown key model\.obstacle\.radius"),
-    "normal of 2": ({"type": "plane", "normal": [0, 1]}, r"model\.obstacle\.normal must be a list of 3"),
+    "normal of 2": ({"type": "plane", "normal": [0, 1]}, r"model\.obstacle\.normal must have 3 entries"),
     "zero normal": ({"type": "plane", "normal": [0, 0, 0]}, r"model\.obstacle\.normal must not be"),
     "center text": ({"type": "sphere", "center": "origin"}, r"model\.obstacle\.center must be"),
     "radius negative": ({"type": "sphere", "radius": -1.0}, r"model\.obstacle\.radius must be"),
     "side": ({"type": "sphere", "side": "above"}, r"model\.obstacle\.side must be"),
-    "treatment": ({"type": "above", "treatment": "newton"}, r"model\.obstacle\.treatment must be 'splitting' or 'active_set'"),
+    "treatment": ({"type": "above", "treatment": "newton"}, r"model\.obstacle\.treatment must be one of splitting, active_set"),
     "formula": ({"type": "below", "psi": "0.2 + import(x)"}, r"model\.obstacle\.psi"),
-    "not a table": ("ceiling", r"model\.obstacle must be dict"),
+    "not a table": ("ceiling", r"model\.obstacle must be a table or none"),
 }  # fmt: skip
 
 

@@ -118,21 +118,24 @@ def test_defects_grow_like_tau(tmp_path):
     [
         ("model.c_t=1.0", "model.c_t must be < model.c_b (got c_t = 1.0, c_b = 1.0)"),
         ("model.frame=[1, 1, 0]", "model.frame must be orthogonal to model.tangent"),
-        ("model.frame=[0, 0, 0]", "model.frame must be a non-zero finite vector"),
+        ("model.frame=[0, 0, 0]", "model.frame must not be the zero vector, got [0, 0, 0]"),
         (
             "model.ends=open",
             "model.ends must be one of clamped-free, clamped-guided, free-free, closed",
         ),
         ("model.twist=1.0", "model.twist = 1.0 needs model.ends = 'clamped-guided' or 'closed'"),
         ("model.twist=3.0 | model.ends=closed", "model.twist of a closed rod must be a multiple"),
-        ("model.degree=1", "model.degree must be an integer >= 2"),
+        ("model.degree=1", "model.degree must be >= 2, got 1"),
         ("model.saddle=0.5", "model.saddle = 0.5 needs model.ends = 'closed'"),
         (
             "model.confinement={radius = 0.5}",
             "model.confinement.radius = 0.5 is smaller than the rod's initial extent",
         ),
-        ("model.confinement={radius = -1.0}", "model.confinement.radius must be a number > 0"),
-        ("model.confinement={radius = 2.0, side = 'outside'}", "model.confinement.side has no"),
+        ("model.confinement={radius = -1.0}", "model.confinement.radius must be > 0, got -1.0"),
+        (
+            "model.confinement={radius = 2.0, side = 'outside'}",
+            "unknown key model.confinement.side (known keys: center, epsilon, radius)",
+        ),
         ("model.confinement={radius = 2.0, epsilon = 0}", "model.confinement.epsilon must be"),
         (
             "model.curve=['cos(t)', 'sin(t)', 't'] | model.ends=closed",

@@ -157,7 +157,7 @@ def test_negative_projection_steps_is_an_input_error(tmp_path, capsys):
         ["run", str(ARC), "--out", str(tmp_path / "o"), "--set", "flow.projection_steps=-1"]
     )
     err = capsys.readouterr().err
-    assert code == 2 and "flow.projection_steps must be an integer >= 0" in err, err
+    assert code == 2 and "flow.projection_steps must be >= 0, got -1" in err, err
     assert err.count("\n") == 1 and not (tmp_path / "o").exists()
 
 

@@ -193,7 +193,7 @@ def test_rod_load_is_the_derivative_of_the_rod_energy(ends):
     import dolfinx.fem
     import dolfinx.fem.petsc
 
-    from dgplate.dg.self_avoidance import CurveTangentPoint, SelfAvoidance
+    from dgplate.dg.self_avoidance import CurveSelfAvoidance, CurveTangentPoint
     from dgplate.models.rod.energy import rod_mesh
     from dgplate.models.rod.spec import RodSpec
     from dgplate.models.rod.start import closed_start
@@ -208,7 +208,7 @@ def test_rod_load_is_the_derivative_of_the_rod_energy(ends):
         u.interpolate(closed_start(4.0, 0.0, 0.3)[0])
     else:
         u.interpolate(lambda x: np.vstack([np.cos(2 * x[0]), np.sin(2 * x[0]), 0.2 * x[0]]))
-    term = CurveTangentPoint(u, SelfAvoidance.from_table({"rho": 2.0}, curve=True), tangent)
+    term = CurveTangentPoint(u, CurveSelfAvoidance(rho=2.0), tangent)
     direction = dolfinx.fem.Function(V)
     direction.interpolate(lambda x: np.vstack([np.sin(3 * x[0]), x[0] * x[1], np.cos(2 * x[0])]))
     check_load_is_derivative(term, u, direction, comm)

@@ -65,7 +65,7 @@ def test_initial_takes_precedence_over_model_start(comm):
     tagged = rectangle(comm, [[0.0, 0.0], [1.0, 1.0]], [2, 2])
     path = PROBLEMS / "self_avoiding_strip.toml"
     spec = load_problem(path).model
-    assert spec.start_params.kind == "arc"
+    assert spec.start_params.type == "arc"
     assert resolve(spec, "flat", tagged.mesh) is None
     own = resolve(spec, None, tagged.mesh)
     assert own is not None and np.array_equal(own(POINTS)[2], 1.0 - np.cos(POINTS[0]))
@@ -74,10 +74,10 @@ def test_initial_takes_precedence_over_model_start(comm):
 @pytest.mark.parametrize(
     ("table", "message"),
     [
-        ({"type": "formula", "g": ["x", "y"]}, r"model\.start\.g must be a list of 3"),
+        ({"type": "formula", "g": ["x", "y"]}, r"model\.start\.g must have 3 entries"),
         ({"type": "formula", "g": ["x", "y", "import(1)"]}, r"model\.start\.g\[2\]"),
-        ({"type": "arc", "radius": 1.0, "along": "z"}, r"model\.start\.along must be 'x' or 'y'"),
-        ({"type": "arc", "radius": 1.0, "at": "x"}, r"model\.start\.at must be a number"),
+        ({"type": "arc", "radius": 1.0, "along": "z"}, r"model\.start\.along must be one of x, y"),
+        ({"type": "arc", "radius": 1.0, "at": "x"}, r"model\.start\.at must be float"),
         ({"type": "flat", "radius": 1.0}, r"unknown key model\.start\.radius for type 'flat'"),
         (
             {"type": "elastica", "length": 4.0, "shortening": 4.0},

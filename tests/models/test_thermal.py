@@ -3,6 +3,7 @@ model's spec and driver (schedule, holds, checkpoints), MPI parity."""
 
 import math
 import signal
+from dataclasses import fields
 
 from mpi4py import MPI
 
@@ -29,9 +30,9 @@ from dgplate.measure.hinges import (
 from dgplate.mesh.tagged import load_geo
 from dgplate.models.thermal.energy import cell_aspect_ratio, hinge_penalty
 from dgplate.models.thermal.model import build_thermal, calibrate_alpha
-from dgplate.models.thermal.spec import ThermalSpec
+from dgplate.models.thermal.spec import Closure, ScheduleSpec, ThermalSpec
 from dgplate.problems.registry import MODELS, model_spec
-from dgplate.schema import describe
+from dgplate.schema import describe, from_dict
 from dgplate.solvers.flow import FlowSpec
 
 W = math.pi / 24
@@ -122,6 +123,9 @@ def test_one_hinge_folds_90_degrees_when_cw_is_pi_over_2():
 STRIP_FLOW = {"tau": 0.05, "l2_metric": False, "projection_steps": 1}
 
 
+SCHEDULE_KEYS = {f.name for f in fields(ScheduleSpec)}
+
+
 def strip_spec(n=2, m=2, flow_steps=5, alpha=0.6, end_time=4.0, **more) -> ThermalSpec:
     """A hinge strip heated everywhere (s = 5 until t = 2, then −5; κ = 5, Δt = 1)."""
     return ThermalSpec(
@@ -132,9 +136,12 @@ def strip_spec(n=2, m=2, flow_steps=5, alpha=0.6, end_time=4.0, **more) -> Therm
         penalty_aspect="mesh",
         kappa=5.0,
         source=[[0.0, 5.0], [2.0, -5.0]],
-        heat_step=1.0,
-        end_time=end_time,
-        flow_steps=flow_steps,
+        schedule=ScheduleSpec(
+            heat_step=1.0,
+            end_time=end_time,
+            flow_steps=flow_steps,
+            **{k: more.pop(k) for k in SCHEDULE_KEYS & set(more)},
+        ),
         **more,
     )
 
@@ -253,36 +260,46 @@ def test_checkpoint_and_restore_continue_exactly(tmp_path):
 
 
 def test_thermal_problem_section():
-    spec = model_spec(strip_spec().__dict__ | {"name": "thermal"})
+    spec = model_spec({"name": "thermal", "alpha": 0.5}, {"schedule": {"holds": [0.5]}})
     assert isinstance(spec, ThermalSpec) and MODELS["thermal"].spec is ThermalSpec
+    assert spec.schedule == ScheduleSpec(holds=[0.5])
     text = describe(ThermalSpec, "model")
-    for key in ("alpha", "hinges", "holds", "closure", "source", "penalty_aspect"):
+    for key in ("alpha", "hinges", "closure", "source", "penalty_aspect"):
         assert f"\n{key} = " in text
+    assert "\nholds = []" in describe(ScheduleSpec, "schedule")
+    with pytest.raises(InputError, match=r"model.holds moved to schedule.holds"):
+        model_spec({"name": "thermal", "holds": [0.5]})
     with pytest.raises(InputError, match=r"model.alpha = 'calibrate' needs model.hinges"):
         ThermalSpec(alpha="calibrate")
-    with pytest.raises(InputError, match=r"model.holds must increase strictly"):
-        ThermalSpec(holds=[0.5, 0.5])
-    with pytest.raises(InputError, match=r"model.holds must lie in \[0, end_time = 1\]"):
-        ThermalSpec(holds=[2.0])
+    with pytest.raises(
+        InputError,
+        match=r"schedule.holds must increase strictly in \[0, end_time = 1\], got \[0.5, 0.5\]",
+    ):
+        ScheduleSpec(holds=[0.5, 0.5])
+    with pytest.raises(
+        InputError,
+        match=r"schedule.holds must increase strictly in \[0, end_time = 1\], got \[2.0\]",
+    ):
+        ScheduleSpec(holds=[2.0])
     with pytest.raises(InputError, match=r"model.source: .*increase strictly"):
         ThermalSpec(source=[[1.0, 5.0], [0.5, 0.0]])
-    with pytest.raises(InputError, match=r"model.hinges.h must be \[inner panel, outer panel\]"):
-        ThermalSpec(hinges={"h": ["a"]})
-    with pytest.raises(InputError, match=r"model.closure must be a table \{edge, panel, target\}"):
-        ThermalSpec(closure={"edge": "e"})
+    with pytest.raises(InputError, match=r"model.hinges.h must have 2 entries"):
+        from_dict(ThermalSpec, {"hinges": {"h": ["a"]}}, "model")
+    with pytest.raises(InputError, match=r"model.closure.panel is required"):
+        from_dict(ThermalSpec, {"closure": {"edge": "e"}}, "model")
     with pytest.raises(InputError, match=r"model.penalty_aspect must be"):
-        ThermalSpec(penalty_aspect="thin")
+        from_dict(ThermalSpec, {"penalty_aspect": "thin"}, "model")
 
 
 def test_bad_thermal_input():
     tagged = hinge_strip(MPI.COMM_SELF, W, 2, 2)
     flow = FlowSpec(tau=0.1)
-    with pytest.raises(InputError, match="flow_steps must be an integer >= 1"):
-        ThermalSpec(flow_steps=0)
+    with pytest.raises(InputError, match=r"schedule\.flow_steps must be >= 1"):
+        from_dict(ScheduleSpec, {"flow_steps": 0}, "schedule")
     with pytest.raises(InputError, match=r"unknown cell group 'hinges'"):
         build_thermal(ThermalSpec(alpha={"hinges": 1.0}), tagged)
-    with pytest.raises(InputError, match=r"model.mu.right must be a number > 0"):
-        ThermalSpec(mu={"left": 1, "hinge": 1, "right": 0})
+    with pytest.raises(InputError, match=r"model.mu.right must be > 0"):
+        from_dict(ThermalSpec, {"mu": {"left": 1, "hinge": 1, "right": 0}}, "model")
     with pytest.raises(InputError, match=r"unknown facet group 'tips'"):
         build_thermal(ThermalSpec(edges={"tips": "left"}), tagged)
     with pytest.raises(
@@ -329,10 +346,8 @@ def test_box_figures_on_any_number_of_ranks():
         kappa=5.0,
         source=[[0.0, 5.0]],
         source_regions=["base"],
-        heat_step=2.0,
-        end_time=2.0,
-        flow_steps=3,
-        closure={"edge": "lid_edge", "panel": "base", "target": ["x", 0.0, "-7/6"]},
+        schedule=ScheduleSpec(heat_step=2.0, end_time=2.0, flow_steps=3),
+        closure=Closure("lid_edge", "base", ["x", 0.0, "-7/6"]),
         edges={"lid_edge": "base"},
     )
     results = []

@@ -15,11 +15,12 @@ import pytest
 from helpers import check_load_is_derivative
 from test_thermal import STRIP_FLOW, W, strip_spec
 
-from dgplate.dg.self_avoidance import PlateTangentPoint
+from dgplate.dg.self_avoidance import PlateTangentPoint, SelfAvoidance
 from dgplate.errors import InputError
 from dgplate.measure.hinges import hinge_strip
 from dgplate.models.thermal.model import build_thermal
 from dgplate.models.thermal.spec import ThermalSpec
+from dgplate.schema import from_dict
 from dgplate.solvers.flow import FlowSpec
 
 TP = {"rho": 1e-3, "q": 4.5, "theta": 0.5}
@@ -28,7 +29,7 @@ TP = {"rho": 1e-3, "q": 4.5, "theta": 0.5}
 @pytest.mark.mpi
 def test_thermal_strip_with_tangent_point():
     comm = MPI.COMM_WORLD
-    spec = strip_spec(flow_steps=20, self_avoidance=TP)
+    spec = strip_spec(flow_steps=20, self_avoidance=SelfAvoidance(**TP))
     model = build_thermal(spec, hinge_strip(comm, W, 2, 2))
     driver = model.driver(FlowSpec(**STRIP_FLOW), [], None)
     result = driver.run()
@@ -56,8 +57,8 @@ def test_thermal_strip_with_tangent_point():
 
 
 def test_thermal_self_avoidance_key():
-    assert ThermalSpec().self_avoidance_params is None
-    params = ThermalSpec(self_avoidance={"rho": 1e-3}).self_avoidance_params
+    assert ThermalSpec().self_avoidance is None
+    params = from_dict(ThermalSpec, {"self_avoidance": {"rho": 1e-3}}, "model").self_avoidance
     assert params is not None and params.rho == 1e-3 and params.q == 4.5
     with pytest.raises(InputError, match=r"model\.self_avoidance\.rho must be >= 0"):
-        ThermalSpec(self_avoidance={"rho": -1.0})
+        from_dict(ThermalSpec, {"self_avoidance": {"rho": -1.0}}, "model")

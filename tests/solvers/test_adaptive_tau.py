@@ -19,6 +19,7 @@ from helpers import PROBLEMS, QUIET, bnn_flow, stop_and_resume
 
 import dgplate
 from dgplate.errors import InputError
+from dgplate.schema import from_dict
 from dgplate.solvers.flow import FlowSpec
 
 VERTICAL = Path(__file__).resolve().parents[2] / "demos" / "problems" / "vertical_load.toml"
@@ -164,8 +165,8 @@ def test_tau_grows_by_the_defect_until_the_first_rejection(newton_finish, bound)
     ],
 )
 def test_bad_controller_numbers_are_refused(key, value):
-    with pytest.raises(InputError, match=rf"^flow\.{key} must be a number"):
-        FlowSpec(adaptive_tau=True, **{key: value})
+    with pytest.raises(InputError, match=rf"^flow\.{key} must be "):
+        from_dict(FlowSpec, {"adaptive_tau": True, key: value}, "flow")
 
 
 def test_growing_tau_does_not_end_the_rate_test_early(tmp_path):

@@ -163,10 +163,16 @@ def test_elastica_small_shortening_is_the_euler_mode():
     "model, message",
     [
         ({"continuation": {"alpha": [0.5, 0.4, 1.0]}}, r"model\.continuation\.alpha must increase"),
-        ({"continuation": {"alpha": [0.0, 1.0]}}, r"model\.continuation\.alpha\[0\] must lie in"),
-        ({"continuation": {"alpha": [0.5, 1.5]}}, r"model\.continuation\.alpha\[1\] must lie in"),
-        ({"continuation": {"rate": 0.0}}, r"model\.continuation\.rate must be a number in"),
-        ({"continuation": {"steps": 0}}, r"model\.continuation\.steps must be an integer"),
+        (
+            {"continuation": {"alpha": [0.0, 1.0]}},
+            r"model\.continuation\.alpha\[0\] must be in \(0, 1\]",
+        ),
+        (
+            {"continuation": {"alpha": [0.5, 1.5]}},
+            r"model\.continuation\.alpha\[1\] must be in \(0, 1\]",
+        ),
+        ({"continuation": {"rate": 0.0}}, r"model\.continuation\.rate must be in \(0, 1\]"),
+        ({"continuation": {"steps": 0}}, r"model\.continuation\.steps must be >= 1, got 0"),
         ({"continuation": {"steps": 2, "rate": 0.1}}, r"model\.continuation needs exactly one"),
         ({"continuation": {"step": 2}}, r"unknown key model\.continuation\.step"),
         (

@@ -15,6 +15,7 @@ from helpers import bnn_flow
 
 from dgplate.errors import InputError
 from dgplate.reference.bnn import bnn_h
+from dgplate.schema import from_dict
 from dgplate.solvers.flow import FlowSpec
 from dgplate.solvers.steps import stop_reason, stopping_column, stopping_value
 
@@ -60,7 +61,7 @@ def test_published_test_stops_far_from_stationary():
 
 def test_unknown_stop_is_refused():
     with pytest.raises(InputError, match=r"flow\.stop"):
-        FlowSpec(stop="gradient")
+        from_dict(FlowSpec, {"stop": "gradient"}, "flow")
 
 
 @pytest.mark.mpi
@@ -81,7 +82,7 @@ def test_adaptive_tau_reaches_the_same_state_in_fewer_steps():
 
 def test_bad_defect_bound_is_refused():
     with pytest.raises(InputError, match=r"flow\.defect_bound"):
-        FlowSpec(adaptive_tau=True, defect_bound=0.0)
+        from_dict(FlowSpec, {"adaptive_tau": True, "defect_bound": 0.0}, "flow")
 
 
 def test_measure_of_one_state_does_not_depend_on_tau():
@@ -105,7 +106,7 @@ def _box(tau):
 
     box = Path(__file__).resolve().parents[2] / "demos" / "problems" / "box_folding.toml"
     overrides = ["mesh.parameters.n=2", "mesh.parameters.m=2", "model.alpha=1.0"]
-    overrides += ["model.flow_steps=3", f"flow.tau={tau}", "flow.checkpoint_every=0"]
+    overrides += ["schedule.flow_steps=3", f"flow.tau={tau}", "flow.checkpoint_every=0"]
     problem = load_problem(box, overrides)
     tagged = build_mesh(problem.mesh, MPI.COMM_WORLD)
     driver = MODELS["thermal"].build(problem.model, tagged).driver(problem.flow, [], None)

@@ -46,7 +46,7 @@ Load schedule. Pressure p, prestrain ε₀ (thermal expansion: ε₀ > 0 compres
 and prescribed edge displacements are multiplied by a load factor. ``load_steps = n`` means
 the load factors 1/n, 2/n, …, 1; a list gives the factors (increasing, in (0, 1]). The
 schedule is solved by the generic driver :class:`dgplate.solvers.newton.Continuation` (secant
-predictor, SNES newtonls with the NLEQ-ERR line search, MUMPS LU; ``model.snes`` overrides any
+predictor, SNES newtonls with the NLEQ-ERR line search, MUMPS LU; ``newton.snes`` overrides any
 option under the prefix ``dgplate_fvk_``). A load step that does not converge ends the run
 with ``converged = false``, the SNES reason and the last converged state.
 
@@ -87,7 +87,7 @@ from dgplate.models.fvk.energy import (
     plane_stress,
 )
 from dgplate.models.fvk.model import PREFIX, FvKModel, build_fvk
-from dgplate.models.fvk.spec import PENALTY, FvKSpec
+from dgplate.models.fvk.spec import PENALTY, FvKSpec, NewtonSpec
 
 __all__ = [
     "PENALTY",
@@ -95,6 +95,7 @@ __all__ = [
     "SIMPLY_SUPPORTED",
     "FvKModel",
     "FvKSpec",
+    "NewtonSpec",
     "build_fvk",
     "fvk_bending_energy",
     "fvk_energy",

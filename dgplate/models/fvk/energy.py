@@ -120,7 +120,7 @@ def fvk_energy(
     eps = membrane_strain(u, w, load_factor * prestrain, natural)
     energy: ufl.Form = 0.5 * ufl.inner(plane_stress(eps, A, nu), eps) * faces.dx
     simply_supported = bool(spec.simply_supported)
-    energy += fvk_bending_energy(w, faces, spec.penalty_params, D, nu, simply_supported)
+    energy += fvk_bending_energy(w, faces, spec.penalty, D, nu, simply_supported)
     energy -= load_factor * pressure * w * faces.dx
     if spec.indenter is not None and tip is not None:
         depth, stiffness = (

@@ -30,7 +30,7 @@ from dgplate.solvers.newton import Continuation, Relaxation
 #: PETSc options prefix of the FvK driver: ``-dgplate_fvk_snes_monitor`` on the command line.
 PREFIX = "dgplate_fvk_"
 
-_HINT = "try more model.load_steps or other model.snes options"
+_HINT = "try more newton.load_steps or other newton.snes options"
 
 
 def _check_group_names(spec: FvKSpec, tagged: TaggedMesh) -> None:
@@ -114,21 +114,22 @@ class FvKModel(Model):
         if initial is not None:
             start_from(state, initial)
         load_factor = values.constant(self.facets.mesh, 0.0)
+        newton = self.spec.newton
         return Continuation(
             state,
             fvk_energy(state, self.facets, self.spec, load_factor, self.tip),
             self.bcs,
             load_factor,
-            self.spec.load_factors,
+            newton.load_factors,
             PREFIX,
-            self.spec.snes,
+            newton.snes,
             bc_values=self.bc_values,
             observers=observers,
             shape=Deformation(state, self.spec.degree),
             probes=DeflectionProbes(state, self.probe),
             hint=_HINT,
-            stability=self.spec.stability_options,
-            relaxation=Relaxation(tau=self.spec.relaxation_tau) if self.spec.relaxation else None,
+            stability=newton.stability_options,
+            relaxation=Relaxation(tau=newton.relaxation_tau) if newton.relaxation else None,
         )
 
     def figures(self, driver: Continuation) -> dict[str, Any]:

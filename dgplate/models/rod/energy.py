@@ -91,7 +91,7 @@ class RodData:
     @staticmethod
     def of(spec: RodSpec, mesh: Mesh, clamp: ufl.Measure) -> RodData:
         """The Constants of ``spec`` on ``mesh``."""
-        t = _unit(spec.tangent, "model.tangent")
+        t = _unit(spec.tangent)
         return RodData(
             values.constant(mesh, spec.c_b),
             values.constant(mesh, spec.c_t),

@@ -28,7 +28,7 @@ from dgplate.solvers.rod_flow import RodFlow, RodState, tangent
 
 def exact_arc(s: Array, spec: RodSpec) -> Array:
     """The clamped rod's minimiser for κ ≠ 0: the circular arc (sin κs/κ) t + ((1 − cos κs)/κ) b."""
-    t, b = _unit(spec.tangent, "model.tangent"), _unit(spec.frame, "model.frame")
+    t, b = _unit(spec.tangent), _unit(spec.frame)
     k = spec.kappa
     return np.outer(t, np.sin(k * s) / k) + np.outer(b, (1.0 - np.cos(k * s)) / k)
 
@@ -51,7 +51,7 @@ class RodModel(Model):
             director = initial.frame
         state = RodState(initial or start, director, spec.clamped_nodes, spec.pinned_nodes)
 
-        params = spec.self_avoidance_params
+        params = spec.self_avoidance
 
         def energy(u: Function, director: Function) -> Energy:
             base = rod_energy(u, director, self.data)

@@ -8,17 +8,16 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from dgplate import expressions
 from dgplate.compat import Array
 from dgplate.dg.obstacle import Obstacle
-from dgplate.dg.self_avoidance import SelfAvoidance
+from dgplate.dg.self_avoidance import CurveSelfAvoidance
 from dgplate.errors import InputError
 from dgplate.models.rod.start import Start, closed_start, curve_start
-from dgplate.schema import is_integer, is_number, option
+from dgplate.schema import REQUIRED, option
 
 ENDS = ("clamped-free", "clamped-guided", "free-free", "closed")
 #: Keys that do nothing for a rod (an input error, see the registry).
@@ -43,29 +42,29 @@ ROD_IGNORES = {
 }
 
 
-def _unit(value: object, key: str) -> Array:
-    """A non-zero 3-vector of numbers, normalised."""
-    if not (isinstance(value, list) and len(value) == 3 and all(is_number(x) for x in value)):
-        raise InputError(f"{key} must be three numbers [x, y, z], got {value!r}")
+def _unit(value: Sequence[float]) -> Array:
+    """A non-zero 3-vector (a spec's), normalised."""
     vector = np.asarray(value, dtype=float)
-    norm = float(np.linalg.norm(vector))
-    if not (norm > 0 and math.isfinite(norm)):
-        raise InputError(f"{key} must be a non-zero finite vector, got {value!r}")
-    return vector / norm
+    return vector / float(np.linalg.norm(vector))
 
 
-def confinement(table: object) -> Obstacle | None:
-    """``model.confinement`` as the obstacle 'inside a sphere' of :mod:`dgplate.dg.obstacle`."""
-    key = "model.confinement"
-    if isinstance(table, dict):
-        for fixed in ("type", "side"):
-            if fixed in table:
-                raise InputError(
-                    f"{key}.{fixed} has no effect: the confinement is the inside of a sphere; "
-                    "remove it"
-                )
-        table = {**table, "type": "sphere", "side": "inside"} if table else table
-    return Obstacle.from_table(table, key)
+@dataclass(frozen=True)
+class Confinement:
+    """``model.confinement``: the ball |u − c| ≤ R that holds the rod (docs/obstacle.md)."""
+
+    radius: float = option(REQUIRED, "the radius R of the ball", gt=0)
+    center: list[float] = option([0.0, 0.0, 0.0], "its centre c", length=3)
+    epsilon: float = option(1e-4, "the penalty parameter ε of (1/2ε)∫(R − |u − c|)₋²", gt=0)
+
+    def sphere(self) -> Obstacle:
+        """The obstacle 'inside a sphere' of :mod:`dgplate.dg.obstacle`."""
+        return Obstacle(
+            type="sphere",
+            epsilon=self.epsilon,
+            center=self.center,
+            radius=self.radius,
+            side="inside",
+        )
 
 
 @dataclass
@@ -73,51 +72,52 @@ class RodSpec:
     """[model] of an inextensible bending–torsion rod."""
 
     name: str = option("rod", "the model")
-    length: float = option(1.0, "length L of the rod (its parameter interval is (0, L))")
-    cells: int = option(32, "number of intervals of (0, L)")
-    degree: int = option(2, "polynomial degree k >= 2 of the centreline (C⁰ interior penalty)")
-    c_b: float = option(1.0, "bending rigidity c_b > 0")
-    c_t: float = option(0.5, "torsional rigidity 0 < c_t < c_b (coercivity of the energy)")
+    length: float = option(1.0, "length L of the rod (its parameter interval is (0, L))", gt=0)
+    cells: int = option(32, "number of intervals of (0, L)", ge=2)
+    degree: int = option(
+        2, "polynomial degree k of the centreline (C⁰ interior penalty: k >= 2)", ge=2
+    )
+    c_b: float = option(1.0, "bending rigidity c_b", gt=0)
+    c_t: float = option(0.5, "torsional rigidity 0 < c_t < c_b (coercivity of the energy)", gt=0)
     kappa: float = option(
         0.0, "spontaneous curvature κ towards the director b: the rest shape has u″ = κ b"
     )
     ends: str = option(
         "clamped-free",
         "'clamped-free' (s = 0 clamped), 'clamped-guided' (s = L also has u′ = tangent and a prescribed frame, its position free), 'free-free' or 'closed' (starts as the circle of length L in the x-y plane with b = e₃; tangent and frame unused)",
+        choices=ENDS,
     )
     twist: float = option(
         0.0,
         "'clamped-guided': the frame at s = L is turned by this angle (radians) about the tangent, the start spreads it as twist·(s/L)²; 'closed': a multiple of 2π, the start's frame turns uniformly by it about the tangent",
     )
-    tangent: list[Any] = option([1.0, 0.0, 0.0], "u′ of the straight start (and at a clamp)")
-    frame: list[Any] = option([0.0, 1.0, 0.0], "b of the start (and at a clamp), ⟂ tangent")
-    penalty: float = option(10.0, "C⁰-IP penalty σ of the jumps of u′ (times c_b/h)")
+    tangent: list[float] = option(
+        [1.0, 0.0, 0.0], "u′ of the straight start (and at a clamp)", length=3, nonzero=True
+    )
+    frame: list[float] = option(
+        [0.0, 1.0, 0.0], "b of the start (and at a clamp), ⟂ tangent", length=3, nonzero=True
+    )
+    penalty: float = option(10.0, "C⁰-IP penalty σ of the jumps of u′ (times c_b/h)", gt=0)
     saddle: float = option(
         0.0,
         "closed: the start is the saddle ρ(cos φ, sin φ, a sin 2φ) of length L (by arc length) with a = saddle; 0: the circle. A small a perturbs the ring (Michell's instability)",
     )
-    curve: list[Any] = option(
-        [],
-        "closed: the start is the closed curve t ↦ [x(t), y(t), z(t)], t ∈ [0, 2π], three formulas in t (e.g. a trefoil knot), parametrised by arc length and scaled to the length L; its frame is e₃ made orthogonal to the tangent. [] : the circle or the saddle",
+    curve: list[float | str] | None = option(
+        None,
+        "closed: the start is the closed curve t ↦ [x(t), y(t), z(t)], t ∈ [0, 2π], three formulas in t (e.g. a trefoil knot), parametrised by arc length and scaled to the length L; its frame is e₃ made orthogonal to the tangent. Not given: the circle or the saddle",
+        shown="(none)",
+        length=3,
     )
-    confinement: dict[str, Any] = option(
-        {},
-        "{} none, or {radius = R, center = [3], epsilon = ε}: the rod is kept in the ball |u − c| ≤ R by the penalty (1/2ε)∫(R − |u − c|)₋² with the quadratic–concave splitting (docs/obstacle.md); ε defaults to 1e-4",
+    confinement: Confinement | None = option(
+        None,
+        "the rod is kept in the ball |u − c| ≤ R by the penalty (1/2ε)∫(R − |u − c|)₋² with the quadratic–concave splitting (docs/obstacle.md): {} none",
     )
-    self_avoidance: dict[str, float] = option(
-        {},
-        "self-avoidance ρ·TP[u] by the tangent-point energy of the centreline (docs/rods.md): {} none, or {rho = ρ >= 0 (0.1), q = exponent > 2 (3), theta = cluster-tree admissibility (0: exact sums), quadrature_degree = 2, max_redo = halvings of τ per step (8), approach = redo a step when the least distance falls below this fraction (0.5)}",
+    self_avoidance: CurveSelfAvoidance | None = option(
+        None,
+        "self-avoidance ρ·TP[u] by the tangent-point energy of the centreline (docs/rods.md): {} none",
     )
 
     def __post_init__(self) -> None:
-        for key in ("length", "c_b", "c_t", "penalty"):
-            value = getattr(self, key)
-            if not (is_number(value) and value > 0 and math.isfinite(value)):
-                raise InputError(f"model.{key} must be a finite number > 0, got {value!r}")
-        for key, least in (("cells", 2), ("degree", 2)):
-            value = getattr(self, key)
-            if not (is_integer(value) and value >= least):
-                raise InputError(f"model.{key} must be an integer >= {least}, got {value!r}")
         if not self.c_t < self.c_b:
             raise InputError(
                 f"model.c_t must be < model.c_b (got c_t = {self.c_t}, c_b = {self.c_b}): "
@@ -125,35 +125,26 @@ class RodSpec:
             )
         self._check_shape()
         self._check_start()
-        self._self_avoidance = SelfAvoidance.from_table(self.self_avoidance, curve=True)
 
     def _check_start(self) -> None:
         """The saddle (closed rods only) and the confinement, which must hold the start."""
-        if not (is_number(self.saddle) and math.isfinite(self.saddle)):
-            raise InputError(f"model.saddle must be a finite number, got {self.saddle!r}")
         if self.saddle != 0.0 and self.ends != "closed":
             raise InputError(
                 f"model.saddle = {self.saddle} needs model.ends = 'closed', got {self.ends!r}"
             )
         self._curve = curve_table(self)
-        self._sphere = sphere = confinement(self.confinement)
-        if sphere is None:
+        if self.confinement is None:
             return
-        extent = start_extent(self, sphere.center)
-        if extent > sphere.radius:
+        extent = start_extent(self, self.confinement.center)
+        if extent > self.confinement.radius:
             raise InputError(
-                f"model.confinement.radius = {sphere.radius:g} is smaller than the rod's "
-                f"initial extent max|u⁰ − center| = {extent:.4g}: the start must lie in the ball"
+                f"model.confinement.radius = {self.confinement.radius:g} is smaller than the "
+                f"rod's initial extent max|u⁰ − center| = {extent:.4g}: the start must lie in "
+                "the ball"
             )
 
     def _check_shape(self) -> None:
-        """κ, the ends, the twist and the start frame."""
-        if not (is_number(self.kappa) and math.isfinite(self.kappa)):
-            raise InputError(f"model.kappa must be a finite number, got {self.kappa!r}")
-        if self.ends not in ENDS:
-            raise InputError(f"model.ends must be one of {', '.join(ENDS)}, got {self.ends!r}")
-        if not (is_number(self.twist) and math.isfinite(self.twist)):
-            raise InputError(f"model.twist must be a finite number, got {self.twist!r}")
+        """The twist and the start frame."""
         if self.twist != 0.0 and self.ends not in ("clamped-guided", "closed"):
             raise InputError(
                 f"model.twist = {self.twist} needs model.ends = 'clamped-guided' or 'closed', "
@@ -165,7 +156,7 @@ class RodSpec:
                 f"model.twist of a closed rod must be a multiple of 2π (the frame closes up), "
                 f"got {self.twist} = {turns:.4g}·2π"
             )
-        t, b = _unit(self.tangent, "model.tangent"), _unit(self.frame, "model.frame")
+        t, b = _unit(self.tangent), _unit(self.frame)
         if abs(float(t @ b)) > 1e-10:
             raise InputError(
                 f"model.frame must be orthogonal to model.tangent, got frame·tangent = "
@@ -179,13 +170,8 @@ class RodSpec:
 
     @property
     def sphere(self) -> Obstacle | None:
-        """The validated confinement (None: none)."""
-        return self._sphere
-
-    @property
-    def self_avoidance_params(self) -> SelfAvoidance | None:
-        """The validated ``self_avoidance`` table (None: none)."""
-        return self._self_avoidance
+        """The confinement as an obstacle (None: none)."""
+        return None if self.confinement is None else self.confinement.sphere()
 
     @property
     def clamped(self) -> bool:
@@ -210,14 +196,12 @@ def curve_table(spec: RodSpec) -> Array | None:
     """``model.curve`` at 4097 values of t ∈ [0, 2π]: closed, regular, never along e₃.
 
     Raises:
-        InputError: Not three formulas in t, not a closed rod, not closed, not regular, or a
+        InputError: Not a closed rod, not closed, not regular, or a
             tangent along e₃ (the start's frame is e₃ made orthogonal to the tangent).
     """
     key, curve = "model.curve", spec.curve
-    if isinstance(curve, list) and not curve:
+    if curve is None:
         return None
-    if not (isinstance(curve, list) and len(curve) == 3):
-        raise InputError(f"{key} must be three formulas in t [x(t), y(t), z(t)], got {curve!r}")
     if spec.ends != "closed" or spec.saddle != 0.0:
         raise InputError(f"{key} needs model.ends = 'closed' and model.saddle = 0")
     t = np.linspace(0.0, 2.0 * math.pi, CURVE_SAMPLES + 1)
@@ -243,7 +227,7 @@ def curve_table(spec: RodSpec) -> Array | None:
 
 def open_start(spec: RodSpec) -> Start:
     """The straight rod u = s·t, its frame b turned by twist·(s/L)² about t."""
-    t, b = _unit(spec.tangent, "model.tangent"), _unit(spec.frame, "model.frame")
+    t, b = _unit(spec.tangent), _unit(spec.frame)
     d, twist, length = np.cross(t, b), spec.twist, spec.length
 
     def straight(x: Array) -> Array:

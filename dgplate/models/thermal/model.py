@@ -189,15 +189,15 @@ class ThermalModel(Model):
         elif not self.calibration:
             self.alpha = {h.name: 0.0 for h in self.hinges}
         energy = self._energy()
-        if spec.self_avoidance_params is not None:
-            energy, self.tangent_point = add_tangent_point(energy, spec.self_avoidance_params)
+        if spec.self_avoidance is not None:
+            energy, self.tangent_point = add_tangent_point(energy, spec.self_avoidance)
         return ThermalBilayer(
             self.facets,
             spec.degree,
             energy,
             self._heat_solver(),
             flow,
-            spec.schedule(),
+            spec.schedule.schedule(),
             self._measures(),
             observers,
             initial,
@@ -226,14 +226,14 @@ class ThermalModel(Model):
         spec = self.spec
         source = spec.heat_source()
         return HeatSolver(
-            self.tagged, spec.kappa, spec.heat_step, source, spec.heat_degree, spec.theta0
+            self.tagged, spec.kappa, spec.schedule.heat_step, source, spec.heat_degree, spec.theta0
         )
 
     def _hinge_temperatures(self) -> dict[str, float]:
         """Each hinge's mean temperature at the first hold (the heat equation alone)."""
         spec = self.spec
         probe = self._heat_solver()
-        probe.advance_to(spec.schedule().holds[0])
+        probe.advance_to(spec.schedule.schedule().holds[0])
         temperatures = {h.name: probe.mean(h.name) for h in self.hinges}
         probe.destroy()
         return temperatures
@@ -289,10 +289,10 @@ class ThermalModel(Model):
             measures.append(OnShape(angles))
         if spec.closure:
             c = spec.closure
-            target = _closure_target(c["target"], "model.closure.target")
+            target = _closure_target(c.target, "model.closure.target")
 
             def gap(y: dolfinx.fem.Function[np.float64]) -> Callable[[], dict[str, float]]:
-                closure = ClosureGap(y, tagged, c["edge"], c["panel"], target)
+                closure = ClosureGap(y, tagged, c.edge, c.panel, target)
                 return lambda: {"closure_gap": closure()}
 
             measures.append(OnShape(gap))
@@ -346,7 +346,7 @@ class ThermalModel(Model):
         for measure in driver.measures:
             final.update(measure(driver.y))
         out.update(_named(final, "final"))
-        end = self.spec.end_time
+        end = self.spec.schedule.end_time
         for record in driver.records:
             if record.hold and not math.isclose(record.time, end, rel_tol=1e-12):
                 label = self._hold_label(record.time)
@@ -367,7 +367,7 @@ class ThermalModel(Model):
         values of y, a title). Only the holds of this run: a run resumed after a hold has
         not got its shape.
         """
-        end = self.spec.end_time
+        end = self.spec.schedule.end_time
         shapes = {}
         for record in driver.records:
             values = driver.held.get(record.step)
@@ -378,7 +378,7 @@ class ThermalModel(Model):
 
     def lines(self, driver: ThermalBilayer) -> list[np.ndarray]:
         """The deformed closure edge and tracked edges, on rank 0 ([] elsewhere)."""
-        groups = ([self.spec.closure["edge"]] if self.spec.closure else []) + list(self.spec.edges)
+        groups = ([self.spec.closure.edge] if self.spec.closure else []) + list(self.spec.edges)
         lines: list[np.ndarray] = []
         for group in dict.fromkeys(groups):
             gathered = self.tagged.comm.gather(edge_segments(driver.y, self.tagged, group))
@@ -411,9 +411,9 @@ def _check_groups(spec: ThermalSpec, tagged: TaggedMesh) -> None:
     cells += [(f"model.hinges.{h}", face) for h, faces in spec.hinges.items() for face in faces]
     cells += [(f"model.edges.{edge}", panel) for edge, panel in spec.edges.items()]
     cells += [("model.anchor", spec.anchor)] if spec.anchor else []
-    cells += [("model.closure.panel", spec.closure["panel"])] if spec.closure else []
+    cells += [("model.closure.panel", spec.closure.panel)] if spec.closure else []
     facets_ = [("model.edges", name) for name in spec.edges]
-    facets_ += [("model.closure.edge", spec.closure["edge"])] if spec.closure else []
+    facets_ += [("model.closure.edge", spec.closure.edge)] if spec.closure else []
     for key, name in cells:
         tagged.tag(name, tdim, key)
     for key, name in facets_:
@@ -438,5 +438,5 @@ def build_thermal(spec: ThermalSpec, tagged: TaggedMesh) -> ThermalModel:
         region_coefficient(tagged, spec.alpha, "model.alpha")  # unknown groups: an error now
     aspect = spec.penalty_aspect
     aspect = cell_aspect_ratio(tagged) if aspect == "mesh" else float(aspect)
-    penalty = aspect_penalty(aspect, spec.penalty_params) if aspect > 1 else spec.penalty_params
+    penalty = aspect_penalty(aspect, spec.penalty) if aspect > 1 else spec.penalty
     return ThermalModel(spec, tagged, facets, penalty, mu)
