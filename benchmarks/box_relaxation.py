@@ -26,7 +26,7 @@ from typing import Any
 
 from mpi4py import MPI
 
-from dgplate.coupling.thermal import ThermalBilayer
+from dgplate.coupling.thermal_driver import ThermalBilayer
 from dgplate.dg.geometry import max_cell_diameter
 from dgplate.io.output import print0
 from dgplate.problems.prepare import build_mesh

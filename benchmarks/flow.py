@@ -34,7 +34,7 @@ from dgplate.io.output import print0
 from dgplate.io.progress import ProgressPrinter
 from dgplate.models.kirchhoff import bnn_plate
 from dgplate.reference.bnn import BNN_TABLE1, bnn_h
-from dgplate.solvers import linear as solvers
+from dgplate.solvers import linear
 from dgplate.solvers.flow import FlowSpec, GradientFlow
 from dgplate.solvers.step_system import StepSystem
 from dgplate.solvers.steps import FlowResult
@@ -49,19 +49,19 @@ class NaiveStepSolver:
         self.comm, self.K = comm, K
         self.ksp: PETSc.KSP | None = None
 
-    def solve(self, b: PETSc.Vec, x: PETSc.Vec, refactor: bool = True) -> solvers.SolveStats:
+    def solve(self, b: PETSc.Vec, x: PETSc.Vec, refactor: bool = True) -> linear.SolveStats:
         t0 = time.perf_counter()
         if self.ksp is not None:
-            solvers.destroy_ksp(self.ksp)
-        self.ksp = solvers.make_ksp(self.comm, self.K)
+            linear.destroy_ksp(self.ksp)
+        self.ksp = linear.make_ksp(self.comm, self.K)
         self.ksp.getPC().setUp()
         t1 = time.perf_counter()
-        its = solvers.solve(self.ksp, b, x)
-        return solvers.SolveStats(True, its, t1 - t0, time.perf_counter() - t1)
+        its = linear.solve(self.ksp, b, x)
+        return linear.SolveStats(True, its, t1 - t0, time.perf_counter() - t1)
 
     def destroy(self) -> None:
         if self.ksp is not None:
-            solvers.destroy_ksp(self.ksp)
+            linear.destroy_ksp(self.ksp)
 
 
 class NaiveSystem(StepSystem):

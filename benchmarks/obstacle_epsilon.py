@@ -4,7 +4,7 @@ The heavy strip of ``tests/models/test_obstacle.py`` (ω = (0, 2) × (0, 0.25), 
 height H = 0.02 above the table y₃ ≥ 0, weight q = 1, μ = 1) is run from the flat start at the
 clamp's height for several ε on one mesh. Reported per ε: the plate's lift-off point (where the
 contact starts), the lift-off ℓ_ε of the one-dimensional penalised beam
-(:func:`dgplate.reference.obstacle.penalised_lift_off`), the rigid-table ℓ, the maximal
+(:func:`dgplate.reference.obstacle_profiles.penalised_lift_off`), the rigid-table ℓ, the maximal
 penetration (also in units of qε, the sinking of the part that the penalty carries alone),
 steps and seconds.
 
@@ -31,7 +31,7 @@ from mpi4py import MPI
 
 import dgplate
 from dgplate.io.output import print0
-from dgplate.reference.obstacle import lift_off_length, penalised_lift_off
+from dgplate.reference.obstacle_profiles import lift_off_length, penalised_lift_off
 
 MU, HEIGHT, WEIGHT, LENGTH, WIDTH = 1.0, 0.02, 1.0, 2.0, 0.25
 STRIP = Path(__file__).resolve().parent.parent / "demos" / "problems" / "obstacle_strip.toml"

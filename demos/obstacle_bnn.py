@@ -37,7 +37,7 @@ from pathlib import Path
 
 import dgplate
 from dgplate import demo
-from dgplate.reference.obstacle import BNN_OBSTACLE
+from dgplate.reference.obstacle_profiles import BNN_OBSTACLE
 
 PROBLEM = Path(__file__).parent / "problems" / "obstacle_bnn.toml"
 

@@ -22,7 +22,7 @@
 #
 # For each weight q we report the contact area and the contact force (1/ε)∫(s)₋ and draw them
 # against q. The single layer is compared with the rigid-table theory and with the penalised
-# beam at the same ε (`dgplate.reference.obstacle`); the bilayer has no closed form here.
+# beam at the same ε (`dgplate.reference.obstacle_profiles`); the bilayer has no closed form here.
 #
 # Run: `python demos/obstacle_contact_zone.py` (8 cells along the strip, three weights each),
 # `--paper` (16 cells, more weights).
@@ -37,7 +37,7 @@ import numpy as np
 import dgplate
 from dgplate import demo
 from dgplate.io.output import write_json
-from dgplate.reference.obstacle import lift_off_length, penalised_lift_off
+from dgplate.reference.obstacle_profiles import lift_off_length, penalised_lift_off
 
 args = demo.arguments("obstacle_contact_zone", "contact zone against the load", "16 cells")
 comm = MPI.COMM_WORLD

@@ -21,7 +21,7 @@
 # $$P_\varepsilon[u] = \frac{1}{2\varepsilon}\int_0^L (R - |u - c|)_-^2$$
 #
 # with the quadratic–concave splitting of the plate obstacles (docs/obstacle.md, the same
-# code, `dgplate/dg/obstacle.py`): $\frac{1}{2\varepsilon}\int |u - c|^2$ is implicit in each
+# code, `dgplate/dg/obstacle_penalty.py`): $\frac{1}{2\varepsilon}\int |u - c|^2$ is implicit in each
 # step and the rest, concave, explicit, so every step is linear and the energy falls
 # unconditionally. The rod may penetrate by $O(\varepsilon)$ times the contact pressure.
 #

@@ -228,7 +228,7 @@ def _show(folders: list[str], comm: MPI.Comm) -> int:
     One folder that cannot be read is bad input (exit 2); in a table it is a row that says
     why, so that one broken folder among many does not hide the others.
     """
-    from dgplate.io.records import details, read_summary, runs_in, table
+    from dgplate.io.run_reader import details, read_summary, runs_in, table
 
     report: str | InputError | None = None
     if comm.rank == 0:
@@ -252,7 +252,7 @@ def _show(folders: list[str], comm: MPI.Comm) -> int:
 
 def _summary_or_error(folder: Path) -> dict[str, object]:
     """The run's summary, or a row whose ``error`` says why it cannot be read."""
-    from dgplate.io.records import read_summary
+    from dgplate.io.run_reader import read_summary
 
     try:
         return read_summary(folder)

@@ -34,7 +34,7 @@ from petsc4py import PETSc
 from dgplate import values
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
-from dgplate.solvers import linear as solvers
+from dgplate.solvers import linear
 
 
 @dataclass(frozen=True)
@@ -208,8 +208,8 @@ class HeatSolver:
         dolfinx.fem.petsc.assemble_vector(self.b, self._L)
         self.b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         if self.ksp is None:
-            self.ksp = solvers.make_ksp(self.comm, self.A, self._solver_options, "heat_")
-        solvers.solve(self.ksp, self.b, self.theta.x.petsc_vec)
+            self.ksp = linear.make_ksp(self.comm, self.A, self._solver_options, "heat_")
+        linear.solve(self.ksp, self.b, self.theta.x.petsc_vec)
         self.theta.x.scatter_forward()
         self.time, self.steps = t_new, self.steps + 1
         return t_new

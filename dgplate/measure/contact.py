@@ -1,7 +1,7 @@
 """Contact with a rigid obstacle: the figures of ``summary.json`` and the feasibility checks.
 
 The contact set is where the penalty acts, {s(y) < 0} (s the signed distance of
-:class:`dgplate.dg.obstacle.Obstacle`). Reported, all reduced over the ranks (owned cells
+:class:`dgplate.dg.obstacle_penalty.Obstacle`). Reported, all reduced over the ranks (owned cells
 only, so that they do not depend on the partition):
 
 * ``contact_area``: |{s < 0}| in the reference domain (quadrature of the indicator);
@@ -30,7 +30,7 @@ from dgplate import compat, mpi
 from dgplate.compat import Array, Function
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import CLAMPED, FacetSets, cell_measure, integral
-from dgplate.dg.obstacle import Obstacle
+from dgplate.dg.obstacle_penalty import Obstacle
 from dgplate.errors import InputError
 
 #: Degree of the DG nodes at which s(y) is sampled (per cell: (d + 1)² or (d+1)(d+2)/2 points).

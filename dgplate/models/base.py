@@ -4,7 +4,7 @@ A model is an energy written once in UFL plus what its driver needs. :class:`Mod
 protocol the runner sees; :class:`PlateModel` is the shape of every isometry-constrained plate
 (Kirchhoff, bilayer, foundation, …): facets, degree and the energy of the deformation, run by the
 constrained gradient flow, or, when its clamped data move along a path in α
-(:class:`DataPath`), by the flow staged in α (:mod:`dgplate.solvers.continuation`). Models
+(:class:`DataPath`), by the flow staged in α (:mod:`dgplate.solvers.moving_clamp`). Models
 with another state or driver (FvK: Newton over a load schedule; thermal: heat steps coupled to
 the flow) implement :class:`Model` themselves.
 """
@@ -29,9 +29,9 @@ from dgplate.measure.analysis import l1_norms
 from dgplate.measure.creases import crease_polylines, fold_angle_summary
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import REQUIRED, Check, option
-from dgplate.solvers.continuation import AlphaSchedule, Continuation, ContinuationFlow
 from dgplate.solvers.driver import Driver, Observer
 from dgplate.solvers.flow import FlowSpec, GradientFlow, Initial
+from dgplate.solvers.moving_clamp import AlphaSchedule, MovingClampFlow, MovingClampSpec
 
 __all__ = [
     "BoundaryData",
@@ -123,7 +123,7 @@ class PlateModel(Model):
     ``measures`` add numbers of the final deformation to ``summary.json``; the L¹ norms of
     the Gaussian curvature and of the isometry defect, and fold angles of crease facets, are
     always reported. With ``continuation`` the clamped data move along α
-    and the flow is staged (:class:`~dgplate.solvers.continuation.ContinuationFlow`).
+    and the flow is staged (:class:`~dgplate.solvers.moving_clamp.MovingClampFlow`).
     """
 
     facets: FacetSets
@@ -134,15 +134,15 @@ class PlateModel(Model):
 
     def driver(
         self, flow: FlowSpec, observers: Sequence[Observer], initial: Initial | None
-    ) -> GradientFlow | ContinuationFlow:
+    ) -> GradientFlow | MovingClampFlow:
         """The constrained gradient flow of :attr:`energy`, staged in α with a continuation."""
         path = self.continuation
         if path is None:
             return GradientFlow(self.facets, self.degree, self.energy, flow, observers, initial)
         plain = GradientFlow(self.facets, self.degree, self.energy, flow, (), initial)
-        return ContinuationFlow(plain, path.alpha, path.schedule, observers)
+        return MovingClampFlow(plain, path.alpha, path.schedule, observers)
 
-    def figures(self, driver: GradientFlow | ContinuationFlow) -> dict[str, Any]:
+    def figures(self, driver: GradientFlow | MovingClampFlow) -> dict[str, Any]:
         """‖K_h‖_L¹, ‖δI_h‖_L¹, fold angles along creases and the numbers of :attr:`measures`."""
         out: dict[str, Any] = l1_norms(driver.y)
         if self.facets.num_crease:
@@ -151,7 +151,7 @@ class PlateModel(Model):
             out.update(measure(driver.y))
         return out
 
-    def lines(self, driver: GradientFlow | ContinuationFlow) -> list[Array]:
+    def lines(self, driver: GradientFlow | MovingClampFlow) -> list[Array]:
         """The deformed crease lines."""
         return crease_polylines(driver.y, self.facets) if self.facets.num_crease else []
 
@@ -176,7 +176,7 @@ def piecewise_constant(tagged: TaggedMesh, data: float | dict[str, float], key: 
 
 
 def continuation_schedule(
-    continuation: Continuation | None, clamped: Sequence[str], data: object
+    continuation: MovingClampSpec | None, clamped: Sequence[str], data: object
 ) -> AlphaSchedule | None:
     """The schedule of ``model.continuation`` (None without one), checked against the data.
 

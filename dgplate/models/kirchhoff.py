@@ -27,7 +27,7 @@ from dgplate.dg.forms import (
     bending_energy,
     facet_sets,
 )
-from dgplate.dg.obstacle import Obstacle
+from dgplate.dg.obstacle_penalty import Obstacle
 from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.mesh.tagged import TaggedMesh, rectangle
 from dgplate.models import starts
@@ -42,7 +42,7 @@ from dgplate.models.base import (
 from dgplate.models.obstacle import with_obstacle
 from dgplate.models.self_avoidance import with_self_avoidance
 from dgplate.schema import Check, option
-from dgplate.solvers.continuation import AlphaSchedule, Continuation
+from dgplate.solvers.moving_clamp import AlphaSchedule, MovingClampSpec
 
 
 def kirchhoff_energy(
@@ -78,7 +78,7 @@ class KirchhoffSpec:
     )
     penalty: Penalty = option(Penalty(), "IP penalties γ₀ (h⁻³[y]) and γ₁ (h⁻ᵖ[∇y])")
     penalty_length: str = option("diameter", PENALTY_LENGTH_HELP, choices=PENALTY_LENGTHS)
-    continuation: Continuation | None = option(
+    continuation: MovingClampSpec | None = option(
         None,
         "move the clamped data along α ∈ (0, 1] (docs/continuation.md): {} none. Path: boundary_data formulas in x, y, alpha, else (1 − α)·id + α·g",
     )

@@ -1,7 +1,7 @@
 """A rigid obstacle added to an isometric plate model (docs/obstacle.md).
 
 :func:`with_obstacle` is the one call by which a plate builder (Kirchhoff, bilayer, and so the
-foundation model) adds the penalty of :mod:`dgplate.dg.obstacle` to its energy and the contact
+foundation model) adds the penalty of :mod:`dgplate.dg.obstacle_penalty` to its energy and the contact
 figures of :mod:`dgplate.measure.contact` to its ``summary.json``. The clamped data are
 checked when the model is built, the start when the flow builds the energy (its first state).
 """
@@ -14,7 +14,7 @@ from ufl.core.expr import Expr
 
 from dgplate.compat import Function
 from dgplate.dg.energy import Energy
-from dgplate.dg.obstacle import Obstacle
+from dgplate.dg.obstacle_penalty import Obstacle
 from dgplate.measure.contact import Contact
 from dgplate.models.base import DataPath, PlateModel, along_path
 

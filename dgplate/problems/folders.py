@@ -12,7 +12,7 @@ from mpi4py import MPI
 
 from dgplate.io import checkpoint
 from dgplate.io.output import CHECKPOINT, OutputDir, is_dgplate_output, print0, write_marker
-from dgplate.io.records import summary_is_current
+from dgplate.io.run_reader import summary_is_current
 from dgplate.problems.result import Result
 from dgplate.problems.results import load_result
 from dgplate.problems.runner import run

@@ -18,7 +18,7 @@ from mpi4py import MPI
 from dgplate.errors import InputError
 from dgplate.io import checkpoint
 from dgplate.io.output import CHECKPOINT, OutputDir
-from dgplate.io.records import summary_is_current
+from dgplate.io.run_reader import summary_is_current
 from dgplate.mesh.tagged import TaggedMesh, load_geo, rectangle
 from dgplate.models.base import Model
 from dgplate.problems import report, sizing

@@ -17,7 +17,7 @@ from mpi4py import MPI
 from dgplate.errors import InputError
 from dgplate.io import checkpoint
 from dgplate.io.output import CHECKPOINT
-from dgplate.io.records import read_history, read_summary, runs_in
+from dgplate.io.run_reader import read_history, read_summary, runs_in
 from dgplate.problems.prepare import build_model
 from dgplate.problems.result import Result
 from dgplate.problems.specs import problem_from_dict

@@ -17,7 +17,7 @@ from ufl.core.expr import Expr
 from dgplate import compat
 from dgplate.compat import Function
 from dgplate.dg.forms import FacetSets, Penalty, bending_energy, broken_norms
-from dgplate.solvers import linear as solvers
+from dgplate.solvers import linear
 
 
 @dataclass
@@ -56,8 +56,8 @@ def solve_biharmonic(
     A.assemble()
     b = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(-residual))
     compat.accumulate_ghosts(b)
-    ksp = solvers.make_ksp(mesh.comm, A)
-    solvers.solve(ksp, b, u.x.petsc_vec)
+    ksp = linear.make_ksp(mesh.comm, A)
+    linear.solve(ksp, b, u.x.petsc_vec)
     u.x.scatter_forward()
     errors = broken_norms(u - exact, facets, degree=2 * degree + 6)
     dofs = V.dofmap.index_map.size_global * V.dofmap.index_map_bs

@@ -52,7 +52,7 @@ from dgplate.solvers.stability import StabilityObserver
 
 
 class Path(Protocol):
-    """The load path as the branch leaving sees it (:class:`dgplate.solvers.newton.Continuation`)."""
+    """The load path as the branch leaving sees it (:class:`dgplate.solvers.newton.LoadPath`)."""
 
     comm: MPI.Comm
     state: dolfinx.fem.Function[np.float64]

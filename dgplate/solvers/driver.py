@@ -2,10 +2,10 @@
 
 A driver advances a model's state: the constrained gradient flow
 (:class:`dgplate.solvers.flow.GradientFlow`), the flow staged along a path of clamped data
-(:class:`dgplate.solvers.continuation.ContinuationFlow`), the rod's flow
+(:class:`dgplate.solvers.moving_clamp.MovingClampFlow`), the rod's flow
 (:class:`dgplate.solvers.rod_flow.RodFlow`), Newton's method over a load schedule
-(:class:`dgplate.solvers.newton.Continuation`) or heat steps each followed by a relaxation
-(:class:`dgplate.coupling.thermal.ThermalBilayer`). The runner (:mod:`dgplate.problems.runner`)
+(:class:`dgplate.solvers.newton.LoadPath`) or heat steps each followed by a relaxation
+(:class:`dgplate.coupling.thermal_driver.ThermalBilayer`). The runner (:mod:`dgplate.problems.runner`)
 is written once against this protocol: its observers print progress, write the VTX series and
 the checkpoints, and after the run it writes ``history.csv``, ``summary.json`` and the picture.
 """

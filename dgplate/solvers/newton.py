@@ -17,7 +17,7 @@ the Newton correction instead of a residual norm that may mix units (membrane an
 and takes full steps near the solution, so convergence is quadratic there; the linear systems
 are solved by MUMPS LU (:data:`dgplate.solvers.linear.DIRECT_MUMPS`).
 
-:class:`Continuation` is a :class:`dgplate.solvers.driver.Driver`: ``run`` reports one
+:class:`LoadPath` is a :class:`dgplate.solvers.driver.Driver`: ``run`` reports one
 :class:`LoadStep` per converged load step to the observers, stops on SIGINT/SIGTERM at a step
 boundary (on every rank together), and reports a load step whose Newton iteration fails as
 ``converged = False`` with the SNES reason, keeping the last converged state. A checkpoint
@@ -55,7 +55,7 @@ from dgplate.solvers.path_options import Leave, Relaxation, Stability
 from dgplate.solvers.snes import NewtonSolver, snes_reason
 from dgplate.solvers.stability import LOWEST, StabilityObserver
 
-__all__ = ["Continuation", "Leave", "LoadStep", "Relaxation", "Stability", "record_type"]
+__all__ = ["Leave", "LoadPath", "LoadStep", "Relaxation", "Stability", "record_type"]
 
 #: Options prefixes of the live drivers: two at once would read each other's options.
 _LIVE_PREFIXES: set[str] = set()
@@ -104,7 +104,7 @@ def record_type(probes: Sequence[str]) -> type[LoadStep]:
     return dataclasses.make_dataclass("LoadStepWithProbes", fields, bases=(LoadStep,))
 
 
-class Continuation(Driver):
+class LoadPath(Driver):
     """Newton's method (PETSc SNES) on DΠ(u) = 0 at each load factor of a schedule.
 
     Args:
@@ -157,7 +157,7 @@ class Continuation(Driver):
     ) -> None:
         self.schedule = _checked_schedule(schedule, float(load_factor.value))
         if prefix in _LIVE_PREFIXES:
-            raise ValueError(f"PETSc options prefix {prefix!r} is in use by a live Continuation")
+            raise ValueError(f"PETSc options prefix {prefix!r} is in use by a live LoadPath")
         self.state, self.comm = state, state.function_space.mesh.comm
         self._load_factor = load_factor
         self._bc_values = [(c, np.asarray(v, dtype=float)) for c, v in bc_values]
@@ -310,8 +310,8 @@ class Continuation(Driver):
         self.newton.destroy()
         _LIVE_PREFIXES.discard(self._prefix)
 
-    def __enter__(self) -> Continuation:
-        """``with Continuation(...) as driver:`` destroys the driver at the end."""
+    def __enter__(self) -> LoadPath:
+        """``with LoadPath(...) as driver:`` destroys the driver at the end."""
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -400,7 +400,7 @@ class Continuation(Driver):
         return self.newton.energy_value()
 
 
-def _outcome(driver: Continuation, failure: str | None, signum: int) -> tuple[bool, str]:
+def _outcome(driver: LoadPath, failure: str | None, signum: int) -> tuple[bool, str]:
     """(converged, reason) of a run that ended with ``failure`` or signal ``signum``."""
     total = len(driver.schedule)
     if failure:

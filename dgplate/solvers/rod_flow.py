@@ -61,7 +61,7 @@ from dgplate.compat import Array, Function, FunctionSpace, Mesh
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import integral
 from dgplate.errors import SolverError
-from dgplate.solvers import linear as solvers
+from dgplate.solvers import linear
 from dgplate.solvers.driver import EnergyFlow, Observer
 from dgplate.solvers.flow import FlowSpec
 from dgplate.solvers.rod_forms import (
@@ -315,7 +315,7 @@ class RodFlow(EnergyFlow):
         self.measure = RodStationarity(
             self.W, kkt_l2, self._bcs, self.rhs, self._L, self.settings.solver
         )
-        self.solver = solvers.DirectStepSolver(self.comm, self.K, self.settings.solver, None)
+        self.solver = linear.DirectStepSolver(self.comm, self.K, self.settings.solver, None)
 
     # -- the Driver protocol ----------------------------------------------------------------
     @property
@@ -381,10 +381,12 @@ class RodFlow(EnergyFlow):
         increment = mpi.global_max(self.comm, float(np.max(np.abs(self._last_increment))))
         if self.control is not None:  # the linearisation error, before the projection
             self.linear_defect = max(self.defects().values())
-        linear = self.evaluate_energy() if self.settings.projection_steps else math.nan
+        unprojected = self.evaluate_energy() if self.settings.projection_steps else math.nan
         self._last_increment += self._project()
         energy = self.evaluate_energy()  # after the projection
-        projection = {} if math.isnan(linear) else {"energy_change_by_projection": energy - linear}
+        projection = (
+            {} if math.isnan(unprojected) else {"energy_change_by_projection": energy - unprojected}
+        )
         rate = (self._last_energy - energy) / self.tau
         self._last_energy = energy
         self.step_count += 1

@@ -21,7 +21,7 @@ from petsc4py import PETSc
 
 from dgplate.solvers import linear
 
-#: SNES defaults; the ``options`` of a :class:`dgplate.solvers.newton.Continuation` override any key.
+#: SNES defaults; the ``options`` of a :class:`dgplate.solvers.newton.LoadPath` override any key.
 NEWTON_DEFAULTS: dict[str, Any] = {
     "snes_type": "newtonls",
     "snes_linesearch_type": "nleqerr",

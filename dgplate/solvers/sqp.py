@@ -29,7 +29,7 @@ from petsc4py import PETSc
 
 from dgplate import compat
 from dgplate.compat import Constant, Function
-from dgplate.solvers import linear as solvers
+from dgplate.solvers import linear
 from dgplate.solvers.constraint import EdgeConstraint, metric_tensor_defect, symmetric
 from dgplate.solvers.linear import Options
 
@@ -74,9 +74,9 @@ class NewtonStep:
         self._form: compat.Form | None = None
         self._H: PETSc.Mat | None = None
         self._K: PETSc.Mat | None = None
-        self._solver: solvers.DirectStepSolver | None = None
+        self._solver: linear.DirectStepSolver | None = None
 
-    def assemble(self, K: PETSc.Mat) -> solvers.DirectStepSolver:
+    def assemble(self, K: PETSc.Mat) -> linear.DirectStepSolver:
         """K_N = K + H at the current state (collective); returns the solver that factorises it."""
         if self._form is None:
             self._form = dolfinx.fem.form(self._ufl)
@@ -87,7 +87,7 @@ class NewtonStep:
         if self._K is None:
             self._K = K.duplicate(copy=True)
             self._K.axpy(1.0, self._H, structure=compat.DIFFERENT_NONZERO_PATTERN)
-            self._solver = solvers.DirectStepSolver(self.comm, self._K, self._options, prefix=None)
+            self._solver = linear.DirectStepSolver(self.comm, self._K, self._options, prefix=None)
         else:
             self._K.zeroEntries()
             self._K.axpy(1.0, K, structure=compat.SUBSET_NONZERO_PATTERN)

@@ -48,7 +48,7 @@ class Leaving(Protocol):
 
 
 class Path(Protocol):
-    """The load path as the observer sees it (:class:`dgplate.solvers.newton.Continuation`)."""
+    """The load path as the observer sees it (:class:`dgplate.solvers.newton.LoadPath`)."""
 
     newton: NewtonSolver
     branches: Leaving

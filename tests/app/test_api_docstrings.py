@@ -27,20 +27,20 @@ PUBLIC = [
     "dgplate.models.thermal:build_thermal",
     "dgplate.solvers.flow:GradientFlow",
     "dgplate.solvers.rod_flow:RodFlow",
-    "dgplate.solvers.newton:Continuation",
-    "dgplate.solvers.continuation:ContinuationFlow",
-    "dgplate.coupling.thermal:ThermalBilayer",
+    "dgplate.solvers.newton:LoadPath",
+    "dgplate.solvers.moving_clamp:MovingClampFlow",
+    "dgplate.coupling.thermal_driver:ThermalBilayer",
 ]
 
 
 def resolve(name: str) -> Callable[..., Any]:
     module, attr = name.split(":")
-    return getattr(importlib.import_module(module), attr)  # type: ignore[no-any-return]
+    return getattr(importlib.import_module(module), attr)
 
 
 def missing(obj: Callable[..., Any]) -> list[str]:
     """What the docstring of ``obj`` (a class: its own or its ``__init__``'s) leaves out."""
-    target = obj.__init__ if inspect.isclass(obj) else obj  # type: ignore[misc]
+    target = obj.__init__ if inspect.isclass(obj) else obj
     doc = inspect.getdoc(obj) or ""
     if inspect.isclass(obj):
         doc += "\n" + (inspect.getdoc(target) or "")

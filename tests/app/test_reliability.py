@@ -451,12 +451,12 @@ KILL_AT_STEP = textwrap.dedent(
     from mpi4py import MPI
     from dgplate.solvers import flow, newton
     from dgplate.cli import main
-    from dgplate.coupling import thermal
+    from dgplate.coupling import thermal_driver
     from dgplate.models import fvk
 
     driver, at = os.environ["DGPLATE_TEST_KILL_AT"].split(":")
     at = int(at)
-    step, load_step = flow.GradientFlow.step, newton.Continuation.step
+    step, load_step = flow.GradientFlow.step, newton.LoadPath.step
     def step_then_die(self):
         if self.step_count == at and driver == "flow":
             os.kill(os.getpid(), signal.SIGKILL)  # no clean-up at all, as kill -9
@@ -470,7 +470,7 @@ KILL_AT_STEP = textwrap.dedent(
             os.kill(os.getpid(), signal.SIGKILL)
         return advance(self, max_steps)
     flow.GradientFlow.step = step_then_die
-    newton.Continuation.step = load_step_then_die
+    newton.LoadPath.step = load_step_then_die
     advance = thermal.ThermalBilayer.advance
     thermal.ThermalBilayer.advance = advance_then_die
     if sys.argv[1].endswith(".py"):  # a demo script

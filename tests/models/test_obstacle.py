@@ -10,7 +10,7 @@ import pytest
 from helpers import PARITY_RTOL
 
 import dgplate
-from dgplate.reference.obstacle import lift_off_length, penalised_lift_off
+from dgplate.reference.obstacle_profiles import lift_off_length, penalised_lift_off
 
 MU, HEIGHT, WEIGHT, LENGTH, WIDTH = 1.0, 0.02, 1.0, 2.0, 0.25
 QUIET = {"png": False, "vtx": False, "progress": 0}

@@ -15,7 +15,7 @@ from helpers import PARITY_RTOL
 
 from dgplate import interrupt
 from dgplate.coupling.heat import HeatSolver
-from dgplate.coupling.thermal import HeatStepRecord, Schedule, ThermalBilayer
+from dgplate.coupling.thermal_driver import HeatStepRecord, Schedule, ThermalBilayer
 from dgplate.errors import InputError
 from dgplate.io import checkpoint
 from dgplate.measure.hinges import (

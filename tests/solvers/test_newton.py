@@ -15,7 +15,7 @@ from petsc4py import PETSc
 from dgplate.errors import SolverError
 from dgplate.mesh.tagged import rectangle
 from dgplate.solvers import eigen
-from dgplate.solvers.newton import Continuation, LoadStep, Stability, record_type
+from dgplate.solvers.newton import LoadPath, LoadStep, Stability, record_type
 
 
 def scalar_problem(comm=MPI.COMM_SELF):
@@ -48,7 +48,7 @@ def shape_of(u):
 def test_generic_energy_and_boundary_data():
     u, energy, bcs, load_factor, value = scalar_problem()
     peak = {"u_max": lambda: float(u.x.array.max())}
-    with Continuation(
+    with LoadPath(
         u, energy, bcs, load_factor, [0.5, 1.0], "dgplate_test_newton_",
         bc_values=[(value, 0.1)], shape=shape_of(u), probes=lambda: {k: f() for k, f in peak.items()},
     ) as driver:  # fmt: skip
@@ -65,13 +65,13 @@ def test_generic_energy_and_boundary_data():
 def test_one_live_driver_per_prefix_and_checked_schedules():
     u, energy, bcs, load_factor, _ = scalar_problem()
     keys = dict(shape=shape_of(u))
-    with Continuation(u, energy, bcs, load_factor, [1.0], "dgplate_test_prefix_", **keys):
+    with LoadPath(u, energy, bcs, load_factor, [1.0], "dgplate_test_prefix_", **keys):
         with pytest.raises(ValueError, match="in use"):
-            Continuation(u, energy, bcs, load_factor, [1.0], "dgplate_test_prefix_", **keys)
+            LoadPath(u, energy, bcs, load_factor, [1.0], "dgplate_test_prefix_", **keys)
     assert not any(k.startswith("dgplate_test_prefix_") for k in PETSc.Options().getAll())
     for schedule in ([], [0.5, 0.5], [float("nan")], [0.0]):
         with pytest.raises(ValueError):
-            Continuation(u, energy, bcs, load_factor, schedule, "dgplate_test_schedule_", **keys)
+            LoadPath(u, energy, bcs, load_factor, schedule, "dgplate_test_schedule_", **keys)
 
 
 def test_probe_fields():
@@ -158,7 +158,7 @@ def pitchfork(comm, solver, perturb, schedule=STRAIGHT):
     stability = Stability(perturb=perturb, solver=solver)
     peak = {"u_max": lambda: u.function_space.mesh.comm.allreduce(
         float(np.abs(u.x.array).max()), op=MPI.MAX)}  # fmt: skip
-    return Continuation(
+    return LoadPath(
         u, energy, [bc], load_factor, schedule, "dgplate_test_pitch_",
         shape=shape_of(u), probes=lambda: {k: f() for k, f in peak.items()}, stability=stability,
     )  # fmt: skip

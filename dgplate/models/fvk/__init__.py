@@ -45,7 +45,7 @@ Indenter (docs/fvk_experiments.md). ``indenter`` (a cell group) is pushed down r
 Load schedule. Pressure p, prestrain ε₀ (thermal expansion: ε₀ > 0 compresses a held plate)
 and prescribed edge displacements are multiplied by a load factor. ``load_steps = n`` means
 the load factors 1/n, 2/n, …, 1; a list gives the factors (increasing, in (0, 1]). The
-schedule is solved by the generic driver :class:`dgplate.solvers.newton.Continuation` (secant
+schedule is solved by the generic driver :class:`dgplate.solvers.newton.LoadPath` (secant
 predictor, SNES newtonls with the NLEQ-ERR line search, MUMPS LU; ``newton.snes`` overrides any
 option under the prefix ``dgplate_fvk_``). A load step that does not converge ends the run
 with ``converged = false``, the SNES reason and the last converged state.

@@ -25,7 +25,7 @@ from dgplate.models.fvk.energy import BCValues, fvk_energy, fvk_facet_sets, fvk_
 from dgplate.models.fvk.spec import FvKSpec
 from dgplate.mpi import bounds
 from dgplate.solvers.driver import Observer
-from dgplate.solvers.newton import Continuation, Relaxation
+from dgplate.solvers.newton import LoadPath, Relaxation
 
 #: PETSc options prefix of the FvK driver: ``-dgplate_fvk_snes_monitor`` on the command line.
 PREFIX = "dgplate_fvk_"
@@ -105,7 +105,7 @@ class FvKModel(Model):
 
     def driver(
         self, flow: object, observers: Sequence[Observer], initial: Initial | None
-    ) -> Continuation:
+    ) -> LoadPath:
         """Newton over the load schedule, from the unloaded flat plate or from ``initial``.
 
         ``flow`` (the problem's [flow] section) is ignored: FvK is not a gradient flow.
@@ -115,7 +115,7 @@ class FvKModel(Model):
             start_from(state, initial)
         load_factor = values.constant(self.facets.mesh, 0.0)
         newton = self.spec.newton
-        return Continuation(
+        return LoadPath(
             state,
             fvk_energy(state, self.facets, self.spec, load_factor, self.tip),
             self.bcs,
@@ -132,7 +132,7 @@ class FvKModel(Model):
             relaxation=Relaxation(tau=newton.relaxation_tau) if newton.relaxation else None,
         )
 
-    def figures(self, driver: Continuation) -> dict[str, Any]:
+    def figures(self, driver: LoadPath) -> dict[str, Any]:
         """The FvK numbers of the last converged load step (None before the first)."""
         spec = self.spec
         last = asdict(driver.history[-1]) if driver.history else {}
@@ -149,7 +149,7 @@ class FvKModel(Model):
             "D": spec.D,
         }
 
-    def lines(self, driver: Continuation) -> list[np.ndarray]:
+    def lines(self, driver: LoadPath) -> list[np.ndarray]:
         """No lines are drawn on an FvK plate."""
         return []
 

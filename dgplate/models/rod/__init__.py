@@ -17,7 +17,7 @@ quadratic part (c_b/2)|u″ − κb|² + (c_t/2)|b′|² is implicit in the flow
 
 The rod has its own 1D mesh (``model.cells`` intervals of (0, ``model.length``), built by
 :func:`rod_mesh` from these keys); the [mesh] section does not apply. ``model.confinement``
-keeps the rod in a ball by the sphere obstacle of :mod:`dgplate.dg.obstacle` (the plates'
+keeps the rod in a ball by the sphere obstacle of :mod:`dgplate.dg.obstacle_penalty` (the plates'
 penalty and quadratic–concave splitting, applied to u). Ends: 'clamped-free' (u(0) = 0,
 u′(0) = tangent, b(0) = frame), 'clamped-guided' (also u′(L) = tangent and b(L) = the frame
 turned by ``model.twist`` about the tangent, u(L) free: clamping u(L) = L·tangent too would

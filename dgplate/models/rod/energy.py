@@ -19,7 +19,7 @@ from dgplate import compat, values
 from dgplate.compat import Constant, Function, Mesh
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import integral
-from dgplate.dg.obstacle import Obstacle
+from dgplate.dg.obstacle_penalty import Obstacle
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.rod.spec import RodSpec, _unit
 from dgplate.solvers.rod_flow import ip_jumps, ip_product, nitsche_slope, tangent

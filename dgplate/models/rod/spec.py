@@ -13,7 +13,7 @@ import numpy as np
 
 from dgplate import expressions
 from dgplate.compat import Array
-from dgplate.dg.obstacle import Obstacle
+from dgplate.dg.obstacle_penalty import Obstacle
 from dgplate.dg.self_avoidance import CurveSelfAvoidance
 from dgplate.errors import InputError
 from dgplate.models.rod.start import Start, closed_start, curve_start
@@ -57,7 +57,7 @@ class Confinement:
     epsilon: float = option(1e-4, "the penalty parameter ε of (1/2ε)∫(R − |u − c|)₋²", gt=0)
 
     def sphere(self) -> Obstacle:
-        """The obstacle 'inside a sphere' of :mod:`dgplate.dg.obstacle`."""
+        """The obstacle 'inside a sphere' of :mod:`dgplate.dg.obstacle_penalty`."""
         return Obstacle(
             type="sphere",
             epsilon=self.epsilon,

@@ -10,7 +10,7 @@ bending rigidity. Both are piecewise constant over cell groups: soft bilayer hin
 with Z on a panel too, the panel pays ½μ|II − Z|² = μ|Z|² flat but only ½μ|Z|² rolled to a
 cylinder of curvature |Z| (isometries can match one principal curvature), so any μ lets it
 roll. θ solves the heat equation of :mod:`dgplate.coupling.heat`; the driver
-:class:`dgplate.coupling.thermal.ThermalBilayer` alternates heat steps and relaxations of the
+:class:`dgplate.coupling.thermal_driver.ThermalBilayer` alternates heat steps and relaxations of the
 plate by the constrained gradient flow. The compiled energy references the temperature
 Function, so a heat step changes Z without recompiling anything.
 

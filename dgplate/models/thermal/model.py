@@ -18,7 +18,7 @@ import numpy as np
 from dgplate import expressions
 from dgplate.compat import Mesh
 from dgplate.coupling.heat import HeatSolver
-from dgplate.coupling.thermal import Measure, Schedule, ThermalBilayer
+from dgplate.coupling.thermal_driver import Measure, Schedule, ThermalBilayer
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets, Penalty, facet_sets
 from dgplate.errors import InputError

@@ -13,7 +13,7 @@ from typing import ClassVar, Literal
 
 from dgplate import expressions
 from dgplate.coupling.heat import HeatSource
-from dgplate.coupling.thermal import Schedule
+from dgplate.coupling.thermal_driver import Schedule
 from dgplate.dg.forms import PENALTY_LENGTH_HELP, PENALTY_LENGTHS, Penalty
 from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.errors import InputError

@@ -13,8 +13,8 @@ flow relaxes at α = 1 until it converges. Every change of α rebases the flow's
 the energy decrease of a step, and the list of steps at which the energy went up, count only
 the flow's own work and not the work done by moving the data.
 
-:class:`ContinuationFlow` implements the runner's :class:`~dgplate.solvers.driver.Driver`
-protocol: one record per flow step (:class:`ContinuationStep`, the flow's :class:`StepInfo`
+:class:`MovingClampFlow` implements the runner's :class:`~dgplate.solvers.driver.Driver`
+protocol: one record per flow step (:class:`MovingClampStep`, the flow's :class:`StepInfo`
 with α and the stage), checkpoints that keep α, and α along the path in ``summary.json``.
 """
 
@@ -37,7 +37,7 @@ from dgplate.solvers.driver import Driver, Observer, Record, RunOutcome, RunResu
 from dgplate.solvers.flow import GradientFlow
 from dgplate.solvers.steps import FlowResult, StepInfo
 
-__all__ = ["AlphaSchedule", "Continuation", "ContinuationFlow", "ContinuationStep", "StageRecord"]
+__all__ = ["AlphaSchedule", "MovingClampFlow", "MovingClampSpec", "MovingClampStep", "StageRecord"]
 
 _MAX_PATH = 200  # stages listed in summary.json (a δα schedule has thousands)
 
@@ -75,7 +75,7 @@ class AlphaSchedule:
 
 
 @dataclass(frozen=True)
-class Continuation:
+class MovingClampSpec:
     """The table ``model.continuation``: how the clamped data move along α ∈ (0, 1].
 
     Exactly one of ``steps``, ``alpha`` and ``rate``; :meth:`schedule` gives the stages.
@@ -126,7 +126,7 @@ class Continuation:
 
 
 @dataclass
-class ContinuationStep(StepInfo):
+class MovingClampStep(StepInfo):
     """One flow step of the continuation: the flow's record, α and the stage (1-based)."""
 
     alpha: float = 1.0
@@ -151,7 +151,7 @@ class StageRecord:
 class _Forward:
     """The inner flow's observer: its records, with α, go to the continuation's observers."""
 
-    def __init__(self, owner: ContinuationFlow):
+    def __init__(self, owner: MovingClampFlow):
         self.owner = owner
 
     def step(self, driver: Driver, record: Record) -> None:
@@ -163,7 +163,7 @@ class _Forward:
         """Nothing: the continuation tells its observers when its own run ends."""
 
 
-class ContinuationFlow(Driver):
+class MovingClampFlow(Driver):
     """The constrained gradient flow with clamped data moved along α (a Driver).
 
     The flow reports to this driver, which reports to its observers. Collective on the mesh
@@ -191,7 +191,7 @@ class ContinuationFlow(Driver):
         self.stage = 0  # the current stage (0-based)
         self.stage_steps = 0  # flow steps done in the current stage
         self.stages: list[StageRecord] = []  # finished stages
-        self._history: list[ContinuationStep] = []  # this run's records
+        self._history: list[MovingClampStep] = []  # this run's records
         self._set_alpha(schedule.alpha(0))
 
     # -- the runner's view ------------------------------------------------------------------
@@ -270,7 +270,7 @@ class ContinuationFlow(Driver):
         continues with the next stage.
         """
         self.stage_steps += 1
-        record = ContinuationStep(**asdict(info), alpha=self.alpha, stage=self.stage + 1)
+        record = MovingClampStep(**asdict(info), alpha=self.alpha, stage=self.stage + 1)
         self._history.append(record)
         allowed = self.schedule.budget(self.stage)
         converged = abs(info.rate) < self.flow.settings.tol
