@@ -12,6 +12,7 @@ from typing import Unpack
 
 from mpi4py import MPI
 
+import dolfinx.fem
 import ufl
 from ufl.core.expr import Expr
 
@@ -27,6 +28,7 @@ from dgplate.dg.forms import (
     check_penalty_length,
     facet_sets,
 )
+from dgplate.dg.lifting import HESSIAN_HELP, check_hessian, ldg_energy
 from dgplate.dg.obstacle import Obstacle
 from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.errors import InputError
@@ -50,12 +52,18 @@ def kirchhoff_energy(
     facets: FacetSets,
     penalty: Penalty,
     load: Expr | None = None,
+    ldg_degree: int | None = None,
     **data: Unpack[BendingData],
 ) -> Energy:
     """The discrete Kirchhoff energy of the deformation ``y`` (a UFL Function in [DG_k]³).
 
     ``data``: the rigidity ``mu`` and the clamped data ``g``, ``Phi`` of the bending energy.
+    ``ldg_degree`` k: the LDG energy with the reconstructed Hessian of degree k
+    (:mod:`dgplate.dg.lifting`; ``y`` must then be a Function); None: interior penalty.
     """
+    if ldg_degree is not None:
+        assert isinstance(y, dolfinx.fem.Function)
+        return ldg_energy(y, facets, penalty, ldg_degree, load, **data)
     energy = bending_energy(y, facets, penalty, **data)
     if load is not None:
         energy -= ufl.inner(load, y) * facets.dx
@@ -79,6 +87,7 @@ class KirchhoffSpec:
         "IP penalties γ₀ (h⁻³[y]) and γ₁ (h⁻ᵖ[∇y]); gradient_power p (default 1, at most 3) over-penalises gradient jumps",
     )
     penalty_length: str = option("diameter", PENALTY_LENGTH_HELP)
+    hessian: str = option("broken", HESSIAN_HELP)
     continuation: dict[str, object] = option(
         {},
         "move the clamped data along α ∈ (0, 1]: {steps = N} (α = 1/N, …, 1), {alpha = [increasing values]} or {rate = δα} (α grows by δα per flow step); stage_steps = flow steps per stage (200). Path: boundary_data formulas in x, y, alpha, else (1 − α)·id + α·g",
@@ -111,6 +120,7 @@ class KirchhoffSpec:
             )
         self._penalty = Penalty.from_table(self.penalty, "model.penalty")
         check_penalty_length(self.penalty_length, "model.penalty_length")
+        check_hessian(self.hessian)
         self._obstacle = Obstacle.from_table(self.obstacle, "model.obstacle")
         self._self_avoidance = SelfAvoidance.from_table(self.self_avoidance)
         self._start = starts.Start.from_table(self.start)
@@ -143,6 +153,11 @@ class KirchhoffSpec:
         return self._penalty
 
     @property
+    def ldg_degree(self) -> int | None:
+        """The degree of the liftings with ``hessian = 'ldg'`` (that of y), else None."""
+        return self.degree if self.hessian == "ldg" else None
+
+    @property
     def obstacle_params(self) -> Obstacle | None:
         """The validated ``obstacle`` table (None: no obstacle)."""
         return self._obstacle
@@ -168,7 +183,7 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     penalty = spec.penalty_params
 
     def energy_fn(y: Function) -> Energy:
-        return kirchhoff_energy(y, facets, penalty, load=load, mu=mu, g=g, Phi=Phi)
+        return kirchhoff_energy(y, facets, penalty, load, spec.ldg_degree, mu=mu, g=g, Phi=Phi)
 
     plate = PlateModel(facets, spec.degree, energy_fn, continuation=path)
     return with_self_avoidance(
