@@ -68,7 +68,7 @@ HESSIANS = ("broken", "ldg")
 HESSIAN_HELP = (
     "Hessian of the bending energy: 'broken' (interior penalty, D²_h y with consistency terms) "
     "or 'ldg' (the reconstructed Hessian D²_h y − R_h[∇y] + B_h[y] with lifting operators of "
-    "degree k, docs/accuracy.md; any penalties > 0)"
+    "degree k, docs/design.md; any penalties > 0)"
 )
 
 
