@@ -11,7 +11,9 @@ Cases (the mesh level n sets the cells; h ∝ 1/n):
 - ``rigid``: the BNN Table 1 plate (demos/problems/vertical_load.toml, (0, 4)² clamped on two
   perpendicular sides, vertical load), n × n cells. Its only isometries are rigid: E = 0.
 
-Variants are sets of problem-file overrides (``VARIANTS``). Unless a variant says otherwise,
+Variants are sets of problem-file overrides (``VARIANTS``); ``ldg_*`` use the LDG
+reconstructed Hessian (``model.hessian = "ldg"``) with γ₀ = γ₁ = γ (``ldg_g<γ>``), the
+standard penalties (``ldg_std``) or the cylinder file's (``ldg_tuned``). Unless a variant says otherwise,
 the flow runs to a discrete minimiser: adaptive τ from τ = h with the SQP finish and the
 τ-independent stop ‖P DE_h‖_*' < ``--tol`` (``MINIMISER``); ``*_rate`` variants use the
 fixed-τ flow with the rate stop instead, to measure the error of stopping the flow early.
@@ -115,6 +117,34 @@ VARIANTS: dict[str, dict[str, Any]] = {
         "flow.multiplier_degree": 0,
         "flow.edge_constraint": False,
         **MINIMISER,
+    },
+    # the LDG reconstructed Hessian (model.hessian = "ldg", dgplate/dg/lifting.py) with small
+    # penalties γ₀ = γ₁ = γ, the file's constraint, to a minimiser
+    **{
+        f"ldg_g{gamma:g}": {
+            **TUNED,
+            **MINIMISER,
+            "model.hessian": "ldg",
+            "model.penalty": {"gamma0": gamma, "gamma1": gamma, "gradient_power": 1},
+        }
+        for gamma in (1.0, 10.0, 100.0)
+    },
+    # the LDG Hessian with the interior-penalty method's penalties (standard, and the file's)
+    "ldg_std": {**TUNED, **MINIMISER, "model.hessian": "ldg", "model.penalty": STANDARD_PENALTY},
+    "ldg_tuned": {**TUNED, **MINIMISER, "model.hessian": "ldg"},
+    "minimiser_ldg_std": {
+        **MINIMISER,
+        "model.hessian": "ldg",
+        "model.penalty": STANDARD_PENALTY,
+    },
+    # the same on the rigid plate (the published constraint: DG0 multipliers)
+    **{
+        f"minimiser_ldg_g{gamma:g}": {
+            **MINIMISER,
+            "model.hessian": "ldg",
+            "model.penalty": {"gamma0": gamma, "gamma1": gamma, "gradient_power": 1},
+        }
+        for gamma in (1.0, 10.0, 100.0)
     },
     # BNN Table 1 as published: τ = h, no projection, rate stop
     "bnn": {"flow.tau": "h", "flow.tol": 1e-6},

@@ -321,40 +321,78 @@ def bending_energy(
     residual and matrix, so no bilinear form is written twice.
     """
     mu = data.get("mu")
-    g, Phi = data.get("g"), data.get("Phi")
     mu = 1.0 if mu is None else mu
-    n, h = facets.n, facets.h_boundary
+    D2 = hessian(y)
+    # ⟨D²y, μD²_h y⟩ − ½∫μ|D²_h y|²: the broken energy and the consistency terms
+    # −{μD²y n}·[∇y] + {μ∇Δy·n}·[y] (those of the distributional Hessian D²y)
+    energy: ufl.Form = distributional_hessian(y, mu * D2, facets, data.get("g"), data.get("Phi"))
+    energy -= 0.5 * mu * ufl.inner(D2, D2) * facets.dx
+    energy += jump_penalty(y, facets, penalty, **data)
+    return energy
+
+
+def jump_penalty(
+    y: Expr, facets: FacetSets, penalty: Penalty, **data: Unpack[BendingData]
+) -> ufl.Form:
+    """½Σ_e γ₁h⁻ᵖ{μ}|[∇y]|² + ½Σ_e γ₀h⁻³{μ}|[y]|², the penalties of the bending energy.
+
+    Gradient jumps on smooth interior and clamped facets, value jumps on all interior and
+    clamped facets; on clamped facets the jumps carry the Nitsche data g, Φ.
+    """
+    mu = data.get("mu")
+    mu = 1.0 if mu is None else mu
     gamma0, gamma1 = penalty.constants(facets.mesh)
-    D2, G3 = hessian(y), grad_laplacian(y)
-    energy: ufl.Form = 0.5 * mu * ufl.inner(D2, D2) * facets.dx
-
-    # smooth interior facets: gradient-jump consistency and penalty
-    jgrad = jump(ufl.grad(y))
-    moment_n = ufl.dot(ufl.avg(mu * D2), n("+"))
-    weight = penalty.gradient_weight(facets.h_interior, gamma1)
-    energy += (
-        -ufl.inner(moment_n, jgrad) + 0.5 * weight * ufl.avg(mu) * ufl.inner(jgrad, jgrad)
+    h_e = facets.h_interior
+    jgrad, jval = jump(ufl.grad(y)), jump(y)
+    energy: ufl.Form = (
+        0.5 * penalty.gradient_weight(h_e, gamma1) * ufl.avg(mu) * ufl.inner(jgrad, jgrad)
     ) * facets.dS_smooth()
-
-    # all interior facets (creases included): value-jump consistency and penalty
-    jval = jump(y)
-    shear_n = ufl.dot(ufl.avg(mu * G3), n("+"))
-    energy += (
-        ufl.inner(shear_n, jval)
-        + 0.5 * gamma0 * ufl.avg(mu) / facets.h_interior**3 * ufl.inner(jval, jval)
-    ) * facets.dS_all()
-
+    energy += 0.5 * gamma0 * ufl.avg(mu) / h_e**3 * ufl.inner(jval, jval) * facets.dS_all()
     if facets.has_clamped:
-        assert g is not None and Phi is not None, "clamped faces need boundary data g and Φ"
-        bgrad = ufl.grad(y) - Phi
-        bval = y - g
+        g, Phi = _clamped(data)
+        h = facets.h_boundary
+        bgrad, bval = ufl.grad(y) - Phi, y - g
         energy += (
-            -ufl.inner(mu * ufl.dot(D2, n), bgrad)
-            + 0.5 * penalty.gradient_weight(h, gamma1) * mu * ufl.inner(bgrad, bgrad)
-            + ufl.inner(mu * ufl.dot(G3, n), bval)
+            0.5 * penalty.gradient_weight(h, gamma1) * mu * ufl.inner(bgrad, bgrad)
             + 0.5 * gamma0 * mu / h**3 * ufl.inner(bval, bval)
         ) * facets.ds_clamped()
     return energy
+
+
+def _clamped(data: BendingData) -> tuple[Coefficient, Expr]:
+    """The Nitsche data (g, Φ) of ``data``; an InputError when they are missing."""
+    g, Phi = data.get("g"), data.get("Phi")
+    if g is None or Phi is None:
+        raise InputError("clamped faces need boundary data g and Φ")
+    return g, Phi
+
+
+def distributional_hessian(
+    y: Expr,
+    T: Expr,
+    facets: FacetSets,
+    g: Coefficient | None = None,
+    Phi: Expr | None = None,
+    degree: int | None = None,
+) -> ufl.Form:
+    """⟨D²y, T⟩, the distributional Hessian of the broken field y tested with a broken T.
+
+    ⟨D²y, T⟩ = Σ_T ∫ D²y : T − Σ_e ∫ [∇y] : {T} n + Σ_e ∫ [y] · {div T} n, the gradient-jump
+    term on smooth facets only (creases may fold), and on clamped facets the jumps against
+    the Nitsche data, [y] = y − g, [∇y] = ∇y − Φ, with one-sided T. For y smooth with the data
+    it is ∫ D²y : T. T has the shape of D²y ((3, 2, 2) for y in ℝ³); it is a form linear in T
+    and affine in y, with the quadrature degree ``degree`` (None: FFCx's choice).
+    """
+    n = facets.n
+    form: ufl.Form = ufl.inner(hessian(y), T) * cell_measure(facets.mesh, degree)
+    form -= ufl.inner(jump(ufl.grad(y)), ufl.dot(ufl.avg(T), n("+"))) * facets.dS_smooth(degree)
+    form += ufl.inner(jump(y), ufl.dot(ufl.avg(ufl.div(T)), n("+"))) * facets.dS_all(degree)
+    if facets.has_clamped:
+        g, Phi = _clamped({"g": g, "Phi": Phi})
+        ds = facets.ds_clamped(degree)
+        form -= ufl.inner(ufl.grad(y) - Phi, ufl.dot(T, n)) * ds
+        form += ufl.inner(y - g, ufl.dot(ufl.div(T), n)) * ds
+    return form
 
 
 def h2_metric(w: Expr, v: Expr, facets: FacetSets, l2: bool = False) -> ufl.Form:

@@ -19,7 +19,7 @@ The coupling term is not quadratic: the gradient flow treats it explicitly (at y
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import ufl
 from ufl.core.expr import Expr
@@ -31,16 +31,15 @@ from dgplate.dg.forms import (
     Coefficient,
     FacetSets,
     Penalty,
-    bending_energy,
     cell_measure,
+    distributional_hessian,
     facet_sets,
-    jump,
 )
 from dgplate.dg.geometry import second_fundamental_form, unit_normal
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import PlateModel, clamped_data, continuation_path, piecewise_constant
-from dgplate.models.kirchhoff import KirchhoffSpec
+from dgplate.models.kirchhoff import KirchhoffSpec, kirchhoff_energy
 from dgplate.models.obstacle import with_obstacle
 from dgplate.models.self_avoidance import with_self_avoidance
 from dgplate.schema import Check, is_matrix, is_number, option
@@ -70,15 +69,10 @@ def curvature_coupling(
     """−⟨H(y), μ ν⊗Z⟩: the spontaneous-curvature term of the energy (see module docstring)."""
     nu = unit_normal(y)
     T = mu * ufl.outer(nu, Z)  # 3 × 2 × 2
+    if consistent:
+        coupling: ufl.Form = -distributional_hessian(y, T, facets, g, Phi, degree)
+        return coupling
     form: ufl.Form = -ufl.inner(ufl.grad(ufl.grad(y)), T) * cell_measure(facets.mesh, degree)
-    if not consistent:
-        return form
-    n = facets.n
-    form += ufl.inner(jump(ufl.grad(y)), ufl.dot(ufl.avg(T), n("+"))) * facets.dS_smooth(degree)
-    form -= ufl.inner(jump(y), ufl.dot(ufl.avg(ufl.div(T)), n("+"))) * facets.dS_all(degree)
-    if facets.has_clamped:
-        form += ufl.inner(ufl.grad(y) - Phi, ufl.dot(T, n)) * facets.ds_clamped(degree)
-        form -= ufl.inner(y - g, ufl.dot(ufl.div(T), n)) * facets.ds_clamped(degree)
     return form
 
 
@@ -109,20 +103,22 @@ def bilayer_energy(
     consistent: bool = True,
     degree: int | None = None,
     gauss: float = 0.0,
+    ldg_degree: int | None = None,
 ) -> Energy:
     """Bending (implicit) + curvature coupling and ½∫μ|Z|² (explicit) − load.
 
     ``gauss`` > 0 adds :func:`gauss_penalty` with β = ``gauss`` to the explicit part.
+    ``ldg_degree``: the bending energy with the LDG reconstructed Hessian
+    (:func:`~dgplate.models.kirchhoff.kirchhoff_energy`); the coupling keeps the
+    distributional Hessian (equal to ∫ H_h(y) : T where T lies in the lifting space).
     """
     rigidity = 1.0 if mu is None else mu
-    implicit = bending_energy(y, facets, penalty, mu=mu, g=g, Phi=Phi)
-    if load is not None:
-        implicit -= ufl.inner(load, y) * facets.dx
+    bending = kirchhoff_energy(y, facets, penalty, load, ldg_degree, mu=mu, g=g, Phi=Phi)
     explicit = curvature_coupling(y, facets, Z, rigidity, g, Phi, consistent, degree)
     explicit += 0.5 * rigidity * ufl.inner(Z, Z) * facets.dx
     if gauss > 0:
         explicit += gauss_penalty(y, facets, gauss, degree)
-    return Energy(implicit=implicit, explicit=explicit)
+    return replace(bending, explicit=explicit)
 
 
 # -- problem files -----------------------------------------------------------------------------
@@ -221,7 +217,18 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
 
     def energy_fn(y: Function) -> Energy:
         return bilayer_energy(
-            y, facets, penalty, Z, mu, load, g, Phi, spec.consistent, degree, spec.gauss_penalty
+            y,
+            facets,
+            penalty,
+            Z,
+            mu,
+            load,
+            g,
+            Phi,
+            spec.consistent,
+            degree,
+            spec.gauss_penalty,
+            spec.ldg_degree,
         )
 
     plate = PlateModel(

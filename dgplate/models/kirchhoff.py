@@ -12,6 +12,7 @@ from typing import Literal, Unpack
 
 from mpi4py import MPI
 
+import dolfinx.fem
 import ufl
 from ufl.core.expr import Expr
 
@@ -27,6 +28,7 @@ from dgplate.dg.forms import (
     bending_energy,
     facet_sets,
 )
+from dgplate.dg.lifting import HESSIAN_HELP, HESSIANS, ldg_energy
 from dgplate.dg.obstacle_penalty import Obstacle
 from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.mesh.tagged import TaggedMesh, rectangle
@@ -50,12 +52,18 @@ def kirchhoff_energy(
     facets: FacetSets,
     penalty: Penalty,
     load: Expr | None = None,
+    ldg_degree: int | None = None,
     **data: Unpack[BendingData],
 ) -> Energy:
     """The discrete Kirchhoff energy of the deformation ``y`` (a UFL Function in [DG_k]³).
 
     ``data``: the rigidity ``mu`` and the clamped data ``g``, ``Phi`` of the bending energy.
+    ``ldg_degree`` k: the LDG energy with the reconstructed Hessian of degree k
+    (:mod:`dgplate.dg.lifting`; ``y`` must then be a Function); None: interior penalty.
     """
+    if ldg_degree is not None:
+        assert isinstance(y, dolfinx.fem.Function)
+        return ldg_energy(y, facets, penalty, ldg_degree, load, **data)
     energy = bending_energy(y, facets, penalty, **data)
     if load is not None:
         energy -= ufl.inner(load, y) * facets.dx
@@ -78,6 +86,7 @@ class KirchhoffSpec:
     )
     penalty: Penalty = option(Penalty(), "IP penalties γ₀ (h⁻³[y]) and γ₁ (h⁻ᵖ[∇y])")
     penalty_length: str = option("diameter", PENALTY_LENGTH_HELP, choices=PENALTY_LENGTHS)
+    hessian: str = option("broken", HESSIAN_HELP, choices=HESSIANS)
     continuation: MovingClampSpec | None = option(
         None,
         "move the clamped data along α ∈ (0, 1] (docs/continuation.md): {} none. Path: boundary_data formulas in x, y, alpha, else (1 − α)·id + α·g",
@@ -114,6 +123,11 @@ class KirchhoffSpec:
         return self._schedule
 
     @property
+    def ldg_degree(self) -> int | None:
+        """The degree of the liftings with ``hessian = 'ldg'`` (that of y), else None."""
+        return self.degree if self.hessian == "ldg" else None
+
+    @property
     def start_params(self) -> starts.Start:
         """The validated ``start`` (the flow's first state)."""
         return self._start
@@ -137,7 +151,7 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     penalty = spec.penalty
 
     def energy_fn(y: Function) -> Energy:
-        return kirchhoff_energy(y, facets, penalty, load=load, mu=mu, g=g, Phi=Phi)
+        return kirchhoff_energy(y, facets, penalty, load, spec.ldg_degree, mu=mu, g=g, Phi=Phi)
 
     plate = PlateModel(facets, spec.degree, energy_fn, continuation=path)
     return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)

@@ -104,7 +104,9 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
     degree = 3 * spec.degree + 2
 
     def energy_fn(y: Function) -> Energy:
-        return bilayer_energy(y, facets, penalty, A, mu, load, g, Phi, degree=degree)
+        return bilayer_energy(
+            y, facets, penalty, A, mu, load, g, Phi, degree=degree, ldg_degree=spec.ldg_degree
+        )
 
     def lower_bound(y: Function) -> dict[str, Any]:
         """½∫μ (γa₂)²: the isometric energy is never below it (a₂ = 1 twist, 0 splay)."""

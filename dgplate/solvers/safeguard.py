@@ -68,8 +68,11 @@ class Safeguard:
         self.flow, self.energy = flow, energy
 
     def step(self, take: Callable[[], Info]) -> Info:
-        """One step by ``take``, redone as long as it is refused; its record has ``safety``."""
-        terms = self.energy.nonlocal_terms
+        """One step by ``take``, redone as long as it is refused; its record has ``safety``.
+
+        Nonlocal terms with ``max_redo = 0`` (the LDG Hessian's) have no safety net.
+        """
+        terms = [term for term in self.energy.nonlocal_terms if term.max_redo > 0]
         if not terms and not self.energy.active_sets:
             return take()
         flow = self.flow

@@ -87,6 +87,9 @@ BAD_INPUT = {
         ("model.penalty={gamma0=5000.0, gamma1=1100.0, gradient_power=5}",),
         "model.penalty.gradient_power must be in [1, 3]",
     ),
+    "unknown hessian": Case(
+        ("model.hessian='lifted'",), "model.hessian must be one of broken, ldg, got 'lifted'"
+    ),
     "crease on boundary": Case(("model.crease=['top']",), "crease group 'top' contains"),
     "mu not positive": Case(("model.mu=0",), "model.mu must be > 0"),
     "unknown mu region": Case(
