@@ -68,7 +68,7 @@ demo.copy_figure(args.out, args.figure)
 # the total reaction of the ceiling (about 1.4 of ∫f = 4: the clamp carries the rest).
 
 # %%
-epsilon = problem.model.obstacle["epsilon"]
+epsilon = problem.model.obstacle.epsilon
 demo.say(f"\nε = {epsilon:g}, τ = {s['tau']:g}, {s['dofs']} dofs, {s['steps']} steps")
 demo.say(f"{'':>18} {'ours':>10} {'BNN 2021':>10}")
 demo.say(f"{'D_h':>18} {s['isometry_defect']:>10.3e} {BNN_OBSTACLE['isometry_defect']:>10.1e}")

@@ -471,8 +471,8 @@ KILL_AT_STEP = textwrap.dedent(
         return advance(self, max_steps)
     flow.GradientFlow.step = step_then_die
     newton.LoadPath.step = load_step_then_die
-    advance = thermal.ThermalBilayer.advance
-    thermal.ThermalBilayer.advance = advance_then_die
+    advance = thermal_driver.ThermalBilayer.advance
+    thermal_driver.ThermalBilayer.advance = advance_then_die
     if sys.argv[1].endswith(".py"):  # a demo script
         import runpy
         sys.argv = sys.argv[1:]

@@ -14,6 +14,7 @@ import pytest
 
 from dgplate.dg.forms import Penalty, facet_sets, integral
 from dgplate.mesh.tagged import load_geo, rectangle
+from dgplate.schema import from_dict
 from dgplate.solvers.eigen import negative_count
 
 BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "dg_coercivity.py"
@@ -76,7 +77,7 @@ def test_kirchhoff_key_runs_and_is_checked(tmp_path):
     from dgplate.models.kirchhoff import KirchhoffSpec
 
     with pytest.raises(InputError, match=r"model\.penalty_length must be one of"):
-        KirchhoffSpec(penalty_length="normal")
+        from_dict(KirchhoffSpec, {"penalty_length": "normal"}, "model")
     problem = Path(__file__).resolve().parents[2] / "demos" / "problems" / "vertical_load.toml"
     small = ["--set=mesh.cells=[6,6]", "--set=output.vtx=false", "--set=output.png=false"]
     small += ["--set=output.progress=0"]
@@ -107,7 +108,7 @@ def test_thermal_key_reaches_the_facets():
     from dgplate.problems.specs import load_problem
 
     with pytest.raises(InputError, match=r"model\.penalty_length must be one of"):
-        ThermalSpec(penalty_length="normal")
+        from_dict(ThermalSpec, {"penalty_length": "normal"}, "model")
     box = Path(__file__).resolve().parents[2] / "demos" / "problems" / "box_folding.toml"
     inside = {}
     for length in ("diameter", "facet_normal"):

@@ -19,6 +19,7 @@ from helpers import bnn_flow, stop_and_resume, summary_of
 
 from dgplate.cli import main
 from dgplate.errors import InputError
+from dgplate.schema import from_dict
 from dgplate.solvers.flow import FlowSpec
 from dgplate.solvers.projection import Projection
 
@@ -127,4 +128,4 @@ def test_newton_finish_on_the_bilayer_cylinder(tmp_path):
 @pytest.mark.parametrize(("key", "value"), [("newton_finish", 1), ("newton_tau_ratio", 0.5)])
 def test_bad_newton_keys_are_refused(key, value):
     with pytest.raises(InputError, match=rf"^flow\.{key} must be"):
-        FlowSpec(adaptive_tau=True, **{key: value})
+        from_dict(FlowSpec, {"adaptive_tau": True, key: value}, "flow")
