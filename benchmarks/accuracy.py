@@ -27,7 +27,11 @@ log₂ of successive error ratios.
     python benchmarks/accuracy.py --case cylinder --a 2 --variants file --levels 2 4 8 16
     python benchmarks/accuracy.py --case rigid --variants bnn minimiser --levels 4 8 16 32
 
-Each (case, a) writes benchmarks/results/accuracy_<case>[_a<a>]_<variant>.json.
+Each (case, a) writes benchmarks/results/accuracy_<case>[_a<a>]_<variant>.json. The tables of
+docs/accuracy.md, between ``<!-- accuracy:begin -->`` and ``<!-- accuracy:end -->``, are
+generated from those files (no runs):
+
+    python benchmarks/accuracy.py --table-only [--results benchmarks/results] [--page docs/accuracy.md]
 """
 
 from __future__ import annotations
@@ -45,6 +49,7 @@ from typing import Any
 from mpi4py import MPI
 
 import numpy as np
+from pages import write_between
 
 from dgplate.io.output import print0
 from dgplate.problems.runner import run as run_problem
@@ -274,32 +279,91 @@ def orders(runs: list[dict[str, Any]], key: str) -> list[float | None]:
     return out
 
 
+ERROR_LABEL = {
+    "cylinder": "E_h relative error",
+    "uniaxial": "E_h (exact 0)",
+    "rigid": "E_h (exact 0)",
+}
+CASE_TITLE = {"cylinder": "Z = aI", "uniaxial": "Z = a e₁⊗e₁", "rigid": "rigid plate"}
+BEGIN, END = "<!-- accuracy:begin -->", "<!-- accuracy:end -->"
+
+
 def table(report: dict[str, Any]) -> str:
-    """A Markdown table of one JSON record: a row per level, observed orders alongside."""
-    head = f"{report['case']} a = {report['a']:g}, {report['variant']}"
-    lines = [
-        head,
-        "",
-        "| cells | DoFs | E_h error | order | radius error | order | κ₂ edge | steps | time (s) |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    e_orders = [None, *report["energy_orders"]]
-    r_orders = [None, *report["radius_orders"]]
+    """A Markdown table of one (case, a, variant): a row per level, observed orders alongside."""
+    radius = report["case"] != "rigid"
+    head = "| cells | DoFs | " + ERROR_LABEL[report["case"]] + " | order |"
+    head += " radius error | order |" if radius else ""
+    head += " steps | time (s) |"
+    lines = [head, "|---" * (head.count("|") - 1) + "|"]
+    e_orders = [None, *orders(report["runs"], "energy_error")]
+    r_orders = [None, *orders(report["runs"], "radius_error")]
     for run, eo, ro in zip(report["runs"], e_orders, r_orders, strict=True):
-        cells = "×".join(str(c) for c in run["cells"])
-        radius = run.get("radius_error")
-        kappa = run.get("layer", {}).get("edge_kappa2")
-        lines.append(
-            f"| {cells} | {run['dofs']} | {run['energy_error']:+.3e} | {_num(eo)} "
-            f"| {_num(radius, '+.3e')} | {_num(ro)} | {_num(kappa, '.3f')} "
-            f"| {run['steps']} | {run['wall_s']:.0f} |"
-        )
+        row = f"| {'×'.join(str(c) for c in run['cells'])} | {run['dofs']:,} "
+        row += f"| {run['energy_error']:+.3e} | {_num(eo)} |"
+        if radius:
+            row += f" {_num(run.get('radius_error'), '+.3e')} | {_num(ro)} |"
+        steps = f"{run['steps']}" + ("" if run["converged"] else " (not converged)")
+        lines.append(row + f" {steps} | {run['wall_s']:.0f} |")
     return "\n".join(lines)
 
 
 def _num(value: float | None, fmt: str = ".2f") -> str:
     """``value`` formatted, or a dash."""
     return "—" if value is None else format(value, fmt)
+
+
+def load_records(folder: Path) -> dict[tuple[str, float, str], dict[str, Any]]:
+    """The records of ``folder``'s accuracy_*.json, one per (case, a, variant).
+
+    Files of the same (case, a, variant) (a ``--tag``ged extra level) are merged, runs sorted by
+    level; ``files`` names them.
+    """
+    merged: dict[tuple[str, float, str], dict[str, Any]] = {}
+    for path in sorted(folder.glob("accuracy_*.json")):
+        record = json.loads(path.read_text())
+        key = (record["case"], record["a"], record["variant"])
+        into = merged.setdefault(key, {**record, "runs": [], "files": []})
+        into["runs"] = sorted([*into["runs"], *record["runs"]], key=lambda run: run["level"])
+        into["files"].append(path.name)
+    return merged
+
+
+def _case_order(key: tuple[str, float, str]) -> tuple[int, float, str]:
+    return CASES.index(key[0]), key[1], key[2]
+
+
+def frontier(records: list[dict[str, Any]]) -> list[str]:
+    """The converged runs no run with as few DoFs beats in |error|: "DoFs: error (variant)"."""
+    runs = [
+        (run["dofs"], abs(run["energy_error"]), record["variant"])
+        for record in records
+        for run in record["runs"]
+        if run["converged"]
+    ]
+    out, best = [], math.inf
+    for dofs, error, variant in sorted(runs):
+        if error < best:
+            best = error
+            out.append(f"{dofs:,}: {error:.2e} (`{variant}`)")
+    return out
+
+
+def page_section(folder: Path) -> str:
+    """The accuracy page's generated section: a table per record, a frontier per case."""
+    records = load_records(folder)
+    lines = [BEGIN]
+    cases: dict[tuple[str, float], list[dict[str, Any]]] = {}
+    for key in sorted(records, key=_case_order):
+        cases.setdefault(key[:2], []).append(records[key])
+    for (case, a), group in cases.items():
+        title = CASE_TITLE[case] + ("" if case == "rigid" else f", a = {a:g}")
+        lines += ["", f"### {title}", ""]
+        for record in group:
+            files = ", ".join(f"`{name}`" for name in record["files"])
+            lines += [f"`{record['variant']}`:", "", table(record), "", f"From {files}.", ""]
+        best = "; ".join(frontier(group))
+        lines += [f"Frontier (the smallest error at as many DoFs or fewer): {best}."]
+    return "\n".join([*lines, "", END])
 
 
 def main(argv: list[str]) -> None:
@@ -313,11 +377,19 @@ def main(argv: list[str]) -> None:
     parser.add_argument("--tag", default="", help="appended to the JSON file names")
     parser.add_argument("--results", type=Path, default=RESULTS, help="folder of the JSON files")
     parser.add_argument("--table", nargs="+", type=Path, help="print these records' tables only")
+    parser.add_argument("--page", type=Path, default=ROOT / "docs" / "accuracy.md")
+    parser.add_argument(
+        "--table-only", action="store_true", help="rewrite --page's tables from --results"
+    )
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     if args.table:
         for path in args.table:
             print0(comm, table(json.loads(path.read_text())) + "\n")
+        return
+    if args.table_only:
+        if comm.rank == 0:
+            write_between(args.page, BEGIN, END, page_section(args.results))
         return
     for variant in args.variants:
         runs: list[dict[str, Any]] = []

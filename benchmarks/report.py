@@ -18,6 +18,7 @@ import os
 from pathlib import Path
 
 import numpy as np
+from pages import write_between
 
 BEGIN, END = "<!-- performance:begin -->", "<!-- performance:end -->"
 PHASES = ("assembly", "factorisation", "solves", "other")
@@ -322,13 +323,7 @@ def main(argv: list[str] | None = None) -> None:
     extra = large_section(load_large(args.results), fit) + time_to_solution(args.results)
     if extra:
         text = text.replace(f"\n\n{END}", "\n" + "\n".join(extra) + f"\n\n{END}")
-    page = args.page.read_text()
-    if BEGIN in page and END in page:
-        head, rest = page.split(BEGIN, 1)
-        page = head + text + rest.split(END, 1)[1]
-    else:
-        page = page.rstrip("\n") + "\n\n## Performance\n\n" + text + "\n"
-    args.page.write_text(page)
+    write_between(args.page, BEGIN, END, text, heading="Performance")
     print(text)
 
 

@@ -24,6 +24,8 @@ from typing import Any
 
 from mpi4py import MPI
 
+from pages import write_between
+
 from dgplate.io.output import print0
 from dgplate.problems.runner import run as run_problem
 from dgplate.problems.specs import load_problem
@@ -132,15 +134,6 @@ def table(record: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def write_page(page: Path, text: str) -> None:
-    """Replace the text between the page's markers (they must be there)."""
-    content = page.read_text()
-    if BEGIN not in content or END not in content:
-        raise SystemExit(f"{page} has no {BEGIN} … {END} markers")
-    head, rest = content.split(BEGIN, 1)
-    page.write_text(head + text + rest.split(END, 1)[1])
-
-
 def main(argv: list[str] | None = None) -> dict[str, Any]:
     """Run the levels (unless ``--table-only``), write the JSON and the page's table."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -170,7 +163,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             args.json.write_text(json.dumps(record, indent=2) + "\n")
     if comm.rank == 0:
         text = table(record)
-        write_page(args.page, text)
+        write_between(args.page, BEGIN, END, text)
         print(text)
     return record
 

@@ -4,6 +4,8 @@ holds together (the optimised and the naive flow agree; the report reads the JSO
 import importlib.util
 import json
 import math
+import shutil
+import sys
 from pathlib import Path
 
 from mpi4py import MPI
@@ -11,6 +13,7 @@ from mpi4py import MPI
 import pytest
 
 BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
+sys.path.insert(0, str(BENCH))  # the scripts import their shared pages.py as a sibling
 
 
 def _load(name: str):
@@ -86,6 +89,22 @@ def test_accuracy_benchmark_smoke(tmp_path):
     assert record["energy_orders"] == [pytest.approx(math.log2(e0 / e1))]
     assert record["radius_orders"] == [None]
     assert "| 4×4 | 480 |" in accuracy.table(record)
+
+
+def test_accuracy_page_is_generated(tmp_path):
+    """docs/accuracy.md's tables are what --table-only writes from the JSON: no hand edits."""
+    page = BENCH.parent / "docs" / "accuracy.md"
+    copy = tmp_path / "accuracy.md"
+    shutil.copy(page, copy)
+    _load("accuracy").main(["--table-only", "--page", str(copy)])
+    assert copy.read_text() == page.read_text()
+    text = page.read_text()
+    assert "From `accuracy_uniaxial_a1_p1.json`, `accuracy_uniaxial_a1_p1_l16.json`." in text
+    assert "| 32×32 | 30,720 | -5.759e-03 | 0.39 | 28 |" in text  # bnn's finest level
+    copy.write_text("no markers\n")
+    with pytest.raises(SystemExit, match="markers"):
+        _load("accuracy").main(["--table-only", "--page", str(copy)])
+    assert copy.read_text() == "no markers\n"
 
 
 def test_seed000_benchmark_smoke(tmp_path):
