@@ -46,6 +46,21 @@ class Hinge:
     inner: str
     outer: str
 
+    def across(self, inner: np.ndarray, outer: np.ndarray) -> np.ndarray:
+        """The unit vector across the hinge, from the inner face's centroid to the outer's.
+
+        Args:
+            inner: the centroid of the inner face.
+            outer: the centroid of the outer face.
+
+        Returns:
+            The unit vector; an InputError when the faces' centroids coincide.
+        """
+        d = outer - inner
+        if not np.linalg.norm(d) > 0:
+            raise InputError(f"hinge {self.name}: faces {self.inner} and {self.outer} coincide")
+        return np.asarray(d / np.linalg.norm(d))
+
 
 class RegionIntegrals:
     """∫_R expr dx for UFL expressions and named cell groups R, summed over all ranks."""
@@ -91,10 +106,7 @@ class FoldAngles:
             centroids[region] = np.array([cx, cy]) / area
         self._axis_forms = {}
         for h in self.hinges:
-            d = centroids[h.outer] - centroids[h.inner]
-            if not np.linalg.norm(d) > 0:
-                raise InputError(f"hinge {h.name}: faces {h.inner} and {h.outer} coincide")
-            d /= np.linalg.norm(d)
+            d = h.across(centroids[h.inner], centroids[h.outer])
             tangent = image_of_direction(y, [-float(d[1]), float(d[0])])
             self._axis_forms[h.name] = self._int.forms([tangent[i] for i in range(3)], h.name)
 
@@ -242,10 +254,7 @@ def hinge_geometry(tagged: TaggedMesh, hinge: Hinge) -> HingeGeometry:
     for region in (hinge.inner, hinge.outer):
         area, cx, cy = integrals([compat.as_ufl(1.0), x[0], x[1]], region)
         centroids.append(np.array([cx, cy]) / area)
-    d = centroids[1] - centroids[0]
-    if not np.linalg.norm(d) > 0:
-        raise InputError(f"hinge {hinge.name}: faces {hinge.inner} and {hinge.outer} coincide")
-    d /= np.linalg.norm(d)
+    d = hinge.across(centroids[0], centroids[1])
     directions = np.column_stack([d, [-d[1], d[0]]])  # across, along
     owned = tagged.cells(hinge.name)
     owned = owned[owned < mesh.topology.index_map(mesh.topology.dim).size_local]

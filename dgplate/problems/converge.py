@@ -18,7 +18,6 @@ study writes ``converge.json``, ``converge.md`` (the table printed) and ``conver
 
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,7 +30,7 @@ from dgplate.errors import InputError
 from dgplate.io.output import count_of, print0, write_json
 from dgplate.measure.richardson import Estimate, extrapolate
 from dgplate.mesh.tagged import geo_parameters, resolve_geo
-from dgplate.problems import folders, sizing
+from dgplate.problems import folders, prepare, sizing
 from dgplate.problems.registry import MODELS
 from dgplate.problems.specs import Problem, problem_from_dict
 from dgplate.schema import is_integer, is_number
@@ -113,15 +112,12 @@ def converge(
         InputError: ``levels`` < 2, a problem with no mesh size to refine, a finest level
             too large for the memory, or an output folder that cannot be used.
     """
-    if not isinstance(problem, Problem):
-        raise InputError(f"the problem must be a dgplate.Problem, got {type(problem).__name__}")
-    if out is not None and not isinstance(out, str | os.PathLike):
-        raise InputError(f"out must be a folder path, got {type(out).__name__} {out!r}")
+    folder = prepare.target(problem, out, default="out/{name}-converge")
     if not is_integer(levels) or levels < 2:
         raise InputError(f"--levels must be an integer ≥ 2, got {levels!r}")
     meshes = refinements(problem, levels)
     sizing.guard(meshes[-1][0], comm, allow_large)  # the finest level, before anything runs
-    study = ConvergenceStudy(problem.name, Path(out or f"out/{problem.name}-converge"))
+    study = ConvergenceStudy(problem.name, folder)
     folders.claim(study.folder, force, comm)
     start: MeshStart | None = None
     for index, (level, size) in enumerate(meshes, 1):

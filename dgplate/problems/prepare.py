@@ -86,22 +86,32 @@ def prepare(
         before anything is built (:func:`dgplate.problems.sizing.guard`).
     """
     force, resume, allow_large = options
-    target = _target(problem, out)
+    folder = target(problem, out)
     key = "--out" if out is not None else "output.dir" if problem.output.dir else "output folder"
-    OutputDir.check(comm, target, force, resume, key)
-    start = _resume_point(problem, target, comm) if resume else None
+    OutputDir.check(comm, folder, force, resume, key)
+    start = _resume_point(problem, folder, comm) if resume else None
     size = sizing.guard(problem, comm, allow_large)
     known = size is not None and not size.approximate
     if header and size is not None and known:
-        report.header(problem, target, start, comm, (size.cells, size.dofs))
+        report.header(problem, folder, start, comm, (size.cells, size.dofs))
     tagged, model = build_model(problem, comm)
     if header and not known:
-        report.header(problem, target, start, comm, report.size_of(problem, tagged))
-    return Prepared(problem, target, start, tagged, model)
+        report.header(problem, folder, start, comm, report.size_of(problem, tagged))
+    return Prepared(problem, folder, start, tagged, model)
 
 
-def _target(problem: Problem, out: str | Path | None) -> Path:
-    """The output folder of ``problem`` given ``out``; ``InputError`` for a wrong argument."""
+def target(problem: Problem, out: str | Path | None, default: str | None = None) -> Path:
+    """The output folder of ``problem`` given ``out``; ``InputError`` for a wrong argument.
+
+    Args:
+        problem: what :func:`dgplate.run` (or ``converge``) was given as the problem.
+        out: the ``out`` argument: a folder path, or None.
+        default: the folder without ``out`` (``{name}``: the problem's name); None:
+            ``output.dir``, else ``out/<name>``.
+
+    Returns:
+        The folder.
+    """
     if not isinstance(problem, Problem):
         raise InputError(
             "the problem must be a dgplate.Problem (dgplate.load_problem(path) reads a file), "
@@ -113,6 +123,8 @@ def _target(problem: Problem, out: str | Path | None) -> Path:
         raise InputError(
             "--out is empty: give a folder, or omit --out for output.dir (else out/<name>)"
         )
+    if default is not None:
+        return Path(out or default.format(name=problem.name))
     return Path(out or problem.output.dir or f"out/{problem.name}")
 
 

@@ -5,7 +5,6 @@ side (Neumann-compatible) and s = (2π²κ − 1) θ. Expected rates: L² error 
 O(Δt) for implicit Euler.
 """
 
-
 from mpi4py import MPI
 
 import numpy as np
