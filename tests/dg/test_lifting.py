@@ -169,9 +169,8 @@ def test_flow_with_the_ldg_hessian(gamma, energy, steps):
     rises. Figures of benchmarks/results/accuracy_rigid_minimiser_ldg_*.json."""
     tagged = rectangle(MPI.COMM_SELF, [[0, 0], [4, 4]], [4, 4])
     penalty = {"gamma0": 5000.0 if gamma > 1000 else gamma, "gamma1": gamma}
-    spec = KirchhoffSpec(
-        clamped=["left", "bottom"], load=[0, 0, 2.5e-2], penalty=penalty, hessian="ldg"
-    )
+    table = {"clamped": ["left", "bottom"], "load": [0, 0, 2.5e-2], "penalty": penalty}
+    spec = from_dict(KirchhoffSpec, {**table, "hessian": "ldg"}, "model")
     model = build_kirchhoff(spec, tagged)
     settings = FlowSpec(
         tau="h", tol=1e-7, adaptive_tau=True, stop="stationarity", projection_steps=2
