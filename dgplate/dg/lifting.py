@@ -144,6 +144,10 @@ class LiftedHessian:
         return True
 
 
+#: The options prefix of the cell-wise mass solves.
+_PREFIX = "dgplate_lifting_"
+
+
 def _block_solver(mass: PETSc.Mat) -> PETSc.KSP:
     """A direct solver of the block-diagonal (cell-wise) mass matrix of a dG space.
 
@@ -152,12 +156,16 @@ def _block_solver(mass: PETSc.Mat) -> PETSc.KSP:
     """
     ksp = PETSc.KSP().create(mass.getComm())
     ksp.setOperators(mass)
+    ksp.setOptionsPrefix(_PREFIX)
     ksp.setType("preonly")
     ksp.getPC().setType("bjacobi")
+    # the blocks' solvers through the options database: petsc4py < 3.23 (Debian 13's 3.22)
+    # has no PC.getBJacobiSubKSP
+    options = PETSc.Options(_PREFIX)
+    options.setValue("sub_ksp_type", "preonly")
+    options.setValue("sub_pc_type", "ilu")
+    ksp.setFromOptions()
     ksp.setUp()
-    for sub in ksp.getPC().getBJacobiSubKSP():
-        sub.setType("preonly")
-        sub.getPC().setType("ilu")
     return ksp
 
 
