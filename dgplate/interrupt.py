@@ -133,8 +133,10 @@ def _end_now(signum: int) -> None:
     """End the process with 128 + ``signum`` now.
 
     Called by the C library in the signal's context, even inside compiled code: the least
-    Python possible, and no MPI.
+    Python possible, and no MPI. The process's own children (a C compiler FFCx started) end
+    first: left running, they would report the C file the clean-up renamed as missing.
     """
+    _end_children()
     for clean_up in CLEAN_UP:
         with contextlib.suppress(Exception):
             clean_up()
@@ -142,6 +144,44 @@ def _end_now(signum: int) -> None:
         name = "SIGINT" if signum == signal.SIGINT else "SIGTERM"
         os.write(2, f"dgplate: {name} during the set-up: stopped, nothing written\n".encode())
     os._exit(128 + signum)
+
+
+def _end_children() -> None:
+    """Stop, then kill, every descendant of this process (Linux's /proc; elsewhere nothing).
+
+    Each one found is stopped (SIGSTOP) at once, and /proc is read again until a reading
+    finds no new one: none can start another process unseen (a compiler driver starts
+    ``cc1``, then ``as``).
+    """
+    stopped: set[int] = set()
+    with contextlib.suppress(OSError):
+        while new := _descendants(os.getpid()) - stopped:
+            for pid in new:
+                with contextlib.suppress(OSError):
+                    os.kill(pid, signal.SIGSTOP)
+            stopped |= new
+    for pid in stopped:
+        with contextlib.suppress(OSError):
+            os.kill(pid, signal.SIGKILL)
+
+
+def _descendants(ancestor: int) -> set[int]:
+    """The processes descending from ``ancestor``, from the parents /proc gives."""
+    parent_of = {int(pid): _parent(pid) for pid in os.listdir("/proc") if pid.isdigit()}
+    found: set[int] = set()
+    while grown := {p for p, q in parent_of.items() if q in found | {ancestor}} - found:
+        found |= grown
+    return found
+
+
+def _parent(pid: str) -> int:
+    """The parent of process ``pid`` from /proc/PID/stat (0: gone or unreadable)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as stat:
+            fields = stat.read().rsplit(b")", 1)[1].split()  # after the (command name)
+        return int(fields[1])
+    except (OSError, IndexError, ValueError):
+        return 0
 
 
 _HANDLER = ctypes.CFUNCTYPE(None, ctypes.c_int)

@@ -432,6 +432,35 @@ def test_sigterm_during_checks_compilation_keeps_the_cache_usable(tmp_path):
     assert list(fenics.glob("*.c.failed"))
 
 
+def test_ending_at_once_ends_the_processes_this_one_started():
+    """The compiler a form compilation runs, and what it runs in turn, end with the process
+    (left running, ``cc1`` reports the C file the clean-up renamed)."""
+    from dgplate import interrupt
+
+    shell = subprocess.Popen(["sh", "-c", "sleep 60 & sleep 60 & wait"])
+    try:
+        while len(interrupt._descendants(os.getpid())) < 3:
+            time.sleep(0.01)
+        grandchildren = interrupt._descendants(os.getpid()) - {shell.pid}
+        interrupt._end_children()
+        assert shell.wait(timeout=10) == -signal.SIGKILL
+        deadline = time.monotonic() + 10
+        while any(map(_running, grandchildren)) and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert not any(map(_running, grandchildren))
+    finally:
+        shell.kill()
+
+
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` exists and is not a zombie (its /proc state)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as stat:
+            return stat.read().rsplit(b")", 1)[1].split()[0] != b"Z"
+    except OSError:
+        return False
+
+
 def test_a_failing_solver_ends_with_exit_1_and_no_abort(tmp_path):
     """A PETSc error inside the flow (not a SolverError) with VTX output open: the files are
     closed before the staged outputs go, so the process ends with 1, not with ADIOS2's abort
