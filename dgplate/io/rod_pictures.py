@@ -75,20 +75,30 @@ def _tube(points: Array, closed: bool, radius: float) -> pyvista.PolyData:
     return tube
 
 
+#: The most nodes the tube's radius is worked out from (their pairwise distances: 32 MB).
+RADIUS_SAMPLE = 2000
+
+
 def _default_radius(points: Array, closed: bool) -> float:
     """1 % of the length, or less where strands come close: 0.4 × their least distance.
 
-    Strands are nodes more than 4 apart along the polyline (cyclically for a closed rod).
+    Two nodes are on different strands where the rod has come back: their distance is less
+    than half the arc length between them (cyclically for a closed rod), which no smooth
+    piece of curve shorter than about 3.8 radii of curvature does. At most
+    :data:`RADIUS_SAMPLE` nodes, evenly spaced, are compared: memory and time stay bounded
+    for any number of cells.
     """
-    chords = np.diff(np.vstack([points, points[:1]]) if closed else points, axis=0)
-    radius = 0.01 * float(np.sum(np.linalg.norm(chords, axis=1)))
-    n = len(points)
-    apart = np.abs(np.arange(n)[:, None] - np.arange(n)[None, :])
+    ends = np.vstack([points, points[:1]]) if closed else points
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ends, axis=0), axis=1))])
+    length = float(arc[-1])
+    sample = np.arange(0, len(points), -(-len(points) // RADIUS_SAMPLE))
+    at, where = arc[sample], points[sample]
+    apart = np.abs(at[:, None] - at[None, :])
     if closed:
-        apart = np.minimum(apart, n - apart)
-    distance = np.linalg.norm(points[:, None, :] - points[None, :, :], axis=2)
-    strands = distance[apart > 4]
-    return min(radius, 0.4 * float(strands.min())) if strands.size else radius
+        apart = np.minimum(apart, length - apart)
+    distance = np.linalg.norm(where[:, None, :] - where[None, :, :], axis=2)
+    strands = distance[distance < 0.5 * apart]
+    return min(0.01 * length, 0.4 * float(strands.min())) if strands.size else 0.01 * length
 
 
 def plot_rod(

@@ -284,13 +284,16 @@ class LoadPath(Driver):
     def summary(self) -> dict[str, Any]:
         """Numbers for ``summary.json``: dofs, load factors, Newton iterations, energy.
 
+        ``load_steps`` counts the load steps solved, ``load_steps_scheduled`` the schedule's.
+
         With :class:`Stability` also :meth:`StabilityObserver.summary`; with a
         :class:`Relaxation`, :meth:`BranchLeaving.summary`.
         """
         summary: dict[str, Any] = {
             "dofs": self.num_dofs,
             "load_factor": self.time,
-            "load_steps": len(self.schedule),
+            "load_steps": self.step_count,
+            "load_steps_scheduled": len(self.schedule),
             "load_factors": [record.load_factor for record in self.history],
             "snes_iterations": [record.iterations for record in self.history],
             "residual_norms": self.residual_norms,
