@@ -1,0 +1,168 @@
+"""A printable solid: the deformed sheet thickened to y ± (t/2)ν, as a closed triangle surface.
+
+The mid-surface is the deformation y at the mesh's vertices (the mean of the cells' values:
+the dG field jumps a little across facets), each cell cut into triangles oriented like the
+reference plate, so that their normals point along the model's ν = ∂₁y × ∂₂y. Each vertex
+moves by ±t/2 along its normal (the area-weighted mean of its triangles'); the top copy keeps
+the orientation, the bottom one is reversed, and each boundary edge gets a side quad of two
+triangles. The surface is then closed and consistently oriented (every directed edge is met
+once, in reverse, by another triangle: :func:`is_watertight`), and its volume follows from
+the divergence theorem (:func:`volume`). It is written as binary STL by a writer of its own
+(:func:`write_stl`, 20 lines of NumPy), so that no mesh library is a dependency.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+from typing import TypeAlias
+
+import numpy as np
+import numpy.typing as npt
+
+from dgplate import compat
+from dgplate.compat import Function
+
+Array: TypeAlias = "npt.NDArray[np.float64]"
+Triangles: TypeAlias = "npt.NDArray[np.int64]"
+
+#: The triangles of a cell, by its vertices in DOLFINx's order (quadrilateral: tensor product).
+_SPLIT = {3: [[0, 1, 2]], 4: [[0, 1, 3], [0, 3, 2]]}
+
+
+def mid_surface(y: Function) -> tuple[Array, Triangles] | None:
+    """The deformed mid-surface: (points, triangles) on rank 0, None elsewhere (collective).
+
+    Args:
+        y: the deformation (any degree, continuous or not).
+
+    Returns:
+        The points (y at the mesh's vertices, shared by the cells around them) and the
+        triangles (rows of three point indices, oriented along ν).
+    """
+    mesh = y.function_space.mesh
+    owned = mesh.topology.index_map(mesh.topology.dim).size_local
+    corners = 3 if "triangle" in str(mesh.topology.cell_type) else 4
+    nodes = compat.geometry_dofmap(mesh)[:owned, :corners]
+    x = mesh.geometry.x
+    cells = np.repeat(np.arange(owned, dtype=np.int32), corners)
+    values = np.asarray(y.eval(x[nodes.reshape(-1)], cells)).reshape(owned, corners, 3)
+    ids = np.asarray(mesh.geometry.input_global_indices)[nodes]
+    gathered = mesh.comm.gather((ids, values, x[nodes][:, :, :2]), root=0)
+    if gathered is None:
+        return None
+    ids = np.concatenate([g[0] for g in gathered])
+    values = np.concatenate([g[1] for g in gathered])
+    reference = np.concatenate([g[2] for g in gathered])
+    unique, index = np.unique(ids.reshape(-1), return_inverse=True)
+    index = index.reshape(ids.shape)
+    count = np.bincount(index.reshape(-1), minlength=unique.size).astype(float)
+    points = np.stack(
+        [np.bincount(index.reshape(-1), values[..., a].reshape(-1), unique.size) for a in range(3)],
+        axis=1,
+    )
+    triangles = np.concatenate([index[:, split] for split in _SPLIT[corners]])
+    flat = np.concatenate([reference[:, split] for split in _SPLIT[corners]])
+    a, b, c = flat[:, 0], flat[:, 1], flat[:, 2]
+    area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    triangles[area < 0] = triangles[area < 0][:, ::-1]
+    return points / count[:, None], triangles.astype(np.int64)
+
+
+def thicken(points: Array, triangles: Triangles, thickness: float) -> tuple[Array, Triangles]:
+    """The closed surface of the sheet ``points ± (thickness/2)·normal`` (module docstring).
+
+    Args:
+        points: the mid-surface's points, (n, 3).
+        triangles: its triangles, (m, 3), consistently oriented.
+        thickness: t, in the units of ``points``.
+
+    Returns:
+        The solid's vertices (2n: top, then bottom) and triangles (2m + 2 per boundary edge),
+        oriented outwards.
+    """
+    n = len(points)
+    corner = points[triangles]
+    face = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])  # 2 × area
+    normal = np.zeros_like(points)
+    for k in range(3):
+        np.add.at(normal, triangles[:, k], face)
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    vertices = np.concatenate(
+        [points + 0.5 * thickness * normal, points - 0.5 * thickness * normal]
+    )
+    a, b = boundary_edges(triangles).T
+    sides = np.concatenate([np.stack([b, a, a + n], axis=1), np.stack([a + n, b + n, b], axis=1)])
+    faces = np.concatenate([triangles, triangles[:, ::-1] + n, sides])
+    return vertices, faces
+
+
+def _directed_edges(triangles: Triangles) -> Triangles:
+    """Every triangle's edges (a, b) in its orientation: (3m, 2)."""
+    return np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
+
+
+def boundary_edges(triangles: Triangles) -> Triangles:
+    """The directed edges (a, b) whose reverse (b, a) no triangle has: the boundary."""
+    edges = _directed_edges(triangles)
+    size = int(triangles.max(initial=0)) + 1
+    key, reverse = edges[:, 0] * size + edges[:, 1], edges[:, 1] * size + edges[:, 0]
+    return edges[~np.isin(reverse, key)]
+
+
+def is_watertight(triangles: Triangles) -> bool:
+    """Closed and consistently oriented: each directed edge once, and its reverse once.
+
+    Then every (undirected) edge belongs to exactly two triangles, which run along it in
+    opposite directions.
+    """
+    edges = _directed_edges(triangles)
+    size = int(triangles.max(initial=0)) + 1
+    key = edges[:, 0] * size + edges[:, 1]
+    reverse = edges[:, 1] * size + edges[:, 0]
+    return bool(np.unique(key).size == key.size and np.isin(reverse, key).all())
+
+
+def volume(vertices: Array, triangles: Triangles) -> float:
+    """The enclosed volume, Σ v₀·(v₁ × v₂)/6 (divergence theorem; > 0 if oriented outwards)."""
+    v = vertices[triangles]
+    return float(np.einsum("ij,ij->", v[:, 0], np.cross(v[:, 1], v[:, 2])) / 6)
+
+
+def area(vertices: Array, triangles: Triangles) -> float:
+    """The total area of the triangles."""
+    v = vertices[triangles]
+    return float(np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1).sum() / 2)
+
+
+def write_stl(path: Path, vertices: Array, triangles: Triangles) -> None:
+    """Binary STL (80-byte header, count, then normal, three vertices and 0 per triangle).
+
+    Written to a temporary file beside ``path`` and moved into place: never half-written.
+    """
+    record = np.dtype([("normal", "<f4", 3), ("vertices", "<f4", (3, 3)), ("attribute", "<u2")])
+    data = np.zeros(len(triangles), dtype=record)
+    corner = vertices[triangles]
+    normal = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
+    length = np.linalg.norm(normal, axis=1)[:, None]
+    data["normal"] = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    data["vertices"] = corner
+    header = b"dgplate solid: the deformed sheet thickened along its normals".ljust(80)
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    try:
+        with os.fdopen(handle, "wb") as file:
+            file.write(header + np.uint32(len(data)).tobytes())
+            file.write(data.tobytes())
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
+def read_stl(path: Path) -> Array:
+    """The triangles' corners of a binary STL file, (m, 3, 3) (what :func:`write_stl` wrote)."""
+    raw = path.read_bytes()
+    count = int(np.frombuffer(raw, "<u4", 1, 80)[0])
+    record = np.dtype([("normal", "<f4", 3), ("vertices", "<f4", (3, 3)), ("attribute", "<u2")])
+    return np.frombuffer(raw, record, count, 84)["vertices"].astype(np.float64)
