@@ -10,6 +10,7 @@ from dgplate import load_problem
 from dgplate.cli import main
 from dgplate.errors import InputError
 from dgplate.problems.material import LayerSpec, MaterialSpec, derive, with_material
+from dgplate.problems.pictures import picture_title
 from dgplate.reference.timoshenko import timoshenko_curvature
 from dgplate.units import si
 
@@ -185,3 +186,12 @@ def test_summary_has_the_physical_figures(tmp_path):
     # the cylinder's energy ½Dκ²|ω|, |ω| = 20 mm × 10 mm, within the discretisation's 1 %
     assert physical["energy_J"] == pytest.approx(0.5 * D * 100.0**2 * 2e-4, rel=0.01)
     assert physical["bbox_m"][1][0] == pytest.approx(summary["bbox"][1][0] * 0.01, rel=1e-13)
+
+
+def test_the_picture_title_has_the_physical_figures():
+    summary = {"energy": 0.99381, "isometry_defect": 1.2e-11}
+    assert picture_title("strip", summary) == "strip: E_h = 9.9381e-01, D_h = 1.20e-11"
+    summary["physical"] = {"energy_J": 6.1431e-4, "cylinder_radius_mm": 10.1873}
+    assert picture_title("strip", summary) == (
+        "strip: E_h = 9.9381e-01, D_h = 1.20e-11\nE = 0.0006143 J, cylinder radius 10.19 mm"
+    )
