@@ -268,3 +268,26 @@ def test_a_bad_scan_is_one_line(strip, tmp_path, capsys, text, message):
     assert main(["compare", str(strip), str(path)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"dgplate: error: scan {path}: {message}") and "\n" not in err
+
+
+@pytest.mark.mpi
+def test_compare_is_the_same_on_any_number_of_ranks(tmp_path):
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    base = tmp_path if comm.size == 1 else tmp_path.parent / "shared-compare"
+    base = type(tmp_path)(comm.bcast(str(base), root=0))
+    out = base / "strip"
+    sets = ["output.png=false", "output.vtx=false", "output.progress=0", "mesh.cells=[6,3]"]
+    args = [arg for s in sets for arg in ("--set", s)]
+    assert main(["run", str(PROBLEMS / "bilayer_timoshenko.toml"), "--out", str(out), *args]) == 0
+    if comm.rank == 0:
+        (points, triangles), _, _ = _surface(out, MPI.COMM_SELF)
+        clean = sample(points, triangles, 500, np.random.default_rng(2))
+        write_xyz(base / "scan.xyz", clean @ rotation([0, 1, 1], 0.4).T)
+    comm.barrier()
+    together = compare_scan(out, base / "scan.xyz", comm)
+    alone = compare_scan(out, base / "scan.xyz", MPI.COMM_SELF)
+    assert together["points"] == alone["points"] == 500
+    np.testing.assert_allclose(together["rotation"], alone["rotation"], rtol=0, atol=1e-9)
+    assert together["angle_deg"] == pytest.approx(np.degrees(0.4), abs=1e-6)
