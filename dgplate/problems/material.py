@@ -18,20 +18,25 @@ density proportional to its modulus) then gives
 The model keys are then Z = −κ L I (bilayer), and the physical figures of a run are its
 non-dimensional ones times L (lengths), 1/L (curvatures) and D (energy); a non-dimensional
 load f is the pressure f D/L³.
+
+A rod takes a cross-section instead of layers (:mod:`dgplate.reference.sections`): its
+bending stiffness EI is the unit, c_b = 1 and c_t = GJ/(EI), G = E/(2(1 + ν)); its energy
+∫EI|u″|² ds scales with EI/L, the unit of energy of the run.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from dgplate.errors import InputError
+from dgplate.reference.sections import circle_section, rectangle_section
 from dgplate.schema import REQUIRED, from_dict, option
 from dgplate.units import si
 
-#: The models that take a [material]: what it gives them besides the scales.
-MODELS_WITH_MATERIAL = ("kirchhoff", "bilayer")
+#: The models that take a [material]: the plates its layers, a rod its cross-section.
+MODELS_WITH_MATERIAL = ("kirchhoff", "bilayer", "rod")
 
 
 @dataclass
@@ -48,15 +53,39 @@ class LayerSpec:
 
 
 @dataclass
+class SectionSpec:
+    """[material]'s ``section``: a rod's cross-section and its material."""
+
+    TYPE_KEYS: ClassVar[dict[str, tuple[str, ...]]] = {
+        "circle": ("radius",),
+        "rectangle": ("width", "thickness"),
+    }
+
+    type: str = option(REQUIRED, "the cross-section", choices=tuple(TYPE_KEYS))
+    E: float | str = option(REQUIRED, "Young's modulus (Pa, or e.g. '2 GPa')")
+    nu: float = option(0.3, "Poisson's ratio", gt=-1, le=0.5)
+    radius: float | str = option(0.0, "circle: the radius (m, or e.g. '0.5 mm')")
+    width: float | str = option(0.0, "rectangle: one side (m, or e.g. '2 mm')")
+    thickness: float | str = option(0.0, "rectangle: the other side")
+
+
+@dataclass
 class MaterialSpec:
     """The [material] section (docs/units.md); an empty table is no material."""
 
     length: float | str = option(
-        REQUIRED, "the physical length of one unit of the mesh's coordinates (m, or e.g. '10 mm')"
+        REQUIRED,
+        "the physical length of one unit of the mesh's coordinates, or of a rod's parameter (m, or e.g. '10 mm')",
     )
     layers: list[LayerSpec] = option(
-        REQUIRED,
-        "the layers, bottom (−ν side) first: tables of thickness, E, nu (0.3), misfit (0) and alpha (0); e.g. [{thickness = '75 um', E = '2 GPa', misfit = 0.01}, {thickness = '75 um', E = '2 GPa'}]",
+        [],
+        "plates: the layers, bottom (−ν side) first: tables of thickness, E, nu (0.3), misfit (0) and alpha (0); e.g. [{thickness = '75 um', E = '2 GPa', misfit = 0.01}, {thickness = '75 um', E = '2 GPa'}]",
+        shown="(none)",  # commented out in `dgplate schema`: its [material] is empty
+    )
+    section: SectionSpec | None = option(
+        None,
+        "rods: the cross-section, e.g. {type = 'circle', radius = '0.5 mm', E = '2 GPa', nu = 0.3}",
+        shown="(none)",  # commented out in `dgplate schema`
     )
     delta_T: float | str = option(
         0.0,
@@ -67,16 +96,42 @@ class MaterialSpec:
 
 @dataclass(frozen=True)
 class Material:
-    """The scales of a [material]: length L (m), stiffness D (J) and curvature κ (1/m)."""
+    """The scales of a [material].
+
+    The length L (m) of a mesh unit; the thickness (m); the bending stiffness (a plate's D
+    in J, a rod's EI in N m²); a plate's spontaneous curvature κ (1/m); a rod's torsional
+    stiffness GJ (N m², None for a plate).
+    """
 
     length: float
     thickness: float
     stiffness: float
-    curvature: float
+    curvature: float = 0.0
+    torsion: float | None = None
 
     def model_keys(self, model: str) -> dict[str, Any]:
-        """The [model] keys the material gives the model ``model`` (a bilayer's Z)."""
+        """The [model] keys the material gives the model ``model`` (Z; a rod's c_b, c_t)."""
+        if self.torsion is not None:
+            return {"c_b": 1.0, "c_t": self.torsion / self.stiffness}
         return {"Z": self.curvature * self.length} if model == "bilayer" else {}
+
+    def constants(self) -> tuple[float, dict[str, float]]:
+        """(the unit of energy in J, the material's constants as summary.json names them)."""
+        L, B = self.length, self.stiffness
+        shared = {"length_scale_m": L, "thickness_m": self.thickness}
+        if self.torsion is not None:  # a rod: ∫EI|u″|² ds = (EI/L) ∫|û″|² dŝ
+            rod = {
+                "bending_stiffness_Nm2": B,
+                "torsional_stiffness_Nm2": self.torsion,
+                "load_scale_N_per_m": B / L**3,
+            }
+            return B / L, {**shared, **rod}
+        plate = {
+            "bending_stiffness_J": B,
+            "spontaneous_curvature_1_per_m": self.curvature,
+            "load_scale_Pa": B / L**3,
+        }
+        return B, {**shared, **plate}
 
     def figures(self, summary: Mapping[str, Any]) -> dict[str, Any]:
         """The run's physical figures from its non-dimensional ones (summary.json's).
@@ -85,18 +140,13 @@ class Material:
             summary: the run's summary figures (energy, bbox, cylinder_fit, …).
 
         Returns:
-            The scales and, of those figures the summary has, their values in SI units.
+            The constants and, of those figures the summary has, their values in SI units.
         """
-        L, D = self.length, self.stiffness
-        figures: dict[str, Any] = {
-            "length_scale_m": L,
-            "thickness_m": self.thickness,
-            "bending_stiffness_J": D,
-            "spontaneous_curvature_1_per_m": self.curvature,
-            "load_scale_Pa": D / L**3,
-        }
+        L = self.length
+        energy, constants = self.constants()
+        figures: dict[str, Any] = dict(constants)
         if "energy" in summary:
-            figures["energy_J"] = summary["energy"] * D
+            figures["energy_J"] = summary["energy"] * energy
         if "bbox" in summary:
             figures["bbox_m"] = [[v * L for v in corner] for corner in summary["bbox"]]
         fit = summary.get("cylinder_fit")
@@ -125,13 +175,14 @@ def with_material(data: Mapping[str, Any]) -> tuple[Material | None, object]:
     name = model.get("name", "kirchhoff") if isinstance(model, dict) else None
     if name not in MODELS_WITH_MATERIAL:
         raise InputError(
-            f"[material] applies to model.name = {' or '.join(MODELS_WITH_MATERIAL)}, "
+            f"[material] applies to model.name = {', '.join(MODELS_WITH_MATERIAL)}, "
             f"not {name!r}; the other models take non-dimensional keys"
         )
     assert isinstance(model, dict)
-    material = derive(spec)
+    material = rod_material(spec) if name == "rod" else derive(spec)
     derived = material.model_keys(name)
-    for key in ("mu", *derived):  # μ = 1: D is the unit of energy
+    # a plate's μ = 1, a rod's c_b = 1: the bending stiffness is the unit of energy
+    for key in (*(() if name == "rod" else ("mu",)), *derived):
         if key in model:
             raise InputError(
                 f"model.{key} is derived from [material]; give one or the other (docs/units.md)"
@@ -140,9 +191,11 @@ def with_material(data: Mapping[str, Any]) -> tuple[Material | None, object]:
 
 
 def derive(spec: MaterialSpec) -> Material:
-    """The scales of a material: the laminate's D and κ (module docstring), and L."""
+    """The scales of a plate's material: the laminate's D and κ (module docstring), and L."""
     length = _positive(spec.length, "length", "material.length")
     delta_T = si(spec.delta_T, "temperature_change", "material.delta_T")
+    if spec.section is not None:
+        raise InputError("material.section is a rod's; a plate takes material.layers")
     if not spec.layers:
         raise InputError("material.layers must have at least one layer")
     z, biaxial, plate = 0.0, _Sums(), _Sums()
@@ -156,6 +209,32 @@ def derive(spec: MaterialSpec) -> Material:
         plate.add(E / (1 - layer.nu**2), z, z + t, 0.0)
         z += t
     return Material(length, z, plate.stiffness(), -biaxial.curvature())
+
+
+def rod_material(spec: MaterialSpec) -> Material:
+    """The scales of a rod's material: EI and GJ of its cross-section, and L."""
+    length = _positive(spec.length, "length", "material.length")
+    if spec.layers:
+        raise InputError("material.layers are a plate's; a rod takes material.section")
+    section = spec.section
+    if section is None:
+        raise InputError("material.section is required for model.name = 'rod'")
+    E = _positive(section.E, "modulus", "material.section.E")
+    if section.type == "circle":
+        radius = _positive(section.radius, "length", "material.section.radius")
+        (I, J), thickness = circle_section(radius), 2 * radius
+    else:
+        width = _positive(section.width, "length", "material.section.width")
+        height = _positive(section.thickness, "length", "material.section.thickness")
+        (I, J), thickness = rectangle_section(width, height), min(width, height)
+    bending, torsion = E * I, E / (2 * (1 + section.nu)) * J
+    if not torsion < bending:
+        raise InputError(
+            f"material.section: the rod's energy needs c_t = GJ/(EI) < 1, got "
+            f"{torsion / bending:.3g} (a rectangle wider than about twice its thickness "
+            "bends one way only, which this rod model does not describe)"
+        )
+    return Material(length, thickness, bending, torsion=torsion)
 
 
 def _positive(value: float | str, kind: str, key: str) -> float:

@@ -133,6 +133,9 @@ def _surface(folder: str | Path, comm: MPI.Comm) -> tuple[Any, float, float | No
         (points and triangles on rank 0, None elsewhere; millimetres per mesh unit, or 1
         without a [material]; the [material]'s thickness in mesh units, or None).
     """
+    summary = load_result(folder, comm, state=False).summary
+    if summary.get("model") == "rod":
+        raise InputError(f"{folder}: a rod's run has a centreline, not a sheet")
     result = load_result(folder, comm)
     material = problem_from_dict(result.summary["input"], result.summary["problem"]).material
     assert result.shape is not None

@@ -2,15 +2,27 @@
 and the plate stiffness, and a run's physical figures in summary.json."""
 
 import json
+import tomllib
 
+import numpy as np
 import pytest
 from helpers import PROBLEMS
 
-from dgplate import load_problem
+from dgplate import load_problem, run
 from dgplate.cli import main
 from dgplate.errors import InputError
-from dgplate.problems.material import LayerSpec, MaterialSpec, derive, with_material
+from dgplate.problems.material import (
+    LayerSpec,
+    MaterialSpec,
+    SectionSpec,
+    derive,
+    rod_material,
+    with_material,
+)
 from dgplate.problems.pictures import picture_title
+from dgplate.problems.shapes import export_solid
+from dgplate.problems.specs import problem_from_dict
+from dgplate.reference.sections import rectangle_section
 from dgplate.reference.timoshenko import timoshenko_curvature
 from dgplate.units import si
 
@@ -137,7 +149,10 @@ def test_no_material_and_an_empty_one_leave_the_model_as_it_is():
     [
         (["model.Z=1.0"], "model.Z is derived from [material]; give one or the other"),
         (["model.mu=2.0"], "model.mu is derived from [material]; give one or the other"),
-        (["model.name=lce"], "[material] applies to model.name = kirchhoff or bilayer, not 'lce'"),
+        (
+            ["model.name=lce"],
+            "[material] applies to model.name = kirchhoff, bilayer, rod, not 'lce'",
+        ),
         (["material.layers=[]"], "material.layers must have at least one layer"),
         (["material.length='-1 mm'"], "material.length must be > 0, got '-1 mm'"),
         (
@@ -195,3 +210,77 @@ def test_the_picture_title_has_the_physical_figures():
     assert picture_title("strip", summary) == (
         "strip: E_h = 9.9381e-01, D_h = 1.20e-11\nE = 0.0006143 J, cylinder radius 10.19 mm"
     )
+
+
+@pytest.mark.parametrize(("ratio", "table"), [(1, 0.141), (1.5, 0.196), (2, 0.229), (10, 0.312)])
+def test_rectangle_torsion_constant_is_the_textbook_one(ratio, table):
+    """J = β b h³ (Timoshenko and Goodier, Theory of Elasticity, §109, table to 3 digits)."""
+    I, J = rectangle_section(ratio * 1e-3, 1e-3)
+    assert J / (ratio * 1e-12) == pytest.approx(table, abs=6e-4)
+    assert I == pytest.approx(ratio * 1e-12 / 12, rel=1e-14)
+    assert rectangle_section(1e-3, ratio * 1e-3) == (I, J)  # either side first
+
+
+def rod(section, length="10 cm"):
+    return MaterialSpec(length=length, section=SectionSpec(**section))
+
+
+def test_a_round_rod_has_EI_and_c_t_of_its_disc():
+    made = rod_material(rod({"type": "circle", "radius": "0.5 mm", "E": "2 GPa", "nu": 0.25}))
+    EI = 2e9 * np.pi * 0.5e-3**4 / 4
+    assert made.stiffness == pytest.approx(EI, rel=1e-14)
+    keys = made.model_keys("rod")
+    assert keys["c_b"] == 1.0 and keys["c_t"] == pytest.approx(1 / 1.25, rel=1e-14)
+    energy, constants = made.constants()
+    assert energy == pytest.approx(EI / 0.1, rel=1e-14)
+    assert constants["torsional_stiffness_Nm2"] == pytest.approx(EI / 1.25, rel=1e-14)
+
+
+def test_a_square_rod_and_a_refused_flat_one():
+    made = rod_material(rod({"type": "rectangle", "width": 1e-3, "thickness": 1e-3, "E": 1e9}))
+    assert made.model_keys("rod")["c_t"] == pytest.approx(0.1406 * 12 / 2.6, rel=1e-3)
+    with pytest.raises(InputError, match=r"^material.section: the rod's energy needs c_t"):
+        rod_material(rod({"type": "rectangle", "width": 3e-3, "thickness": 1e-3, "E": 1e9}))
+
+
+def rod_problem(sets=()):
+    data = tomllib.loads((PROBLEMS / "rod_arc.toml").read_text())
+    del data["model"]["c_b"], data["model"]["c_t"]
+    data["material"] = {
+        "length": "10 cm",
+        "section": {"type": "circle", "radius": "0.5 mm", "E": "2 GPa", "nu": 0.3},
+    }
+    return problem_from_dict(data, "rod_arc", list(sets))
+
+
+@pytest.mark.parametrize(
+    ("sets", "message"),
+    [
+        (["model.c_t=0.5"], "model.c_t is derived from [material]; give one or the other"),
+        (["material.section.radius='2 GPa'"], "material.section.radius must be a length"),
+        (["material.section.width=1e-3"], "unknown key material.section.width for type 'circle'"),
+        (["material.layers=[{thickness=1e-4, E=1e9}]"], "material.layers are a plate's; a rod"),
+    ],
+)
+def test_bad_rod_material_names_the_key(sets, message):
+    with pytest.raises(InputError) as err:
+        rod_problem(sets)
+    assert str(err.value).startswith(message), str(err.value)
+
+
+def test_a_plate_refuses_a_section():
+    with pytest.raises(InputError, match=r"^material.section is a rod's; a plate takes"):
+        load_problem(TIMOSHENKO, ["material.section={type='circle', radius=1e-3, E=1e9}"])
+
+
+def test_a_rods_summary_has_its_energy_in_joules(tmp_path):
+    problem = rod_problem(["output.png=false", "output.vtx=false", "output.progress=0"])
+    assert problem.model.c_b == 1.0 and problem.model.c_t == pytest.approx(1 / 1.3, rel=1e-14)
+    summary = run(problem, out=tmp_path / "rod").summary
+    physical = summary["physical"]
+    EI = 2e9 * np.pi * 0.5e-3**4 / 4
+    assert physical["bending_stiffness_Nm2"] == pytest.approx(EI, rel=1e-14)
+    assert physical["energy_J"] == pytest.approx(summary["energy"] * EI / 0.1, rel=1e-14)
+    assert physical["bbox_m"][1][0] == pytest.approx(summary["bbox"][1][0] * 0.1, rel=1e-14)
+    with pytest.raises(InputError, match="a rod's run has a centreline, not a sheet"):
+        export_solid(tmp_path / "rod", tmp_path / "rod.stl", 0.01)
