@@ -18,6 +18,7 @@ import tempfile
 from pathlib import Path
 from typing import TypeAlias
 
+import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 
@@ -26,6 +27,9 @@ from dgplate.compat import Function
 
 Array: TypeAlias = "npt.NDArray[np.float64]"
 Triangles: TypeAlias = "npt.NDArray[np.int64]"
+
+#: A triangle of binary STL: its unit normal, its corners and a 16-bit attribute (0).
+STL_RECORD = np.dtype([("normal", "<f4", 3), ("vertices", "<f4", (3, 3)), ("attribute", "<u2")])
 
 #: The triangles of a cell, by its vertices in DOLFINx's order (quadrilateral: tensor product).
 _SPLIT = {3: [[0, 1, 2]], 4: [[0, 1, 3], [0, 3, 2]]}
@@ -43,7 +47,7 @@ def mid_surface(y: Function) -> tuple[Array, Triangles] | None:
     """
     mesh = y.function_space.mesh
     owned = mesh.topology.index_map(mesh.topology.dim).size_local
-    corners = 3 if "triangle" in str(mesh.topology.cell_type) else 4
+    corners = 3 if mesh.topology.cell_type == dolfinx.mesh.CellType.triangle else 4
     nodes = compat.geometry_dofmap(mesh)[:owned, :corners]
     x = mesh.geometry.x
     cells = np.repeat(np.arange(owned, dtype=np.int32), corners)
@@ -141,8 +145,7 @@ def write_stl(path: Path, vertices: Array, triangles: Triangles) -> None:
 
     Written to a temporary file beside ``path`` and moved into place: never half-written.
     """
-    record = np.dtype([("normal", "<f4", 3), ("vertices", "<f4", (3, 3)), ("attribute", "<u2")])
-    data = np.zeros(len(triangles), dtype=record)
+    data = np.zeros(len(triangles), dtype=STL_RECORD)
     corner = vertices[triangles]
     normal = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
     length = np.linalg.norm(normal, axis=1)[:, None]
@@ -158,11 +161,3 @@ def write_stl(path: Path, vertices: Array, triangles: Triangles) -> None:
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise
-
-
-def read_stl(path: Path) -> Array:
-    """The triangles' corners of a binary STL file, (m, 3, 3) (what :func:`write_stl` wrote)."""
-    raw = path.read_bytes()
-    count = int(np.frombuffer(raw, "<u4", 1, 80)[0])
-    record = np.dtype([("normal", "<f4", 3), ("vertices", "<f4", (3, 3)), ("attribute", "<u2")])
-    return np.frombuffer(raw, record, count, 84)["vertices"].astype(np.float64)

@@ -17,6 +17,14 @@ from dgplate.measure.alignment import align, kabsch
 from dgplate.problems.shapes import _surface, compare_scan
 
 
+def read_stl(path):
+    """The triangles' corners of a binary STL file, (m, 3, 3)."""
+    raw = path.read_bytes()
+    count = int(np.frombuffer(raw, "<u4", 1, 80)[0])
+    assert len(raw) == 84 + solid.STL_RECORD.itemsize * count
+    return np.frombuffer(raw, solid.STL_RECORD, count, 84)["vertices"].astype(np.float64)
+
+
 def grid(nx, ny, lift=None):
     """A triangulated [0, 2] × [0, 1] (nx × ny squares, two triangles each), z = lift(x, y)."""
     x, y = np.meshgrid(np.linspace(0, 2, nx + 1), np.linspace(0, 1, ny + 1), indexing="ij")
@@ -73,7 +81,7 @@ def test_binary_stl_is_read_back(tmp_path):
     path = tmp_path / "sheet.stl"
     solid.write_stl(path, vertices, faces)
     assert path.stat().st_size == 84 + 50 * len(faces)
-    np.testing.assert_allclose(solid.read_stl(path), vertices[faces], atol=1e-6)
+    np.testing.assert_allclose(read_stl(path), vertices[faces], atol=1e-6)
     assert [p.name for p in tmp_path.iterdir()] == ["sheet.stl"], "no temporary file is left"
 
 
@@ -93,7 +101,7 @@ def test_export_writes_a_watertight_solid_in_mm(strip, tmp_path, capsys):
     assert main(["export", str(strip), "--solid", str(path)]) == 0
     line = capsys.readouterr().out.strip()
     assert line.startswith(f"dgplate: wrote {path}: 176 triangles, watertight, volume ")
-    corners = solid.read_stl(path)
+    corners = read_stl(path)
     assert len(corners) == 2 * 2 * 32 + 2 * 2 * (8 + 4)
     mesh = pyvista.read(path).clean()
     assert mesh.is_manifold and mesh.n_open_edges == 0
@@ -148,7 +156,7 @@ def test_export_without_material_needs_a_thickness_and_keeps_the_mesh_units(tmp_
 
 def sorted_corners(path):
     """The STL's triangles as a sorted array: the same solid in any triangle order."""
-    corners = solid.read_stl(path).reshape(-1, 9)
+    corners = read_stl(path).reshape(-1, 9)
     return corners[np.lexsort(np.round(corners, 4).T[::-1])]
 
 
@@ -291,3 +299,28 @@ def test_compare_is_the_same_on_any_number_of_ranks(tmp_path):
     assert together["points"] == alone["points"] == 500
     np.testing.assert_allclose(together["rotation"], alone["rotation"], rtol=0, atol=1e-9)
     assert together["angle_deg"] == pytest.approx(np.degrees(0.4), abs=1e-6)
+
+
+@pytest.mark.parametrize("cell_type", ["triangle", "quadrilateral"])
+def test_mid_surface_of_a_field_on_either_cell_type(cell_type):
+    """y = (x₁, x₂, x₁²/10) on 4×2 cells: the vertices' values, triangles oriented along ν."""
+    from mpi4py import MPI
+
+    import dolfinx.fem
+
+    from dgplate.mesh.tagged import rectangle
+
+    tagged = rectangle(MPI.COMM_SELF, [[0, 0], [2, 1]], [4, 2], cell_type)
+    y = dolfinx.fem.Function(dolfinx.fem.functionspace(tagged.mesh, ("DG", 2, (3,))))
+    y.interpolate(lambda x: np.stack([x[0], x[1], 0.1 * x[0] ** 2]))
+    points, triangles = solid.mid_surface(y)
+    assert len(points) == 15 and len(triangles) == 16
+    np.testing.assert_allclose(points[:, 2], 0.1 * points[:, 0] ** 2, atol=1e-14)
+    corner = points[triangles]
+    normal = np.cross(corner[:, 1] - corner[:, 0], corner[:, 2] - corner[:, 0])
+    assert (normal[:, 2] > 0).all(), "ν = ∂₁y × ∂₂y points up"
+    vertices, faces = solid.thicken(points, triangles, 0.05)
+    assert solid.is_watertight(faces)
+    assert solid.volume(vertices, faces) == pytest.approx(
+        solid.area(points, triangles) * 0.05, rel=1e-3
+    )
