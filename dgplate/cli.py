@@ -109,8 +109,8 @@ def _parser() -> argparse.ArgumentParser:
     export.add_argument(
         "--solid",
         required=True,
-        metavar="FILE.stl",
-        help="the solid y ± (t/2)ν as binary STL (in mm with a [material])",
+        metavar="FILE",
+        help="the solid y ± (t/2)ν as binary .stl, .ply or .vtu (in mm with a [material])",
     )
     export.add_argument(
         "--thickness",

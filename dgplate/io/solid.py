@@ -8,7 +8,7 @@ the orientation, the bottom one is reversed, and each boundary edge gets a side 
 triangles. The surface is then closed and consistently oriented (every directed edge is met
 once, in reverse, by another triangle: :func:`is_watertight`), and its volume follows from
 the divergence theorem (:func:`volume`). It is written as binary STL by a writer of its own
-(:func:`write_stl`, 20 lines of NumPy), so that no mesh library is a dependency.
+(:func:`write_stl`, a few lines of NumPy), or as PLY or VTU by pyvista (:func:`write_solid`).
 """
 
 from __future__ import annotations
@@ -140,10 +140,44 @@ def area(vertices: Array, triangles: Triangles) -> float:
     return float(np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1).sum() / 2)
 
 
-def write_stl(path: Path, vertices: Array, triangles: Triangles) -> None:
-    """Binary STL (80-byte header, count, then normal, three vertices and 0 per triangle).
+#: The formats of :func:`write_solid`.
+FORMATS = (".stl", ".ply", ".vtu")
+
+
+def write_solid(path: Path, vertices: Array, triangles: Triangles) -> None:
+    """The solid as binary STL (:func:`write_stl`), or as PLY or VTU through pyvista.
 
     Written to a temporary file beside ``path`` and moved into place: never half-written.
+
+    Args:
+        path: the file, ending in one of :data:`FORMATS`.
+        vertices: the solid's vertices, (n, 3).
+        triangles: its triangles, (m, 3).
+    """
+    suffix = path.suffix.lower()
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=suffix)
+    os.close(handle)
+    try:
+        if suffix == ".stl":
+            write_stl(Path(temporary), vertices, triangles)
+        else:
+            import pyvista
+
+            faces = np.hstack([np.full((len(triangles), 1), 3), triangles]).ravel()
+            surface = pyvista.PolyData(vertices, faces)
+            shaped = surface if suffix == ".ply" else surface.cast_to_unstructured_grid()
+            shaped.save(temporary)
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
+def write_stl(path: Path, vertices: Array, triangles: Triangles) -> None:
+    """Binary STL: an 80-byte header, the count, then :data:`STL_RECORD` per triangle.
+
+    Written by NumPy rather than VTK's writer: the file is what a printer takes, exactly
+    these triangles in this order, with no VTK import (a second) on the way.
     """
     data = np.zeros(len(triangles), dtype=STL_RECORD)
     corner = vertices[triangles]
@@ -152,12 +186,4 @@ def write_stl(path: Path, vertices: Array, triangles: Triangles) -> None:
     data["normal"] = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
     data["vertices"] = corner
     header = b"dgplate solid: the deformed sheet thickened along its normals".ljust(80)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(handle, "wb") as file:
-            file.write(header + np.uint32(len(data)).tobytes())
-            file.write(data.tobytes())
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    path.write_bytes(header + np.uint32(len(data)).tobytes() + data.tobytes())

@@ -1,7 +1,7 @@
 """A finished run's shape for the lab: a printable solid, and a comparison with a scan.
 
 ``dgplate export RUN --solid out.stl`` thickens the final mid-surface (:mod:`dgplate.io.solid`)
-and writes binary STL; ``dgplate compare RUN scan.xyz`` aligns a measured point cloud to it
+and writes binary STL (or PLY, VTU); ``dgplate compare RUN scan.xyz`` aligns a measured point cloud to it
 (:mod:`dgplate.measure.alignment`) and reports the distances. Both read the run back with
 :func:`dgplate.load_result` and work on rank 0. With a [material] the coordinates are in
 millimetres (what slicers for 3D printers and most scanners use) and the thickness is the
@@ -29,11 +29,11 @@ from dgplate.problems.specs import problem_from_dict
 def export_solid(
     folder: str | Path, path: str | Path, thickness: float | None, comm: MPI.Comm = MPI.COMM_WORLD
 ) -> dict[str, Any]:
-    """Write the run's thickened sheet to ``path`` (.stl) and return its figures (collective).
+    """Write the run's thickened sheet to ``path`` and return its figures (collective).
 
     Args:
         folder: the run's output folder.
-        path: the STL file to write (not an existing file: none is overwritten).
+        path: the .stl, .ply or .vtu file to write (not an existing file: none is overwritten).
         thickness: the sheet's thickness in the mesh's units; None: the [material]'s.
         comm: the ranks that read the run.
 
@@ -42,8 +42,8 @@ def export_solid(
         (in the file's units) and ``units`` (``mm`` or ``mesh``).
     """
     target = Path(path)
-    if target.suffix.lower() != ".stl":
-        raise InputError(f"--solid {target}: the file must end in .stl")
+    if target.suffix.lower() not in solid.FORMATS:
+        raise InputError(f"--solid {target}: the file must end in {', '.join(solid.FORMATS)}")
     if target.exists():
         raise InputError(f"--solid {target} exists; remove it or name another file")
     if not target.parent.is_dir():
@@ -62,7 +62,7 @@ def export_solid(
     if surface is not None:
         points, triangles = surface
         vertices, faces = solid.thicken(points, triangles, t)
-        solid.write_stl(target, vertices, faces)
+        solid.write_solid(target, vertices, faces)
         figures = {
             "triangles": len(faces),
             "watertight": solid.is_watertight(faces),

@@ -79,10 +79,25 @@ def test_binary_stl_is_read_back(tmp_path):
     points, triangles = grid(3, 2, rolled)
     vertices, faces = solid.thicken(points, triangles, 0.1)
     path = tmp_path / "sheet.stl"
-    solid.write_stl(path, vertices, faces)
+    solid.write_solid(path, vertices, faces)
     assert path.stat().st_size == 84 + 50 * len(faces)
     np.testing.assert_allclose(read_stl(path), vertices[faces], atol=1e-6)
     assert [p.name for p in tmp_path.iterdir()] == ["sheet.stl"], "no temporary file is left"
+
+
+@pytest.mark.parametrize("suffix", [".ply", ".vtu"])
+def test_ply_and_vtu_hold_the_same_solid(tmp_path, suffix):
+    pyvista = pytest.importorskip("pyvista")
+    points, triangles = grid(3, 2, rolled)
+    vertices, faces = solid.thicken(points, triangles, 0.1)
+    path = tmp_path / f"sheet{suffix}"
+    solid.write_solid(path, vertices, faces)
+    read = pyvista.read(path)
+    assert read.n_cells == len(faces) and read.n_points == len(vertices)
+    cells = np.asarray(read.faces if suffix == ".ply" else read.cells).reshape(-1, 4)
+    assert (cells[:, 0] == 3).all()
+    np.testing.assert_allclose(np.asarray(read.points)[cells[:, 1:]], vertices[faces], atol=1e-6)
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]
 
 
 @pytest.fixture(scope="module")
@@ -120,17 +135,19 @@ def test_export_writes_a_watertight_solid_in_mm(strip, tmp_path, capsys):
     ("extra", "message"),
     [
         ([], "--solid {path} exists; remove it or name another file"),
+        (["obj"], "--solid {new}: the file must end in .stl, .ply, .vtu"),
         (["--thickness", "-1"], "--thickness must be a finite number > 0, got -1.0"),
     ],
-    ids=["exists", "negative-thickness"],
+    ids=["exists", "obj", "negative-thickness"],
 )
 def test_export_refusals_are_one_line(strip, tmp_path, capsys, extra, message):
     path = tmp_path / "kept.stl"
     path.write_text("user data")
-    target = path if not extra else tmp_path / "new.stl"
+    new = tmp_path / ("new.obj" if extra == ["obj"] else "new.stl")
+    target, extra = (path, extra) if not extra else (new, [e for e in extra if e != "obj"])
     assert main(["export", str(strip), "--solid", str(target), *extra]) == 2
     err = capsys.readouterr().err.strip()
-    assert err == f"dgplate: error: {message.format(path=path)}"
+    assert err == f"dgplate: error: {message.format(path=path, new=new)}"
     assert path.read_text() == "user data"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["kept.stl"]
 
