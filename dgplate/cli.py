@@ -127,6 +127,11 @@ def _parser() -> argparse.ArgumentParser:
         help="the points: .xyz, .txt, .csv (x y z per line), .ply, .stl, .vtp or .vtk, in mm "
         "with a [material]",
     )
+    compare.add_argument(
+        "--map",
+        metavar="FILE.png",
+        help="a picture of the aligned scan coloured by its signed distance to the shape",
+    )
     schema = sub.add_parser("schema", help="print every problem-file key with its default")
     schema.add_argument(
         "--model", default="kirchhoff", help="the model whose [model] keys to print"
@@ -305,7 +310,7 @@ def _compare(args: argparse.Namespace, comm: MPI.Comm) -> int:
     """``dgplate compare``: one line with the distances left after the alignment."""
     from dgplate.problems.shapes import compare_scan
 
-    found = compare_scan(args.folder, args.scan, comm)
+    found = compare_scan(args.folder, args.scan, comm, args.map)
     if comm.rank == 0:
         units = found["units"]
         print(

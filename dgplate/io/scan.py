@@ -100,3 +100,48 @@ def largest_gap(points: Array, cloud: Array) -> float:
     found: Any = pyvista.PolyData(cloud).find_closest_cell(points, return_closest_point=True)
     near = found[1]
     return float(np.linalg.norm(np.asarray(near).reshape(-1, 3) - points, axis=1).max())
+
+
+def plot_distances(
+    surface: tuple[Array, npt.NDArray[np.int64]],
+    scan: Array,
+    path: Path,
+    title: str,
+    units: str,
+) -> None:
+    """A picture of the aligned scan's points coloured by their signed distance to the surface.
+
+    The surface is drawn in light grey; a point above it (on the side of its normal) has a
+    positive distance. Rank 0 only (no collectives); written atomically.
+
+    Args:
+        surface: the surface's points and triangles.
+        scan: the aligned scan's points, (k, 3).
+        path: the PNG file.
+        title: the picture's title.
+        units: the distances' units, for the colour bar's label.
+    """
+    import pyvista
+
+    from dgplate.io.images import offscreen_png
+
+    points, triangles = surface
+    near, normal = SurfaceLocator(points, triangles)(scan)
+    cloud = pyvista.PolyData(scan)
+    cloud["distance"] = np.einsum("ij,ij->i", scan - near, normal)
+    largest = float(np.abs(cloud["distance"]).max()) or 1.0  # white is on the surface
+    faces = np.hstack([np.full((len(triangles), 1), 3), triangles]).ravel()
+    with offscreen_png(path, (1200, 900)) as plotter:
+        plotter.set_background("white")
+        plotter.add_mesh(pyvista.PolyData(points, faces), color="#d0d0d0", opacity=0.5)
+        plotter.add_mesh(
+            cloud,
+            scalars="distance",
+            cmap="coolwarm",
+            clim=[-largest, largest],
+            point_size=7,
+            render_points_as_spheres=True,
+            scalar_bar_args={"title": f"signed distance ({units})", "color": "black"},
+        )
+        plotter.add_text(title, position="upper_edge", font_size=14, color="black")
+        plotter.view_isometric()

@@ -42,12 +42,7 @@ def export_solid(
         (in the file's units) and ``units`` (``mm`` or ``mesh``).
     """
     target = Path(path)
-    if target.suffix.lower() not in solid.FORMATS:
-        raise InputError(f"--solid {target}: the file must end in {', '.join(solid.FORMATS)}")
-    if target.exists():
-        raise InputError(f"--solid {target} exists; remove it or name another file")
-    if not target.parent.is_dir():
-        raise InputError(f"--solid {target}: no such folder {target.parent}")
+    _new_file(target, "--solid", solid.FORMATS)
     if thickness is not None and not (thickness > 0 and math.isfinite(thickness)):
         raise InputError(f"--thickness must be a finite number > 0, got {thickness}")
     surface, scale, layers = _surface(folder, comm)
@@ -75,7 +70,10 @@ def export_solid(
 
 
 def compare_scan(
-    folder: str | Path, path: str | Path, comm: MPI.Comm = MPI.COMM_WORLD
+    folder: str | Path,
+    path: str | Path,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    picture: str | Path | None = None,
 ) -> dict[str, Any]:
     """Align a scan to the run's mid-surface and measure their distances (collective).
 
@@ -84,6 +82,8 @@ def compare_scan(
         path: the scan (:func:`dgplate.io.scan.read_scan`), in the run's units (mm with a
             [material], else the mesh's).
         comm: the ranks that read the run.
+        picture: a PNG to draw the aligned scan in, coloured by its signed distance to the
+            surface (not an existing file); None: none.
 
     Returns:
         On every rank: ``points``, ``rms`` and ``max`` (the scan's distances to the surface
@@ -91,6 +91,8 @@ def compare_scan(
         largest distance to the scan), ``rotation``, ``translation`` (the motion of the scan)
         ``angle_deg`` (its rotation angle), ``steps`` and ``units``.
     """
+    if picture is not None:
+        _new_file(Path(picture), "--map", (".png",))
     points = None if comm.rank else _or_error(lambda: scans.read_scan(Path(path)))
     points = comm.bcast(points, root=0)
     if isinstance(points, InputError):
@@ -114,8 +116,21 @@ def compare_scan(
             "steps": found.steps,
             "units": _units(scale),
         }
+        if picture is not None:
+            title = f"{Path(path).name}: RMS {found.rms:.4g} {_units(scale)}"
+            scans.plot_distances(surface, moved, Path(picture), title, _units(scale))
     shared: dict[str, Any] = comm.bcast(figures, root=0)
     return shared
+
+
+def _new_file(target: Path, option: str, formats: tuple[str, ...]) -> None:
+    """A file to write: of one of ``formats``, in an existing folder, not there yet."""
+    if target.suffix.lower() not in formats:
+        raise InputError(f"{option} {target}: the file must end in {', '.join(formats)}")
+    if target.exists():
+        raise InputError(f"{option} {target} exists; remove it or name another file")
+    if not target.parent.is_dir():
+        raise InputError(f"{option} {target}: no such folder {target.parent}")
 
 
 def _or_error(read: Any) -> Any:

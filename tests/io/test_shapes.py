@@ -263,8 +263,15 @@ def test_compare_recovers_the_rotation_and_the_noise_of_a_scan(strip, tmp_path, 
     path = tmp_path / "scan.xyz"
     write_xyz(path, clean @ R0.T + t0 + rng.normal(scale=sigma, size=clean.shape))
     found = compare_scan(strip, path, MPI.COMM_SELF)
-    if sigma == 0.01:  # the command line's report, once
-        assert main(["compare", str(strip), str(path)]) == 0
+    if sigma == 0.01:  # the command line's report and picture, once
+        picture = tmp_path / "map.png"
+        assert main(["compare", str(strip), str(path), "--map", str(picture)]) == 0
+        from PIL import Image
+
+        image = np.asarray(Image.open(picture).convert("RGB"), dtype=int)
+        assert image.shape == (900, 1200, 3)
+        red, blue = image[..., 0] - image[..., 2], image[..., 2] - image[..., 0]
+        assert (red > 100).sum() > 50 and (blue > 100).sum() > 50, "points above and below"
         line = capsys.readouterr().out.strip()
         pattern = r"3,000 points, RMS (\S+) mm, max \S+ mm, Hausdorff \S+ mm after a rotation by 40.1° \(\d+ steps\)$"
         assert line.startswith(f"dgplate: {path}: ")
@@ -277,6 +284,15 @@ def test_compare_recovers_the_rotation_and_the_noise_of_a_scan(strip, tmp_path, 
         return
     assert found["rms"] == pytest.approx(sigma, rel=0.1)
     assert found["hausdorff"] >= found["max"] > 2 * sigma
+
+
+def test_an_existing_map_is_kept(strip, tmp_path, capsys):
+    picture = tmp_path / "map.png"
+    picture.write_text("user data")
+    assert main(["compare", str(strip), str(tmp_path / "scan.xyz"), "--map", str(picture)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"dgplate: error: --map {picture} exists; remove it or name another file"
+    assert picture.read_text() == "user data"
 
 
 @pytest.mark.parametrize(
