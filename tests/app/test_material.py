@@ -65,7 +65,8 @@ def test_quantities_in_si(value, kind, expected):
         (
             "40 degC",
             "temperature_change",
-            "material.length must be a temperature difference, e.g. '40 K', got '40 degC'",
+            # pint 0.24 (Debian 13) refuses to read it, 0.26 reads it as the wrong kind
+            "material.length must be a temperature difference, e.g. '40 K'",
         ),
         ("2 parsnips", "length", "material.length must be a length, e.g. '150 um'; cannot read"),
         ("", "length", "material.length must be a length, e.g. '150 um'; cannot read ''"),
