@@ -120,3 +120,19 @@ def test_seed000_benchmark_smoke(tmp_path):
         load_benchmark("seed000_free_boundary").main(
             ["--table-only", "--json", str(out), "--page", str(page)]
         )
+
+
+def test_rollup_page_is_generated(tmp_path):
+    """docs/performance.md's roll-up table is what --table-only writes from rollup.json."""
+    page = BENCH.parent / "docs" / "performance.md"
+    copy = tmp_path / "performance.md"
+    shutil.copy(page, copy)
+    load_benchmark("rollup").main(["--table-only", "--page", str(copy)])
+    assert copy.read_text() == page.read_text()
+    record = json.loads((BENCH / "results" / "rollup.json").read_text())
+    assert {(run["turns"], run["control"]) for run in record["runs"]} == {
+        (turns, control)
+        for turns in (0.25, 0.5, 1.0)
+        for control in ("defect_bound", "trust_region")
+    }
+    assert "| 1 | trust_region |" in page.read_text()
