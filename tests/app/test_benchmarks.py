@@ -1,27 +1,17 @@
 """Smoke run of the benchmark scripts at the smallest size: they run, and what they write
 holds together (the optimised and the naive flow agree; the report reads the JSON)."""
 
-import importlib.util
 import json
 import math
 import shutil
-import sys
 from pathlib import Path
 
 from mpi4py import MPI
 
 import pytest
+from helpers import load_benchmark
 
 BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
-sys.path.insert(0, str(BENCH))  # the scripts import their shared pages.py as a sibling
-
-
-def _load(name: str):
-    spec = importlib.util.spec_from_file_location(f"bench_{name}", BENCH / f"{name}.py")
-    assert spec is not None and spec.loader is not None  # a .py file always has both
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 @pytest.mark.mpi
@@ -30,7 +20,7 @@ def test_flow_benchmark_smoke(tmp_path):
     out = tmp_path / f"flow_8_np{comm.size}.json"
     # every rank needs the same path: rank 0's temporary directory
     out = Path(comm.bcast(str(out), root=0))
-    record = _load("flow").main(
+    record = load_benchmark("flow").main(
         ["--cells", "8", "--repeat", "2", "--compare-naive", "--json", str(out)]
     )
     assert record["dofs"] == 30 * 8 * 8 and record["ranks"] == comm.size
@@ -51,7 +41,7 @@ def test_flow_benchmark_smoke(tmp_path):
         assert json.loads(out.read_text())["energy"] == record["energy"]
         page = tmp_path / "performance.md"
         page.write_text("# x\n")
-        _load("report").main(["--results", str(out.parent), "--page", str(page)])
+        load_benchmark("report").main(["--results", str(out.parent), "--page", str(page)])
         text = page.read_text()
         assert "## Performance" in text and "| 8² |" in text
         assert (out.parent / "performance.png").stat().st_size > 1000
@@ -60,20 +50,20 @@ def test_flow_benchmark_smoke(tmp_path):
 def test_bandwidth_benchmark_smoke(tmp_path):
     """The bandwidth script measures 1 and 2 ranks, and the report quotes its ratios."""
     out = tmp_path / "bandwidth_before.json"
-    _load("bandwidth").main(["--megabytes", "8", "--repeat", "2", "--json", str(out)])
+    load_benchmark("bandwidth").main(["--megabytes", "8", "--repeat", "2", "--json", str(out)])
     record = json.loads(out.read_text())
     assert record["one_rank"]["ranks"] == 1 and record["two_ranks"]["ranks"] == 2
     for kernel in ("read_gb_per_s", "triad_gb_per_s"):
         assert record["one_rank"][kernel] > 0 and record["two_ranks"][kernel] > 0
         ratio = record["two_ranks"][kernel] / record["one_rank"][kernel]
         assert record["ratio_two_over_one"][kernel] == pytest.approx(ratio)
-    (note,) = _load("report").bandwidth_notes(tmp_path)
+    (note,) = load_benchmark("report").bandwidth_notes(tmp_path)
     assert f"read {record['ratio_two_over_one']['read_gb_per_s']:.2f}×" in note
 
 
 def test_accuracy_benchmark_smoke(tmp_path):
     """The accuracy study's record: one run per level, errors against the exact energy, orders."""
-    accuracy = _load("accuracy")
+    accuracy = load_benchmark("accuracy")
     accuracy.main(
         ["--case", "rigid", "--variants", "bnn", "--levels", "2", "4", "--results", str(tmp_path)]
     )
@@ -96,14 +86,14 @@ def test_accuracy_page_is_generated(tmp_path):
     page = BENCH.parent / "docs" / "accuracy.md"
     copy = tmp_path / "accuracy.md"
     shutil.copy(page, copy)
-    _load("accuracy").main(["--table-only", "--page", str(copy)])
+    load_benchmark("accuracy").main(["--table-only", "--page", str(copy)])
     assert copy.read_text() == page.read_text()
     text = page.read_text()
     assert "From `accuracy_uniaxial_a1_p1.json`, `accuracy_uniaxial_a1_p1_l16.json`." in text
     assert "| 32×32 | 30,720 | -5.759e-03 | 0.39 | 28 |" in text  # bnn's finest level
     copy.write_text("no markers\n")
     with pytest.raises(SystemExit, match="markers"):
-        _load("accuracy").main(["--table-only", "--page", str(copy)])
+        load_benchmark("accuracy").main(["--table-only", "--page", str(copy)])
     assert copy.read_text() == "no markers\n"
 
 
@@ -113,7 +103,9 @@ def test_seed000_benchmark_smoke(tmp_path):
     page.write_text("# x\n\n<!-- seed000:begin -->\nold\n<!-- seed000:end -->\n\nafter\n")
     out = tmp_path / "seed000.json"
     args = ["--cells", "8", "16", "--budget", "1", "--out", str(tmp_path / "runs")]
-    record = _load("seed000_free_boundary").main([*args, "--json", str(out), "--page", str(page)])
+    record = load_benchmark("seed000_free_boundary").main(
+        [*args, "--json", str(out), "--page", str(page)]
+    )
     (row,) = record["ours"]
     assert record["not_run"] == [16]
     assert (row["cells"], row["dofs"], row["converged"]) == (8, 2688, True)
@@ -125,6 +117,22 @@ def test_seed000_benchmark_smoke(tmp_path):
     assert "| 2⁻⁴ | 16 | – | – / 71 | not run | −9.041e−3 |" in text
     page.write_text("no markers\n")
     with pytest.raises(SystemExit, match="markers"):
-        _load("seed000_free_boundary").main(
+        load_benchmark("seed000_free_boundary").main(
             ["--table-only", "--json", str(out), "--page", str(page)]
         )
+
+
+def test_rollup_page_is_generated(tmp_path):
+    """docs/performance.md's roll-up table is what --table-only writes from rollup.json."""
+    page = BENCH.parent / "docs" / "performance.md"
+    copy = tmp_path / "performance.md"
+    shutil.copy(page, copy)
+    load_benchmark("rollup").main(["--table-only", "--page", str(copy)])
+    assert copy.read_text() == page.read_text()
+    record = json.loads((BENCH / "results" / "rollup.json").read_text())
+    assert {(run["turns"], run["control"]) for run in record["runs"]} == {
+        (turns, control)
+        for turns in (0.25, 0.5, 1.0)
+        for control in ("defect_bound", "trust_region")
+    }
+    assert "| 1 | trust_region |" in page.read_text()
