@@ -12,6 +12,8 @@ from mpi4py import MPI
 
 import pytest
 
+from dgplate.measure.richardson import extrapolate
+
 BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
 sys.path.insert(0, str(BENCH))  # the scripts import their shared pages.py as a sibling
 
@@ -128,3 +130,54 @@ def test_seed000_benchmark_smoke(tmp_path):
         _load("seed000_free_boundary").main(
             ["--table-only", "--json", str(out), "--page", str(page)]
         )
+
+
+def _seed_study(case: str, energies: list[float], radii: list[float]) -> dict:
+    """A seeds.json study of the Z = aI rectangle ``case`` with these levels' E_h and radii."""
+    seeds = _load("seeds")
+    ratio, a, width = seeds.CASES[case]
+    energy, radius = 0.5 * a**2 * ratio * width**2, 1.0 / a
+    levels = [
+        {"size": f"{2**k}×{2**k}", "dofs": 656 * 4**k, "energy_error": (e - energy) / energy,
+         "radius_error": (r - radius) / radius}
+        for k, (e, r) in enumerate(zip(energies, radii, strict=True))
+    ]  # fmt: skip
+    record = {"case": case, "settings": "minimiser", "ratio": ratio, "a": a, "width": width}
+    record |= {"levels": levels, "wall_s": 26.4}
+    for figure, values, exact in (("energy", energies, energy), ("radius", radii, radius)):
+        record[figure] = seeds.estimate(extrapolate(values).as_dict(), exact)
+    return record
+
+
+def test_seeds_table(tmp_path):
+    """seeds.py's table from a JSON of two studies: errors, orders, pass/fail, cases not run."""
+    seeds = _load("seeds")
+    studies = {
+        "r1_a1:minimiser": _seed_study("r1_a1", [0.4973096, 0.4994977, 0.500168],
+                                       [1.096645, 1.030953, 1.009479]),
+        "r1.75_a2:minimiser": _seed_study("r1.75_a2", [3.9, 3.7, 3.8], [0.6, 0.55, 0.52]),
+    }  # fmt: skip
+    out = tmp_path / "seeds.json"
+    out.write_text(json.dumps({"studies": studies}))
+    page = tmp_path / "verification.md"
+    page.write_text("# x\n\n<!-- seeds:begin -->\nold\n<!-- seeds:end -->\n\nafter\n")
+    seeds.main(["--table-only", "--json", str(out), "--page", str(page)])
+    text = page.read_text()
+    assert "old" not in text and text.endswith("<!-- seeds:end -->\n\nafter\n")
+    assert (
+        "| 1 | 1 | 1 | minimiser | 3 (4×4) | 10,496 | +0.03 % | +0.09 % ± 0.06 % | 1.71 "
+        "| +0.95 % | -0.09 % ± 1.04 % | 1.61 | 26 | pass |"
+    ) in text
+    assert (
+        "| 7/4 | 1 | 2 | minimiser | 3 (4×4) | 10,496 | +8.57 % | no monotone trend (the "
+        "differences change sign) | – | +4.00 % | -5.00 % ± 9.00 % | 0.74 | 26 "
+        "| **fail**: energy: no extrapolation |"
+    ) in text
+    assert text.index("| 1 | 1 | 1 |") < text.index("| 7/4 | 1 | 2 |")  # the grid's order
+    assert "`minimiser`: the cylinder test's discretisation (γ₁h⁻³" in text
+    assert "Not run: `r0.5_a1`, `r1.75_a1`, `r2.5_a1`, `r0.5_a2`, `r1_a2`, " in text
+    assert seeds.overrides("r1.75_a2_w4", "file", 4)["mesh.cells"] == [28, 16]
+    page.write_text("no markers\n")
+    with pytest.raises(SystemExit, match="markers"):
+        seeds.main(["--table-only", "--json", str(out), "--page", str(page)])
+    assert page.read_text() == "no markers\n"
