@@ -42,7 +42,7 @@ from pages import write_between
 
 from dgplate import interrupt
 from dgplate.io.output import print0
-from dgplate.problems.converge import converge
+from dgplate.problems.converge import converge, estimates
 from dgplate.problems.specs import load_problem
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -112,15 +112,21 @@ def estimate(entry: dict[str, Any] | None, exact: float) -> dict[str, Any]:
     return found
 
 
-def record_of(case: str, settings: str, cells: int, study: Any) -> dict[str, Any]:
+def record_of(case: str, settings: str, cells: int, study: Any) -> dict[str, Any] | None:
     """The JSON record of one case's study (level 1 at ``cells`` per unit length).
 
+    A study stopped by a signal is recorded with its finished levels and their estimates
+    (the stopped level continues on a rerun), and ``interrupted`` set; with none, None.
     Its ``wall_s`` is the sum of the levels' own wall times, whichever invocation ran them.
     """
     ratio, a, width = CASES[case]
     energy, radius = 0.5 * a**2 * ratio * width**2, 1.0 / a
+    finished = study.levels[:-1] if study.interrupted else study.levels
+    if not finished:
+        return None
+    figures = estimates(finished) if study.interrupted else study.figures
     levels = []
-    for lv in study.levels:
+    for lv in finished:
         r = lv["figures"].get("cylinder_fit.radius")
         levels.append(
             {
@@ -145,8 +151,8 @@ def record_of(case: str, settings: str, cells: int, study: Any) -> dict[str, Any
         "interrupted": study.interrupted,
         "wall_s": sum(lv["wall_s"] or 0.0 for lv in levels),
         "levels": levels,
-        "energy": estimate(study.figures.get("energy"), energy),
-        "radius": estimate(study.figures.get("cylinder_fit.radius"), radius),
+        "energy": estimate(figures.get("energy"), energy),
+        "radius": estimate(figures.get("cylinder_fit.radius"), radius),
     }
 
 
@@ -185,7 +191,7 @@ def row(record: dict[str, Any]) -> str:
         f"{record['a']:g}",
         record["settings"],
         f"{len(record['levels'])} ({finest['size']})"
-        + (", stopped" if record["interrupted"] else ""),
+        + (" + 1 stopped" if record["interrupted"] else ""),
         f"{finest['dofs']:,}",
     ]
     for figure in ("energy", "radius"):
@@ -250,9 +256,10 @@ def run_cases(args: argparse.Namespace, record: dict[str, Any]) -> list[str]:
                 problem, args.levels, args.out / case / args.settings, comm, resume=True
             )
             one = record_of(case, args.settings, args.cells, study)
-            record["studies"][f"{case}:{args.settings}"] = one
-            _write(args.json, record, comm)
-            print0(comm, progress(one, k + 1, len(args.cases), time.perf_counter() - start))
+            if one is not None:
+                record["studies"][f"{case}:{args.settings}"] = one
+                _write(args.json, record, comm)
+                print0(comm, progress(one, k + 1, len(args.cases), time.perf_counter() - start))
             if study.interrupted:
                 timer.cancel()
                 return args.cases[k:]
