@@ -204,3 +204,12 @@ def test_seeds_stopped_study():
     assert record["radius"]["limit_error"] is None
     study.levels = levels[:1]
     assert seeds.record_of("r1_a1", "minimiser", 4, study) is None
+
+
+def test_seeds_page_is_generated(tmp_path):
+    """docs/verification.md's seed 001 table is what --table-only writes from seeds.json."""
+    page = BENCH.parent / "docs" / "verification.md"
+    copy = tmp_path / "verification.md"
+    shutil.copy(page, copy)
+    _load("seeds").main(["--table-only", "--page", str(copy)])
+    assert copy.read_text() == page.read_text()
