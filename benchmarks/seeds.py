@@ -1,6 +1,6 @@
 """Seed 001's closed-form rows: the bilayer aspect-ratio grid, each case through ``converge``.
 
-    python benchmarks/seeds.py [--cases r1_a1 r1.75_a2 …] [--levels 3] [--cells 4]
+    python benchmarks/seeds.py [--cases r1_a1 r1.75_a2 …] [--levels 4] [--cells 4]
         [--settings minimiser] [--budget-minutes 60] [--out out/seeds]
         [--json benchmarks/results/seeds.json] [--page docs/verification.md]
     python benchmarks/seeds.py --table-only   # the page's table from the JSON, no runs
@@ -292,7 +292,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     """Run the cases (unless ``--table-only``), update the JSON, write the page's table."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--cases", nargs="+", choices=list(CASES), default=list(CASES))
-    parser.add_argument("--levels", type=int, default=3, help="meshes per case (≥ 2)")
+    parser.add_argument("--levels", type=int, default=4, help="meshes per case (≥ 2)")
     parser.add_argument("--cells", type=int, default=4, help="level 1's cells per unit length")
     parser.add_argument("--settings", choices=list(SETTINGS), default="minimiser")
     parser.add_argument("--budget-minutes", type=float, default=60.0)
