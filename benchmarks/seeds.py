@@ -257,6 +257,7 @@ def run_cases(args: argparse.Namespace, record: dict[str, Any]) -> list[str]:
             )
             one = record_of(case, args.settings, args.cells, study)
             if one is not None:
+                one["ranks"] = comm.size
                 record["studies"][f"{case}:{args.settings}"] = one
                 _write(args.json, record, comm)
                 print0(comm, progress(one, k + 1, len(args.cases), time.perf_counter() - start))
@@ -291,7 +292,9 @@ def _write(path: Path, record: dict[str, Any], comm: MPI.Comm) -> None:
 def main(argv: list[str] | None = None) -> dict[str, Any]:
     """Run the cases (unless ``--table-only``), update the JSON, write the page's table."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--cases", nargs="+", choices=list(CASES), default=list(CASES))
+    parser.add_argument(
+        "--cases", nargs="+", choices=list(CASES), default=list(CASES), metavar="CASE"
+    )
     parser.add_argument("--levels", type=int, default=4, help="meshes per case (≥ 2)")
     parser.add_argument("--cells", type=int, default=4, help="level 1's cells per unit length")
     parser.add_argument("--settings", choices=list(SETTINGS), default="minimiser")
@@ -301,10 +304,12 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--page", type=Path, default=ROOT / "docs/verification.md")
     parser.add_argument("--table-only", action="store_true", help="the page from the JSON")
     args = parser.parse_args(argv)
+    if args.levels < 2 or args.cells < 1 or args.budget_minutes <= 0:
+        parser.error("--levels must be ≥ 2, --cells ≥ 1 and --budget-minutes > 0")
     comm = MPI.COMM_WORLD
     record = json.loads(args.json.read_text()) if args.json.exists() else {"studies": {}}
     if not args.table_only:
-        record["problem"], record["ranks"] = PROBLEM.name, comm.size
+        record["problem"] = PROBLEM.name
         left = run_cases(args, record)
         if left:
             print0(comm, f"stopped: {', '.join(left)} left (the same command continues)")

@@ -179,6 +179,9 @@ def test_seeds_table(tmp_path):
     assert "`minimiser`: the cylinder test's discretisation (γ₁h⁻³" in text
     assert "Not run: `r0.5_a1`, `r1.75_a1`, `r2.5_a1`, `r0.5_a2`, `r1_a2`, " in text
     assert seeds.overrides("r1.75_a2_w4", "file", 4)["mesh.cells"] == [28, 16]
+    with pytest.raises(SystemExit) as bad:
+        seeds.main(["--levels", "1", "--json", str(out), "--page", str(page)])
+    assert bad.value.code == 2 and "<!-- seeds:end -->" in page.read_text()
     page.write_text("no markers\n")
     with pytest.raises(SystemExit, match="markers"):
         seeds.main(["--table-only", "--json", str(out), "--page", str(page)])
