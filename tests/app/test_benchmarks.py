@@ -139,6 +139,8 @@ def test_rollup_page_is_generated(tmp_path):
         for control in ("defect_bound", "trust_region")
     }
     assert "| 1 | trust_region |" in page.read_text()
+
+
 def _seed_study(case: str, energies: list[float], radii: list[float]) -> dict:
     """A seeds.json study of the Z = aI rectangle ``case`` with these levels' E_h and radii."""
     seeds = load_benchmark("seeds")
