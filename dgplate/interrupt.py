@@ -136,7 +136,7 @@ def _end_now(signum: int) -> None:
     Python possible, and no MPI. The process's own children (a C compiler FFCx started) end
     first: left running, they would report the C file the clean-up renamed as missing.
     """
-    _end_children()
+    _end_children(os.getpid())
     for clean_up in CLEAN_UP:
         with contextlib.suppress(Exception):
             clean_up()
@@ -146,8 +146,8 @@ def _end_now(signum: int) -> None:
     os._exit(128 + signum)
 
 
-def _end_children() -> None:
-    """Stop, then kill, every descendant of this process (Linux's /proc; elsewhere nothing).
+def _end_children(root: int) -> None:
+    """Stop, then kill, every descendant of process ``root`` (Linux's /proc; elsewhere nothing).
 
     Each one found is stopped (SIGSTOP) at once, and /proc is read again until a reading
     finds no new one: none can start another process unseen (a compiler driver starts
@@ -155,7 +155,7 @@ def _end_children() -> None:
     """
     stopped: set[int] = set()
     with contextlib.suppress(OSError):
-        while new := _descendants(os.getpid()) - stopped:
+        while new := _descendants(root) - stopped:
             for pid in new:
                 with contextlib.suppress(OSError):
                     os.kill(pid, signal.SIGSTOP)

@@ -438,12 +438,14 @@ def test_ending_at_once_ends_the_processes_this_one_started():
     from dgplate import interrupt
 
     shell = subprocess.Popen(["sh", "-c", "sleep 60 & sleep 60 & wait"])
-    try:
-        while len(interrupt._descendants(os.getpid())) < 3:
+    try:  # the shell's subtree only: this process's other children are pytest's
+        deadline = time.monotonic() + 10
+        while len(interrupt._descendants(shell.pid)) < 2 and time.monotonic() < deadline:
             time.sleep(0.01)
-        grandchildren = interrupt._descendants(os.getpid()) - {shell.pid}
-        interrupt._end_children()
-        assert shell.wait(timeout=10) == -signal.SIGKILL
+        grandchildren = interrupt._descendants(shell.pid)
+        assert len(grandchildren) == 2
+        interrupt._end_children(shell.pid)
+        shell.wait(timeout=10)  # its `wait` returns once its children are gone
         deadline = time.monotonic() + 10
         while any(map(_running, grandchildren)) and time.monotonic() < deadline:
             time.sleep(0.01)
