@@ -182,6 +182,12 @@ def with_material(data: Mapping[str, Any]) -> tuple[Material | None, object]:
         )
     assert isinstance(model, dict)
     material = rod_material(spec) if name == "rod" else derive(spec)
+    if name == "kirchhoff" and material.curvature != 0.0:
+        raise InputError(
+            f"material.layers give a spontaneous curvature ({material.curvature:.4g} 1/m: a "
+            "misfit, alpha or delta_T), which the kirchhoff model has not; use "
+            "model.name = 'bilayer', or layers without it"
+        )
     derived = material.model_keys(name)
     # a plate's μ = 1, a rod's c_b = 1: the bending stiffness is the unit of energy
     for key in (*(() if name == "rod" else ("mu",)), *derived):

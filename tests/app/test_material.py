@@ -184,6 +184,14 @@ def test_kirchhoff_takes_a_single_layer_for_its_scales():
     assert problem.material.figures({})["load_scale_Pa"] == pytest.approx(1e9 * 1e-9 / 12 / 1e-6)
 
 
+def test_kirchhoff_refuses_layers_that_would_curve_it():
+    """A misfit is a spontaneous curvature, which the kirchhoff model has not: refused, not
+    dropped (while summary.json would report it)."""
+    sets = ["material.length='1 cm'", "material.layers=[{thickness='1 mm', E='1 GPa', nu=0.0, misfit=0.01}, {thickness='1 mm', E='1 GPa', nu=0.0}]"]  # fmt: skip
+    with pytest.raises(InputError, match=r"^material\.layers give a spontaneous curvature"):
+        load_problem(PROBLEMS / "vertical_load.toml", sets)
+
+
 def test_summary_has_the_physical_figures(tmp_path):
     """The shipped strip at 16×8: R = 10 mm (Timoshenko) to the discretisation's 1.9 % (0.82 %
     at 32×16, docs/units.md), and the energy in J is D times the non-dimensional one."""
