@@ -116,11 +116,11 @@ class FlowSpec:
     )
     adaptive_tau: bool = option(
         False,
-        "adapt τ: grow it (tau_growth, tau_growth_max) after a step that lowered E_h with the isometry defect before projection below defect_bound, else halve it and redo the step",
+        "adapt τ: grow it after an accepted step, halve it and redo a refused one; what a step must do to be accepted is flow.step_control's",
     )
     defect_bound: float = option(
         1e-2,
-        "adaptive τ: the largest isometry defect D_h of a step before its projection (the linearisation error)",
+        "adaptive τ, step_control = 'defect_bound' (and the trust region's plain steps: with active sets, or without newton_finish): the largest isometry defect D_h of a step before its projection (the linearisation error)",
         gt=0,
     )
     tau_growth: float = option(
@@ -128,7 +128,7 @@ class FlowSpec:
     )
     tau_growth_max: float = option(
         8.0,
-        "adaptive τ with newton_finish: until the run's first rejected step, τ grows by √(defect_bound/D)/2 (D: the step's isometry defect before projection), at least tau_growth and at most this factor, to reach the SQP steps sooner; tau_growth after a rejection and without newton_finish (tau_growth_max = tau_growth: always tau_growth)",
+        "adaptive τ with newton_finish and step_control = 'defect_bound': until the run's first rejected step, τ grows by √(defect_bound/D)/2 (D: the step's isometry defect before projection), at least tau_growth and at most this factor, to reach the SQP steps sooner; tau_growth after a rejection and without newton_finish (tau_growth_max = tau_growth: always tau_growth)",
         ge=1,
     )
     tau_max_ratio: float = option(
@@ -146,11 +146,11 @@ class FlowSpec:
     )
     newton_finish: bool = option(
         True,
-        "adaptive τ: once τ reaches newton_tau_ratio times the initial τ (or its cap), add the Lagrangian's curvature (the multipliers' term and D²E_expl) to the step matrix, a damped SQP (Newton) step; a step that does not lower E_h is redone as a plain step",
+        "adaptive τ: SQP (Newton) steps, with the Lagrangian's curvature (the multipliers' term and D²E_expl) in the step matrix: every step under step_control = 'trust_region'; under 'defect_bound' once τ reaches newton_tau_ratio times the initial τ (or its cap), a step that does not lower E_h redone as a plain step",
     )
     newton_tau_ratio: float = option(
         100.0,
-        "adaptive τ with newton_finish: the τ, as a multiple of the initial τ, from which the steps are SQP steps (capped by tau_max_ratio)",
+        "adaptive τ with newton_finish and step_control = 'defect_bound': the τ, as a multiple of the initial τ, from which the steps are SQP steps (capped by tau_max_ratio)",
         ge=1,
     )
     checkpoint_every: int = option(
