@@ -24,6 +24,7 @@ import numpy.typing as npt
 
 from dgplate import compat
 from dgplate.compat import Function
+from dgplate.errors import InputError
 
 Array: TypeAlias = "npt.NDArray[np.float64]"
 Triangles: TypeAlias = "npt.NDArray[np.int64]"
@@ -147,7 +148,8 @@ FORMATS = (".stl", ".ply", ".vtu")
 def write_solid(path: Path, vertices: Array, triangles: Triangles) -> None:
     """The solid as binary STL (:func:`write_stl`), or as PLY or VTU through pyvista.
 
-    Written to a temporary file beside ``path`` and moved into place: never half-written.
+    Written to a temporary file beside ``path`` and linked into place: never half-written,
+    and a file that appeared at ``path`` meanwhile is kept (an InputError).
 
     Args:
         path: the file, ending in one of :data:`FORMATS`.
@@ -167,10 +169,29 @@ def write_solid(path: Path, vertices: Array, triangles: Triangles) -> None:
             surface = pyvista.PolyData(vertices, faces)
             shaped = surface if suffix == ".ply" else surface.cast_to_unstructured_grid()
             shaped.save(temporary)
-        os.replace(temporary, path)
-    except BaseException:
+        os.chmod(temporary, 0o666 & ~_umask())  # mkstemp's 0600: a file to share
+        _place(Path(temporary), path)
+    finally:
         Path(temporary).unlink(missing_ok=True)
-        raise
+
+
+def _place(temporary: Path, path: Path) -> None:
+    """Give ``temporary`` the name ``path`` unless a file has it (InputError)."""
+    try:
+        os.link(temporary, path)  # unlike a rename, refuses to replace a file
+    except FileExistsError:
+        raise InputError(f"{path} exists; remove it or name another file") from None
+    except OSError:  # a file system without hard links: check, then rename
+        if path.exists():
+            raise InputError(f"{path} exists; remove it or name another file") from None
+        os.replace(temporary, path)
+
+
+def _umask() -> int:
+    """The process's umask (read by setting it, then restoring it)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def write_stl(path: Path, vertices: Array, triangles: Triangles) -> None:

@@ -4,6 +4,7 @@ export``. The comparison with a scan: a known rotation recovered, the noise leve
 (``dgplate compare``)."""
 
 import json
+import os
 import re
 
 import numpy as np
@@ -357,3 +358,21 @@ def test_mid_surface_of_a_field_on_either_cell_type(cell_type):
     assert solid.volume(vertices, faces) == pytest.approx(
         solid.area(points, triangles) * 0.05, rel=1e-3
     )
+
+
+def test_write_solid_keeps_a_file_that_appeared_and_shares_what_it_writes(tmp_path):
+    """A file at the path when the solid is placed (made after the command's check) is kept,
+    with nothing left beside it; a new file gets the umask's mode, not mkstemp's 0600."""
+    from dgplate.errors import InputError
+
+    vertices = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    triangles = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    users = tmp_path / "users.stl"
+    users.write_text("the user's")
+    with pytest.raises(InputError, match=r"users\.stl exists; remove it or name another file"):
+        solid.write_solid(users, vertices, triangles)
+    assert users.read_text() == "the user's" and sorted(tmp_path.iterdir()) == [users]
+    solid.write_solid(tmp_path / "new.stl", vertices, triangles)
+    mask = os.umask(0o022)
+    os.umask(mask)
+    assert (tmp_path / "new.stl").stat().st_mode & 0o777 == 0o666 & ~mask
