@@ -116,11 +116,11 @@ class FlowSpec:
     )
     adaptive_tau: bool = option(
         False,
-        "adapt τ: grow it after an accepted step, halve it and redo a refused one; what a step must do to be accepted is flow.step_control's",
+        "adapt τ: grow it after an accepted step, halve it and redo a refused one; which steps are accepted: a plate's step control below, a rod's in docs/rods.md",
     )
     defect_bound: float = option(
         1e-2,
-        "adaptive τ, step_control = 'defect_bound' (and the trust region's plain steps: with active sets, or without newton_finish): the largest isometry defect D_h of a step before its projection (the linearisation error)",
+        "adaptive τ: the largest isometry defect D_h of a step before its projection (the linearisation error): the acceptance test of a rod's steps, and of a plate's under its defect-bound control (and the trust region's plain steps: with active sets, or with the SQP steps off)",
         gt=0,
     )
     tau_growth: float = option(
