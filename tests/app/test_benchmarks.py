@@ -18,6 +18,14 @@ BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
 
 
 @pytest.mark.mpi
+def assert_page_is_generated(benchmark: str, page: Path, tmp_path: Path) -> None:
+    """``page`` is what ``benchmark --table-only`` writes into a copy of it: no hand edits."""
+    copy = tmp_path / page.name
+    shutil.copy(page, copy)
+    load_benchmark(benchmark).main(["--table-only", "--page", str(copy)])
+    assert copy.read_text() == page.read_text()
+
+
 def test_flow_benchmark_smoke(tmp_path):
     comm = MPI.COMM_WORLD
     out = tmp_path / f"flow_8_np{comm.size}.json"
@@ -87,13 +95,11 @@ def test_accuracy_benchmark_smoke(tmp_path):
 def test_accuracy_page_is_generated(tmp_path):
     """docs/accuracy.md's tables are what --table-only writes from the JSON: no hand edits."""
     page = BENCH.parent / "docs" / "accuracy.md"
-    copy = tmp_path / "accuracy.md"
-    shutil.copy(page, copy)
-    load_benchmark("accuracy").main(["--table-only", "--page", str(copy)])
-    assert copy.read_text() == page.read_text()
+    assert_page_is_generated("accuracy", page, tmp_path)
     text = page.read_text()
     assert "From `accuracy_uniaxial_a1_p1.json`, `accuracy_uniaxial_a1_p1_l16.json`." in text
     assert "| 32×32 | 30,720 | -5.759e-03 | 0.39 | 28 |" in text  # bnn's finest level
+    copy = tmp_path / "no_markers.md"
     copy.write_text("no markers\n")
     with pytest.raises(SystemExit, match="markers"):
         load_benchmark("accuracy").main(["--table-only", "--page", str(copy)])
@@ -128,10 +134,7 @@ def test_seed000_benchmark_smoke(tmp_path):
 def test_rollup_page_is_generated(tmp_path):
     """docs/performance.md's roll-up table is what --table-only writes from rollup.json."""
     page = BENCH.parent / "docs" / "performance.md"
-    copy = tmp_path / "performance.md"
-    shutil.copy(page, copy)
-    load_benchmark("rollup").main(["--table-only", "--page", str(copy)])
-    assert copy.read_text() == page.read_text()
+    assert_page_is_generated("rollup", page, tmp_path)
     record = json.loads((BENCH / "results" / "rollup.json").read_text())
     assert {(run["turns"], run["control"]) for run in record["runs"]} == {
         (turns, control)
@@ -220,7 +223,4 @@ def test_seeds_stopped_study():
 def test_seeds_page_is_generated(tmp_path):
     """docs/verification.md's seed 001 table is what --table-only writes from seeds.json."""
     page = BENCH.parent / "docs" / "verification.md"
-    copy = tmp_path / "verification.md"
-    shutil.copy(page, copy)
-    load_benchmark("seeds").main(["--table-only", "--page", str(copy)])
-    assert copy.read_text() == page.read_text()
+    assert_page_is_generated("seeds", page, tmp_path)

@@ -6,6 +6,7 @@ export``. The comparison with a scan: a known rotation recovered, the noise leve
 import json
 import os
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -178,6 +179,21 @@ def sorted_corners(path):
     return corners[np.lexsort(np.round(corners, 4).T[::-1])]
 
 
+def _strip_on_every_rank(tmp_path, shared: str, comm) -> tuple[Path, Path]:
+    """The Timoshenko strip at 6×3 run on ``comm`` into one folder every rank sees.
+
+    Returns:
+        (that folder, the run's output folder in it)
+    """
+    base = tmp_path if comm.size == 1 else tmp_path.parent / shared
+    base = type(tmp_path)(comm.bcast(str(base), root=0))
+    out = base / "strip"
+    sets = ["output.png=false", "output.vtx=false", "output.progress=0", "mesh.cells=[6,3]"]
+    args = [arg for s in sets for arg in ("--set", s)]
+    assert main(["run", str(PROBLEMS / "bilayer_timoshenko.toml"), "--out", str(out), *args]) == 0
+    return base, out
+
+
 @pytest.mark.mpi
 def test_export_is_the_same_solid_on_any_number_of_ranks(tmp_path):
     from mpi4py import MPI
@@ -185,12 +201,7 @@ def test_export_is_the_same_solid_on_any_number_of_ranks(tmp_path):
     from dgplate.problems.shapes import export_solid
 
     comm = MPI.COMM_WORLD
-    base = tmp_path if comm.size == 1 else tmp_path.parent / "shared"
-    base = type(tmp_path)(comm.bcast(str(base), root=0))
-    out = base / "strip"
-    sets = ["output.png=false", "output.vtx=false", "output.progress=0", "mesh.cells=[6,3]"]
-    args = [arg for s in sets for arg in ("--set", s)]
-    assert main(["run", str(PROBLEMS / "bilayer_timoshenko.toml"), "--out", str(out), *args]) == 0
+    base, out = _strip_on_every_rank(tmp_path, "shared", comm)
     together = export_solid(out, base / "together.stl", None, comm)
     alone = export_solid(out, base / f"alone{comm.rank}.stl", None, MPI.COMM_SELF)
     assert together["watertight"] and alone["watertight"]
@@ -317,12 +328,7 @@ def test_compare_is_the_same_on_any_number_of_ranks(tmp_path):
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD
-    base = tmp_path if comm.size == 1 else tmp_path.parent / "shared-compare"
-    base = type(tmp_path)(comm.bcast(str(base), root=0))
-    out = base / "strip"
-    sets = ["output.png=false", "output.vtx=false", "output.progress=0", "mesh.cells=[6,3]"]
-    args = [arg for s in sets for arg in ("--set", s)]
-    assert main(["run", str(PROBLEMS / "bilayer_timoshenko.toml"), "--out", str(out), *args]) == 0
+    base, out = _strip_on_every_rank(tmp_path, "shared-compare", comm)
     if comm.rank == 0:
         (points, triangles), _, _ = _surface(out, MPI.COMM_SELF)
         clean = sample(points, triangles, 500, np.random.default_rng(2))
