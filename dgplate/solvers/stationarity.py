@@ -34,6 +34,7 @@ class Stationarity:
         self.system, self.settings, self.initial_tau = system, settings, initial_tau
         self._built: tuple[compat.Form, PETSc.Mat, StepSolver] | None = None
         self._gradient: Function = dolfinx.fem.Function(system.W)  # g of __call__
+        self._tangent: Function = dolfinx.fem.Function(system.W)  # g without its multipliers
         self.fallbacks = 0  # of its solves, added to the step's record
 
     def _build(self) -> tuple[compat.Form, PETSc.Mat, StepSolver]:
@@ -87,8 +88,25 @@ class Stationarity:
         gradient.set(0.0)  # g can change much between calls (a heat step, new data)
         self.fallbacks += solver.solve(rhs, gradient).fallbacks
         self._gradient.x.scatter_forward()
-        # the solution is τ⁰ g (the metric rows carry 1/τ⁰)
-        return math.sqrt(max(float(rhs.dot(gradient)) / self.initial_tau, 0.0))
+        return self._metric_norm(matrix)
+
+    def _metric_norm(self, matrix: PETSc.Mat) -> float:
+        """‖g‖_M from the solution (τ⁰ g, μ): (τ⁰g, 0)ᵀ K (τ⁰g, 0) = τ⁰ gᵀMg (collective).
+
+        The solution's multiplier part set to zero leaves only the metric block of the
+        system K, whose rows carry 1/τ⁰: a sum of non-negative terms. The equal −DE_h[y](g)
+        is a difference of large terms near a critical point, where DE_h[y] is balanced by
+        the multipliers' forces: it came out at round-off or negative (read as 0) there.
+        """
+        tangent = self._tangent
+        tangent.x.array[:] = 0.0
+        tangent.x.array[self.system.vdofs] = self._gradient.x.array[self.system.vdofs]
+        vector = tangent.x.petsc_vec
+        image = vector.duplicate()
+        matrix.mult(vector, image)
+        value = float(vector.dot(image)) / self.initial_tau
+        image.destroy()
+        return math.sqrt(max(value, 0.0))
 
     def stop_reason(self, info: StepInfo) -> str:
         """Why the flow stops converged after the step ``info`` ('' to go on): ``flow.stop``.
