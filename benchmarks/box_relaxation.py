@@ -44,6 +44,7 @@ def relax(
     flow = driver.flow
     settings = flow.settings
     settings.adaptive_tau, settings.newton_finish = adaptive, newton
+    settings.step_control = "defect_bound"  # that of docs/performance.md's tables
     # the controller's cap and SQP threshold are ratios to the flow's initial τ (the heat
     # steps' τ): rescaled, they are the defaults' ratios to the hold's τ, as for a flow that
     # starts with it (the other problems of benchmarks/adaptive_tau.py)

@@ -102,6 +102,36 @@ def _parser() -> argparse.ArgumentParser:
         help="print runs from their output folders: one in detail, several as a table",
     )
     show.add_argument("folders", nargs="+", metavar="OUT", help="dgplate output folders")
+    export = sub.add_parser(
+        "export", help="write a finished run's sheet, thickened, as a printable solid"
+    )
+    export.add_argument("folder", metavar="OUT", help="the run's output folder")
+    export.add_argument(
+        "--solid",
+        required=True,
+        metavar="FILE",
+        help="the solid y ± (t/2)ν as binary .stl, .ply or .vtu (in mm with a [material])",
+    )
+    export.add_argument(
+        "--thickness",
+        type=float,
+        help="the thickness t in the mesh's units (default: the [material]'s)",
+    )
+    compare = sub.add_parser(
+        "compare",
+        help="align a measured point cloud to a finished run's shape; RMS and Hausdorff distances",
+    )
+    compare.add_argument("folder", metavar="OUT", help="the run's output folder")
+    compare.add_argument(
+        "scan",
+        help="the points: .xyz, .txt, .csv (x y z per line), .ply, .stl, .vtp or .vtk, in mm "
+        "with a [material]",
+    )
+    compare.add_argument(
+        "--map",
+        metavar="FILE.png",
+        help="a picture of the aligned scan coloured by its signed distance to the shape",
+    )
     schema = sub.add_parser("schema", help="print every problem-file key with its default")
     schema.add_argument(
         "--model", default="kirchhoff", help="the model whose [model] keys to print"
@@ -150,8 +180,8 @@ def main(argv: list[str] | None = None) -> int:
 def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
     if args.command == "schema":
         return _schema(args.model)
-    if args.command == "show":
-        return _show(args.folders, comm)
+    if args.command in ("show", "export", "compare"):
+        return _on_outputs(args, comm)
     from dgplate.problems.runner import run
     from dgplate.problems.specs import load_problem
 
@@ -182,6 +212,15 @@ def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
             )
         return 1
     return 0
+
+
+def _on_outputs(args: argparse.Namespace, comm: MPI.Comm) -> int:
+    """The commands on finished runs' output folders: ``show``, ``export``, ``compare``."""
+    if args.command == "show":
+        return _show(args.folders, comm)
+    if args.command == "export":
+        return _export(args, comm)
+    return _compare(args, comm)
 
 
 def _converge(
@@ -247,6 +286,39 @@ def _show(folders: list[str], comm: MPI.Comm) -> int:
         raise report
     if comm.rank == 0:
         print(report, flush=True)
+    return 0
+
+
+def _export(args: argparse.Namespace, comm: MPI.Comm) -> int:
+    """``dgplate export``: the solid, and one line with its triangles and volume."""
+    from dgplate.problems.shapes import export_solid
+
+    figures = export_solid(args.folder, args.solid, args.thickness, comm)
+    if comm.rank == 0:
+        units = figures["units"]
+        closed = "watertight" if figures["watertight"] else "NOT watertight"
+        print(
+            f"dgplate: wrote {args.solid}: {figures['triangles']:,} triangles, {closed}, "
+            f"volume {figures['volume']:.6g} {units}³ (area × thickness "
+            f"{figures['area_times_thickness']:.6g})",
+            flush=True,
+        )
+    return 0
+
+
+def _compare(args: argparse.Namespace, comm: MPI.Comm) -> int:
+    """``dgplate compare``: one line with the distances left after the alignment."""
+    from dgplate.problems.shapes import compare_scan
+
+    found = compare_scan(args.folder, args.scan, comm, args.map)
+    if comm.rank == 0:
+        units = found["units"]
+        print(
+            f"dgplate: {args.scan}: {found['points']:,} points, RMS {found['rms']:.4g} {units}, "
+            f"max {found['max']:.4g} {units}, Hausdorff {found['hausdorff']:.4g} {units} after "
+            f"a rotation by {found['angle_deg']:.4g}° ({found['steps']} steps)",
+            flush=True,
+        )
     return 0
 
 

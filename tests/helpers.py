@@ -3,10 +3,12 @@ flow and the ``mpirun`` beside the interpreter. Fixtures live in ``conftest.py``
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import shutil
 import sys
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 from mpi4py import MPI
@@ -21,6 +23,18 @@ PACKAGE = ROOT / "dgplate"
 DEMOS = ROOT / "demos"
 PROBLEMS = DEMOS / "problems"
 BENCHMARKS = ROOT / "benchmarks"
+
+
+def load_benchmark(name: str) -> ModuleType:
+    """The script benchmarks/<name>.py as a module (its sibling pages.py importable)."""
+    if str(BENCHMARKS) not in sys.path:
+        sys.path.insert(0, str(BENCHMARKS))
+    spec = importlib.util.spec_from_file_location(f"bench_{name}", BENCHMARKS / f"{name}.py")
+    assert spec is not None and spec.loader is not None  # a .py file always has both
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
 
 #: Overrides for a run whose outputs the test does not look at: no progress, VTX or pictures.
 QUIET: dict[str, Any] = {"output.progress": 0, "output.vtx": False, "output.png": False}

@@ -41,13 +41,31 @@ def picture(
     problem: Problem, model: Model, driver: Driver, summary: dict[str, Any], path: Path
 ) -> None:
     """final.png of the final shape (collective: the lines are gathered)."""
+    _draw(problem, model, driver, path, picture_title(problem.name, summary))
+
+
+def picture_title(name: str, summary: dict[str, Any]) -> str:
+    """final.png's title: E_h and D_h, and with a [material] the energy in J and the radius.
+
+    Args:
+        name: the problem's name.
+        summary: the run's summary figures (``physical``: :mod:`dgplate.problems.material`).
+
+    Returns:
+        ``name: E_h = …, D_h = …``, with physical figures a second line
+        ``E = … J, cylinder radius … mm``.
+    """
     energy, defect = summary.get("energy"), summary.get("isometry_defect")
-    title = problem.name
+    text = name
     if isinstance(energy, float):
-        title += f": E_h = {energy:.4e}"
+        text += f": E_h = {energy:.4e}"
     if isinstance(defect, float):
-        title += f", D_h = {defect:.2e}"
-    _draw(problem, model, driver, path, title)
+        text += f", D_h = {defect:.2e}"
+    physical = summary.get("physical", {})
+    figures = [f"E = {physical['energy_J']:.4g} J"] if "energy_J" in physical else []
+    if "cylinder_radius_mm" in physical:
+        figures.append(f"cylinder radius {physical['cylinder_radius_mm']:.4g} mm")
+    return "\n".join([text, ", ".join(figures)]) if figures else text
 
 
 def held_pictures(problem: Problem, model: Model, driver: Driver, folder: Path) -> None:

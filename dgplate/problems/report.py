@@ -89,6 +89,8 @@ def summary(
 ) -> dict[str, Any]:
     """summary.json's figures: the run, the driver's and the model's, the bounding box, the input.
 
+    With a [material], ``physical`` holds the figures in SI units (docs/units.md).
+
     Args:
         problem: the problem run.
         tagged: its mesh.
@@ -115,6 +117,8 @@ def summary(
     summary.update(driver.summary())
     summary["bbox"] = bounding_box(driver.shape)
     summary.update(model.figures(driver))
+    if problem.material is not None:
+        summary["physical"] = problem.material.figures(summary)
     summary["dolfinx_version"] = compat.version_string()
     summary["input"] = problem.raw
     return summary

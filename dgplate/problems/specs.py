@@ -1,6 +1,7 @@
 """Problem descriptions: TOML files with the sections [mesh], [model], [flow], [output].
 
-A model whose driver has settings of its own adds their section (FvK's [newton]).
+A model whose driver has settings of its own adds their section (FvK's [newton]); a plate in
+physical units adds [material] (:mod:`dgplate.problems.material`).
 
 ``load_problem(path, overrides)`` reads a file, applies ``--set dotted.key=value`` overrides and
 validates every section before anything is computed or written. The model section is checked
@@ -17,10 +18,11 @@ from pathlib import Path
 from typing import Any, Literal
 
 from dgplate.errors import InputError, read_user_text
+from dgplate.problems.material import MODELS_WITH_MATERIAL, Material, MaterialSpec, with_material
 from dgplate.schema import Check, driver_sections, from_dict, option, require_finite
 from dgplate.solvers.flow import FlowSpec
 
-SECTIONS = ("mesh", "model", "flow", "output")
+SECTIONS = ("mesh", "model", "flow", "output", "material")
 
 
 @dataclass
@@ -105,6 +107,7 @@ class Problem:
     flow: FlowSpec
     output: OutputSpec
     raw: dict[str, Any]  # the validated input, overrides applied (recorded in summary.json)
+    material: Material | None = None  # the physical scales, when [material] is given
 
     def identity(self) -> dict[str, Any]:
         """What ties a checkpoint to this problem (:func:`dgplate.io.checkpoint.identity`).
@@ -246,7 +249,8 @@ def problem_from_dict(data: dict[str, Any], name: str, overrides: Overrides = ()
         )
     for section in data:
         require_finite(data[section], section)
-    model = model_spec(data.get("model"), data)
+    material, model_table = with_material(data)
+    model = model_spec(model_table, data)
     known = [*SECTIONS, *(name for name, _ in driver_sections(type(model)))]
     for section in data:
         if section not in known:
@@ -264,7 +268,7 @@ def problem_from_dict(data: dict[str, Any], name: str, overrides: Overrides = ()
             "model.clamped is empty but flow.l2_metric = false: without clamped faces (or an "
             "anchor) the metric needs the L² product (rigid motions); set flow.l2_metric = 'auto'"
         )
-    return Problem(name, mesh, model, flow, output, data)
+    return Problem(name, mesh, model, flow, output, data, material)
 
 
 def _check_name(name: object) -> None:
@@ -291,5 +295,7 @@ def sections(model: str) -> list[tuple[str, type]]:
     mesh = [] if entry.mesh else [("mesh", MeshSpec)]  # a rod builds its own mesh
     drivers = driver_sections(entry.spec)
     every = [*mesh, ("model", entry.spec), *drivers, ("flow", FlowSpec), ("output", OutputSpec)]
+    if model in MODELS_WITH_MATERIAL:
+        every.append(("material", MaterialSpec))
     # a section the model ignores as a whole (FvK's [flow]) is not part of its files
     return [(name, spec) for name, spec in every if "" not in entry.ignored_keys(name)]

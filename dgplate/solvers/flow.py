@@ -66,6 +66,9 @@ METHODS = ("accurate", "bnn")
 #: (docs/accuracy.md) and ``dgplate converge`` extrapolates minimisers, not stopped flows.
 ACCURATE: dict[str, Any] = {"adaptive_tau": True, "projection_steps": 2, "stop": "stationarity"}
 
+#: The adaptive step controls (``flow.step_control``).
+STEP_CONTROLS = ("trust_region", "defect_bound")
+
 #: The initial deformation: points x (shape (3, n)) to their images (shape (3, n)).
 Initial = Callable[[Array], Array]
 
@@ -151,6 +154,11 @@ class FlowSpec:
         1.0,
         "adaptive τ: put a grown τ into the step matrix (reassemble and refactorise) only once it differs from the τ held there by more than this factor; until then the steps keep that τ (1: at every change)",
         ge=1,
+    )
+    step_control: str = option(
+        "trust_region",
+        "adaptive τ with newton_finish: 'trust_region' (every step an SQP step, accepted when E_h did not rise and its corrections closed the constraint; τ, the trust radius, halved and the SQP step retried when refused, grown by tau_growth when accepted; not with active sets) or 'defect_bound' (plain steps accepted below defect_bound, SQP steps from newton_tau_ratio on, a refused SQP step redone plain)",
+        choices=STEP_CONTROLS,
     )
     newton_finish: bool = option(
         True,

@@ -3,7 +3,9 @@
 With ``flow.adaptive_tau`` a step is accepted when E_h did not rise, its linearisation error
 (the isometry defect before projection) is at most ``flow.defect_bound`` and the nonlocal terms
 accept the state; τ then grows, else the step is redone with τ/2. With ``flow.newton_finish``
-the steps become SQP steps (:mod:`dgplate.solvers.sqp`) once τ is large enough.
+the steps are SQP steps (:mod:`dgplate.solvers.sqp`): with ``flow.step_control = 'trust_region'``
+(the default) from the first step on, τ acting as a trust radius, with ``'defect_bound'`` once τ
+is large enough.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ ADAPTIVE_ONLY = (
     "tau_growth_max",
     "tau_max_ratio",
     "refactor_factor",
+    "step_control",
     "newton_finish",
     "newton_tau_ratio",
 )
@@ -40,6 +43,7 @@ class TauSettings(Protocol):
     tau_growth_max: float
     tau_max_ratio: float
     refactor_factor: float
+    step_control: str
     newton_finish: bool
     newton_tau_ratio: float
 
@@ -95,33 +99,48 @@ class TauController:
         was taken with (refactorised at once), down to 10⁻⁶ of the initial τ (below that the
         step is accepted as it is). Rejected steps are counted in ``rejected_steps``.
 
-        With ``flow.newton_finish``, once τ is at its cap the step is first tried as an SQP step
-        (:mod:`dgplate.solvers.sqp`); if it fails the same test (or its matrix cannot be
-        factorised) it is taken back and redone as a plain step with the same τ
+        With ``flow.newton_finish`` the step is first tried as an SQP step
+        (:mod:`dgplate.solvers.sqp`) when :meth:`_newton_due`. With the trust region
+        (:meth:`_trust_region`) a refused SQP step (or one whose matrix cannot be factorised)
+        is retried as an SQP step with τ/2 (``rejected_steps``); otherwise, and below the
+        least τ, it is taken back and redone as a plain step with the same τ
         (``newton_rejections``).
         """
         flow = self.flow
         saved = flow.save()
         energy0 = flow._last_energy
-        tau_min = 1e-6 * self.initial
         newton = self._newton_due()
         defect0 = flow.defect() if newton else math.inf
         while True:
             info = self._attempt(newton)
             if info is not None and (
                 self._accepted(info, energy0, defect0 if newton else math.inf)
-                or (flow.tau / 2 < tau_min and not newton)
+                or (flow.tau / 2 < self._tau_min() and not newton)
             ):
                 self.counts.newton_steps += newton
                 self._grow_tau()
                 return info
             flow.restore(saved)
-            if newton:  # redone as a plain step with the same τ
-                self.counts.newton_rejections += 1
-                newton = False
-                continue
-            self.counts.rejected_steps += 1
-            flow.tau = flow.tau / 2
+            newton = self._redo(newton)
+
+    def _tau_min(self) -> float:
+        """The least τ of a redone step: 10⁻⁶ of the initial τ."""
+        return 1e-6 * self.initial
+
+    def _redo(self, newton: bool) -> bool:
+        """After a refused step (taken back): set the τ of the next attempt, return its kind.
+
+        A refused SQP step is redone as a plain step with the same τ (``newton_rejections``),
+        but under the trust region, while τ/2 is above the least τ, as an SQP step with τ/2;
+        a refused plain step is redone with τ/2 (both ``rejected_steps``).
+        """
+        flow = self.flow
+        if newton and not (self._trust_region() and flow.tau / 2 >= self._tau_min()):
+            self.counts.newton_rejections += 1
+            return False
+        self.counts.rejected_steps += 1
+        flow.tau = flow.tau / 2
+        return newton
 
     def _attempt(self, newton: bool) -> StepInfo | None:
         """A step; an SQP step whose matrix cannot be factorised gives None (to redo it plain)."""
@@ -135,8 +154,10 @@ class TauController:
     def _accepted(self, info: StepInfo, energy0: float, defect0: float = math.inf) -> bool:
         """The adaptive controller's test of a step from the energy ``energy0``.
 
-        E_h did not rise, the linearisation error is at most ``flow.defect_bound`` and the
-        nonlocal terms accept the state; a non-finite energy or defect fails. An SQP step
+        E_h did not rise, the linearisation error is at most ``flow.defect_bound`` (not asked of
+        an SQP step under the trust region: its corrections restore the constraint, and the
+        test below judges them) and the nonlocal terms accept the state; a non-finite energy or
+        defect fails. An SQP step
         (``defect0``: D_h of its start) must also end at most as far off the constraint as it
         started, or at round-off: when its corrections stall, the state lies below the
         constrained energy by about λ·D_h, and every later step, whose projections restore the
@@ -144,7 +165,8 @@ class TauController:
         D_h = 2.1·10⁻⁴ after an SQP step that started at 9.7·10⁻⁶, then 29 rejections).
         """
         lowered = info.energy <= energy0 + 1e-12 * max(1.0, abs(energy0))
-        close = self.linear_defect <= self.settings.defect_bound
+        trusted = math.isfinite(defect0) and self._trust_region()
+        close = trusted or self.linear_defect <= self.settings.defect_bound
         on_constraint = info.defect <= max(defect0, SQP_DEFECT_TOL * self.flow.defect.area)
         accepted = all([term.accept() for term in self.system.energy.nonlocal_terms])
         return lowered and close and on_constraint and accepted
@@ -152,11 +174,26 @@ class TauController:
     def _newton_due(self) -> bool:
         """Whether the next step is an SQP step: ``flow.newton_finish`` and τ large enough.
 
-        τ (the held one) at least ``flow.newton_tau_ratio`` times the initial τ, or at its cap.
+        Under the trust region every step; otherwise τ (the held one) at least
+        ``flow.newton_tau_ratio`` times the initial τ, or at its cap.
         """
         settings = self.settings
         ratio = min(settings.newton_tau_ratio, settings.tau_max_ratio)
-        return settings.newton_finish and self.system.tau >= ratio * self.initial * (1 - 1e-12)
+        large = self.system.tau >= ratio * self.initial * (1 - 1e-12)
+        return settings.newton_finish and (large or self._trust_region())
+
+    def _trust_region(self) -> bool:
+        """Whether τ is a trust radius of SQP steps (``flow.step_control = 'trust_region'``).
+
+        Only with ``flow.newton_finish`` and without active sets (obstacles, whose sets the
+        plain steps grow).
+        """
+        settings = self.settings
+        return (
+            settings.newton_finish
+            and settings.step_control == "trust_region"
+            and not self.system.energy.active_sets
+        )
 
     def _grow_tau(self) -> None:
         """After an accepted step: the proposal grows by :meth:`_growth`, up to its cap.
@@ -182,10 +219,11 @@ class TauController:
         steps gain nothing from a τ grown fast (BNN 32², plain adaptive τ: 56 step solves
         against 38), and after a rejection a long step may leave the state off the constraint
         by more than the next projection restores: then, and without the finish, the fixed
-        growth.
+        growth; under the trust region always the fixed growth (a refused step costs one solve
+        and halves τ).
         """
         settings = self.settings
-        fast = settings.newton_finish and not self.counts.rejected_steps
+        fast = settings.newton_finish and not (self.counts.rejected_steps or self._trust_region())
         if not fast or settings.tau_growth_max <= settings.tau_growth:
             return settings.tau_growth
         defect = max(self.linear_defect, 1e-300)

@@ -18,7 +18,17 @@ DOCS = Path(__file__).resolve().parent.parent
 ROOT = DOCS.parent
 OUT = DOCS / "_generated"
 #: Pages of docs/ with a place of their own in the landing page's tables of contents.
-LISTED = {"index", "guide", "tutorial", "converge", "design", "verification", "performance", "api"}
+LISTED = {
+    "index",
+    "guide",
+    "tutorial",
+    "converge",
+    "units",
+    "design",
+    "verification",
+    "performance",
+    "api",
+}
 
 
 def read_demo(text: str) -> Any:

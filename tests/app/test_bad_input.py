@@ -26,6 +26,7 @@ ROOT = Path(__file__).resolve().parents[2]
 PROBLEMS = ROOT / "demos" / "problems"
 VERTICAL = PROBLEMS / "vertical_load.toml"
 BILAYER = PROBLEMS / "bilayer_cylinder.toml"
+TIMOSHENKO = PROBLEMS / "bilayer_timoshenko.toml"
 FVK = PROBLEMS / "fvk_square.toml"
 ROD = PROBLEMS / "rod_arc.toml"
 
@@ -128,6 +129,20 @@ BAD_INPUT = {
     ),
     "negative Gauss penalty": Case(
         ("model.gauss_penalty=-1",), "model.gauss_penalty must be >= 0, got -1", BILAYER
+    ),
+    # -- physical quantities ([material], docs/units.md) -----------------------------------------
+    "a modulus for a length": Case(
+        ("material.length='2 GPa'",),
+        "material.length must be a length, e.g. '150 um', got '2 GPa'",
+        TIMOSHENKO,
+    ),
+    "no quantity": Case(
+        ("material.layers=[{thickness='75 umm', E='2 GPa'}]",),
+        "material.layers[0].thickness must be a length, e.g. '150 um'; cannot read '75 umm'",
+        TIMOSHENKO,
+    ),
+    "Z given twice": Case(
+        ("model.Z=2.0",), "model.Z is derived from [material]; give one or the other", TIMOSHENKO
     ),
     "fvk key of the driver in [model]": Case(
         ("model.load_steps=3",), "model.load_steps moved to newton.load_steps", FVK
@@ -328,6 +343,7 @@ BAD_INPUT = {
 
 #: Cases that also run under mpirun -n 2 (validation, and collective checks on the mesh).
 MPI_CASES = [
+    "a modulus for a length",
     "rod of 1e8 cells",
     "load inf",
     "load nan",

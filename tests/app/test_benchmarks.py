@@ -1,27 +1,20 @@
 """Smoke run of the benchmark scripts at the smallest size: they run, and what they write
 holds together (the optimised and the naive flow agree; the report reads the JSON)."""
 
-import importlib.util
 import json
 import math
 import shutil
-import sys
 from pathlib import Path
 
 from mpi4py import MPI
 
 import pytest
+from helpers import load_benchmark
+
+from dgplate.measure.richardson import extrapolate
+from dgplate.problems.converge import ConvergenceStudy
 
 BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
-sys.path.insert(0, str(BENCH))  # the scripts import their shared pages.py as a sibling
-
-
-def _load(name: str):
-    spec = importlib.util.spec_from_file_location(f"bench_{name}", BENCH / f"{name}.py")
-    assert spec is not None and spec.loader is not None  # a .py file always has both
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 @pytest.mark.mpi
@@ -30,7 +23,7 @@ def test_flow_benchmark_smoke(tmp_path):
     out = tmp_path / f"flow_8_np{comm.size}.json"
     # every rank needs the same path: rank 0's temporary directory
     out = Path(comm.bcast(str(out), root=0))
-    record = _load("flow").main(
+    record = load_benchmark("flow").main(
         ["--cells", "8", "--repeat", "2", "--compare-naive", "--json", str(out)]
     )
     assert record["dofs"] == 30 * 8 * 8 and record["ranks"] == comm.size
@@ -51,7 +44,7 @@ def test_flow_benchmark_smoke(tmp_path):
         assert json.loads(out.read_text())["energy"] == record["energy"]
         page = tmp_path / "performance.md"
         page.write_text("# x\n")
-        _load("report").main(["--results", str(out.parent), "--page", str(page)])
+        load_benchmark("report").main(["--results", str(out.parent), "--page", str(page)])
         text = page.read_text()
         assert "## Performance" in text and "| 8² |" in text
         assert (out.parent / "performance.png").stat().st_size > 1000
@@ -60,20 +53,20 @@ def test_flow_benchmark_smoke(tmp_path):
 def test_bandwidth_benchmark_smoke(tmp_path):
     """The bandwidth script measures 1 and 2 ranks, and the report quotes its ratios."""
     out = tmp_path / "bandwidth_before.json"
-    _load("bandwidth").main(["--megabytes", "8", "--repeat", "2", "--json", str(out)])
+    load_benchmark("bandwidth").main(["--megabytes", "8", "--repeat", "2", "--json", str(out)])
     record = json.loads(out.read_text())
     assert record["one_rank"]["ranks"] == 1 and record["two_ranks"]["ranks"] == 2
     for kernel in ("read_gb_per_s", "triad_gb_per_s"):
         assert record["one_rank"][kernel] > 0 and record["two_ranks"][kernel] > 0
         ratio = record["two_ranks"][kernel] / record["one_rank"][kernel]
         assert record["ratio_two_over_one"][kernel] == pytest.approx(ratio)
-    (note,) = _load("report").bandwidth_notes(tmp_path)
+    (note,) = load_benchmark("report").bandwidth_notes(tmp_path)
     assert f"read {record['ratio_two_over_one']['read_gb_per_s']:.2f}×" in note
 
 
 def test_accuracy_benchmark_smoke(tmp_path):
     """The accuracy study's record: one run per level, errors against the exact energy, orders."""
-    accuracy = _load("accuracy")
+    accuracy = load_benchmark("accuracy")
     accuracy.main(
         ["--case", "rigid", "--variants", "bnn", "--levels", "2", "4", "--results", str(tmp_path)]
     )
@@ -96,14 +89,14 @@ def test_accuracy_page_is_generated(tmp_path):
     page = BENCH.parent / "docs" / "accuracy.md"
     copy = tmp_path / "accuracy.md"
     shutil.copy(page, copy)
-    _load("accuracy").main(["--table-only", "--page", str(copy)])
+    load_benchmark("accuracy").main(["--table-only", "--page", str(copy)])
     assert copy.read_text() == page.read_text()
     text = page.read_text()
     assert "From `accuracy_uniaxial_a1_p1.json`, `accuracy_uniaxial_a1_p1_l16.json`." in text
     assert "| 32×32 | 30,720 | -5.759e-03 | 0.39 | 28 |" in text  # bnn's finest level
     copy.write_text("no markers\n")
     with pytest.raises(SystemExit, match="markers"):
-        _load("accuracy").main(["--table-only", "--page", str(copy)])
+        load_benchmark("accuracy").main(["--table-only", "--page", str(copy)])
     assert copy.read_text() == "no markers\n"
 
 
@@ -113,7 +106,9 @@ def test_seed000_benchmark_smoke(tmp_path):
     page.write_text("# x\n\n<!-- seed000:begin -->\nold\n<!-- seed000:end -->\n\nafter\n")
     out = tmp_path / "seed000.json"
     args = ["--cells", "8", "16", "--budget", "1", "--out", str(tmp_path / "runs")]
-    record = _load("seed000_free_boundary").main([*args, "--json", str(out), "--page", str(page)])
+    record = load_benchmark("seed000_free_boundary").main(
+        [*args, "--json", str(out), "--page", str(page)]
+    )
     (row,) = record["ours"]
     assert record["not_run"] == [16]
     assert (row["cells"], row["dofs"], row["converged"]) == (8, 2688, True)
@@ -125,6 +120,107 @@ def test_seed000_benchmark_smoke(tmp_path):
     assert "| 2⁻⁴ | 16 | – | – / 71 | not run | −9.041e−3 |" in text
     page.write_text("no markers\n")
     with pytest.raises(SystemExit, match="markers"):
-        _load("seed000_free_boundary").main(
+        load_benchmark("seed000_free_boundary").main(
             ["--table-only", "--json", str(out), "--page", str(page)]
         )
+
+
+def test_rollup_page_is_generated(tmp_path):
+    """docs/performance.md's roll-up table is what --table-only writes from rollup.json."""
+    page = BENCH.parent / "docs" / "performance.md"
+    copy = tmp_path / "performance.md"
+    shutil.copy(page, copy)
+    load_benchmark("rollup").main(["--table-only", "--page", str(copy)])
+    assert copy.read_text() == page.read_text()
+    record = json.loads((BENCH / "results" / "rollup.json").read_text())
+    assert {(run["turns"], run["control"]) for run in record["runs"]} == {
+        (turns, control)
+        for turns in (0.25, 0.5, 1.0)
+        for control in ("defect_bound", "trust_region")
+    }
+    assert "| 1 | trust_region |" in page.read_text()
+
+
+def _seed_study(case: str, energies: list[float], radii: list[float]) -> dict:
+    """A seeds.json study of the Z = aI rectangle ``case`` with these levels' E_h and radii."""
+    seeds = load_benchmark("seeds")
+    ratio, a, width = seeds.CASES[case]
+    energy, radius = 0.5 * a**2 * ratio * width**2, 1.0 / a
+    levels = [
+        {"size": f"{2**k}×{2**k}", "dofs": 656 * 4**k, "energy_error": (e - energy) / energy,
+         "radius_error": (r - radius) / radius}
+        for k, (e, r) in enumerate(zip(energies, radii, strict=True))
+    ]  # fmt: skip
+    record = {"case": case, "settings": "minimiser", "ratio": ratio, "a": a, "width": width}
+    record |= {"levels": levels, "wall_s": 26.4, "interrupted": 0}
+    for figure, values, exact in (("energy", energies, energy), ("radius", radii, radius)):
+        record[figure] = seeds.estimate(extrapolate(values).as_dict(), exact)
+    return record
+
+
+def test_seeds_table(tmp_path):
+    """seeds.py's table from a JSON of two studies: errors, orders, pass/fail, cases not run."""
+    seeds = load_benchmark("seeds")
+    studies = {
+        "r1_a1:minimiser": _seed_study("r1_a1", [0.4973096, 0.4994977, 0.500168],
+                                       [1.096645, 1.030953, 1.009479]),
+        "r1.75_a2:minimiser": _seed_study("r1.75_a2", [3.9, 3.7, 3.8], [0.6, 0.55, 0.52]),
+    }  # fmt: skip
+    studies["r1.75_a2:minimiser"]["interrupted"] = 15  # stopped by SIGTERM (the budget)
+    out = tmp_path / "seeds.json"
+    out.write_text(json.dumps({"studies": studies}))
+    page = tmp_path / "verification.md"
+    page.write_text("# x\n\n<!-- seeds:begin -->\nold\n<!-- seeds:end -->\n\nafter\n")
+    seeds.main(["--table-only", "--json", str(out), "--page", str(page)])
+    text = page.read_text()
+    assert "old" not in text and text.endswith("<!-- seeds:end -->\n\nafter\n")
+    assert (
+        "| 1 | 1 | 1 | minimiser | 3 (4×4) | 10,496 | +0.03 % | +0.09 % ± 0.06 % | 1.71 "
+        "| +0.95 % | -0.09 % ± 1.04 % | 1.61 | 26 | pass |"
+    ) in text
+    assert (
+        "| 7/4 | 1 | 2 | minimiser | 3 (4×4) + 1 stopped | 10,496 | +8.57 % | no monotone trend (the "
+        "differences change sign) | – | +4.00 % | -5.00 % ± 9.00 % | 0.74 | 26 "
+        "| **miss**: no E∞, E finest +8.57 %, R∞ -5.00 %, R finest +4.00 % |"
+    ) in text
+    assert text.index("| 1 | 1 | 1 |") < text.index("| 7/4 | 1 | 2 |")  # the grid's order
+    assert "`minimiser`: the cylinder test's discretisation (γ₁h⁻³" in text
+    assert "Not run: `r0.5_a1`, `r1.75_a1`, `r2.5_a1`, `r0.5_a2`, `r1_a2`, " in text
+    assert seeds.overrides("r1.75_a2_w4", "file", 4)["mesh.cells"] == [28, 16]
+    with pytest.raises(SystemExit) as bad:
+        seeds.main(["--levels", "1", "--json", str(out), "--page", str(page)])
+    assert bad.value.code == 2 and "<!-- seeds:end -->" in page.read_text()
+    page.write_text("no markers\n")
+    with pytest.raises(SystemExit, match="markers"):
+        seeds.main(["--table-only", "--json", str(out), "--page", str(page)])
+    assert page.read_text() == "no markers\n"
+
+
+def test_seeds_stopped_study():
+    """A study stopped in its third level is recorded with its two finished levels."""
+    seeds = load_benchmark("seeds")
+    levels = [
+        {"level": k, "size": f"{4 * 2**k}×{4 * 2**k}", "dofs": 656 * 4**k, "steps": 7,
+         "converged": k < 3, "reason": None, "reused": False, "isometry_defect": 1e-15,
+         "wall_time_s": 10.0 * k, "energy": 0.5 + 0.01 / k, "figures": {
+             "energy": 0.5 + 0.01 / k, "cylinder_fit.radius": 1.0 + 0.1 / k}}
+        for k in (1, 2, 3)
+    ]  # fmt: skip
+    study = ConvergenceStudy("r1_a1", Path("."), levels, {}, interrupted=15)
+    record = seeds.record_of("r1_a1", "minimiser", 4, study)
+    assert [lv["level"] for lv in record["levels"]] == [1, 2]
+    assert record["wall_s"] == 30.0 and record["interrupted"] == 15
+    assert record["levels"][1]["energy_error"] == pytest.approx(0.01)
+    assert record["radius"]["reason"] == "2 level(s): three are needed"
+    assert record["radius"]["limit_error"] is None
+    study.levels = levels[:1]
+    assert seeds.record_of("r1_a1", "minimiser", 4, study) is None
+
+
+def test_seeds_page_is_generated(tmp_path):
+    """docs/verification.md's seed 001 table is what --table-only writes from seeds.json."""
+    page = BENCH.parent / "docs" / "verification.md"
+    copy = tmp_path / "verification.md"
+    shutil.copy(page, copy)
+    load_benchmark("seeds").main(["--table-only", "--page", str(copy)])
+    assert copy.read_text() == page.read_text()

@@ -11,7 +11,17 @@ PACKAGE = Path(__file__).resolve().parents[2] / "dgplate"
 
 # lowest first; a module of layer i may import from layers 0..i
 LAYERS = [
-    {"compat", "errors", "interrupt", "schema", "values", "expressions", "mpi", "reference"},
+    {
+        "compat",
+        "errors",
+        "interrupt",
+        "schema",
+        "units",
+        "values",
+        "expressions",
+        "mpi",
+        "reference",
+    },
     {"mesh"},
     {"dg"},
     {"solvers"},

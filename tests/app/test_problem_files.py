@@ -31,6 +31,7 @@ SMALLER: dict[str, tuple[str, ...]] = {
     "bilayer_hole": ("mesh.parameters.h=0.3", "mesh.parameters.hole_h=0.2"),
     "bilayer_i_shape": ("mesh.parameters.h=0.5",),
     "bilayer_partial_clamp": ("mesh.parameters.h=0.5",),
+    "bilayer_timoshenko": ("mesh.cells=[8,4]",),
     "box_folding": ("mesh.parameters.n=2", "mesh.parameters.m=2"),
     "buckling_strip": ("mesh.cells=[8,1]",),
     "cantilever": ("mesh.cells=[8,2]",),

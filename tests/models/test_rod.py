@@ -153,6 +153,7 @@ def test_defects_grow_like_tau(tmp_path):
         ("flow.linear_solver=direct", "flow.linear_solver has no effect with model.name"),
         ("flow.newton_finish=true", "flow.newton_finish has no effect with model.name = 'rod'"),
         ("flow.refactor_factor=2.0", "flow.refactor_factor has no effect with model.name"),
+        ("flow.step_control=defect_bound", "flow.step_control has no effect with model.name"),
     ],
 )
 def test_bad_input_is_one_line_with_exit_2(tmp_path, capsys, setting, message):
@@ -169,7 +170,7 @@ def test_schema_of_a_rod_prints_no_key_the_rod_rejects(capsys):
     assert main(["schema", "--model", "rod"]) == 0
     out = capsys.readouterr().out
     assert "[mesh]" not in out and "[model]" in out and "[flow]" in out and "cells = 32" in out
-    assert "l2_metric" not in out and "newton_finish" not in out
+    assert "l2_metric" not in out and "newton_finish" not in out and "step_control" not in out
     for line in ("projection_steps = 2", "adaptive_tau = true", 'stop = "stationarity"'):
         assert f"\n{line}\n" in out, line
     assert "[mesh]" in (main(["schema", "--model", "kirchhoff"]), capsys.readouterr().out)[1]

@@ -23,13 +23,15 @@ from dgplate.schema import from_dict
 from dgplate.solvers.flow import FlowSpec
 
 VERTICAL = Path(__file__).resolve().parents[2] / "demos" / "problems" / "vertical_load.toml"
-# 6×6 BNN plate, adaptive τ from τ = h with a tight defect bound: some steps are rejected
+# 6×6 BNN plate, adaptive τ from τ = h with a tight defect bound (the defect-bound control):
+# some steps are rejected
 ADAPTIVE = [
     f"--set={key}"
     for key in (
         "mesh.cells=[6,6]",
         "flow.linear_solver='direct'",
         "flow.adaptive_tau=true",
+        "flow.step_control='defect_bound'",
         "flow.defect_bound=2e-3",
         "flow.refactor_factor=3",
         "flow.projection_steps=1",
@@ -123,7 +125,8 @@ def fast_factor(bound, defect):
     ids=["finish", "finish-rejections", "plain"],
 )
 def test_tau_grows_by_the_defect_until_the_first_rejection(newton_finish, bound):
-    """With the SQP finish, τ grows by √(bound/D)/2 in [2, 8] until a rejection, then by 2;
+    """With the defect-bound control and the SQP finish, τ grows by √(bound/D)/2 in [2, 8]
+    until a rejection, then by 2;
     without it, by 2 throughout. Either way the run ends at the fixed-τ state.
 
     The 6² plate with the default bound has no rejection; with 2·10⁻³ the first step is
@@ -133,7 +136,12 @@ def test_tau_grows_by_the_defect_until_the_first_rejection(newton_finish, bound)
     reference = fixed.run()
     fixed.destroy()
     ratio = 1e3  # SQP steps only at the cap: the growth below it is what is tested
-    flow = {"adaptive_tau": True, "defect_bound": bound, "newton_finish": newton_finish}
+    flow = {
+        "adaptive_tau": True,
+        "step_control": "defect_bound",
+        "defect_bound": bound,
+        "newton_finish": newton_finish,
+    }
     solver = bnn(MPI.COMM_WORLD, tau_max_ratio=ratio, newton_tau_ratio=ratio, **flow)
     record = growth_record(solver)
     result = solver.run()

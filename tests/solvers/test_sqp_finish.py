@@ -33,7 +33,7 @@ def run_bnn(comm, **flow):
         comm, 6, tol=1e-6, stop="stationarity", projection_steps=1, max_steps=400, **flow
     )
     result = solver.run()
-    counts = (solver.counts.newton_steps, solver.counts.newton_rejections)
+    counts = solver.counts
     solver.destroy()
     return result, counts
 
@@ -42,7 +42,8 @@ def run_bnn(comm, **flow):
 def test_newton_finish_ends_at_the_fixed_tau_state():
     fixed, _ = run_bnn(MPI.COMM_WORLD)
     adaptive, _ = run_bnn(MPI.COMM_WORLD, adaptive_tau=True, newton_finish=False)
-    newton, (steps, _) = run_bnn(MPI.COMM_WORLD, **NEWTON)
+    newton, counts = run_bnn(MPI.COMM_WORLD, **NEWTON)
+    steps = counts.newton_steps
     for result in (fixed, adaptive, newton):
         assert result.converged and result.energy_increases == []
         energies = [row.energy for row in result.history]
@@ -54,18 +55,23 @@ def test_newton_finish_ends_at_the_fixed_tau_state():
 
 
 @pytest.mark.mpi
-def test_sqp_step_left_off_the_constraint_is_redone_as_a_plain_step(monkeypatch):
+@pytest.mark.parametrize("control", ["defect_bound", "trust_region"])
+def test_sqp_step_left_off_the_constraint_is_refused(monkeypatch, control):
     """Without its corrections an SQP step ends below the constrained energy, off the constraint.
 
     Accepted, every later step would "raise" E_h when its projection restores the constraint;
-    the controller must redo it as a plain step instead, and the run still end at the fixed-τ
-    state with E_h lowered at every step.
+    the controller must refuse it (the defect-bound control redoes it as a plain step, the
+    trust region as an SQP step with τ/2), and the run still end at the fixed-τ state with E_h
+    lowered at every step.
     """
     fixed, _ = run_bnn(MPI.COMM_WORLD)
     monkeypatch.setattr(Projection, "close_constraint", lambda self, stats, solver, change: None)
-    newton, (_, rejections) = run_bnn(MPI.COMM_WORLD, **NEWTON)
+    newton, counts = run_bnn(MPI.COMM_WORLD, **NEWTON, step_control=control)
     assert newton.converged and newton.energy_increases == []
-    assert rejections > 0
+    if control == "defect_bound":
+        assert counts.newton_rejections > 0
+    else:
+        assert counts.rejected_steps > 0 and counts.newton_rejections == 0
     assert newton.energy == pytest.approx(fixed.energy, rel=1e-7)
 
 

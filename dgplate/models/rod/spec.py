@@ -37,7 +37,13 @@ ROD_IGNORES = {
     **{
         f"flow.{key}": "the rod flow's adaptive τ has no SQP finish and reassembles its matrix "
         "at every step (its keys: adaptive_tau, defect_bound, tau_growth, tau_max_ratio)"
-        for key in ("tau_growth_max", "refactor_factor", "newton_finish", "newton_tau_ratio")
+        for key in (
+            "tau_growth_max",
+            "refactor_factor",
+            "step_control",
+            "newton_finish",
+            "newton_tau_ratio",
+        )
     },
 }
 

@@ -1,0 +1,322 @@
+"""Seed 001's closed-form rows: the bilayer aspect-ratio grid, each case through ``converge``.
+
+    python benchmarks/seeds.py [--cases r1_a1 r1.75_a2 …] [--levels 4] [--cells 4]
+        [--settings minimiser] [--budget-minutes 60] [--out out/seeds]
+        [--json benchmarks/results/seeds.json] [--page docs/verification.md]
+    python benchmarks/seeds.py --table-only   # the page's table from the JSON, no runs
+
+[N15], experiment 1: rectangles (0, rW) × (0, W) clamped on x₁ = 0, r = length/W = 0.5, 1,
+7/4, 10/4, Z = aI with a = 1, 2, 5, for W = 1 and W = 4 (cases ``r<r>_a<a>`` and
+``r<r>_a<a>_w4``). The minimiser is a cylinder of radius 1/a at the energy ½a²|ω|. Each case
+runs ``demos/problems/bilayer_aspect_ratios.toml`` with overrides (the rectangle, n·L × n·W
+cells on level 1, Z, and one of ``SETTINGS``) through :func:`dgplate.converge` into
+``OUT/<case>/<settings>``, resumably: a rerun reuses the finished levels and continues an
+interrupted one. The cases run one after the other; when ``--budget-minutes`` have passed the
+running level stops at its next step (as on SIGTERM) and the cases left are listed; a rerun
+goes on from there.
+
+``--json`` keeps, per case and settings, every level's DoFs, steps, wall time, E_h and fitted
+radius with their errors against the closed forms, and converge's orders, extrapolated values
+and error estimates; a rerun of some ``--cases`` keeps the others. The table between the
+page's markers ``<!-- seeds:begin -->`` and ``<!-- seeds:end -->`` is generated from it, with
+the targets of the verification: extrapolated energy and radius within 1 %, the finest level
+within 2 %.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import threading
+import time
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+from accuracy import MINIMISER, TUNED
+from pages import write_between
+
+from dgplate import interrupt
+from dgplate.io.output import print0
+from dgplate.problems.converge import converge, estimates
+from dgplate.problems.specs import load_problem
+
+ROOT = Path(__file__).resolve().parent.parent
+PROBLEM = ROOT / "demos" / "problems" / "bilayer_aspect_ratios.toml"
+BEGIN, END = "<!-- seeds:begin -->", "<!-- seeds:end -->"
+RATIOS, CURVATURES, WIDTHS = (0.5, 1.0, 1.75, 2.5), (1.0, 2.0, 5.0), (1.0, 4.0)
+
+#: The targets: extrapolated figures within 1 %, the finest level within 2 % (relative).
+LIMIT_TARGET, FINEST_TARGET = 0.01, 0.02
+
+#: name → (what it is, overrides on top of the problem file given the exact energy E*).
+SETTINGS: dict[str, tuple[str, Any]] = {
+    "minimiser": (
+        "the cylinder test's discretisation (γ₁h⁻³ with γ₁ = 86, edge constraint) flowed to a "
+        "discrete minimiser as in `benchmarks/accuracy.py` (adaptive τ from h, two projection "
+        "steps, SQP finish, ‖P DE_h‖_*' < 10⁻⁷)",
+        lambda ideal: {**TUNED, **MINIMISER, "flow.tol": 1e-7, "flow.max_steps": 3000},
+    ),
+    "file": (
+        "the problem file's own discretisation and flow as the demo runs it (γ₁h⁻¹ with "
+        "γ₁ = 1100, no projection (D_h > 0), τ = 0.05/(aW), rate stop at 10⁻⁴·E*)",
+        lambda ideal: {"flow.tol": 1e-4 * ideal, "flow.max_steps": 8000},
+    ),
+}
+
+
+def case_name(ratio: float, a: float, width: float) -> str:
+    """``r1.75_a2`` (W = 1) or ``r1.75_a2_w4``."""
+    return f"r{ratio:g}_a{a:g}" + ("" if width == 1.0 else f"_w{width:g}")
+
+
+#: Every case of the grid, in the table's order.
+CASES = {
+    case_name(r, a, w): (r, a, w) for w in WIDTHS for a in CURVATURES for r in RATIOS
+}  # fmt: skip
+
+
+def overrides(case: str, settings: str, cells: int) -> dict[str, Any]:
+    """The problem file's overrides for ``case``: its rectangle, level 1's mesh, Z, τ, flow."""
+    ratio, a, width = CASES[case]
+    length = ratio * width
+    flow = SETTINGS[settings][1](0.5 * a**2 * length * width)
+    return {
+        "mesh.corners": [[0.0, 0.0], [length, width]],
+        "mesh.cells": [round(cells * length), round(cells * width)],
+        "model.Z": a,
+        "flow.tau": 0.05 / (a * width),
+        "flow.checkpoint_every": 0,
+        "output.vtx": False,
+        "output.progress": 0,
+        **flow,
+    }
+
+
+def relative(value: float | None, exact: float) -> float | None:
+    """(value − exact)/exact, or None."""
+    return None if value is None else (value - exact) / exact
+
+
+def estimate(entry: dict[str, Any] | None, exact: float) -> dict[str, Any]:
+    """A figure's converge estimate with the extrapolated value's error against ``exact``."""
+    if entry is None:
+        entry = {"order": None, "limit": None, "error": None, "reason": "not reported"}
+    found = {key: entry[key] for key in ("order", "limit", "error", "reason")}
+    found["limit_error"] = relative(entry["limit"], exact)
+    found["error_estimate"] = None if entry["error"] is None else entry["error"] / abs(exact)
+    return found
+
+
+def record_of(case: str, settings: str, cells: int, study: Any) -> dict[str, Any] | None:
+    """The JSON record of one case's study (level 1 at ``cells`` per unit length).
+
+    A study stopped by a signal is recorded with its finished levels and their estimates
+    (the stopped level continues on a rerun), and ``interrupted`` set; with none, None.
+    Its ``wall_s`` is the sum of the levels' own wall times, whichever invocation ran them.
+    """
+    ratio, a, width = CASES[case]
+    energy, radius = 0.5 * a**2 * ratio * width**2, 1.0 / a
+    finished = study.levels[:-1] if study.interrupted else study.levels
+    if not finished:
+        return None
+    figures = estimates(finished) if study.interrupted else study.figures
+    levels = []
+    for lv in finished:
+        r = lv["figures"].get("cylinder_fit.radius")
+        levels.append(
+            {
+                **{key: lv[key] for key in ("level", "size", "dofs", "steps", "converged")},
+                **{key: lv[key] for key in ("reason", "reused", "isometry_defect")},
+                "wall_s": lv["wall_time_s"],
+                "energy": lv["energy"],
+                "radius": r,
+                "energy_error": relative(lv["energy"], energy),
+                "radius_error": relative(r, radius),
+            }
+        )
+    return {
+        "case": case,
+        "settings": settings,
+        "ratio": ratio,
+        "a": a,
+        "width": width,
+        "cells_per_unit": cells,
+        "exact_energy": energy,
+        "exact_radius": radius,
+        "interrupted": study.interrupted,
+        "wall_s": sum(lv["wall_s"] or 0.0 for lv in levels),
+        "levels": levels,
+        "energy": estimate(figures.get("energy"), energy),
+        "radius": estimate(figures.get("cylinder_fit.radius"), radius),
+    }
+
+
+def misses(record: dict[str, Any]) -> list[str]:
+    """The targets the case misses, each with its figure (none: it passes)."""
+    finest = record["levels"][-1]
+    found = []
+    for figure, short in (("energy", "E"), ("radius", "R")):
+        limit, last = record[figure]["limit_error"], finest[f"{figure}_error"]
+        if limit is None:
+            found.append(f"no {short}∞")
+        elif abs(limit) > LIMIT_TARGET:
+            found.append(f"{short}∞ {percent(limit)}")
+        if last is None or abs(last) > FINEST_TARGET:
+            found.append(f"{short} finest {percent(last)}")
+    return found
+
+
+def percent(x: float | None, sign: str = "+") -> str:
+    """``+0.29 %`` (a relative error; ``sign=""``: ``0.29 %``), or ``–``."""
+    return "–" if x is None else f"{100 * x:{sign}.2f} %"
+
+
+def fraction(x: float) -> str:
+    """7/4 for 1.75."""
+    return str(Fraction(x).limit_denominator(8))
+
+
+def row(record: dict[str, Any]) -> str:
+    """A table row: the finest level's errors, the extrapolated ones, the orders, pass/fail."""
+    finest = record["levels"][-1]
+    missed = misses(record)
+    cells = [
+        fraction(record["ratio"]),
+        f"{record['width']:g}",
+        f"{record['a']:g}",
+        record["settings"],
+        f"{len(record['levels'])} ({finest['size']})"
+        + (" + 1 stopped" if record["interrupted"] else ""),
+        f"{finest['dofs']:,}",
+    ]
+    for figure in ("energy", "radius"):
+        entry = record[figure]
+        cells.append(percent(finest[f"{figure}_error"]))
+        if entry["limit_error"] is None:
+            cells += [entry["reason"], "–"]
+        else:
+            cells.append(
+                f"{percent(entry['limit_error'])} ± {percent(entry['error_estimate'], '')}"
+            )
+            cells.append(f"{entry['order']:.2f}")
+    cells.append(f"{record['wall_s']:.0f}")
+    cells.append("**miss**: " + ", ".join(missed) if missed else "pass")
+    return "| " + " | ".join(cells) + " |"
+
+
+def table(record: dict[str, Any]) -> str:
+    """The page's section from the JSON record: a row per case run, the cases not run listed."""
+    studies = record["studies"]
+    lines = [
+        BEGIN,
+        "",
+        "| length/W | W | a | settings | levels (finest) | DoFs | E_h error, finest | "
+        "E∞ error ± estimate | order | radius error, finest | R∞ error ± estimate | order | "
+        "wall (s) | targets |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    lines += [row(studies[key]) for key in sorted(studies, key=_order)]
+    done = {studies[key]["case"] for key in studies}
+    left = [case for case in CASES if case not in done]
+    lines += ["", "Settings: " + "; ".join(f"`{k}`: {v[0]}" for k, v in SETTINGS.items()) + "."]
+    if left:
+        lines += ["", "Not run: " + ", ".join(f"`{case}`" for case in left) + "."]
+    lines += ["", END]
+    return "\n".join(lines)
+
+
+def _order(key: str) -> tuple[int, str]:
+    case, settings = key.split(":")
+    return list(CASES).index(case), settings
+
+
+def stop_after(seconds: float) -> threading.Timer:
+    """SIGTERM to this process after ``seconds``: the running level stops at its next step."""
+    timer = threading.Timer(seconds, os.kill, (os.getpid(), signal.SIGTERM))
+    timer.daemon = True
+    timer.start()
+    return timer
+
+
+def run_cases(args: argparse.Namespace, record: dict[str, Any]) -> list[str]:
+    """Run the selected cases in order within the budget; the cases left."""
+    comm = MPI.COMM_WORLD
+    start = time.perf_counter()
+    timer = stop_after(60.0 * args.budget_minutes)
+    with interrupt.StopOnSignal():
+        for k, case in enumerate(args.cases):
+            problem = load_problem(PROBLEM, overrides(case, args.settings, args.cells))
+            problem.name = f"{case}-{args.settings}"
+            study = converge(
+                problem, args.levels, args.out / case / args.settings, comm, resume=True
+            )
+            one = record_of(case, args.settings, args.cells, study)
+            if one is not None:
+                one["ranks"] = comm.size
+                record["studies"][f"{case}:{args.settings}"] = one
+                _write(args.json, record, comm)
+                print0(comm, progress(one, k + 1, len(args.cases), time.perf_counter() - start))
+            if study.interrupted:
+                timer.cancel()
+                return args.cases[k:]
+    timer.cancel()
+    return []
+
+
+def progress(one: dict[str, Any], k: int, total: int, elapsed: float) -> str:
+    """``case 2/4 r1_a2 (minimiser): 4 levels, E error …; levels 141 s, elapsed 251 s``.
+
+    The levels' time is their runs' own, also of levels reused from an earlier invocation;
+    the elapsed time is this invocation's.
+    """
+    finest = one["levels"][-1]
+    return (
+        f"case {k}/{total} {one['case']} ({one['settings']}): {len(one['levels'])} levels, "
+        f"E error {percent(finest['energy_error'])} (f∞ {percent(one['energy']['limit_error'])}), "
+        f"radius error {percent(finest['radius_error'])} "
+        f"(f∞ {percent(one['radius']['limit_error'])}); levels {one['wall_s']:.0f} s, "
+        f"elapsed {elapsed:.0f} s" + (" — stopped" if one["interrupted"] else "")
+    )
+
+
+def _write(path: Path, record: dict[str, Any], comm: MPI.Comm) -> None:
+    if comm.rank == 0:
+        path.write_text(json.dumps(record, indent=2) + "\n")
+
+
+def main(argv: list[str] | None = None) -> dict[str, Any]:
+    """Run the cases (unless ``--table-only``), update the JSON, write the page's table."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument(
+        "--cases", nargs="+", choices=list(CASES), default=list(CASES), metavar="CASE"
+    )
+    parser.add_argument("--levels", type=int, default=4, help="meshes per case (≥ 2)")
+    parser.add_argument("--cells", type=int, default=4, help="level 1's cells per unit length")
+    parser.add_argument("--settings", choices=list(SETTINGS), default="minimiser")
+    parser.add_argument("--budget-minutes", type=float, default=60.0)
+    parser.add_argument("--out", type=Path, default=Path("out/seeds"))
+    parser.add_argument("--json", type=Path, default=ROOT / "benchmarks/results/seeds.json")
+    parser.add_argument("--page", type=Path, default=ROOT / "docs/verification.md")
+    parser.add_argument("--table-only", action="store_true", help="the page from the JSON")
+    args = parser.parse_args(argv)
+    if args.levels < 2 or args.cells < 1 or args.budget_minutes <= 0:
+        parser.error("--levels must be ≥ 2, --cells ≥ 1 and --budget-minutes > 0")
+    comm = MPI.COMM_WORLD
+    record = json.loads(args.json.read_text()) if args.json.exists() else {"studies": {}}
+    if not args.table_only:
+        record["problem"] = PROBLEM.name
+        left = run_cases(args, record)
+        if left:
+            print0(comm, f"stopped: {', '.join(left)} left (the same command continues)")
+    if comm.rank == 0:
+        write_between(args.page, BEGIN, END, table(record))
+    return record
+
+
+if __name__ == "__main__":
+    main()
