@@ -85,8 +85,8 @@ kept = demo.run(plain, args, "no_crease")
 # %% [markdown]
 # ## What to look at
 #
-# With the crease the flow ends at the fold: E_h and D_h are zero to round-off (E_h ≈ 4e−13,
-# D_h ≈ 1e−14) and the fold angle measured along C (the angle between the unit normals of the
+# With the crease the flow ends at the fold: E_h and D_h are zero to round-off (E_h ≈ 6e−20,
+# D_h ≈ 8e−15) and the fold angle measured along C (the angle between the unit normals of the
 # two cells at each crease-facet midpoint) is φ to six digits on every facet. Without the crease
 # the flow ends at a smooth bend of positive energy (1.457 at h = 0.25, 1.113 at h = 0.125 for
 # φ = 60°; 294.6 for φ = 90°); `no_crease/final.png` shows it.

@@ -8,6 +8,7 @@ All functions are collective and return the same numbers on every rank.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from mpi4py import MPI
@@ -119,9 +120,12 @@ def fit_cylinder(y: Function, mean_II: Array, areas: Array, total_area: float) -
     u, v = points @ e1, points @ e2
     A = np.column_stack([u, v, np.ones_like(u)])
     rhs = -(u**2 + v**2)
-    normal = mpi.sum_arrays(comm, A.T @ A)
+    normal = mpi.sum_arrays(comm, A.T @ A)  # the same on every rank: so is the branch below
     right = mpi.sum_arrays(comm, A.T @ rhs)
-    D, E, F = np.linalg.solve(normal, right)
+    try:
+        D, E, F = np.linalg.solve(normal, right)
+    except np.linalg.LinAlgError:  # the points lie on a line of (u, v): a plane, radius ∞
+        return {"radius": math.inf, "axis": axis.tolist(), "rms_residual": 0.0}
     cu, cv = -D / 2, -E / 2
     radius = float(np.sqrt(max(cu**2 + cv**2 - F, 0.0)))
     dist = np.sqrt((u - cu) ** 2 + (v - cv) ** 2) - radius

@@ -23,7 +23,7 @@ from dgplate.models.rod.spec import ROD_IGNORES, RodSpec
 from dgplate.models.thermal.model import build_thermal
 from dgplate.models.thermal.spec import ThermalSpec
 from dgplate.schema import from_dict
-from dgplate.solvers import rod_flow
+from dgplate.solvers import flow, rod_flow
 
 
 @dataclass(frozen=True)
@@ -49,10 +49,16 @@ class ModelEntry:
         return self.flow_defaults if section == "flow" else {}
 
     def flow_table(self, table: object) -> object:
-        """The problem's [flow] table over the model's defaults (not a table: as it is)."""
+        """The problem's [flow] table over the model's defaults (not a table: as it is).
+
+        With ``method = "bnn"`` the model's defaults do not apply: the published method is
+        :class:`dgplate.solvers.flow.FlowSpec`'s own defaults.
+        """
         if table is None:
             return dict(self.flow_defaults)
-        return {**self.flow_defaults, **table} if isinstance(table, dict) else table
+        if not isinstance(table, dict) or table.get("method") == "bnn":
+            return table
+        return {**self.flow_defaults, **table}
 
     def ignored_keys(self, section: str) -> set[str]:
         """The keys of ``section`` that this model ignores (what its schema leaves out)."""
@@ -76,11 +82,11 @@ class ModelEntry:
 
 
 MODELS: dict[str, ModelEntry] = {
-    "kirchhoff": ModelEntry(KirchhoffSpec, build_kirchhoff),
-    "bilayer": ModelEntry(BilayerSpec, build_bilayer),
-    "foundation": ModelEntry(FoundationSpec, build_foundation),
+    "kirchhoff": ModelEntry(KirchhoffSpec, build_kirchhoff, flow_defaults=flow.ACCURATE),
+    "bilayer": ModelEntry(BilayerSpec, build_bilayer, flow_defaults=flow.ACCURATE),
+    "foundation": ModelEntry(FoundationSpec, build_foundation, flow_defaults=flow.ACCURATE),
     "thermal": ModelEntry(ThermalSpec, build_thermal),
-    "lce": ModelEntry(LCESpec, build_lce),
+    "lce": ModelEntry(LCESpec, build_lce, flow_defaults=flow.ACCURATE),
     "rod": ModelEntry(
         RodSpec, build_rod, ignores=ROD_IGNORES, mesh=rod_mesh, flow_defaults=rod_flow.DEFAULTS
     ),

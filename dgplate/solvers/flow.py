@@ -55,6 +55,17 @@ from dgplate.solvers.tau import TauController
 #: The stopping tests (``flow.stop``).
 STOPS = ("rate", "stationarity")
 
+#: ``flow.method``: "accurate" takes the model's defaults (a plate's: :data:`ACCURATE`),
+#: "bnn" the published gradient flow of Bartels, Bonito and Nochetto: the option defaults of
+#: :class:`FlowSpec` (fixed τ, no projection, the rate stop).
+METHODS = ("accurate", "bnn")
+
+#: The plate models' defaults of [flow] keys, under a problem's own (``flow.method =
+#: "accurate"``): adaptive τ with the SQP finish, two corrections per step restoring the
+#: discrete constraint, and the τ-independent stop, so that a run ends at a discrete minimiser
+#: (docs/accuracy.md) and ``dgplate converge`` extrapolates minimisers, not stopped flows.
+ACCURATE: dict[str, Any] = {"adaptive_tau": True, "projection_steps": 2, "stop": "stationarity"}
+
 #: The adaptive step controls (``flow.step_control``).
 STEP_CONTROLS = ("trust_region", "defect_bound")
 
@@ -72,6 +83,11 @@ class FlowSpec:
     facets (:class:`dgplate.solvers.constraint.EdgeConstraint`).
     """
 
+    method: str = option(
+        "accurate",
+        "'accurate': the model's defaults of the keys below (a plate's: adaptive τ, SQP finish, projection_steps = 2, stop = 'stationarity'; a run ends at a discrete minimiser); 'bnn': the published method of Bartels, Bonito and Nochetto (fixed τ, no projection, the rate stop: what the defaults shown here are). Keys given in the file override either",
+        choices=METHODS,
+    )
     tau: float | Literal["h"] = option(
         "h", "time step τ > 0, or 'h' for the largest cell diameter", gt=0
     )

@@ -35,7 +35,7 @@ from dgplate.errors import InputError
 from dgplate.schema import Check, option
 from dgplate.solvers.driver import Driver, Observer, Record, RunOutcome, RunResult, StoppingTest
 from dgplate.solvers.flow import GradientFlow
-from dgplate.solvers.steps import FlowResult, StepInfo
+from dgplate.solvers.steps import FlowResult, StepInfo, stop_reason
 
 __all__ = ["AlphaSchedule", "MovingClampFlow", "MovingClampSpec", "MovingClampStep", "StageRecord"]
 
@@ -265,15 +265,15 @@ class MovingClampFlow(Driver):
     def forward(self, info: StepInfo) -> None:
         """Report a flow step with its α; end the stage when it is done.
 
-        A stage is done when the flow's stopping rule holds or its budget is spent; the next
-        α is set before the observers hear of the step, so that a checkpoint written now
-        continues with the next stage.
+        A stage is done when the flow's stopping rule (``flow.stop``, the test that ends the
+        flow's run) holds or its budget is spent; the next α is set before the observers hear
+        of the step, so that a checkpoint written now continues with the next stage.
         """
         self.stage_steps += 1
         record = MovingClampStep(**asdict(info), alpha=self.alpha, stage=self.stage + 1)
         self._history.append(record)
         allowed = self.schedule.budget(self.stage)
-        converged = abs(info.rate) < self.flow.settings.tol
+        converged = bool(stop_reason(self.flow.settings, info.rate, info.stationarity))
         if converged or (allowed is not None and self.stage_steps >= allowed):
             self._end_stage(converged, info)
         for observer in self.observers:

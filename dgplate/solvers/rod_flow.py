@@ -74,7 +74,7 @@ from dgplate.solvers.rod_forms import (
     nodal,
     tangent,
 )
-from dgplate.solvers.safeguard import Safeguard
+from dgplate.solvers.safeguard import Safeguard, safety
 from dgplate.solvers.steps import FlowResult, measured, per_step, stop_reason, stopping_value
 
 __all__ = [
@@ -180,8 +180,7 @@ class RodTau:
         self.rejected_steps += redone
         terms = flow.energy.nonlocal_terms
         if terms:
-            distance = min(term.min_distance for term in terms)
-            info.safety = {"min_distance": distance, "redone": float(redone)}
+            info.safety = safety(terms, redone)
         cap = self.settings.tau_max_ratio * self.initial
         flow.tau = min(self.settings.tau_growth * flow.tau, cap)
         return info

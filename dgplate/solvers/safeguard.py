@@ -9,10 +9,10 @@ them. Either way a refused step is taken back and redone.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, Protocol, TypeVar
 
-from dgplate.dg.energy import Energy
+from dgplate.dg.energy import Energy, Nonlocal
 from dgplate.solvers.step_system import FlowCounts, StepSystem
 
 #: How often a step that raised E_h is redone with τ/2 when only active sets ask for it.
@@ -51,6 +51,12 @@ class Redoable(Protocol):
         ...
 
 
+def safety(terms: Sequence[Nonlocal], redone: int) -> dict[str, float]:
+    """A step's record of the safety net: the least distance the terms measured, steps redone."""
+    distance = min([term.min_distance for term in terms], default=math.inf)
+    return {"min_distance": distance, "redone": float(redone)}
+
+
 def rose(info: GuardedRecord) -> bool:
     """Whether the step raised the energy beyond round-off."""
     return -info.rate * info.tau > 1e-12 * max(1.0, abs(info.energy))
@@ -86,8 +92,7 @@ class Safeguard:
             info = take()
         if redone:
             flow.tau = tau
-        distance = min([term.min_distance for term in terms], default=math.inf)
-        info.safety = {"min_distance": distance, "redone": float(redone)}
+        info.safety = safety(terms, redone)
         return info
 
     def acceptable(self, info: GuardedRecord) -> bool:

@@ -16,7 +16,7 @@ from typing import Protocol
 from dgplate.errors import SolverError
 from dgplate.solvers.constraint import IsometryDefect
 from dgplate.solvers.projection import SQP_DEFECT_TOL
-from dgplate.solvers.safeguard import ActiveSetStep, Redoable, Safeguard
+from dgplate.solvers.safeguard import ActiveSetStep, Redoable, Safeguard, safety
 from dgplate.solvers.step_system import StepSystem
 from dgplate.solvers.steps import StepInfo
 
@@ -111,6 +111,7 @@ class TauController:
         energy0 = flow._last_energy
         newton = self._newton_due()
         defect0 = flow.defect() if newton else math.inf
+        redone = 0
         while True:
             info = self._attempt(newton)
             if info is not None and (
@@ -119,9 +120,12 @@ class TauController:
             ):
                 self.counts.newton_steps += newton
                 self._grow_tau()
+                terms = [t for t in self.system.energy.nonlocal_terms if t.max_redo > 0]
+                if terms:  # the safety net's figures, as a fixed-τ step records them
+                    info.safety = safety(terms, redone)
                 return info
             flow.restore(saved)
-            newton = self._redo(newton)
+            newton, redone = self._redo(newton), redone + 1
 
     def _tau_min(self) -> float:
         """The least τ of a redone step: 10⁻⁶ of the initial τ."""

@@ -112,3 +112,25 @@ def test_the_schema_of_every_model_is_a_problem_file_of_its_defaults(model, caps
     assert problem.model.name == model
     driver_section = {"fvk": "newton", "thermal": "schedule"}.get(model)
     assert (driver_section in data) if driver_section else set(data) <= set(SECTIONS)
+
+
+@pytest.mark.parametrize("model", ["kirchhoff", "bilayer", "foundation", "lce", "rod"])
+def test_the_accurate_method_is_the_default_and_bnn_the_published_one(model):
+    """A plate or rod flows to a discrete minimiser unless ``flow.method = "bnn"``; a key
+    given in [flow] wins over either method."""
+    data = {"model": {"name": model}}
+    accurate = problem_from_dict(data, "p").flow
+    assert accurate.method == "accurate" and accurate.adaptive_tau
+    assert (accurate.projection_steps, accurate.stop) == (2, "stationarity")
+    bnn = problem_from_dict({**data, "flow": {"method": "bnn"}}, "p").flow
+    assert not bnn.adaptive_tau and (bnn.projection_steps, bnn.stop) == (0, "rate")
+    given = problem_from_dict({**data, "flow": {"stop": "rate"}}, "p").flow
+    assert given.adaptive_tau and given.stop == "rate"
+    with pytest.raises(InputError, match=r"flow\.method must be one of"):
+        problem_from_dict({**data, "flow": {"method": "fast"}}, "p")
+
+
+def test_the_thermal_schedule_keeps_fixed_tau_steps():
+    """The heat schedule counts fixed-τ flow steps per heat step: no model defaults."""
+    flow = problem_from_dict({"model": {"name": "thermal"}}, "p").flow
+    assert not flow.adaptive_tau and flow.stop == "rate"

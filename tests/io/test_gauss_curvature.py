@@ -2,7 +2,7 @@
 
 Surfaces with known answers: a sheet rolled onto the unit cylinder (K = 0: its second
 derivatives along x₂ vanish exactly, so det(II) = 0 to roundoff), a sphere cap of radius R
-(K = 1/R², up to the interpolation error), a stretch y = (2x₁, x₂, 0) (|∇yᵀ∇y − I| = 3); and
+(K = 1/R², up to the interpolation error), a stretch y = (2x₁, x₂, 0) (|∇yᵀ∇y − I| = 3), a flat plate (a cylinder of radius ∞); and
 a run of the BNN plate that writes K into its VTX series, summary.json and final.png.
 """
 
@@ -16,7 +16,7 @@ from helpers import PROBLEMS
 
 from dgplate.errors import InputError
 from dgplate.io.vtx import bp_variables
-from dgplate.measure.analysis import l1_norms
+from dgplate.measure.analysis import curvature_summary, l1_norms
 from dgplate.measure.fields import gauss_density
 from dgplate.mesh.tagged import rectangle
 from dgplate.problems.runner import run
@@ -50,6 +50,18 @@ def test_cylinder_has_zero_gauss_curvature(comm, cell_type):
     assert norms["gauss_curvature_l1"] < 1e-12
     # an isometry up to interpolation: ∇yᵀ∇y − I = O(h²) on 2 × 1
     assert 0 < norms["isometry_defect_l1"] < 0.05
+
+
+@pytest.mark.mpi
+def test_flat_plate_fits_a_cylinder_of_infinite_radius(comm):
+    """A plane (a rigid plate: E_h = 0 to round-off) is the cylinder of radius ∞, fitted exactly.
+
+    Its points lie on a line of the plane normal to the axis, so the circle's normal
+    equations are singular.
+    """
+    y = deformation(comm, "quadrilateral", 2, [[0, 0], [2, 1]], [4, 2], lambda x: x)
+    fit = curvature_summary(y)["cylinder_fit"]
+    assert fit["radius"] == float("inf") and fit["rms_residual"] == 0.0
 
 
 @pytest.mark.mpi
