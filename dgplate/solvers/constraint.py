@@ -15,6 +15,7 @@ import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 import ufl
+from ufl.algorithms import compute_form_data
 from ufl.core.expr import Expr
 
 from dgplate import mpi
@@ -177,19 +178,41 @@ def metric_tensor_defect(y: Expr) -> Expr:
     return defect
 
 
+def _estimated_degree(form: ufl.Form) -> int:
+    """The quadrature degree FFCx gives the one integral of ``form``.
+
+    UFL's estimate with the integral's scaling |det J| (degree 2 on second-order triangles).
+    """
+    data = compute_form_data(form, do_apply_integral_scaling=True)
+    integral = data.integral_data[0].integrals[0]
+    degree: int = integral.metadata()["estimated_polynomial_degree"]
+    return degree
+
+
 class IsometryDefect:
     """D_h[y] = Σ_T |∫_T (∇yᵀ∇y − I₂)| (Frobenius norm per cell), and its cell field.
 
     The per-cell integrals are assembled once into a DG0 (2×2) vector; evaluating is one
     vector assembly and a reduction over owned cells.
+
+    They take the quadrature of the constraint's residual ∫_T (∇yᵀ∇y − I) : q, which the
+    step's corrections drive to zero: q is a test function of the step's mixed space, so UFL
+    gives that integral the degree of ∇yᵀ∇y − I plus y's degree, where the DG0 test here alone
+    would give y's degree less. On affine cells both rules are exact. On curved (second-order)
+    cells ∇yᵀ∇y is rational and the lower rule left D_h a quadrature error the corrections
+    cannot remove (curved fold, h = 0.4: 2·10⁻¹² against 10⁻¹⁵ with the residual's rule), at
+    the trust region's "back on the constraint" threshold 10⁻¹²|ω|, where it refused every
+    step (docs/performance.md).
     """
 
     def __init__(self, y: Function):
         mesh = y.function_space.mesh
         element = basix.ufl.element("DG", mesh.basix_cell(), 0, shape=(2, 2))
         self.space = dolfinx.fem.functionspace(mesh, element)
-        test = ufl.TestFunction(self.space)
-        self.form = dolfinx.fem.form(ufl.inner(metric_tensor_defect(y), test) * ufl.dx)
+        integrand = ufl.inner(metric_tensor_defect(y), ufl.TestFunction(self.space))
+        degree = _estimated_degree(integrand * ufl.dx)
+        degree += y.function_space.ufl_element().embedded_superdegree
+        self.form = dolfinx.fem.form(integrand * ufl.dx(metadata={"quadrature_degree": degree}))
         self.comm = mesh.comm
         self.num_owned = mesh.topology.index_map(mesh.topology.dim).size_local
         self.volumes = cell_areas(dolfinx.fem.functionspace(mesh, ("DG", 0)))

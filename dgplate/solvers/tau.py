@@ -167,13 +167,21 @@ class TauController:
         constrained energy by about λ·D_h, and every later step, whose projections restore the
         constraint, would count that as a rise of E_h (BNN 64² with τ grown eightfold per step:
         D_h = 2.1·10⁻⁴ after an SQP step that started at 9.7·10⁻⁶, then 29 rejections).
+
+        The nonlocal terms are asked last, only about a step that passed the rest: their
+        accept() takes the state as the reference of their next test (self-avoidance: the
+        least distance, which may not fall below ``approach`` times it). Asked about every
+        attempt, a refused step whose strands flew apart (trefoil ribbon: E_h up by 0.14,
+        least distance 0.54 against 0.14) became the reference, and every later step was
+        refused down to the least τ (docs/performance.md).
         """
         lowered = info.energy <= energy0 + 1e-12 * max(1.0, abs(energy0))
         trusted = math.isfinite(defect0) and self._trust_region()
         close = trusted or self.linear_defect <= self.settings.defect_bound
         on_constraint = info.defect <= max(defect0, SQP_DEFECT_TOL * self.flow.defect.area)
-        accepted = all([term.accept() for term in self.system.energy.nonlocal_terms])
-        return lowered and close and on_constraint and accepted
+        if not (lowered and close and on_constraint):  # the same on every rank
+            return False
+        return all([term.accept() for term in self.system.energy.nonlocal_terms])
 
     def _newton_due(self) -> bool:
         """Whether the next step is an SQP step: ``flow.newton_finish`` and τ large enough.

@@ -1,0 +1,71 @@
+"""The trust region of SQP steps (flow.step_control = 'trust_region') where it used to stall.
+
+Two causes, each refusing every step down to the least τ (docs/performance.md): on curved
+(second-order) cells D_h took a lower quadrature than the constraint's residual, so the
+corrections could not bring it below a quadrature error at the "back on the constraint"
+threshold 10⁻¹²|ω|; and the nonlocal terms were asked about refused steps, whose least
+distance then became the reference of the self-avoidance test.
+"""
+
+import json
+from types import SimpleNamespace
+
+import pytest
+from helpers import PROBLEMS, QUIET
+
+from dgplate.cli import main
+from dgplate.solvers.tau import TauController
+
+CURVED = [
+    "mesh.parameters={cx=-1.5, cy=0.5, R=1.5, h=0.4, order=2}",
+    "flow.adaptive_tau=true",
+    "flow.projection_steps=2",
+    "flow.stop='stationarity'",
+    "flow.max_steps=30",
+    *(f"{key}={json.dumps(value)}" for key, value in QUIET.items()),
+]
+
+
+def test_trust_region_converges_on_curved_cells(tmp_path):
+    """The curved fold on second-order cells (50 cells): 12 steps to ‖P DE_h‖_*' < 10⁻⁶.
+
+    Before, D_h stayed at 2.0·10⁻¹² after every SQP step (the degree-4 rule against the
+    residual's degree 6), τ fell to 1.9·10⁻⁷ and the 30 steps ended at E_h = −0.0360.
+    """
+    out = tmp_path / "curved"
+    options = [item for key in CURVED for item in ("--set", key)]
+    code = main(["run", str(PROBLEMS / "curved_fold.toml"), "--out", str(out), *options])
+    summary = json.loads((out / "summary.json").read_text())
+    assert code == 0 and summary["converged"]
+    assert summary["steps"] <= 15
+    assert summary["energy"] == pytest.approx(-0.21173349, rel=1e-6)
+    assert summary["isometry_defect"] < 1e-13
+
+
+class Recording:
+    """A nonlocal term that accepts every state and counts the questions."""
+
+    def __init__(self):
+        self.asked = 0
+
+    def accept(self):
+        self.asked += 1
+        return True
+
+
+def test_nonlocal_terms_are_asked_only_about_steps_that_passed():
+    """A step that raised E_h or ended off the constraint does not reach accept(), which
+    would take its state as the reference of the next test."""
+    term = Recording()
+    control = TauController.__new__(TauController)
+    control.settings = SimpleNamespace(
+        newton_finish=True, step_control="trust_region", defect_bound=1e-2
+    )
+    control.system = SimpleNamespace(energy=SimpleNamespace(nonlocal_terms=[term], active_sets=[]))
+    control.flow = SimpleNamespace(defect=SimpleNamespace(area=1.0))
+    control.linear_defect = 0.0
+    assert not control._accepted(SimpleNamespace(energy=1.1, defect=0.0), 1.0, 0.0)
+    assert not control._accepted(SimpleNamespace(energy=0.9, defect=1e-3), 1.0, 0.0)
+    assert term.asked == 0
+    assert control._accepted(SimpleNamespace(energy=0.9, defect=0.0), 1.0, 0.0)
+    assert term.asked == 1
