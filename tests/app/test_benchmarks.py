@@ -174,7 +174,7 @@ def test_seeds_table(tmp_path):
     out.write_text(json.dumps({"studies": studies}))
     page = tmp_path / "verification.md"
     page.write_text("# x\n\n<!-- seeds:begin -->\nold\n<!-- seeds:end -->\n\nafter\n")
-    seeds.main(["--table-only", "--json", str(out), "--page", str(page)])
+    assert seeds.main(["--table-only", "--json", str(out), "--page", str(page)])["left"] == []
     text = page.read_text()
     assert "old" not in text and text.endswith("<!-- seeds:end -->\n\nafter\n")
     assert (
@@ -224,3 +224,13 @@ def test_seeds_page_is_generated(tmp_path):
     """docs/verification.md's seed 001 table is what --table-only writes from seeds.json."""
     page = BENCH.parent / "docs" / "verification.md"
     assert_page_is_generated("seeds", page, tmp_path)
+
+
+def test_seeds_rerun_with_fewer_levels_keeps_the_finer_record():
+    """A rerun's record of a level prefix does not replace one of more levels; another size does."""
+    seeds = load_benchmark("seeds")
+    four = {"cells_per_unit": 4, "levels": [{}] * 4}
+    assert not seeds.supersedes(four, {"cells_per_unit": 4, "levels": [{}] * 2})
+    assert seeds.supersedes(four, {"cells_per_unit": 4, "levels": [{}] * 4})
+    assert seeds.supersedes(four, {"cells_per_unit": 2, "levels": [{}] * 2})
+    assert seeds.supersedes(None, {"cells_per_unit": 4, "levels": [{}]})
