@@ -44,7 +44,7 @@ from pages import write_between
 
 from dgplate import interrupt
 from dgplate.io.output import print0
-from dgplate.problems.converge import converge, estimates
+from dgplate.problems.converge import converge
 from dgplate.problems.specs import load_problem
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -123,10 +123,10 @@ def record_of(case: str, settings: str, cells: int, study: Any) -> dict[str, Any
     """
     ratio, a, width = CASES[case]
     energy, radius = 0.5 * a**2 * ratio * width**2, 1.0 / a
-    finished = study.levels[:-1] if study.interrupted else study.levels
+    finished = study.finished_levels()
     if not finished:
         return None
-    figures = estimates(finished) if study.interrupted else study.figures
+    figures = study.figures
     levels = []
     for lv in finished:
         r = lv["figures"].get("cylinder_fit.radius")

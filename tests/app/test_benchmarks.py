@@ -12,7 +12,7 @@ import pytest
 from helpers import load_benchmark
 
 from dgplate.measure.richardson import extrapolate
-from dgplate.problems.converge import ConvergenceStudy
+from dgplate.problems.converge import ConvergenceStudy, estimates
 
 BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
 
@@ -209,7 +209,8 @@ def test_seeds_stopped_study():
              "energy": 0.5 + 0.01 / k, "cylinder_fit.radius": 1.0 + 0.1 / k}}
         for k in (1, 2, 3)
     ]  # fmt: skip
-    study = ConvergenceStudy("r1_a1", Path("."), levels, {}, interrupted=15)
+    study = ConvergenceStudy("r1_a1", Path("."), levels, interrupted=15)
+    study.figures = estimates(study.finished_levels())  # as converge sets them
     record = seeds.record_of("r1_a1", "minimiser", 4, study)
     assert [lv["level"] for lv in record["levels"]] == [1, 2]
     assert record["wall_s"] == 30.0 and record["interrupted"] == 15
