@@ -12,8 +12,9 @@ runs ``demos/problems/bilayer_aspect_ratios.toml`` with overrides (the rectangle
 cells on level 1, Z, and one of ``SETTINGS``) through :func:`dgplate.converge` into
 ``OUT/<case>/<settings>``, resumably: a rerun reuses the finished levels and continues an
 interrupted one. The cases run one after the other; when ``--budget-minutes`` have passed the
-running level stops at its next step (as on SIGTERM) and the cases left are listed; a rerun
-goes on from there.
+running level stops at its next step (as on SIGTERM), the cases left are listed and the exit
+status is 3; a rerun goes on from there. A rerun with fewer ``--levels`` keeps a case's record
+of more levels.
 
 ``--json`` keeps, per case and settings, every level's DoFs, steps, wall time, E_h and fitted
 radius with their errors against the closed forms, and converge's orders, extrapolated values
@@ -29,6 +30,7 @@ import argparse
 import json
 import os
 import signal
+import sys
 import threading
 import time
 from fractions import Fraction
@@ -42,7 +44,7 @@ from pages import write_between
 
 from dgplate import interrupt
 from dgplate.io.output import print0
-from dgplate.problems.converge import converge, estimates
+from dgplate.problems.converge import converge
 from dgplate.problems.specs import load_problem
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -121,10 +123,10 @@ def record_of(case: str, settings: str, cells: int, study: Any) -> dict[str, Any
     """
     ratio, a, width = CASES[case]
     energy, radius = 0.5 * a**2 * ratio * width**2, 1.0 / a
-    finished = study.levels[:-1] if study.interrupted else study.levels
+    finished = study.finished_levels()
     if not finished:
         return None
-    figures = estimates(finished) if study.interrupted else study.figures
+    figures = study.figures
     levels = []
     for lv in finished:
         r = lv["figures"].get("cylinder_fit.radius")
@@ -258,14 +260,31 @@ def run_cases(args: argparse.Namespace, record: dict[str, Any]) -> list[str]:
             one = record_of(case, args.settings, args.cells, study)
             if one is not None:
                 one["ranks"] = comm.size
-                record["studies"][f"{case}:{args.settings}"] = one
-                _write(args.json, record, comm)
+                key = f"{case}:{args.settings}"
+                kept = record["studies"].get(key)
+                if supersedes(kept, one):
+                    record["studies"][key] = one
+                    _write(args.json, record, comm)
+                else:
+                    print0(comm, f"{key}: kept the record of {len(kept['levels'])} levels")
                 print0(comm, progress(one, k + 1, len(args.cases), time.perf_counter() - start))
             if study.interrupted:
                 timer.cancel()
                 return args.cases[k:]
     timer.cancel()
     return []
+
+
+def supersedes(kept: dict[str, Any] | None, new: dict[str, Any]) -> bool:
+    """Whether ``new`` replaces the case's ``kept`` record: it is not a study of fewer levels.
+
+    A rerun with fewer ``--levels`` (or one stopped earlier) reuses the finished levels, so its
+    record is a prefix of the kept one at the same level-1 size; it would drop the finest
+    levels' figures. Another level-1 size replaces the record.
+    """
+    if kept is None or kept["cells_per_unit"] != new["cells_per_unit"]:
+        return True
+    return len(new["levels"]) >= len(kept["levels"])
 
 
 def progress(one: dict[str, Any], k: int, total: int, elapsed: float) -> str:
@@ -290,7 +309,10 @@ def _write(path: Path, record: dict[str, Any], comm: MPI.Comm) -> None:
 
 
 def main(argv: list[str] | None = None) -> dict[str, Any]:
-    """Run the cases (unless ``--table-only``), update the JSON, write the page's table."""
+    """Run the cases (unless ``--table-only``), update the JSON, write the page's table.
+
+    ``record["left"]`` lists the cases a budget stop or a signal left (none: all ran).
+    """
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument(
         "--cases", nargs="+", choices=list(CASES), default=list(CASES), metavar="CASE"
@@ -308,6 +330,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         parser.error("--levels must be ≥ 2, --cells ≥ 1 and --budget-minutes > 0")
     comm = MPI.COMM_WORLD
     record = json.loads(args.json.read_text()) if args.json.exists() else {"studies": {}}
+    left: list[str] = []
     if not args.table_only:
         record["problem"] = PROBLEM.name
         left = run_cases(args, record)
@@ -315,8 +338,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             print0(comm, f"stopped: {', '.join(left)} left (the same command continues)")
     if comm.rank == 0:
         write_between(args.page, BEGIN, END, table(record))
-    return record
+    return {**record, "left": left}
 
 
 if __name__ == "__main__":
-    main()
+    # exit 3 when the budget or a signal left cases: the grid is not complete
+    sys.exit(3 if main()["left"] else 0)

@@ -72,6 +72,10 @@ class ConvergenceStudy:
     def __getitem__(self, figure: str) -> dict[str, Any]:
         return self.figures[figure]
 
+    def finished_levels(self) -> list[dict[str, Any]]:
+        """The levels that ran to their end: all but an interrupted last one."""
+        return self.levels[:-1] if self.interrupted else self.levels
+
     def as_dict(self) -> dict[str, Any]:
         """The study as converge.json holds it."""
         return {
@@ -134,7 +138,7 @@ def converge(
             break
         if warm_start(problem) and result.shape is not None:
             start = MeshStart(result.shape)
-    study.figures = estimates(study.levels)
+    study.figures = estimates(study.finished_levels())
     _write(study, comm)
     return study
 
@@ -261,6 +265,8 @@ def progress_line(record: dict[str, Any], levels: int, seconds: float) -> str:
 
 def estimates(levels: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
     """Each figure's values on the levels and its estimate (or why there is none)."""
+    if not levels:
+        return {}
     names = [name for name in levels[0]["figures"] if all(name in lv["figures"] for lv in levels)]
     caveat = _caveat(levels)
     found = {}

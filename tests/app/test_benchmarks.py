@@ -12,7 +12,7 @@ import pytest
 from helpers import load_benchmark
 
 from dgplate.measure.richardson import extrapolate
-from dgplate.problems.converge import ConvergenceStudy
+from dgplate.problems.converge import ConvergenceStudy, estimates
 
 BENCH = Path(__file__).resolve().parents[2] / "benchmarks"
 
@@ -174,7 +174,7 @@ def test_seeds_table(tmp_path):
     out.write_text(json.dumps({"studies": studies}))
     page = tmp_path / "verification.md"
     page.write_text("# x\n\n<!-- seeds:begin -->\nold\n<!-- seeds:end -->\n\nafter\n")
-    seeds.main(["--table-only", "--json", str(out), "--page", str(page)])
+    assert seeds.main(["--table-only", "--json", str(out), "--page", str(page)])["left"] == []
     text = page.read_text()
     assert "old" not in text and text.endswith("<!-- seeds:end -->\n\nafter\n")
     assert (
@@ -209,7 +209,8 @@ def test_seeds_stopped_study():
              "energy": 0.5 + 0.01 / k, "cylinder_fit.radius": 1.0 + 0.1 / k}}
         for k in (1, 2, 3)
     ]  # fmt: skip
-    study = ConvergenceStudy("r1_a1", Path("."), levels, {}, interrupted=15)
+    study = ConvergenceStudy("r1_a1", Path("."), levels, interrupted=15)
+    study.figures = estimates(study.finished_levels())  # as converge sets them
     record = seeds.record_of("r1_a1", "minimiser", 4, study)
     assert [lv["level"] for lv in record["levels"]] == [1, 2]
     assert record["wall_s"] == 30.0 and record["interrupted"] == 15
@@ -224,3 +225,13 @@ def test_seeds_page_is_generated(tmp_path):
     """docs/verification.md's seed 001 table is what --table-only writes from seeds.json."""
     page = BENCH.parent / "docs" / "verification.md"
     assert_page_is_generated("seeds", page, tmp_path)
+
+
+def test_seeds_rerun_with_fewer_levels_keeps_the_finer_record():
+    """A rerun's record of a level prefix does not replace one of more levels; another size does."""
+    seeds = load_benchmark("seeds")
+    four = {"cells_per_unit": 4, "levels": [{}] * 4}
+    assert not seeds.supersedes(four, {"cells_per_unit": 4, "levels": [{}] * 2})
+    assert seeds.supersedes(four, {"cells_per_unit": 4, "levels": [{}] * 4})
+    assert seeds.supersedes(four, {"cells_per_unit": 2, "levels": [{}] * 2})
+    assert seeds.supersedes(None, {"cells_per_unit": 4, "levels": [{}]})

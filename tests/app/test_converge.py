@@ -17,7 +17,13 @@ import dgplate
 from dgplate.cli import main
 from dgplate.measure.richardson import extrapolate
 from dgplate.mesh.tagged import rectangle
-from dgplate.problems.converge import estimates, level_record, refinements, warm_start
+from dgplate.problems.converge import (
+    ConvergenceStudy,
+    estimates,
+    level_record,
+    refinements,
+    warm_start,
+)
 from dgplate.solvers.transfer import MeshStart, interpolate
 
 CYLINDER = PROBLEMS / "bilayer_cylinder.toml"
@@ -90,6 +96,14 @@ def test_no_figure_is_extrapolated_past_a_jump_or_a_failed_level(energies, conve
     found = estimates(_levels(energies, converged))
     assert found["cylinder_fit.radius"]["reason"] == reason
     assert found["cylinder_fit.radius"]["limit"] is None
+
+
+def test_an_interrupted_level_is_left_out_of_the_estimates():
+    """The figures of a study stopped in its last level come from the levels that finished."""
+    study = ConvergenceStudy("p", Path("."), levels=_levels([1.4, 1.2, 1.1]), interrupted=15)
+    assert [lv["level"] for lv in study.finished_levels()] == [1, 2]
+    assert estimates(study.finished_levels())["energy"]["values"] == [1.4, 1.2]
+    assert estimates([]) == {}
 
 
 def test_warm_start_only_for_the_plates_gradient_flow():
