@@ -147,6 +147,14 @@ BAD_INPUT = {
     "fvk key of the driver in [model]": Case(
         ("model.load_steps=3",), "model.load_steps moved to newton.load_steps", FVK
     ),
+    "path ds not positive": Case(("path.ds=0",), "path.ds must be > 0", FVK),
+    "path unknown key": Case(("path.dss=0.1",), "unknown key path.dss", FVK),
+    "path ds beyond ds_max": Case(
+        ("path.ds=2.0",),
+        "path.ds must lie in [path.ds_min, path.ds_max] = [1e-06, 0.5], got 2",
+        FVK,
+    ),
+    "path unknown method": Case(("path.method='crisfield'",), "path.method must be one of", FVK),
     "fvk unknown indenter": Case(
         ("model.indenter='tip'",), "error: model.indenter: unknown cell group 'tip'", FVK
     ),
