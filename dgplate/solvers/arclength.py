@@ -34,8 +34,9 @@ point, from the inertia of its LDLᵀ factorisation (MUMPS,
 - a fold (limit point) where the tangent's λ-component τ changes sign (the index changes by
   one there as well); located by the secant method (Illinois) on τ as a function of the step
   from the earlier point;
-- a simple bifurcation where the index changes and τ does not; located by the secant method on
-  the lowest Hessian eigenvalue (:func:`dgplate.solvers.eigen.nearest_eigenpairs`).
+- a simple bifurcation where the index changes (k − 1 ↔ k) and τ does not; located by the
+  secant method on the k-th lowest Hessian eigenvalue, the one that changes sign
+  (:func:`dgplate.solvers.eigen.nearest_eigenpairs`).
 
 Branch switching: at the first bifurcation located, the path can leave along the critical
 eigenvector φ (zero on the Dirichlet unknowns): the predictor is the bifurcation point pushed by

@@ -286,7 +286,10 @@ class BranchPath(Driver):
         return "bifurcation" if base.index != new.index else ""
 
     def _locate(self, kind: str, base: Point, new: Point, ds: float) -> Point:
-        """The special point between ``base`` and ``new`` (the secant method on the step)."""
+        """The special point between ``base`` and ``new`` (the secant method on the step).
+
+        A fold: the root of τ; a bifurcation: the root of the eigenvalue whose sign changes.
+        """
         direction = (base.t, base.tau)
 
         def corrected(s: float) -> float:
@@ -295,20 +298,34 @@ class BranchPath(Driver):
                 raise SolverError(f"the corrector failed while locating a {kind}")
             if kind == "fold":
                 return self.engine.tangent(result[0], direction)[1]
-            return self._lowest_eigenvalue()
+            return self._crossing_eigenvalue(max(base.index, new.index))
 
         if kind == "fold":
             ends = base.tau, new.tau
         else:
             ends = corrected(0.0), corrected(ds)
         secant_root(corrected, 0.0, ends[0], ds, ends[1], xtol=1e-6 * ds)
-        return self.engine.point(self.load.value, direction, 0)
+        special = self.engine.point(self.load.value, direction, 0)
+        # the Hessian is singular there: its zero eigenvalue is not negative, and the inertia
+        # of the factorisation would count it either way
+        special.index = min(base.index, new.index)
+        return special
 
-    def _lowest_eigenvalue(self) -> float:
-        """The lowest of the Hessian eigenvalues nearest 0 (free unknowns)."""
+    def _crossing_eigenvalue(self, k: int) -> float:
+        """The k-th lowest Hessian eigenvalue (free unknowns), for an index that changes k−1 ↔ k.
+
+        With the index n of the state, it is the negative eigenvalue nearest 0 if n ≥ k, else the
+        non-negative one nearest 0 (exactly the k-th lowest when n is k − 1 or k).
+        """
+        negative = self.engine.index()
         pairs = self._eigenpairs()
         try:
-            return float(pairs.values[0])
+            values = pairs.values
+            below, above = values[values < 0], values[values >= 0]
+            nearest = below[-1:] if negative >= k else above[:1]
+            if not len(nearest):
+                raise SolverError("no Hessian eigenvalue of the crossing sign near 0")
+            return float(nearest[0])
         finally:
             pairs.destroy()
 
