@@ -256,6 +256,12 @@ class ArcLength:
         t, tau = self.tangent(lam, along)
         return Point(lam, self.state.x.petsc_vec.copy(), t.copy(), tau, self.index(), iterations)
 
+    def set_state(self, point: Point) -> None:
+        """The state and the load factor of ``point``."""
+        point.x.copy(self.state.x.petsc_vec)
+        self.state.x.scatter_forward()
+        self.load.set(point.lam)
+
     def index(self) -> int:
         """The stability index: negative Hessian eigenvalues on the free unknowns (inertia)."""
         hessian = self.newton.free_hessian()
@@ -321,3 +327,107 @@ class ArcLength:
         self.system.destroy()
         for vector in (self._r, self._r_lam, self._du1, self._du2):
             vector.destroy()
+
+
+class SpecialPoints:
+    """Folds and simple bifurcations between two points of a path, and the switch at one.
+
+    Args:
+        engine: the continuation's predictor, corrector, tangents and indices.
+        step: the step control (the switch halves its step as a path step does).
+
+    All methods are collective.
+    """
+
+    def __init__(self, engine: ArcLength, step: StepLength) -> None:
+        self.engine, self.step = engine, step
+
+    @staticmethod
+    def kind(base: Point, new: Point) -> str:
+        """A fold (τ changed sign), a bifurcation (the index changed, τ did not) or "" (none)."""
+        if (base.tau > 0) != (new.tau > 0):
+            return "fold"
+        return "bifurcation" if base.index != new.index else ""
+
+    def locate(self, kind: str, base: Point, new: Point, ds: float) -> Point:
+        """The special point between ``base`` and ``new`` (the secant method on the step).
+
+        A fold: the root of τ; a bifurcation: the root of the eigenvalue whose sign changes.
+        """
+        direction = (base.t, base.tau)
+
+        def corrected(s: float) -> float:
+            result = self.engine.correct(base, s, direction)
+            if result is None:
+                raise SolverError(f"the corrector failed while locating a {kind}")
+            if kind == "fold":
+                return self.engine.tangent(result[0], direction)[1]
+            return self._crossing_eigenvalue(max(base.index, new.index))
+
+        if kind == "fold":
+            ends = base.tau, new.tau
+        else:
+            ends = corrected(0.0), corrected(ds)
+        secant_root(corrected, 0.0, ends[0], ds, ends[1], xtol=1e-6 * ds)
+        special = self.engine.point(self.engine.load.value, direction, 0)
+        # the Hessian is singular there: its zero eigenvalue is not negative, and the inertia
+        # of the factorisation would count it either way
+        special.index = min(base.index, new.index)
+        return special
+
+    def _crossing_eigenvalue(self, k: int) -> float:
+        """The k-th lowest Hessian eigenvalue (free unknowns), for an index that changes k−1 ↔ k.
+
+        With the index n of the state, it is the negative eigenvalue nearest 0 if n ≥ k, else the
+        non-negative one nearest 0 (exactly the k-th lowest when n is k − 1 or k).
+        """
+        negative = self.engine.index()
+        pairs = self._eigenpairs()
+        try:
+            values = pairs.values
+            below, above = values[values < 0], values[values >= 0]
+            nearest = below[-1:] if negative >= k else above[:1]
+            if not len(nearest):
+                raise SolverError("no Hessian eigenvalue of the crossing sign near 0")
+            return float(nearest[0])
+        finally:
+            pairs.destroy()
+
+    def _eigenpairs(self) -> eigen.Eigenpairs:
+        hessian = self.engine.newton.free_hessian()
+        try:
+            return eigen.nearest_eigenpairs(hessian, 3, 0.0)
+        finally:
+            hessian.destroy()
+
+    def switch(self, at: Point, ds: float) -> Point:
+        """The first point on the branch that leaves ``at`` along the critical eigenvector."""
+        self.engine.set_state(at)
+        mode = self._critical_mode()
+        try:
+            direction = (mode, 0.0)
+            step = ds
+            while True:
+                corrected = self.engine.correct(at, step, direction)
+                if corrected is not None:
+                    return self.engine.point(corrected[0], direction, corrected[1])
+                step = self.step.halved(step)
+        finally:
+            mode.destroy()
+
+    def _critical_mode(self) -> PETSc.Vec:
+        """The eigenvector of the eigenvalue nearest 0, unit in the scaled norm.
+
+        On all unknowns: 0 on the Dirichlet ones.
+        """
+        pairs = self._eigenpairs()
+        try:
+            nearest = int(np.argmin(np.abs(pairs.values)))
+            mode: PETSc.Vec = self.engine.state.x.petsc_vec.duplicate()
+            mode.set(0.0)
+            with mode.localForm() as local:
+                local.array[self.engine.newton.free[1]] = eigen.values_of(pairs.vectors[nearest])
+            mode.scale(1.0 / np.sqrt(self.engine.inner(mode, mode)))
+            return mode
+        finally:
+            pairs.destroy()

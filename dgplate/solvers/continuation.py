@@ -21,12 +21,10 @@ from typing import Any
 import dolfinx.fem
 import numpy as np
 import ufl
-from petsc4py import PETSc
 
 from dgplate import interrupt
 from dgplate.errors import SolverError
-from dgplate.solvers import eigen
-from dgplate.solvers.arclength import ArcLength, Point, StepLength, secant_root
+from dgplate.solvers.arclength import ArcLength, Point, SpecialPoints, StepLength
 from dgplate.solvers.driver import Driver, Observer, RunOutcome, RunResult
 from dgplate.solvers.newton import LoadFactor
 from dgplate.solvers.snes import NewtonSolver
@@ -125,6 +123,7 @@ class BranchPath(Driver):
         self.load = LoadFactor(load_factor, bc_values)
         self.newton = NewtonSolver(state, energy, bcs, prefix, options, "newton.snes")
         self.engine = ArcLength(self.newton, self.load, f"{prefix}path_")
+        self.special = SpecialPoints(self.engine, settings.step)
         self._record = _record_type(list(probes()) if probes else [])
         self.history: list[BranchPoint] = []
         self.step_count, self.branch, self.switched = 0, 0, False
@@ -247,16 +246,17 @@ class BranchPath(Driver):
         self._clock = time.perf_counter()
         base = self._point()
         new, ds = self._step(base)
-        records, kind = [], self._special_kind(base, new)
+        records, kind = [], self.special.kind(base, new)
         last = "regular"
         if kind:
-            special = self._locate(kind, base, new, ds)
+            special = self.special.locate(kind, base, new, ds)
             records.append(self._report(special, ds, kind))
             if kind == "bifurcation" and self.settings.switch and not self.switched:
                 new.destroy()
-                new, last = self._switch(special, ds), "switch"
+                new, last = self.special.switch(special, ds), "switch"
+                self.branch, self.switched = self.branch + 1, True
             special.destroy()
-        self._set_state(new)
+        self.engine.set_state(new)
         records.append(self._report(new, ds, last))
         base.destroy()
         self.current = new
@@ -277,102 +277,6 @@ class BranchPath(Driver):
                 lam, its = corrected
                 return self.engine.point(lam, (base.t, base.tau), its), ds
             ds = self.settings.step.halved(ds)
-
-    @staticmethod
-    def _special_kind(base: Point, new: Point) -> str:
-        """A fold (τ changed sign), a bifurcation (the index changed, τ did not) or "" (none)."""
-        if (base.tau > 0) != (new.tau > 0):
-            return "fold"
-        return "bifurcation" if base.index != new.index else ""
-
-    def _locate(self, kind: str, base: Point, new: Point, ds: float) -> Point:
-        """The special point between ``base`` and ``new`` (the secant method on the step).
-
-        A fold: the root of τ; a bifurcation: the root of the eigenvalue whose sign changes.
-        """
-        direction = (base.t, base.tau)
-
-        def corrected(s: float) -> float:
-            result = self.engine.correct(base, s, direction)
-            if result is None:
-                raise SolverError(f"the corrector failed while locating a {kind}")
-            if kind == "fold":
-                return self.engine.tangent(result[0], direction)[1]
-            return self._crossing_eigenvalue(max(base.index, new.index))
-
-        if kind == "fold":
-            ends = base.tau, new.tau
-        else:
-            ends = corrected(0.0), corrected(ds)
-        secant_root(corrected, 0.0, ends[0], ds, ends[1], xtol=1e-6 * ds)
-        special = self.engine.point(self.load.value, direction, 0)
-        # the Hessian is singular there: its zero eigenvalue is not negative, and the inertia
-        # of the factorisation would count it either way
-        special.index = min(base.index, new.index)
-        return special
-
-    def _crossing_eigenvalue(self, k: int) -> float:
-        """The k-th lowest Hessian eigenvalue (free unknowns), for an index that changes k−1 ↔ k.
-
-        With the index n of the state, it is the negative eigenvalue nearest 0 if n ≥ k, else the
-        non-negative one nearest 0 (exactly the k-th lowest when n is k − 1 or k).
-        """
-        negative = self.engine.index()
-        pairs = self._eigenpairs()
-        try:
-            values = pairs.values
-            below, above = values[values < 0], values[values >= 0]
-            nearest = below[-1:] if negative >= k else above[:1]
-            if not len(nearest):
-                raise SolverError("no Hessian eigenvalue of the crossing sign near 0")
-            return float(nearest[0])
-        finally:
-            pairs.destroy()
-
-    def _eigenpairs(self) -> eigen.Eigenpairs:
-        hessian = self.newton.free_hessian()
-        try:
-            return eigen.nearest_eigenpairs(hessian, 3, 0.0)
-        finally:
-            hessian.destroy()
-
-    def _switch(self, at: Point, ds: float) -> Point:
-        """The first point on the branch that leaves ``at`` along the critical eigenvector."""
-        self._set_state(at)
-        mode = self._critical_mode()
-        try:
-            direction = (mode, 0.0)
-            step = ds
-            while True:
-                corrected = self.engine.correct(at, step, direction)
-                if corrected is not None:
-                    self.branch, self.switched = self.branch + 1, True
-                    return self.engine.point(corrected[0], direction, corrected[1])
-                step = self.settings.step.halved(step)
-        finally:
-            mode.destroy()
-
-    def _critical_mode(self) -> PETSc.Vec:
-        """The eigenvector of the eigenvalue nearest 0, unit in the scaled norm.
-
-        On all unknowns: 0 on the Dirichlet ones.
-        """
-        pairs = self._eigenpairs()
-        try:
-            nearest = int(np.argmin(np.abs(pairs.values)))
-            mode: PETSc.Vec = self.state.x.petsc_vec.duplicate()
-            mode.set(0.0)
-            with mode.localForm() as local:
-                local.array[self.newton.free[1]] = eigen.values_of(pairs.vectors[nearest])
-            mode.scale(1.0 / np.sqrt(self.engine.inner(mode, mode)))
-            return mode
-        finally:
-            pairs.destroy()
-
-    def _set_state(self, point: Point) -> None:
-        point.x.copy(self.state.x.petsc_vec)
-        self.state.x.scatter_forward()
-        self.load.set(point.lam)
 
     def _report(self, point: Point, ds: float, kind: str) -> BranchPoint:
         """The record of ``point`` (the state is at it), kept and told to the observers.
