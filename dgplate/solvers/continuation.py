@@ -213,9 +213,7 @@ class BranchPath(Driver):
         failure, signum = "", 0
         try:
             if self.current is None and self.step_count < target:
-                self._clock = time.perf_counter()
-                self.current = self.engine.start(self.load.value)
-                records.append(self._report(self.current, 0.0, "regular"))
+                records += self._start()
             while self.step_count < target and self._inside(self.current):
                 records += self._advance()
                 signum = interrupt.requested(self.comm)
@@ -229,6 +227,20 @@ class BranchPath(Driver):
         for observer in self.observers:
             observer.finish(self, result)
         return result
+
+    def _start(self) -> list[BranchPoint]:
+        """The first point: the start, or the last point of a resumed path (not recorded again).
+
+        A resumed path goes on in the direction of λ it had (the sign of the last τ).
+        """
+        self._clock = time.perf_counter()
+        self.current = self.engine.start(self.load.value)
+        if not self.history:
+            return [self._report(self.current, 0.0, "regular")]
+        if self.history[-1].tangent_load < 0:
+            self.current.t.scale(-1.0)
+            self.current.tau = -self.current.tau
+        return []
 
     def _inside(self, point: Point | None) -> bool:
         """Whether the path goes on from ``point``: λ within its bounds."""
