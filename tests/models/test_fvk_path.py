@@ -164,6 +164,18 @@ def test_same_path_on_any_number_of_ranks():
         assert got == pytest.approx(expected, rel=1e-7, abs=1e-12 * max(map(abs, expected))), key
 
 
+@pytest.mark.mpi
+def test_same_switch_on_any_number_of_ranks():
+    """The buckled branch after the switch (the critical mode's sign) agrees on 1 and 2 ranks."""
+    parallel, _ = plate(MPI.COMM_WORLD, 8, switch=True, steps=8)
+    serial, _ = plate(MPI.COMM_SELF, 8, switch=True, steps=8)
+    assert [p["kind"] for p in parallel] == [p["kind"] for p in serial]
+    assert [p["stability_index"] for p in parallel] == [p["stability_index"] for p in serial]
+    for key in ("load_factor", "w_center"):
+        got, expected = ([p[key] for p in run] for run in (parallel, serial))
+        assert got == pytest.approx(expected, rel=1e-6, abs=1e-9 * T), key
+
+
 def test_problem_file_writes_the_branch(tmp_path):
     """dgplate run of demos/problems/fvk_arch.toml: from the flat strip (index 1) over the fold."""
     out = tmp_path / "arch"
