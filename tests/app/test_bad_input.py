@@ -624,6 +624,23 @@ def test_warning_adaptive_key_without_adaptive_tau(tmp_path, capsys):
     ]
 
 
+def test_warning_path_key_without_arclength(tmp_path, capsys):
+    code, warnings = run_warned(tmp_path, capsys, FVK, "path.ds=0.05", "newton.load_steps=1")
+    assert code == 0
+    assert warnings == ["dgplate: warning: path.ds has no effect without path.method = 'arclength'"]
+
+
+def test_warning_newton_key_with_arclength(tmp_path, capsys):
+    sets = ("path.method='arclength'", "path.steps=2", "newton.perturb_unstable=0.1")
+    code, warnings = run_warned(tmp_path, capsys, FVK, *sets)
+    assert code == 0
+    assert warnings == [
+        f"dgplate: warning: newton.{key} has no effect with path.method = 'arclength' (of "
+        "[newton] the continuation reads newton.snes only)"
+        for key in ("load_steps", "perturb_unstable")
+    ]
+
+
 @pytest.mark.mpi
 def test_warning_unused_snes_option(tmp_path, capsys):
     """FvK's newton.snes is checked as flow.solver is: a misspelt option is named."""
