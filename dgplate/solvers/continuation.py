@@ -140,8 +140,8 @@ class BranchPath(Driver):
 
     @property
     def time(self) -> float:
-        """The load factor of the current state."""
-        return self.load.value
+        """The number of points so far: the time of the VTX series (λ turns at a fold)."""
+        return float(self.step_count)
 
     @property
     def shape(self) -> dolfinx.fem.Function[np.float64]:
@@ -184,7 +184,7 @@ class BranchPath(Driver):
         special = [asdict(r) for r in self.history if r.kind != "regular"]
         return {
             "dofs": self.num_dofs,
-            "load_factor": self.time,
+            "load_factor": self.load.value,
             "points": self.step_count,
             "load_factors": [r.load_factor for r in self.history],
             "stability_indices": [r.stability_index for r in self.history],
