@@ -221,6 +221,8 @@ class BranchPath(Driver):
                     break
         except SolverError as err:
             failure = f"{err}; the last point is kept"
+            if self.current is not None:
+                self.engine.set_state(self.current)
         converged = not failure and not signum
         reason = failure or (interrupt.reason(signum) if signum else self._end())
         result = RunOutcome(converged, reason, len(records), records, interrupted=signum)
@@ -261,13 +263,17 @@ class BranchPath(Driver):
         records, kind = [], self.special.kind(base, new)
         last = "regular"
         if kind:
-            special = self.special.locate(kind, base, new, ds)
-            records.append(self._report(special, ds, kind))
-            if kind == "bifurcation" and self.settings.switch and not self.switched:
-                new.destroy()
-                new, last = self.special.switch(special, ds), "switch"
-                self.branch, self.switched = self.branch + 1, True
-            special.destroy()
+            try:
+                special = self.special.locate(kind, base, new, ds)
+            except SolverError:  # not located: the point after it carries the kind
+                special, last = None, kind
+            if special is not None:
+                records.append(self._report(special, ds, kind))
+                if kind == "bifurcation" and self.settings.switch and not self.switched:
+                    new.destroy()
+                    new, last = self.special.switch(special, ds), "switch"
+                    self.branch, self.switched = self.branch + 1, True
+                special.destroy()
         self.engine.set_state(new)
         records.append(self._report(new, ds, last))
         base.destroy()
