@@ -164,7 +164,16 @@ def secant_root(
 ) -> float:
     """A root of f in [a, b], f(a) and f(b) of opposite signs: the Illinois secant method.
 
-    At most 12 evaluations; the last one is at the returned point.
+    Args:
+        f: the function; its evaluations may change state (the last is at the root returned).
+        a: one end of the bracket ...
+        fa: ... and f there.
+        b: the other end ...
+        fb: ... and f there.
+        xtol: the bracket's width at which the iteration stops (at most 12 evaluations).
+
+    Returns:
+        The last point evaluated, the root's estimate.
     """
     s = b
     for _ in range(12):
@@ -275,7 +284,14 @@ class ArcLength:
     ) -> tuple[float, int] | None:
         """The predictor ``ds`` along ``direction`` from ``base``, then the bordered corrector.
 
-        Returns (λ, iterations) with the state converged, or None when the corrector failed.
+        Args:
+            base: the point the step starts from (u₀, λ₀).
+            ds: the step length.
+            direction: the unit direction (t, τ) of the predictor and of the constraint.
+
+        Returns:
+            (λ, iterations) with the state converged, or None when the corrector failed (the
+            state is then a failed iterate).
         """
         t, tau = direction
         x = self.state.x.petsc_vec
@@ -352,7 +368,15 @@ class SpecialPoints:
     def locate(self, kind: str, base: Point, new: Point, ds: float) -> Point:
         """The special point between ``base`` and ``new`` (the secant method on the step).
 
-        A fold: the root of τ; a bifurcation: the root of the eigenvalue whose sign changes.
+        Args:
+            kind: "fold" (the root of τ) or "bifurcation" (the root of the eigenvalue whose
+                sign changes).
+            base: the point before it.
+            new: the point after it, ``ds`` from ``base``.
+            ds: the step from ``base`` to ``new``.
+
+        Returns:
+            The located point, the state at it; a SolverError when a corrector fails.
         """
         direction = (base.t, base.tau)
 
@@ -401,7 +425,15 @@ class SpecialPoints:
             hessian.destroy()
 
     def switch(self, at: Point, ds: float) -> Point:
-        """The first point on the branch that leaves ``at`` along the critical eigenvector."""
+        """The first point on the branch that leaves ``at`` along the critical eigenvector.
+
+        Args:
+            at: the bifurcation point.
+            ds: the push along the eigenvector (halved while the corrector fails).
+
+        Returns:
+            The point, ds from ``at`` along the eigenvector, on the bifurcating branch.
+        """
         self.engine.set_state(at)
         mode = self._critical_mode()
         try:
