@@ -223,17 +223,24 @@ class ArcLength:
         """The state part aᵀb/σ² of the scaled inner product."""
         return float(np.real(a.dot(b))) / self.sigma**2
 
-    def start(self, lam: float) -> Point:
+    def start(self, lam: float, sigma: float | None = None) -> Point:
         """The first point: the state solved at ``lam`` by the load path's Newton solver.
 
-        σ is set here; the tangent points towards increasing λ.
+        Args:
+            lam: the load factor of the start.
+            sigma: the scale σ of the state (a resumed path's); None: ‖∂u/∂λ‖ here.
+
+        Returns:
+            The point, its tangent towards increasing λ.
         """
         self.load.set(lam)
         reason, its = self.newton.solve()
         if reason < 0:
             raise SolverError(f"Newton failed at the start of the path (load factor {lam:g})")
-        du = self._load_tangent(lam)
-        self.sigma = math.sqrt(float(np.real(du.dot(du)))) or 1.0
+        if sigma is None:
+            du = self._load_tangent(lam)
+            sigma = math.sqrt(float(np.real(du.dot(du)))) or 1.0
+        self.sigma = sigma
         return self.point(lam, None, int(its))
 
     def _load_tangent(self, lam: float) -> PETSc.Vec:

@@ -129,6 +129,7 @@ class BranchPath(Driver):
         self.step_count, self.branch, self.switched = 0, 0, False
         self.current: Point | None = None
         self.ds = settings.step.ds
+        self._sigma: float | None = None  # σ of a resumed path (None: set at the start)
         self._clock = time.perf_counter()  # the start of the current step
         self._shape = shape()
 
@@ -167,13 +168,24 @@ class BranchPath(Driver):
         return {"state": self.state}
 
     def checkpoint_state(self) -> dict[str, Any]:
-        """The points so far (a resumed path starts again from its last point)."""
-        return {"step": self.step_count, "history": [asdict(r) for r in self.history]}
+        """The points so far, the next step length and the scale σ of the inner product.
+
+        A resumed path starts again from its last point, with this step and this σ: the
+        points after it are those of the uninterrupted path.
+        """
+        return {
+            "step": self.step_count,
+            "history": [asdict(r) for r in self.history],
+            "ds": self.ds,
+            "sigma": self.engine.sigma,
+        }
 
     def restore_state(self, state: Mapping[str, Any]) -> None:
         """Continue from :meth:`checkpoint_state`: the last point becomes the start."""
         self.history = [self._record(**row) for row in state["history"]]
         self.step_count = int(state["step"])
+        self.ds = float(state.get("ds", self.ds))
+        self._sigma = state.get("sigma")
         if self.history:
             last = self.history[-1]
             self.load.set(last.load_factor)
@@ -236,7 +248,7 @@ class BranchPath(Driver):
         A resumed path goes on in the direction of λ it had (the sign of the last τ).
         """
         self._clock = time.perf_counter()
-        self.current = self.engine.start(self.load.value)
+        self.current = self.engine.start(self.load.value, self._sigma)
         if not self.history:
             return [self._report(self.current, 0.0, "regular")]
         if self.history[-1].tangent_load < 0:

@@ -5,9 +5,11 @@ References: the buckling shortening of a simply supported square plate, Δ_cr = 
 (:func:`dgplate.reference.fvk.sinusoidal_strip_folds`).
 """
 
+import dataclasses
 import itertools
 import json
 import math
+import signal
 from dataclasses import asdict
 
 from mpi4py import MPI
@@ -16,6 +18,8 @@ import numpy as np
 import pytest
 from helpers import ROOT
 
+import dgplate
+from dgplate import interrupt
 from dgplate.cli import main
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk.model import build_fvk
@@ -194,3 +198,35 @@ def test_problem_file_writes_the_branch(tmp_path):
         "iterations", "branch", "kind",
     ]  # fmt: skip
     assert (out / "branch.png").is_file()
+
+
+@pytest.mark.parametrize("stop_at", [4, 9])
+def test_an_interrupted_path_resumes_to_the_same_points(stop_at, tmp_path, monkeypatch):
+    """SIGTERM after point 4 (λ rising) or 9 (past the fold, λ falling), then ``resume``: the
+    points are those of the uninterrupted path (λ, energy, index, kind, step length)."""
+    problem = dgplate.load_problem(ARCH, {"output.vtx": False, "output.png": False})
+    problem = dataclasses.replace(problem, output=dataclasses.replace(problem.output, progress=0))
+    straight = dgplate.run(problem, out=tmp_path / "straight", comm=MPI.COMM_SELF)
+    advance = BranchPath._advance
+
+    def advance_then_signal(self):
+        records = advance(self)
+        if self.step_count >= stop_at:
+            monkeypatch.setattr(interrupt, "_received", signal.SIGTERM)
+        return records
+
+    with monkeypatch.context() as patched:
+        patched.setattr(BranchPath, "_advance", advance_then_signal)
+        stopped = dgplate.run(problem, out=tmp_path / "resumed", comm=MPI.COMM_SELF)
+    monkeypatch.setattr(interrupt, "_received", 0)
+    assert stopped["reason"] == "interrupted (SIGTERM)" and stopped["points"] == stop_at
+    resumed = dgplate.run(problem, out=tmp_path / "resumed", comm=MPI.COMM_SELF, resume=True)
+    assert resumed["converged"]
+    assert resumed["folds"] == pytest.approx(straight["folds"], rel=1e-10)
+    rows, expected = resumed.history, straight.history
+    assert [r["step"] for r in rows] == list(range(1, len(expected) + 1))
+    for key in ("stability_index", "kind", "branch", "iterations"):
+        assert [r[key] for r in rows] == [r[key] for r in expected], key
+    for key in ("load_factor", "energy", "ds", "w_center"):
+        got, want = np.array([[r[key] for r in rows] for rows in (rows, expected)])
+        assert np.allclose(got, want, rtol=1e-10, atol=1e-10 * np.abs(want).max()), key
