@@ -68,6 +68,7 @@ def before_run(
     messages = [nothing_to_solve(problem, tagged.mesh, starts_flat=initial is None)]
     messages.append(weak_self_avoidance(problem))
     messages += adaptive_only(problem)
+    messages += path_only(problem)
     if problem.flow.tau != "h":
         messages.append(tau_scale(float(problem.flow.tau), max_cell_diameter(tagged.mesh)))
     return [m for m in messages if m]
@@ -82,6 +83,25 @@ def adaptive_only(problem: Problem) -> list[str]:
         f"flow.{key} has no effect without flow.adaptive_tau = true (τ stays flow.tau)"
         for key in ADAPTIVE_ONLY
         if key in given
+    ]
+
+
+def path_only(problem: Problem) -> list[str]:
+    """Warnings for FvK's [path] keys without the arclength method, and [newton] keys with it.
+
+    The arclength continuation reads only ``newton.snes`` (its start's Newton solver).
+    """
+    path = getattr(problem.model, "path", None)
+    if path is None:
+        return []
+    if path.method != "arclength":
+        given = [key for key in problem.raw.get("path") or {} if key != "method"]
+        return [f"path.{key} has no effect without path.method = 'arclength'" for key in given]
+    given = [key for key in problem.raw.get("newton") or {} if key != "snes"]
+    return [
+        f"newton.{key} has no effect with path.method = 'arclength' (of [newton] the "
+        "continuation reads newton.snes only)"
+        for key in given
     ]
 
 

@@ -12,6 +12,12 @@
 - Cylindrical bending of a strip clamped and held at both ends, with or without a hinge
   (crease) in the middle: an exact FvK solution for ν = 0 (the 2D plate with free long edges is
   then exactly one-dimensional).
+- Snap-through of a shallow sinusoidal strip (:func:`sinusoidal_strip_folds`): ν = 0, pinned
+  and immovable ends, natural shape e sin(πx/L), pressure q sin(πx/L); the one-mode solution is
+  exact and derived there, as in the classical analysis of low arches (Timoshenko, J. Appl.
+  Mech. 2, 1935; Fung & Kaplan, NACA TN 2840, 1952) but with the bending measured from flat.
+- Euler buckling of a simply supported square plate under uniaxial end shortening:
+  N_cr = 4π²D/a² (Timoshenko & Gere, §9.2, k = 4), :func:`square_plate_critical_shortening`.
 """
 
 from __future__ import annotations
@@ -124,3 +130,39 @@ def strip_centre_deflection(q: float, L: float, E: float, t: float, hinge: bool)
         mid = math.sqrt(lo * hi)
         lo, hi = (mid, hi) if excess(mid) < 0 else (lo, mid)
     return shape(math.sqrt(lo * hi))[0]
+
+
+def sinusoidal_strip_folds(E: float, t: float, L: float, e: float) -> tuple[float, float]:
+    """The limit point (q*, a*) of a shallow sinusoidal FvK strip, ν = 0, pinned immovable ends.
+
+    The natural shape w₀ = e sin(πx/L) and the pressure q sin(πx/L) (along +z) keep the
+    deflection w = a sin(πx/L): the membrane force N = E t (π/L)² (a² − e²)/4 is constant and
+    the bending moment is measured from flat, so equilibrium is
+
+        q = (π/L)⁴ a [D + E t (a² − e²)/4],   D = E t³/12,
+
+    (derived here; the classical low-arch analysis of Fung & Kaplan, *Buckling of low arches or
+    curved beams of small curvature*, NACA TN 2840, 1952, with the bending measured from flat). The
+    unloaded arch a₀² = e² − t²/3 exists for e² > t²/3; q has its extremes where dq/da = 0,
+    a*² = (e² − t²/3)/3, and no unsymmetric mode bifurcates first for e² < 11t²/6.
+
+    Args:
+        E: Young's modulus.
+        t: thickness.
+        L: span.
+        e: rise of the natural shape (t²/3 < e² < 11t²/6).
+
+    Returns:
+        (q*, a*): the downward pressure amplitude at the fold of the upward arch (q* > 0, the
+        pressure −q* sin(πx/L)) and the rise of the arch there.
+    """
+    if not t * t / 3 < e * e < 11 * t * t / 6:
+        raise ValueError(f"the rise e = {e:g} must satisfy t²/3 < e² < 11t²/6 (t = {t:g})")
+    k4, D = (math.pi / L) ** 4, E * t**3 / 12
+    a = math.sqrt((e * e - t * t / 3) / 3)
+    return -k4 * a * (D + E * t * (a * a - e * e) / 4), a
+
+
+def square_plate_critical_shortening(t: float, a: float, nu: float) -> float:
+    """Δ_cr = N_cr a/(E t) = π² t²/(3(1 − ν²) a) of a simply supported square plate (k = 4)."""
+    return math.pi**2 * t * t / (3 * (1 - nu * nu) * a)

@@ -55,7 +55,7 @@ from dgplate.solvers.path_options import Leave, Relaxation, Stability
 from dgplate.solvers.snes import NewtonSolver, snes_reason
 from dgplate.solvers.stability import LOWEST, StabilityObserver
 
-__all__ = ["Leave", "LoadPath", "LoadStep", "Relaxation", "Stability", "record_type"]
+__all__ = ["Leave", "LoadFactor", "LoadPath", "LoadStep", "Relaxation", "Stability", "record_type"]
 
 #: Options prefixes of the live drivers: two at once would read each other's options.
 _LIVE_PREFIXES: set[str] = set()
@@ -102,6 +102,35 @@ def record_type(probes: Sequence[str]) -> type[LoadStep]:
         raise ValueError(f"probe name {clash[0]!r} is a field of LoadStep")
     fields = [(name, float) for name in probes]
     return dataclasses.make_dataclass("LoadStepWithProbes", fields, bases=(LoadStep,))
+
+
+class LoadFactor:
+    """The load factor λ of an energy and the Dirichlet data that grow with it.
+
+    Args:
+        constant: the Constant λ that the energy depends on.
+        bc_values: ``(datum, value)`` pairs of Dirichlet data at full load: :meth:`set` makes
+            ``datum.value = λ × value``.
+    """
+
+    def __init__(
+        self,
+        constant: dolfinx.fem.Constant[np.float64],
+        bc_values: Sequence[tuple[dolfinx.fem.Constant[np.float64], npt.ArrayLike]] = (),
+    ) -> None:
+        self.constant = constant
+        self.bc_values = [(c, np.asarray(v, dtype=float)) for c, v in bc_values]
+
+    @property
+    def value(self) -> float:
+        """The current load factor."""
+        return float(self.constant.value)
+
+    def set(self, factor: float) -> None:
+        """The load factor and the Dirichlet data at it."""
+        self.constant.value = np.asarray(factor)
+        for datum, value in self.bc_values:
+            datum.value = np.asarray(factor * value)
 
 
 class LoadPath(Driver):
@@ -159,8 +188,7 @@ class LoadPath(Driver):
         if prefix in _LIVE_PREFIXES:
             raise ValueError(f"PETSc options prefix {prefix!r} is in use by a live LoadPath")
         self.state, self.comm = state, state.function_space.mesh.comm
-        self._load_factor = load_factor
-        self._bc_values = [(c, np.asarray(v, dtype=float)) for c, v in bc_values]
+        self.load = LoadFactor(load_factor, bc_values)
         self.secant, self.observers, self.hint = secant, list(observers), hint
         self._shape_source, self._probes = shape, probes
         self.step_count, self._checkpoint_every = 0, checkpoint_every
@@ -195,7 +223,7 @@ class LoadPath(Driver):
     @property
     def time(self) -> float:
         """The load factor of the current state."""
-        return float(self._load_factor.value)
+        return self.load.value
 
     @property
     def shape(self) -> dolfinx.fem.Function[np.float64]:
@@ -394,9 +422,7 @@ class LoadPath(Driver):
 
     def set_load(self, factor: float) -> None:
         """The load factor and the Dirichlet data at it."""
-        self._load_factor.value = np.asarray(factor)
-        for constant, value in self._bc_values:
-            constant.value = np.asarray(factor * value)
+        self.load.set(factor)
 
     def energy_value(self) -> float:
         """Π of the current state (collective)."""

@@ -137,19 +137,34 @@ class NewtonSolver:
         # an int at run time (petsc4py's stubs say ConvergedReason)
         return cast(int, self.snes.getConvergedReason()), int(self.snes.getIterationNumber())
 
+    def residual(self, b: PETSc.Vec) -> None:
+        """The residual of the current state into ``b``, as SNES sees it (collective).
+
+        The Dirichlet rows hold u − g (g the data at the current load factor), the free rows
+        DΠ(u) lifted by the Jacobian's Dirichlet columns times g − u.
+        """
+        self.state.x.petsc_vec.copy(self._x)
+        self._assemble_residual(self.snes, self._x, b)
+
+    def jacobian(self) -> PETSc.Mat:
+        """The Jacobian of the current state (the solver's own matrix: do not destroy it).
+
+        The Dirichlet rows and columns are those of the identity.
+        """
+        self._assemble_jacobian(self.snes, self.state.x.petsc_vec, self._A, self._A)
+        return self._A
+
     def plain_residual_norm(self) -> float:
         """‖DΠ(u)‖ of the current state with the Dirichlet rows as SNES sees them (collective)."""
         scale = float(self.inv_tau.value)
         self.inv_tau.value = np.asarray(0.0)
-        self.state.x.petsc_vec.copy(self._x)
-        self._assemble_residual(self.snes, self._x, self._b)
+        self.residual(self._b)
         self.inv_tau.value = np.asarray(scale)
         return float(self._b.norm())
 
     def free_hessian(self) -> PETSc.Mat:
         """The Hessian of the current state on the free unknowns (a new matrix: destroy it)."""
-        self._assemble_jacobian(self.snes, self.state.x.petsc_vec, self._A, self._A)
-        return self._A.createSubMatrix(self.free[0], self.free[0])
+        return self.jacobian().createSubMatrix(self.free[0], self.free[0])
 
     def energy_value(self) -> float:
         """Π of the current state (collective)."""

@@ -147,6 +147,14 @@ BAD_INPUT = {
     "fvk key of the driver in [model]": Case(
         ("model.load_steps=3",), "model.load_steps moved to newton.load_steps", FVK
     ),
+    "path ds not positive": Case(("path.ds=0",), "path.ds must be > 0", FVK),
+    "path unknown key": Case(("path.dss=0.1",), "unknown key path.dss", FVK),
+    "path ds beyond ds_max": Case(
+        ("path.ds=2.0",),
+        "path.ds must lie in [path.ds_min, path.ds_max] = [1e-06, 0.5], got 2",
+        FVK,
+    ),
+    "path unknown method": Case(("path.method='crisfield'",), "path.method must be one of", FVK),
     "fvk unknown indenter": Case(
         ("model.indenter='tip'",), "error: model.indenter: unknown cell group 'tip'", FVK
     ),
@@ -615,6 +623,23 @@ def test_warning_adaptive_key_without_adaptive_tau(tmp_path, capsys):
     assert warnings == [
         "dgplate: warning: flow.tau_growth has no effect without flow.adaptive_tau = true "
         "(τ stays flow.tau)"
+    ]
+
+
+def test_warning_path_key_without_arclength(tmp_path, capsys):
+    code, warnings = run_warned(tmp_path, capsys, FVK, "path.ds=0.05", "newton.load_steps=1")
+    assert code == 0
+    assert warnings == ["dgplate: warning: path.ds has no effect without path.method = 'arclength'"]
+
+
+def test_warning_newton_key_with_arclength(tmp_path, capsys):
+    sets = ("path.method='arclength'", "path.steps=2", "newton.perturb_unstable=0.1")
+    code, warnings = run_warned(tmp_path, capsys, FVK, *sets)
+    assert code == 0
+    assert warnings == [
+        f"dgplate: warning: newton.{key} has no effect with path.method = 'arclength' (of "
+        "[newton] the continuation reads newton.snes only)"
+        for key in ("load_steps", "perturb_unstable")
     ]
 
 

@@ -360,7 +360,7 @@ def test_version_and_schema(capsys):
     assert capsys.readouterr().out == f"dgplate {dgplate.__version__}\n"
     assert main(["schema", "--model", "fvk"]) == 0
     sections = [line for line in capsys.readouterr().out.splitlines() if line.startswith("[")]
-    assert sections == ["[mesh]", "[model]", "[newton]", "[output]"]
+    assert sections == ["[mesh]", "[model]", "[newton]", "[path]", "[output]"]
     assert main(["schema", "--model", "nosuch"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--model: unknown model 'nosuch'" in err

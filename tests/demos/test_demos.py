@@ -48,9 +48,9 @@ def run_demo(
 
 # The demos run on 2 ranks by `make test`: one for each model (Kirchhoff, bilayer, thermal,
 # FvK, LCE, rod, the linear biharmonic) and each feature (creases, obstacles, continuation,
-# stability, self-avoidance of plates and rods), the shortest of each. The models' results on
-# 1, 2 and 3 ranks are compared by the `mpi` parity tests; running all 32 demos on 2 ranks as
-# well took 7.7 of the suite's 22 minutes on 2 cores.
+# stability, path following, self-avoidance of plates and rods), the shortest of each. The
+# models' results on 1, 2 and 3 ranks are compared by the `mpi` parity tests; running all 32
+# demos on 2 ranks as well took 7.7 of the suite's 22 minutes on 2 cores.
 NP2 = {
     "biharmonic",
     "bilayer_hole",
@@ -58,6 +58,7 @@ NP2 = {
     "buckling_strip",
     "fvk_cone",
     "fvk_one_sided",
+    "fvk_snap_through",
     "lce_director_pattern",
     "obstacle_bnn",
     "rod_sphere",

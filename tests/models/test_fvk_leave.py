@@ -25,6 +25,7 @@ from dgplate.mesh.tagged import load_geo
 from dgplate.models.fvk.model import build_fvk
 from dgplate.models.fvk.spec import FvKSpec, NewtonSpec
 from dgplate.schema import from_dict
+from dgplate.solvers.newton import LoadPath
 from dgplate.solvers.stability import LOWEST
 
 H, T, DEPTH = 0.15, 0.02, 0.045  # mesh size, thickness, indentation (past the onset on H)
@@ -37,6 +38,7 @@ def _cone(comm: MPI.Comm) -> dict:
     model = build_fvk(spec, tagged)
     cone = lambda x: np.vstack([x[0], x[1], 0.1 * (1 - np.hypot(x[0], x[1]))])  # noqa: E731
     driver = model.driver(None, [], cone)
+    assert isinstance(driver, LoadPath)
     try:
         assert driver.run().converged
         summary = driver.summary()

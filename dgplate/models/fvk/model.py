@@ -24,6 +24,7 @@ from dgplate.models.base import Initial, Model
 from dgplate.models.fvk.energy import BCValues, fvk_energy, fvk_facet_sets, fvk_space, membrane_bcs
 from dgplate.models.fvk.spec import FvKSpec
 from dgplate.mpi import bounds
+from dgplate.solvers.continuation import BranchPath
 from dgplate.solvers.driver import Observer
 from dgplate.solvers.newton import LoadPath, Relaxation
 
@@ -105,19 +106,36 @@ class FvKModel(Model):
 
     def driver(
         self, flow: object, observers: Sequence[Observer], initial: Initial | None
-    ) -> LoadPath:
-        """Newton over the load schedule, from the unloaded flat plate or from ``initial``.
+    ) -> LoadPath | BranchPath:
+        """The load path from the unloaded flat plate or from ``initial``.
 
-        ``flow`` (the problem's [flow] section) is ignored: FvK is not a gradient flow.
+        Newton over the load schedule, or with ``path.method = "arclength"`` the arclength
+        continuation (:class:`dgplate.solvers.continuation.BranchPath`). ``flow`` (the
+        problem's [flow] section) is ignored: FvK is not a gradient flow.
         """
         state: dolfinx.fem.Function[np.float64] = dolfinx.fem.Function(self.space, name="state")
         if initial is not None:
             start_from(state, initial)
         load_factor = values.constant(self.facets.mesh, 0.0)
+        energy = fvk_energy(state, self.facets, self.spec, load_factor, self.tip)
         newton = self.spec.newton
+        if self.spec.path.method == "arclength":
+            return BranchPath(
+                state,
+                energy,
+                self.bcs,
+                load_factor,
+                self.spec.path.settings(),
+                PREFIX,
+                newton.snes,
+                bc_values=self.bc_values,
+                shape=Deformation(state, self.spec.degree),
+                probes=DeflectionProbes(state, self.probe),
+                observers=observers,
+            )
         return LoadPath(
             state,
-            fvk_energy(state, self.facets, self.spec, load_factor, self.tip),
+            energy,
             self.bcs,
             load_factor,
             newton.load_factors,
@@ -132,7 +150,7 @@ class FvKModel(Model):
             relaxation=Relaxation(tau=newton.relaxation_tau) if newton.relaxation else None,
         )
 
-    def figures(self, driver: LoadPath) -> dict[str, Any]:
+    def figures(self, driver: LoadPath | BranchPath) -> dict[str, Any]:
         """The FvK numbers of the last converged load step (None before the first)."""
         spec = self.spec
         last = asdict(driver.history[-1]) if driver.history else {}
@@ -149,7 +167,7 @@ class FvKModel(Model):
             "D": spec.D,
         }
 
-    def lines(self, driver: LoadPath) -> list[np.ndarray]:
+    def lines(self, driver: LoadPath | BranchPath) -> list[np.ndarray]:
         """No lines are drawn on an FvK plate."""
         return []
 

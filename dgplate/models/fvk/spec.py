@@ -16,6 +16,8 @@ from dgplate.dg.forms import PENALTY_LENGTH_HELP, PENALTY_LENGTHS, Penalty
 from dgplate.errors import InputError
 from dgplate.schema import Check, option, section
 from dgplate.solvers import eigen
+from dgplate.solvers.arclength import StepLength
+from dgplate.solvers.continuation import PathSettings
 from dgplate.solvers.linear import OptionValue, check_option_names
 from dgplate.solvers.newton import Leave, Relaxation, Stability
 
@@ -108,6 +110,44 @@ class NewtonSpec:
 
 
 @dataclass
+class PathSpec:
+    """[path]: how the load path is followed (:mod:`dgplate.solvers.continuation`)."""
+
+    method: str = option(
+        "load_steps",
+        "'load_steps': Newton at the load factors of [newton]; 'arclength': pseudo-arclength continuation through folds",
+        choices=("load_steps", "arclength"),
+    )
+    ds: float = option(0.1, "first arclength step (load-factor units)", gt=0)
+    ds_max: float = option(0.5, "longest arclength step", gt=0)
+    ds_min: float = option(
+        1e-6, "shortest arclength step: a corrector failing at it ends the path", gt=0
+    )
+    steps: int = option(
+        50, "points of the path at most (the start and the special points included)", ge=2
+    )
+    lambda_max: float = option(
+        1.0, "the path ends when the load factor leaves [-lambda_max, lambda_max]", gt=0
+    )
+    switch: bool = option(
+        False, "leave the first simple bifurcation along the critical eigenvector"
+    )
+
+    def __post_init__(self) -> None:
+        """The step bounds are ordered: ds_min ≤ ds ≤ ds_max."""
+        if not self.ds_min <= self.ds <= self.ds_max:
+            raise InputError(
+                f"path.ds must lie in [path.ds_min, path.ds_max] = [{self.ds_min:g}, "
+                f"{self.ds_max:g}], got {self.ds:g}"
+            )
+
+    def settings(self) -> PathSettings:
+        """The continuation's settings."""
+        step = StepLength(ds=self.ds, ds_max=self.ds_max, ds_min=self.ds_min)
+        return PathSettings(step, self.steps, self.lambda_max, self.switch)
+
+
+@dataclass
 class FvKSpec:
     """[model] of a Föppl–von Kármán plate (name = "fvk"): physics and discretisation.
 
@@ -153,6 +193,7 @@ class FvKSpec:
         1e4, "penalty k of the indenter: ½ k E t ∫_indenter (w − w₀ + λδ)²", gt=0
     )
     newton: NewtonSpec = section(NewtonSpec, "newton")
+    path: PathSpec = section(PathSpec, "path")
 
     def __post_init__(self) -> None:
         """What spans keys, and the formulas: one-line InputErrors naming ``model.<key>``."""

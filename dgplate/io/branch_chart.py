@@ -1,0 +1,65 @@
+"""branch.png: the bifurcation diagram of a followed path, from the rows of history.csv.
+
+The load factor against the centre deflection ``w_center``, one line per branch: solid where
+the point is stable (stability index 0), dashed where it is not, and the special points marked
+(fold ▲, bifurcation ■). Written by the runner beside history.png when the rows come from the
+arclength continuation (:mod:`dgplate.solvers.continuation`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from itertools import groupby, pairwise
+from pathlib import Path
+from typing import Any
+
+from dgplate.io.images import save_figure
+
+#: Markers of the special points.
+MARKERS = {"fold": "^", "bifurcation": "s"}
+
+
+def plot_branch(rows: Sequence[Mapping[str, Any]], path: str | Path, title: str = "") -> bool:
+    """Draw the rows of a followed path into ``path`` (not collective: call on one rank).
+
+    Returns False (and writes nothing) for rows without a stability index or a deflection.
+    """
+    if not rows or not all("stability_index" in r and "w_center" in r for r in rows):
+        return False
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    for branch, points in groupby(rows, key=lambda r: r.get("branch", 0)):
+        _draw_branch(ax, list(points), f"C{branch}")
+    for kind, marker in MARKERS.items():
+        special = [r for r in rows if r.get("kind") == kind]
+        if special:
+            x, y = [r["w_center"] for r in special], [r["load_factor"] for r in special]
+            ax.plot(x, y, marker, color="k", ms=7, ls="none", label=kind)
+    ax.plot([], [], "-", color="grey", label="stable (index 0)")
+    ax.plot([], [], "--", color="grey", label="unstable (index ≥ 1)")
+    ax.set_xlabel("w_center")
+    ax.set_ylabel("load factor λ")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=100)
+    return True
+
+
+def _draw_branch(ax: Any, rows: list[Mapping[str, Any]], color: str) -> None:
+    """One branch, segment by segment: solid between stable points, dashed otherwise."""
+    for a, b in pairwise(rows):
+        stable = a["stability_index"] == 0 and b["stability_index"] == 0
+        ax.plot(
+            [a["w_center"], b["w_center"]],
+            [a["load_factor"], b["load_factor"]],
+            "-" if stable else "--",
+            color=color,
+            marker=".",
+        )

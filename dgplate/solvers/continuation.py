@@ -1,0 +1,334 @@
+"""Path following through folds: the arclength continuation as a driver of the runner.
+
+:class:`BranchPath` follows the equilibria of an energy Π(u; λ) by
+:class:`dgplate.solvers.arclength.ArcLength` from a start at λ₀ and reports one
+:class:`BranchPoint` per point (a row of ``history.csv``): the load factor, the energy, the
+probes, the stability index, the tangent's λ-component and the kind of point (``regular``,
+``fold``, ``bifurcation``, or ``switch``: the first point on a branch left at a bifurcation).
+The special points are located between two points of the path (:mod:`dgplate.solvers.arclength`)
+and listed in the summary (``special_points``). The path ends after ``steps`` points, when λ
+leaves [−``lambda_max``, ``lambda_max``], or when a corrector fails at the step ``ds_min``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import dolfinx.fem
+import numpy as np
+import ufl
+
+from dgplate import interrupt
+from dgplate.errors import SolverError
+from dgplate.solvers.arclength import ArcLength, Point, SpecialPoints, StepLength
+from dgplate.solvers.driver import Driver, Observer, RunOutcome, RunResult
+from dgplate.solvers.newton import LoadFactor
+from dgplate.solvers.snes import NewtonSolver
+
+Probes = Callable[[], Mapping[str, float]]
+
+
+@dataclass(frozen=True)
+class PathSettings:
+    """What a path following does (the problem file's ``[path]``, :class:`BranchPath`).
+
+    Attributes:
+        step: the step-length control.
+        steps: points of the path at most (the start and the special points included).
+        lambda_max: the path ends beyond this load factor.
+        switch: leave the first bifurcation along the critical eigenvector.
+    """
+
+    step: StepLength
+    steps: int = 50
+    lambda_max: float = 1.0
+    switch: bool = False
+
+
+@dataclass
+class BranchPoint:
+    """One point of a followed path: a row of ``history.csv`` (probes in further fields)."""
+
+    step: int
+    load_factor: float
+    energy: float
+    stability_index: int
+    tangent_load: float  # the λ-component τ of the unit tangent
+    ds: float  # the step that reached the point
+    iterations: int  # corrector iterations
+    branch: int  # 0, then 1 after a switch
+    kind: str  # :data:`dgplate.solvers.arclength.KINDS`
+    seconds: float
+
+    def line(self) -> str:
+        """One line of progress output."""
+        probes = "".join(
+            f"  {f.name} {getattr(self, f.name):.6g}"
+            for f in dataclasses.fields(self)[len(dataclasses.fields(BranchPoint)) :]
+        )
+        return (
+            f"point {self.step:4d}  load factor {self.load_factor:.6g}  index "
+            f"{self.stability_index}  {self.kind:<11s} ds {self.ds:.3g}  its {self.iterations:2d}"
+            f"  energy {self.energy:+.6e}{probes}"
+        )
+
+
+def _record_type(probes: Sequence[str]) -> type[BranchPoint]:
+    """:class:`BranchPoint` with one float field per probe name."""
+    if not probes:
+        return BranchPoint
+    fields = [(name, float) for name in probes]
+    return dataclasses.make_dataclass("BranchPointWithProbes", fields, bases=(BranchPoint,))
+
+
+class BranchPath(Driver):
+    """Arclength continuation of DΠ(u; λ) = 0 from the state at λ₀, as a runner's driver.
+
+    Args:
+        state: the unknown u; its value is the first iterate at the start.
+        energy: Π(u; λ), a UFL functional of ``state`` and of the Constant ``load_factor``.
+        bcs: Dirichlet conditions on the state's space.
+        load_factor: the Constant λ; its value is λ₀.
+        settings: the path's settings.
+        prefix: the PETSc options prefix (as the load path's: the same SNES options).
+        options: PETSc options of the Newton solver at the start (and of its linear solver).
+        bc_values: ``(datum, value)`` pairs of Dirichlet data at full load.
+        shape: the deformed surface y: ω → ℝ³ of the current state (a callable that updates it).
+        probes: numbers of the state added to every record.
+        observers: told of every point and of the end of :meth:`run`.
+    """
+
+    def __init__(
+        self,
+        state: dolfinx.fem.Function[np.float64],
+        energy: ufl.Form,
+        bcs: Sequence[dolfinx.fem.DirichletBC[np.float64]],
+        load_factor: dolfinx.fem.Constant[np.float64],
+        settings: PathSettings,
+        prefix: str,
+        options: Mapping[str, Any] | None = None,
+        *,
+        bc_values: Sequence[tuple[Any, Any]] = (),
+        shape: Callable[[], dolfinx.fem.Function[np.float64]],
+        probes: Probes | None = None,
+        observers: Sequence[Observer] = (),
+    ) -> None:
+        self.state, self.comm = state, state.function_space.mesh.comm
+        self.settings, self.observers = settings, list(observers)
+        self._shape_source, self._probes = shape, probes
+        self.load = LoadFactor(load_factor, bc_values)
+        self.newton = NewtonSolver(state, energy, bcs, prefix, options, "newton.snes")
+        self.engine = ArcLength(self.newton, self.load, f"{prefix}path_")
+        self.special = SpecialPoints(self.engine, settings.step)
+        self._record = _record_type(list(probes()) if probes else [])
+        self.history: list[BranchPoint] = []
+        self.step_count, self.branch, self.switched = 0, 0, False
+        self.current: Point | None = None
+        self.ds = settings.step.ds
+        self._sigma: float | None = None  # σ of a resumed path (None: set at the start)
+        self._clock = time.perf_counter()  # the start of the current step
+        self._shape = shape()
+
+    # -- the Driver protocol ----------------------------------------------------------------
+    @property
+    def checkpoint_every(self) -> int:
+        """No checkpoints during the path (one at the end)."""
+        return 0
+
+    @property
+    def time(self) -> float:
+        """The number of points so far: the time of the VTX series (λ turns at a fold)."""
+        return float(self.step_count)
+
+    @property
+    def shape(self) -> dolfinx.fem.Function[np.float64]:
+        """The deformed surface of the current state."""
+        return self._shape
+
+    @property
+    def num_dofs(self) -> int:
+        """The global number of unknowns."""
+        dofmap = self.state.function_space.dofmap
+        return int(dofmap.index_map.size_global * dofmap.index_map_bs)
+
+    def remaining_steps(self) -> int:
+        """Points of the path not reached yet."""
+        return max(self.settings.steps - self.step_count, 0)
+
+    def options_prefixes(self) -> list[str]:
+        """The prefixes of the SNES at the start and of the bordered system's solver."""
+        return [*self.newton.prefixes(), self.engine.system.ksp.getOptionsPrefix() or ""]
+
+    def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function[np.float64]]:
+        """The state."""
+        return {"state": self.state}
+
+    def checkpoint_state(self) -> dict[str, Any]:
+        """The points so far, the next step length and the scale σ of the inner product.
+
+        A resumed path starts again from its last point, with this step and this σ: the
+        points after it are those of the uninterrupted path.
+        """
+        return {
+            "step": self.step_count,
+            "history": [asdict(r) for r in self.history],
+            "ds": self.ds,
+            "sigma": self.engine.sigma,
+        }
+
+    def restore_state(self, state: Mapping[str, Any]) -> None:
+        """Continue from :meth:`checkpoint_state`: the last point becomes the start."""
+        self.history = [self._record(**row) for row in state["history"]]
+        self.step_count = int(state["step"])
+        self.ds = float(state.get("ds", self.ds))
+        self._sigma = state.get("sigma")
+        if self.history:
+            last = self.history[-1]
+            self.load.set(last.load_factor)
+            self.branch, self.switched = last.branch, last.branch > 0
+
+    def summary(self) -> dict[str, Any]:
+        """The points, the special points and the last load factor."""
+        special = [asdict(r) for r in self.history if r.kind != "regular"]
+        return {
+            "dofs": self.num_dofs,
+            "load_factor": self.load.value,
+            "points": self.step_count,
+            "load_factors": [r.load_factor for r in self.history],
+            "stability_indices": [r.stability_index for r in self.history],
+            "special_points": special,
+            "folds": [r.load_factor for r in self.history if r.kind == "fold"],
+            "bifurcations": [r.load_factor for r in self.history if r.kind == "bifurcation"],
+            "energy": self.newton.energy_value(),
+        }
+
+    def destroy(self) -> None:
+        """Free the PETSc objects."""
+        if self.current is not None:
+            self.current.destroy()
+            self.current = None
+        self.engine.destroy()
+        self.newton.destroy()
+
+    # -- the path ---------------------------------------------------------------------------
+    def run(self, max_steps: int | None = None) -> RunResult:
+        """Follow the path for at most ``max_steps`` more points (None: up to ``steps``)."""
+        budget = (
+            self.remaining_steps() if max_steps is None else min(max_steps, self.remaining_steps())
+        )
+        target = self.step_count + budget
+        records: list[BranchPoint] = []
+        failure, signum = "", 0
+        try:
+            if self.current is None and self.step_count < target:
+                records += self._start()
+            while self.step_count < target and self._inside(self.current):
+                records += self._advance()
+                signum = interrupt.requested(self.comm)
+                if signum:
+                    break
+        except SolverError as err:
+            failure = f"{err}; the last point is kept"
+            if self.current is not None:
+                self.engine.set_state(self.current)
+        converged = not failure and not signum
+        reason = failure or (interrupt.reason(signum) if signum else self._end())
+        result = RunOutcome(converged, reason, len(records), records, interrupted=signum)
+        for observer in self.observers:
+            observer.finish(self, result)
+        return result
+
+    def _start(self) -> list[BranchPoint]:
+        """The first point: the start, or the last point of a resumed path (not recorded again).
+
+        A resumed path goes on in the direction of λ it had (the sign of the last τ).
+        """
+        self._clock = time.perf_counter()
+        self.current = self.engine.start(self.load.value, self._sigma)
+        if not self.history:
+            return [self._report(self.current, 0.0, "regular")]
+        if self.history[-1].tangent_load < 0:
+            self.current.t.scale(-1.0)
+            self.current.tau = -self.current.tau
+        return []
+
+    def _inside(self, point: Point | None) -> bool:
+        """Whether the path goes on from ``point``: λ within its bounds."""
+        if point is None:
+            return False
+        return abs(point.lam) <= self.settings.lambda_max
+
+    def _end(self) -> str:
+        if self.current is not None and not self._inside(self.current):
+            return f"the load factor left its range at {self.current.lam:g}"
+        return f"{self.step_count} points of the path"
+
+    def _advance(self) -> list[BranchPoint]:
+        """One arclength step, and the special point before it, if any: their records."""
+        self._clock = time.perf_counter()
+        base = self._point()
+        new, ds = self._step(base)
+        records, kind = [], self.special.kind(base, new)
+        last = "regular"
+        if kind:
+            try:
+                special = self.special.locate(kind, base, new, ds)
+            except SolverError:  # not located: the point after it carries the kind
+                special, last = None, kind
+            if special is not None:
+                records.append(self._report(special, ds, kind))
+                if kind == "bifurcation" and self.settings.switch and not self.switched:
+                    new.destroy()
+                    new, last = self.special.switch(special, ds), "switch"
+                    self.branch, self.switched = self.branch + 1, True
+                special.destroy()
+        self.engine.set_state(new)
+        records.append(self._report(new, ds, last))
+        base.destroy()
+        self.current = new
+        self.ds = self.settings.step.after(ds, new.iterations)
+        return records
+
+    def _point(self) -> Point:
+        if self.current is None:
+            raise SolverError("the path has no point to go on from")
+        return self.current
+
+    def _step(self, base: Point) -> tuple[Point, float]:
+        """The next point from ``base``: the step halved until the corrector converges."""
+        ds = self.ds
+        while True:
+            corrected = self.engine.correct(base, ds, (base.t, base.tau))
+            if corrected is not None:
+                lam, its = corrected
+                return self.engine.point(lam, (base.t, base.tau), its), ds
+            ds = self.settings.step.halved(ds)
+
+    def _report(self, point: Point, ds: float, kind: str) -> BranchPoint:
+        """The record of ``point`` (the state is at it), kept and told to the observers.
+
+        ``seconds`` is the time since the step began.
+        """
+        self._shape = self._shape_source()
+        record = self._record(
+            step=self.step_count + 1,
+            load_factor=point.lam,
+            energy=self.newton.energy_value(),
+            stability_index=point.index,
+            tangent_load=point.tau,
+            ds=ds,
+            iterations=point.iterations,
+            branch=self.branch,
+            kind=kind,
+            seconds=time.perf_counter() - self._clock,
+            **(self._probes() if self._probes else {}),
+        )
+        self.step_count += 1
+        self.history.append(record)
+        for observer in self.observers:
+            observer.step(self, record)
+        return record

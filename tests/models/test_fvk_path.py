@@ -1,0 +1,232 @@
+"""Path following of FvK plates through folds and bifurcations ([path] method = "arclength").
+
+References: the buckling shortening of a simply supported square plate, Δ_cr = π²t²/(3(1 − ν²)a)
+(Timoshenko & Gere, §9.2, k = 4), and the exact limit point of a shallow sinusoidal strip
+(:func:`dgplate.reference.fvk.sinusoidal_strip_folds`).
+"""
+
+import dataclasses
+import itertools
+import json
+import math
+import signal
+from dataclasses import asdict
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+from helpers import ROOT
+
+import dgplate
+from dgplate import interrupt
+from dgplate.cli import main
+from dgplate.mesh.tagged import rectangle
+from dgplate.models.fvk.model import build_fvk
+from dgplate.models.fvk.spec import FvKSpec, NewtonSpec, PathSpec
+from dgplate.reference.fvk import sinusoidal_strip_folds, square_plate_critical_shortening
+from dgplate.solvers.continuation import BranchPath
+
+E, NU, T = 1.0, 0.3, 0.01
+DELTA_CR = square_plate_critical_shortening(T, 1.0, NU)
+Q_FOLD, A_FOLD = sinusoidal_strip_folds(E, T, 1.0, T)  # rise e = t
+ARCH = ROOT / "demos" / "problems" / "fvk_arch.toml"
+
+
+def follow(comm, spec, cells, corners, initial=None):
+    """The points of the path of ``spec`` (records as dicts) and its summary."""
+    model = build_fvk(spec, rectangle(comm, corners, cells))
+    driver = model.driver(None, [], initial)
+    assert isinstance(driver, BranchPath)
+    try:
+        result = driver.run()
+        assert result.converged, result.reason
+        return [asdict(r) for r in driver.history], driver.summary()
+    finally:
+        driver.destroy()
+
+
+def plate(comm, n, switch, steps):
+    """The perfect square plate of demos/fvk_buckling.py shortened by λ Δ_cr, n × n cells."""
+    spec = FvKSpec(
+        E=E,
+        nu=NU,
+        thickness=T,
+        simply_supported=["left", "right", "bottom", "top"],
+        membrane={
+            "left": [0.0, "free"],
+            "right": [-DELTA_CR, "free"],
+            "bottom": "normal",
+            "top": "free",
+        },
+        newton=NewtonSpec(stability=False),
+        path=PathSpec(
+            method="arclength", ds=0.3, ds_max=3.0, steps=steps, switch=switch, lambda_max=1.5
+        ),
+    )
+    return follow(comm, spec, [n, n], [[0, 0], [1, 1]])
+
+
+def arch(comm, n, steps=10):
+    """The sinusoidal strip (rise t, ν = 0) from its unloaded arch, pushed down by λ q*."""
+    spec = FvKSpec(
+        E=E,
+        nu=0.0,
+        thickness=T,
+        natural_shape=f"{T}*sin(pi*x)",
+        pressure=f"-{Q_FOLD!r}*sin(pi*x)",
+        simply_supported=["left", "right"],
+        newton=NewtonSpec(stability=False),
+        path=PathSpec(method="arclength", ds=0.2, ds_max=0.4, steps=steps, lambda_max=1.5),
+    )
+
+    def start(x):  # near the arch a₀ = √(2/3) t: Newton at λ = 0 converges to it
+        return np.array([x[0], x[1], 0.8 * T * np.sin(np.pi * x[0])])
+
+    return follow(comm, spec, [n, 2], [[0, 0], [1, 0.1]], start)
+
+
+def test_flat_plate_loses_stability_at_the_euler_loads():
+    """The flat branch: index 0, 1, 2 past the bifurcations at k = 4 and k = 6.25 (m = 1, 2).
+
+    Timoshenko & Gere §9.2: k = (m + 1/m)² for m half-waves along the load, Δ/Δ_cr = k/4.
+    """
+    points, summary = plate(MPI.COMM_WORLD, 8, switch=False, steps=8)
+    kinds = [p["kind"] for p in points]
+    assert kinds.count("bifurcation") == 2 and "fold" not in kinds
+    first, second = (i for i, kind in enumerate(kinds) if kind == "bifurcation")
+    assert summary["bifurcations"] == [
+        pytest.approx(0.99527, abs=2e-5),
+        pytest.approx(1.60896, abs=2e-5),
+    ]
+    assert summary["bifurcations"][0] == pytest.approx(1.0, rel=0.01)  # −0.47 %
+    assert summary["bifurcations"][1] == pytest.approx(6.25 / 4, rel=0.04)  # +3.0 %
+    indices = [p["stability_index"] for p in points]
+    assert indices[:first] == [0] * first
+    assert indices[first + 1 : second] == [1] * (second - first - 1)
+    assert indices[second + 1 :] == [2] * (len(points) - second - 1)
+    assert all(abs(p["w_max"]) < 1e-12 for p in points)  # flat all along
+    assert all(p["tangent_load"] > 0 for p in points)  # no fold: λ rises
+
+
+def test_switching_onto_the_buckled_branch():
+    """After the switch the plate deflects, λ rises past λ_c and the index is 0 (stable)."""
+    points, summary = plate(MPI.COMM_WORLD, 8, switch=True, steps=12)
+    kinds = [p["kind"] for p in points]
+    at = kinds.index("switch")
+    critical = summary["bifurcations"][0]
+    assert kinds[at - 1] == "bifurcation" and critical == pytest.approx(0.99527, abs=2e-5)
+    buckled = points[at:]
+    assert len(buckled) >= 5 and all(p["branch"] == 1 for p in buckled)
+    assert [p["stability_index"] for p in buckled] == [0] * len(buckled)
+    deflection = np.array([p["w_center"] for p in buckled])
+    load = np.array([p["load_factor"] for p in buckled])
+    assert np.all(np.diff(deflection) > 0) and deflection[-1] > 0.1 * T
+    assert np.all(load > critical) and np.all(np.diff(load) > 0)
+    # stable symmetric bifurcation: λ − λ_c grows like w², the ratio settles
+    ratio = (load - critical) / deflection**2
+    assert ratio[-1] == pytest.approx(ratio[-2], rel=0.1)
+
+
+def test_arch_snaps_through_its_limit_point():
+    """λ rises, turns at the fold (τ changes sign) and falls; index 0 before, 1 after."""
+    points, summary = arch(MPI.COMM_WORLD, 16)
+    kinds = [p["kind"] for p in points]
+    assert kinds.count("fold") == 1 and "bifurcation" not in kinds
+    at = kinds.index("fold")
+    fold = points[at]
+    assert summary["folds"] == [fold["load_factor"]]
+    assert fold["load_factor"] == pytest.approx(0.99760, abs=2e-5)  # exact: 1 (−0.24 %)
+    assert fold["w_center"] == pytest.approx(A_FOLD, rel=0.005)
+    assert abs(fold["tangent_load"]) < 1e-6
+    before, after = points[:at], points[at + 1 :]
+    assert all(p["tangent_load"] > 0 for p in before) and all(p["tangent_load"] < 0 for p in after)
+    assert np.all(np.diff([p["load_factor"] for p in before]) > 0)
+    assert np.all(np.diff([p["load_factor"] for p in after]) < 0)
+    assert [p["stability_index"] for p in before] == [0] * len(before)
+    assert [p["stability_index"] for p in after] == [1] * len(after)
+    assert points[0]["w_center"] == pytest.approx(math.sqrt(2 / 3) * T, rel=0.002)  # a₀
+
+
+def test_arch_fold_converges_to_the_exact_limit_load():
+    """The fold load factor on 8, 16, 32 cells: error −0.95, −0.24, −0.06 %, O(h²)."""
+    folds = [arch(MPI.COMM_WORLD, n, steps=9)[1]["folds"][0] for n in (8, 16, 32)]
+    errors = [1.0 - f for f in folds]
+    assert errors == pytest.approx([9.45e-3, 2.40e-3, 6.0e-4], rel=0.03)
+    assert all(math.log2(a / b) > 1.9 for a, b in itertools.pairwise(errors))
+
+
+@pytest.mark.mpi
+def test_same_path_on_any_number_of_ranks():
+    """Load factors, indices, kinds and deflections agree between 1 and 2 ranks."""
+    parallel, _ = arch(MPI.COMM_WORLD, 16, steps=10)
+    serial, _ = arch(MPI.COMM_SELF, 16, steps=10)
+    assert [p["kind"] for p in parallel] == [p["kind"] for p in serial]
+    assert [p["stability_index"] for p in parallel] == [p["stability_index"] for p in serial]
+    for key in ("load_factor", "w_center", "energy"):
+        got, expected = ([p[key] for p in run] for run in (parallel, serial))
+        assert got == pytest.approx(expected, rel=1e-7, abs=1e-12 * max(map(abs, expected))), key
+
+
+@pytest.mark.mpi
+def test_same_switch_on_any_number_of_ranks():
+    """The buckled branch after the switch (the critical mode's sign) agrees on 1 and 2 ranks."""
+    parallel, _ = plate(MPI.COMM_WORLD, 8, switch=True, steps=8)
+    serial, _ = plate(MPI.COMM_SELF, 8, switch=True, steps=8)
+    assert [p["kind"] for p in parallel] == [p["kind"] for p in serial]
+    assert [p["stability_index"] for p in parallel] == [p["stability_index"] for p in serial]
+    for key in ("load_factor", "w_center"):
+        got, expected = ([p[key] for p in run] for run in (parallel, serial))
+        assert got == pytest.approx(expected, rel=1e-6, abs=1e-9 * T), key
+
+
+def test_problem_file_writes_the_branch(tmp_path):
+    """dgplate run of demos/problems/fvk_arch.toml: from the flat strip (index 1) over the fold."""
+    out = tmp_path / "arch"
+    sets = ["--set", "output.progress=0", "--set", "output.vtx=false"]
+    assert main(["run", str(ARCH), "--out", str(out), *sets]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["folds"] == [pytest.approx(0.99760, abs=2e-5)]
+    special = summary["special_points"]
+    assert [p["kind"] for p in special] == ["fold"]
+    indices = summary["stability_indices"]
+    fold = next(i for i, p in enumerate(summary["load_factors"]) if p == summary["folds"][0])
+    assert set(indices[:fold]) == {1} and set(indices[fold + 1 :]) == {0}
+    header = (out / "history.csv").read_text().splitlines()[0].split(",")
+    assert header[:9] == [
+        "step", "load_factor", "energy", "stability_index", "tangent_load", "ds",
+        "iterations", "branch", "kind",
+    ]  # fmt: skip
+    assert (out / "branch.png").is_file()
+
+
+@pytest.mark.parametrize("stop_at", [4, 9])
+def test_an_interrupted_path_resumes_to_the_same_points(stop_at, tmp_path, monkeypatch):
+    """SIGTERM after point 4 (λ rising) or 9 (past the fold, λ falling), then ``resume``: the
+    points are those of the uninterrupted path (λ, energy, index, kind, step length)."""
+    problem = dgplate.load_problem(ARCH, {"output.vtx": False, "output.png": False})
+    problem = dataclasses.replace(problem, output=dataclasses.replace(problem.output, progress=0))
+    straight = dgplate.run(problem, out=tmp_path / "straight", comm=MPI.COMM_SELF)
+    advance = BranchPath._advance
+
+    def advance_then_signal(self):
+        records = advance(self)
+        if self.step_count >= stop_at:
+            monkeypatch.setattr(interrupt, "_received", signal.SIGTERM)
+        return records
+
+    with monkeypatch.context() as patched:
+        patched.setattr(BranchPath, "_advance", advance_then_signal)
+        stopped = dgplate.run(problem, out=tmp_path / "resumed", comm=MPI.COMM_SELF)
+    monkeypatch.setattr(interrupt, "_received", 0)
+    assert stopped["reason"] == "interrupted (SIGTERM)" and stopped["points"] == stop_at
+    resumed = dgplate.run(problem, out=tmp_path / "resumed", comm=MPI.COMM_SELF, resume=True)
+    assert resumed["converged"]
+    assert resumed["folds"] == pytest.approx(straight["folds"], rel=1e-10)
+    rows, expected = resumed.history, straight.history
+    assert [r["step"] for r in rows] == list(range(1, len(expected) + 1))
+    for key in ("stability_index", "kind", "branch", "iterations"):
+        assert [r[key] for r in rows] == [r[key] for r in expected], key
+    for key in ("load_factor", "energy", "ds", "w_center"):
+        got, want = np.array([[r[key] for r in rows] for rows in (rows, expected)])
+        assert np.allclose(got, want, rtol=1e-10, atol=1e-10 * np.abs(want).max()), key
