@@ -19,7 +19,7 @@ from ufl.core.expr import Expr
 
 from dgplate import mpi
 from dgplate.compat import Array, Function, Mesh, entities_to_geometry
-from dgplate.dg.forms import FREE, FacetSets
+from dgplate.dg.forms import FREE, FacetSets, metric_quadrature
 from dgplate.dg.geometry import cell_areas, oriented_normal
 from dgplate.mesh.tagged import local_entities
 
@@ -171,25 +171,44 @@ def _chosen_free_facets(facets: FacetSets) -> _ChosenFacets:
     return chosen
 
 
-def metric_tensor_defect(y: Expr) -> Expr:
-    """∇yᵀ∇y − I₂, zero for an isometry."""
-    defect: Expr = ufl.grad(y).T * ufl.grad(y) - ufl.Identity(2)
+def metric_tensor_defect(y: Expr, metric: Expr | None = None) -> Expr:
+    """∇yᵀ∇y − G, zero when y realises the target metric G (None: G = I₂, an isometry).
+
+    Args:
+        y: the deformation.
+        metric: the target metric G (first fundamental form), a UFL 2×2 expression.
+
+    Returns:
+        The 2×2 defect.
+    """
+    target = ufl.Identity(2) if metric is None else metric
+    defect: Expr = ufl.grad(y).T * ufl.grad(y) - target
     return defect
 
 
-class IsometryDefect:
-    """D_h[y] = Σ_T |∫_T (∇yᵀ∇y − I₂)| (Frobenius norm per cell), and its cell field.
+def metric_measure(y: Expr, metric: Expr | None) -> ufl.Measure:
+    """The cell measure of the constraint's integrals: FFCx's degree for G = I, else the energy's."""
+    dx: ufl.Measure = ufl.dx
+    if metric is not None:
+        dx = dx(metadata={"quadrature_degree": metric_quadrature(y)})
+    return dx
 
-    The per-cell integrals are assembled once into a DG0 (2×2) vector; evaluating is one
-    vector assembly and a reduction over owned cells.
+
+class IsometryDefect:
+    """D_h[y] = Σ_T |∫_T (∇yᵀ∇y − G)| (Frobenius norm per cell), and its cell field.
+
+    G is the target metric (I₂ without one: the isometry defect). The per-cell integrals are
+    assembled once into a DG0 (2×2) vector; evaluating is one vector assembly and a
+    reduction over owned cells.
     """
 
-    def __init__(self, y: Function):
+    def __init__(self, y: Function, metric: Expr | None = None):
         mesh = y.function_space.mesh
         element = basix.ufl.element("DG", mesh.basix_cell(), 0, shape=(2, 2))
         self.space = dolfinx.fem.functionspace(mesh, element)
         test = ufl.TestFunction(self.space)
-        self.form = dolfinx.fem.form(ufl.inner(metric_tensor_defect(y), test) * ufl.dx)
+        dx = metric_measure(y, metric)
+        self.form = dolfinx.fem.form(ufl.inner(metric_tensor_defect(y, metric), test) * dx)
         self.comm = mesh.comm
         self.num_owned = mesh.topology.index_map(mesh.topology.dim).size_local
         self.volumes = cell_areas(dolfinx.fem.functionspace(mesh, ("DG", 0)))
@@ -217,6 +236,8 @@ __all__ = [
     "EdgeConstraint",
     "IsometryDefect",
     "linearised_isometry",
+    "metric_measure",
+    "metric_tensor_defect",
     "multiplier_element",
     "symmetric",
 ]
