@@ -5,7 +5,11 @@ flat plate (metric start, then the flow) at two mesh levels, and the isometric l
 given explicitly is the run without a metric.
 """
 
+import json
 import math
+import os
+import subprocess
+import sys
 
 from mpi4py import MPI
 
@@ -13,7 +17,7 @@ import dolfinx.fem
 import numpy as np
 import pytest
 import ufl
-from helpers import PROBLEMS, QUIET
+from helpers import PROBLEMS, QUIET, ROOT, mpirun
 
 from dgplate import expressions, load_problem, run
 from dgplate.dg.forms import hessian, metric_weighted
@@ -114,3 +118,37 @@ def test_identity_metric_is_the_isometric_run(tmp_path):
     assert weighted["isometry_defect"] == pytest.approx(plain["isometry_defect"], abs=1e-10)
     difference = np.abs(weighted.shape.x.array - plain.shape.x.array).max()
     assert difference < 1e-10
+
+
+@pytest.mark.spawns_mpirun
+@pytest.mark.skipif(mpirun() is None, reason="no mpirun")
+def test_spherical_cap_on_two_ranks_is_the_serial_run(tmp_path):
+    """``mpirun -n 2 dgplate run``: the metric start and the flow give the serial figures."""
+    serial = spherical_run(0.2, tmp_path)
+    out = tmp_path / "two"
+    sets = [
+        arg
+        for key in ("output.progress=0", "output.vtx=false", "output.png=false")
+        for arg in ("--set", key)
+    ]
+    args = [mpirun(), "-n", "2", sys.executable, "-m", "mpi4py", "-m", "dgplate", "run"]
+    paths = [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(paths)}
+    proc = subprocess.run(
+        [*args, str(SPHERICAL), "--out", str(out), *sets],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=env,
+    )
+    assert proc.returncode == 0, proc.stderr
+    parallel = json.loads((out / "summary.json").read_text())
+    assert parallel["ranks"] == 2 and parallel["steps"] == serial["steps"]
+    assert (
+        parallel["metric_start"]["stretching_steps"] == serial["metric_start"]["stretching_steps"]
+    )
+    assert (
+        parallel["metric_start"]["projection_steps"] == serial["metric_start"]["projection_steps"]
+    )
+    assert parallel["energy"] == pytest.approx(serial["energy"], abs=1e-10)
+    assert parallel["isometry_defect"] <= 1e-10
