@@ -224,3 +224,15 @@ def test_seeds_page_is_generated(tmp_path):
     """docs/verification.md's seed 001 table is what --table-only writes from seeds.json."""
     page = BENCH.parent / "docs" / "verification.md"
     assert_page_is_generated("seeds", page, tmp_path)
+
+
+def test_spherical_cap_page_is_generated(tmp_path):
+    """docs/prestrain.md's table is what --table-only writes from spherical_cap.json."""
+    page = BENCH.parent / "docs" / "prestrain.md"
+    assert_page_is_generated("spherical_cap", page, tmp_path)
+    record = json.loads((BENCH / "results" / "spherical_cap.json").read_text())
+    levels = record["levels"]
+    assert [level["h"] for level in levels] == [0.2, 0.1, 0.05, 0.025]
+    assert all(level["converged"] and level["metric_start"]["defect"] <= 1e-10 for level in levels)
+    errors = [abs(level["radius_error"]) for level in levels]
+    assert errors == sorted(errors, reverse=True)  # the fitted radius converges
