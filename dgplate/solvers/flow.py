@@ -288,7 +288,8 @@ class GradientFlow(EnergyFlow):
         """The counters a checkpoint must hold (with :meth:`checkpoint_fields`).
 
         With them τ (that of the step matrix and the adaptive controller's proposal), so that a
-        resumed adaptive run goes on with the τ it had, not the initial one. K is not in it: a
+        resumed adaptive run goes on with the τ it had, not the initial one, and the metric
+        start's figures (a resumed run starts from the checkpoint, not from a new start). K is not in it: a
         resumed run assembles K whole, where the uninterrupted one may carry it by increments,
         so the two can differ by round-off from there on (writing a checkpoint must not change
         the run, so it does not reassemble K).
@@ -300,12 +301,14 @@ class GradientFlow(EnergyFlow):
             **asdict(self.counts),
             "factorisations": self.system.factorisations(),
             "newton_factorisations": self.system.newton_factorisations(),
+            **({"metric_start": self.start_phase} if self.start_phase is not None else {}),
         }
 
     def restore_state(self, state: dict[str, Any]) -> None:
         """Continue from a checkpoint's counters (after its fields were restored)."""
         super().restore_state(state)
         self._start_pending = False  # the checkpoint's y is past the metric start
+        self.start_phase = state.get("metric_start")
         tau = float(state.get("tau", self.tau))
         if tau != self.tau:
             self.system.put_tau(tau)

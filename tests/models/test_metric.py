@@ -152,3 +152,15 @@ def test_spherical_cap_on_two_ranks_is_the_serial_run(tmp_path):
     )
     assert parallel["energy"] == pytest.approx(serial["energy"], abs=1e-10)
     assert parallel["isometry_defect"] <= 1e-10
+
+
+def test_a_resumed_run_keeps_its_metric_start(tmp_path):
+    """--resume continues from the checkpoint: no second metric start, its figures kept."""
+    out = tmp_path / "run"
+    problem = load_problem(SPHERICAL, {**QUIET, "flow.max_steps": 3})
+    first = run(problem, out=out)
+    assert not first["converged"] and first["steps"] == 3
+    resumed = run(load_problem(SPHERICAL, QUIET), out=out, resume=True)
+    assert resumed["converged"] and resumed["steps"] == 7
+    assert resumed["metric_start"] == first["metric_start"]
+    assert resumed["energy"] == pytest.approx(0.91348334913985, abs=1e-10)
