@@ -303,12 +303,14 @@ class BendingData(TypedDict, total=False):
     """The data of ½ a_h(y, y) besides the penalty, passed by keyword.
 
     ``mu``: the cell-wise rigidity μ (default 1); ``g`` and ``Phi``: the Nitsche data g, Φ on
-    clamped facets (needed when there are any).
+    clamped facets (needed when there are any); ``metric``: a target metric G (2×2, SPD) that
+    weights the Hessian as G^{-1/2} D²y G^{-1/2} (:func:`metric_weighted`; None: G = I).
     """
 
     mu: Coefficient | None
     g: Coefficient | None
     Phi: Expr | None
+    metric: Expr | None
 
 
 def bending_energy(
@@ -319,16 +321,65 @@ def bending_energy(
     ``mu`` (cell-wise rigidity, UFL scalar) weights every term; averages use {μ ·} and the
     penalties {μ}. ``ufl.derivative`` of this functional gives the symmetric interior-penalty
     residual and matrix, so no bilinear form is written twice.
+
+    With a target ``metric`` G the broken energy is ½∫μ|G^{-1/2}D²y G^{-1/2}|² and the
+    consistency terms are those of ⟨D²y, T⟩ with T = μ 𝒞D²y (:func:`metric_weighted`), the
+    symmetric interior-penalty method of the operator with the coefficient 𝒞; the penalties
+    are left unweighted (as the stabilisation of the LDG method of Bonito, Guignard, Nochetto
+    and Yang, J. Comput. Phys. 2022, which penalises the plain jumps): they vanish for smooth
+    y whatever G, and for G near I their weights keep coercivity (they need γ ≳ |G⁻¹|²). The
+    integrals then have the quadrature degree :func:`metric_quadrature` (UFL's estimate for a
+    formula G is far too high).
     """
     mu = data.get("mu")
     mu = 1.0 if mu is None else mu
     D2 = hessian(y)
-    # ⟨D²y, μD²_h y⟩ − ½∫μ|D²_h y|²: the broken energy and the consistency terms
-    # −{μD²y n}·[∇y] + {μ∇Δy·n}·[y] (those of the distributional Hessian D²y)
-    energy: ufl.Form = distributional_hessian(y, mu * D2, facets, data.get("g"), data.get("Phi"))
-    energy -= 0.5 * mu * ufl.inner(D2, D2) * facets.dx
+    metric = data.get("metric")
+    energy: ufl.Form
+    if metric is not None:
+        degree = metric_quadrature(y)
+        T = mu * metric_weighted(D2, metric)
+        energy = distributional_hessian(y, T, facets, data.get("g"), data.get("Phi"), degree)
+        energy -= 0.5 * ufl.inner(D2, T) * cell_measure(facets.mesh, degree)
+    else:
+        # ⟨D²y, μD²_h y⟩ − ½∫μ|D²_h y|²: the broken energy and the consistency terms
+        # −{μD²y n}·[∇y] + {μ∇Δy·n}·[y] (those of the distributional Hessian D²y)
+        energy = distributional_hessian(y, mu * D2, facets, data.get("g"), data.get("Phi"))
+        energy -= 0.5 * mu * ufl.inner(D2, D2) * facets.dx
     energy += jump_penalty(y, facets, penalty, **data)
     return energy
+
+
+def metric_weighted(D2: Expr, metric: Expr) -> Expr:
+    """𝒞D²y = G⁻¹ D²y_k G⁻¹ for each component k: then D²y : 𝒞D²y = Σ_k |G^{-1/2}D²y_k G^{-1/2}|².
+
+    For symmetric A = G^{-1/2}: |A H A|² = tr(A H A A H A) = H : G⁻¹HG⁻¹, so the energy of
+    the weighted Hessian needs G⁻¹ only (UFL's closed-form inverse), no square root of G.
+
+    Args:
+        D2: the Hessian D²y, shape (3, 2, 2).
+        metric: the target metric G, a UFL 2×2 expression.
+
+    Returns:
+        The tensor (G⁻¹D²y_k G⁻¹)_k, shape (3, 2, 2).
+    """
+    inverse = ufl.inv(metric)
+    k, a, b, i, j = ufl.indices(5)
+    weighted: Expr = ufl.as_tensor(inverse[a, i] * D2[k, i, j] * inverse[j, b], (k, a, b))
+    return weighted
+
+
+def metric_quadrature(y: Expr) -> int:
+    """The quadrature degree of the metric-weighted energy of y: 2k + 2 for y of degree k.
+
+    Args:
+        y: the deformation (a Function or an Argument of its space).
+
+    Returns:
+        The degree (k: the element's embedded superdegree, as :func:`dgplate.measure.analysis.l1_norms`).
+    """
+    degree: int = y.ufl_function_space().ufl_element().embedded_superdegree  # type: ignore[attr-defined]
+    return 2 * degree + 2
 
 
 def jump_penalty(

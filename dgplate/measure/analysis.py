@@ -16,6 +16,7 @@ from mpi4py import MPI
 import dolfinx.fem
 import numpy as np
 import ufl
+from ufl.core.expr import Expr
 
 from dgplate import compat, mpi
 from dgplate.compat import Array, Function, Mesh
@@ -40,8 +41,8 @@ def cell_areas(mesh: Mesh) -> Array:
     return dg0_dofs_to_cells(geometry.cell_areas(space), space)
 
 
-def l1_norms(y: Function) -> dict[str, float]:
-    """‖K_h‖_L¹ = ∫|K_h| and ‖δI_h‖_L¹ = ∫|∇yᵀ∇y − I₂| (Frobenius norm) of a deformation y.
+def l1_norms(y: Function, metric: Expr | None = None) -> dict[str, float]:
+    """‖K_h‖_L¹ = ∫|K_h| and ‖δI_h‖_L¹ = ∫|∇yᵀ∇y − G| (Frobenius norm) of a deformation y.
 
     K_h = det(II)/det(∇yᵀ∇y) is the Gaussian curvature of the discrete surface (broken,
     cell-wise): an isometry's limit is developable, K = 0. Both integrals use a quadrature of
@@ -49,6 +50,7 @@ def l1_norms(y: Function) -> dict[str, float]:
 
     Args:
         y: a deformation in [DG_k]³ (or [P_k]³) on a plate mesh.
+        metric: the target metric G (None: I₂).
 
     Returns:
         ``gauss_curvature_l1`` and ``isometry_defect_l1``, the same on every rank.
@@ -60,7 +62,7 @@ def l1_norms(y: Function) -> dict[str, float]:
     dx = ufl.dx(domain=mesh, metadata={"quadrature_degree": 2 * degree + 2})
     integrands = {
         "gauss_curvature_l1": geometry.pointwise_norm(geometry.gauss_curvature(y)),
-        "isometry_defect_l1": geometry.pointwise_norm(metric_tensor_defect(y)),
+        "isometry_defect_l1": geometry.pointwise_norm(metric_tensor_defect(y, metric)),
     }
     forms = {name: dolfinx.fem.form(f * dx) for name, f in integrands.items()}
     return {
@@ -136,3 +138,29 @@ def fit_cylinder(y: Function, mean_II: Array, areas: Array, total_area: float) -
         "axis": axis.tolist(),
         "rms_residual": rms / radius if radius else float("inf"),
     }
+
+
+def fit_sphere(y: Function) -> dict[str, float]:
+    """Least-squares sphere through the nodal values of y (owned dofs, collective).
+
+    The algebraic fit |p|² + D·p + F = 0 (Kåsa's), as :func:`fit_cylinder`'s circle.
+
+    Args:
+        y: a deformation in [DG_k]³ (a Lagrange space: its dofs are points of the surface).
+
+    Returns:
+        ``radius`` and ``rms``, the root-mean-square distance of the points from the sphere
+        relative to its radius (the same on every rank).
+    """
+    comm = y.function_space.mesh.comm
+    owned = y.function_space.dofmap.index_map.size_local
+    points = y.x.array.reshape(-1, 3)[:owned]
+    A = np.column_stack([points, np.ones(len(points))])
+    rhs = -np.einsum("ij,ij->i", points, points)
+    solution = np.linalg.solve(mpi.sum_arrays(comm, A.T @ A), mpi.sum_arrays(comm, A.T @ rhs))
+    centre = -solution[:3] / 2
+    radius = float(np.sqrt(max(float(centre @ centre) - solution[3], 0.0)))
+    dist = np.linalg.norm(points - centre, axis=1) - radius
+    count = mpi.global_count(comm, len(points))
+    rms = float(np.sqrt(mpi.global_sum(comm, float(dist @ dist)) / count))
+    return {"radius": radius, "rms": rms / radius}

@@ -131,20 +131,21 @@ class PlateModel(Model):
     energy: Callable[[Function], Energy]
     measures: Sequence[Callable[[Function], dict[str, Any]]] = field(default_factory=tuple)
     continuation: DataPath | None = None
+    metric: Expr | None = None  # the target metric G of ∇yᵀ∇y = G (None: I, isometries)
 
     def driver(
         self, flow: FlowSpec, observers: Sequence[Observer], initial: Initial | None
     ) -> GradientFlow | MovingClampFlow:
         """The constrained gradient flow of :attr:`energy`, staged in α with a continuation."""
-        path = self.continuation
+        path, facets, energy, metric = self.continuation, self.facets, self.energy, self.metric
         if path is None:
-            return GradientFlow(self.facets, self.degree, self.energy, flow, observers, initial)
-        plain = GradientFlow(self.facets, self.degree, self.energy, flow, (), initial)
+            return GradientFlow(facets, self.degree, energy, flow, observers, initial, metric)
+        plain = GradientFlow(facets, self.degree, energy, flow, (), initial, metric)
         return MovingClampFlow(plain, path.alpha, path.schedule, observers)
 
     def figures(self, driver: GradientFlow | MovingClampFlow) -> dict[str, Any]:
         """‖K_h‖_L¹, ‖δI_h‖_L¹, fold angles along creases and the numbers of :attr:`measures`."""
-        out: dict[str, Any] = l1_norms(driver.y)
+        out: dict[str, Any] = l1_norms(driver.y, self.metric)
         if self.facets.num_crease:
             out.update(fold_angle_summary(driver.y, self.facets))
         for measure in self.measures:

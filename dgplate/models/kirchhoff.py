@@ -31,6 +31,7 @@ from dgplate.dg.forms import (
 from dgplate.dg.lifting import HESSIAN_HELP, HESSIANS, ldg_energy
 from dgplate.dg.obstacle_penalty import Obstacle
 from dgplate.dg.self_avoidance import SelfAvoidance
+from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh, rectangle
 from dgplate.models import starts
 from dgplate.models.base import (
@@ -41,6 +42,8 @@ from dgplate.models.base import (
     continuation_schedule,
     piecewise_constant,
 )
+from dgplate.models.metric import HELP as metric_help
+from dgplate.models.metric import MetricSpec, target_metric
 from dgplate.models.obstacle import with_obstacle
 from dgplate.models.self_avoidance import with_self_avoidance
 from dgplate.schema import Check, option
@@ -57,7 +60,8 @@ def kirchhoff_energy(
 ) -> Energy:
     """The discrete Kirchhoff energy of the deformation ``y`` (a UFL Function in [DG_k]³).
 
-    ``data``: the rigidity ``mu`` and the clamped data ``g``, ``Phi`` of the bending energy.
+    ``data``: the rigidity ``mu``, the clamped data ``g``, ``Phi`` and the target ``metric``
+    G of the bending energy (:func:`dgplate.dg.forms.bending_energy`).
     ``ldg_degree`` k: the LDG energy with the reconstructed Hessian of degree k
     (:mod:`dgplate.dg.lifting`; ``y`` must then be a Function); None: interior penalty.
     """
@@ -103,9 +107,14 @@ class KirchhoffSpec:
         "self-avoidance ρ·TP[y] by the tangent-point potential (docs/self_avoidance.md): {} none",
     )
     start: str | dict[str, object] = option("flat", starts.HELP)
+    metric: MetricSpec | None = option(None, metric_help)
 
     def __post_init__(self) -> None:
         self._start = starts.Start.from_table(self.start)
+        if self.metric is not None and self.hessian == "ldg":
+            raise InputError(
+                "model.metric needs model.hessian = 'broken' (the LDG energy has no G)"
+            )
         expressions.check(self.load, "model.load")
         data = self.boundary_data
         self._schedule = continuation_schedule(
@@ -149,11 +158,15 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     path = continuation_path(spec.schedule, tagged.mesh)
     g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path)
     penalty = spec.penalty
+    metric = None if spec.metric is None else target_metric(spec.metric, tagged.mesh)
+    data: BendingData = {"mu": mu, "g": g, "Phi": Phi}
+    if metric is not None:
+        data["metric"] = metric
 
     def energy_fn(y: Function) -> Energy:
-        return kirchhoff_energy(y, facets, penalty, load, spec.ldg_degree, mu=mu, g=g, Phi=Phi)
+        return kirchhoff_energy(y, facets, penalty, load, spec.ldg_degree, **data)
 
-    plate = PlateModel(facets, spec.degree, energy_fn, continuation=path)
+    plate = PlateModel(facets, spec.degree, energy_fn, continuation=path, metric=metric)
     return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)
 
 

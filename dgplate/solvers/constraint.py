@@ -20,7 +20,7 @@ from ufl.core.expr import Expr
 
 from dgplate import mpi
 from dgplate.compat import Array, Function, Mesh, entities_to_geometry
-from dgplate.dg.forms import FREE, FacetSets
+from dgplate.dg.forms import FREE, FacetSets, metric_quadrature
 from dgplate.dg.geometry import cell_areas, oriented_normal
 from dgplate.mesh.tagged import local_entities
 
@@ -172,9 +172,18 @@ def _chosen_free_facets(facets: FacetSets) -> _ChosenFacets:
     return chosen
 
 
-def metric_tensor_defect(y: Expr) -> Expr:
-    """∇yᵀ∇y − I₂, zero for an isometry."""
-    defect: Expr = ufl.grad(y).T * ufl.grad(y) - ufl.Identity(2)
+def metric_tensor_defect(y: Expr, metric: Expr | None = None) -> Expr:
+    """∇yᵀ∇y − G, zero when y realises the target metric G (None: G = I₂, an isometry).
+
+    Args:
+        y: the deformation.
+        metric: the target metric G (first fundamental form), a UFL 2×2 expression.
+
+    Returns:
+        The 2×2 defect.
+    """
+    target = ufl.Identity(2) if metric is None else metric
+    defect: Expr = ufl.grad(y).T * ufl.grad(y) - target
     return defect
 
 
@@ -189,30 +198,44 @@ def _estimated_degree(form: ufl.Form) -> int:
     return degree
 
 
+def metric_measure(y: Expr, metric: Expr | None) -> ufl.Measure:
+    """The cell measure of the constraint's integrals: FFCx's degree for G = I, else the energy's."""
+    dx: ufl.Measure = ufl.dx
+    if metric is not None:
+        dx = dx(metadata={"quadrature_degree": metric_quadrature(y)})
+    return dx
+
+
 class IsometryDefect:
-    """D_h[y] = Σ_T |∫_T (∇yᵀ∇y − I₂)| (Frobenius norm per cell), and its cell field.
+    """D_h[y] = Σ_T |∫_T (∇yᵀ∇y − G)| (Frobenius norm per cell), and its cell field.
 
-    The per-cell integrals are assembled once into a DG0 (2×2) vector; evaluating is one
-    vector assembly and a reduction over owned cells.
+    G is the target metric (I₂ without one: the isometry defect). The per-cell integrals are
+    assembled once into a DG0 (2×2) vector; evaluating is one vector assembly and a
+    reduction over owned cells.
 
-    They take the quadrature of the constraint's residual ∫_T (∇yᵀ∇y − I) : q, which the
-    step's corrections drive to zero: q is a test function of the step's mixed space, so UFL
-    gives that integral the degree of ∇yᵀ∇y − I plus y's degree, where the DG0 test here alone
-    would give y's degree less. On affine cells both rules are exact. On curved (second-order)
+    They take the quadrature of the constraint's residual ∫_T (∇yᵀ∇y − G) : q, which the
+    step's corrections drive to zero. With G = I, q is a test function of the step's mixed
+    space, so UFL gives that integral the degree of ∇yᵀ∇y − I plus y's degree, where the DG0
+    test here alone would give y's degree less (with a metric, both take
+    :func:`metric_measure`). On affine cells both rules are exact. On curved (second-order)
     cells ∇yᵀ∇y is rational and the lower rule left D_h a quadrature error the corrections
     cannot remove (curved fold, h = 0.4: 2·10⁻¹² against 10⁻¹⁵ with the residual's rule), at
     the trust region's "back on the constraint" threshold 10⁻¹²|ω|, where it refused every
     step (docs/performance.md).
     """
 
-    def __init__(self, y: Function):
+    def __init__(self, y: Function, metric: Expr | None = None):
         mesh = y.function_space.mesh
         element = basix.ufl.element("DG", mesh.basix_cell(), 0, shape=(2, 2))
         self.space = dolfinx.fem.functionspace(mesh, element)
-        integrand = ufl.inner(metric_tensor_defect(y), ufl.TestFunction(self.space))
-        degree = _estimated_degree(integrand * ufl.dx)
-        degree += y.function_space.ufl_element().embedded_superdegree
-        self.form = dolfinx.fem.form(integrand * ufl.dx(metadata={"quadrature_degree": degree}))
+        integrand = ufl.inner(metric_tensor_defect(y, metric), ufl.TestFunction(self.space))
+        if metric is None:
+            degree = _estimated_degree(integrand * ufl.dx)
+            degree += y.function_space.ufl_element().embedded_superdegree
+            dx = ufl.dx(metadata={"quadrature_degree": degree})
+        else:
+            dx = metric_measure(y, metric)
+        self.form = dolfinx.fem.form(integrand * dx)
         self.comm = mesh.comm
         self.num_owned = mesh.topology.index_map(mesh.topology.dim).size_local
         self.volumes = cell_areas(dolfinx.fem.functionspace(mesh, ("DG", 0)))
@@ -240,6 +263,8 @@ __all__ = [
     "EdgeConstraint",
     "IsometryDefect",
     "linearised_isometry",
+    "metric_measure",
+    "metric_tensor_defect",
     "multiplier_element",
     "symmetric",
 ]

@@ -34,15 +34,16 @@ from mpi4py import MPI
 
 import dolfinx.fem
 import numpy as np
+from ufl.core.expr import Expr
 
 from dgplate import compat, interrupt, mpi
 from dgplate.compat import Array, Function
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets
 from dgplate.dg.geometry import max_cell_diameter
-from dgplate.errors import SolverError
+from dgplate.errors import InputError, SolverError
 from dgplate.schema import option
-from dgplate.solvers import linear, transfer
+from dgplate.solvers import linear, metric_start, transfer
 from dgplate.solvers.constraint import IsometryDefect
 from dgplate.solvers.driver import EnergyFlow, Observer
 from dgplate.solvers.linear import OptionValue
@@ -199,6 +200,7 @@ class GradientFlow(EnergyFlow):
         settings: FlowSpec,
         observers: Sequence[Observer] = (),
         initial: Initial | None = None,
+        metric: Expr | None = None,
     ):
         """The flow from ``initial`` (default: the flat plate) of ``energy_fn(y)``.
 
@@ -209,7 +211,14 @@ class GradientFlow(EnergyFlow):
             settings: the [flow] section.
             observers: told of every step and of the end of each run.
             initial: the initial deformation; None: y(x) = (x₁, x₂, 0).
+            metric: the target metric G of the constraint ∇yᵀ∇y = G (None: I, isometries).
+                With a G and no ``initial`` the first run begins with the metric start
+                (:mod:`dgplate.solvers.metric_start`): the flat plate violates the constraint.
         """
+        if metric is not None and settings.edge_constraint:
+            raise InputError(
+                "flow.edge_constraint holds free edges to the metric I: not with model.metric"
+            )
         self.facets, self.settings, self.observers = facets, settings, list(observers)
         mesh = facets.mesh
         self.comm: MPI.Comm = mesh.comm
@@ -218,14 +227,20 @@ class GradientFlow(EnergyFlow):
         self.y: Function = dolfinx.fem.Function(self.V, name="deformation")
         transfer.interpolate(self.y, initial or _flat)
         self.energy = energy_fn(self.y)
-        self.defect = IsometryDefect(self.y)
+        self.defect = IsometryDefect(self.y, metric)
+        self.metric = metric
+        #: the metric start's figures (None: no start phase, or not run yet)
+        self.start_phase: dict[str, Any] | None = None
+        self._start_pending = metric is not None and initial is None
         self.time, self.step_count = 0.0, 0
         self.energy_increases: list[int] = []  # steps at which E_h went up, over all runs
         self.counts = FlowCounts()
         self._last_increment: Array = np.zeros(0)  # δy of the last step (for undo)
         tau = max_cell_diameter(mesh) if settings.tau == "h" else float(settings.tau)
         spaces = Spaces(self.W, self.V, self._vdofs, self.y)
-        self.system = self.system_type(spaces, facets, self.energy, settings, tau, self.counts)
+        self.system = self.system_type(
+            spaces, facets, self.energy, settings, tau, self.counts, metric
+        )
         self.control = TauController(self, self.system, settings, tau)
         self.projection = Projection(self.system, self.defect, settings.projection_steps)
         self.measure = Stationarity(self.system, settings, tau)
@@ -289,7 +304,8 @@ class GradientFlow(EnergyFlow):
         """The counters a checkpoint must hold (with :meth:`checkpoint_fields`).
 
         With them τ (that of the step matrix and the adaptive controller's proposal), so that a
-        resumed adaptive run goes on with the τ it had, not the initial one. K is not in it: a
+        resumed adaptive run goes on with the τ it had, not the initial one, and the metric
+        start's figures (a resumed run starts from the checkpoint, not from a new start). K is not in it: a
         resumed run assembles K whole, where the uninterrupted one may carry it by increments,
         so the two can differ by round-off from there on (writing a checkpoint must not change
         the run, so it does not reassemble K).
@@ -301,11 +317,14 @@ class GradientFlow(EnergyFlow):
             **asdict(self.counts),
             "factorisations": self.system.factorisations(),
             "newton_factorisations": self.system.newton_factorisations(),
+            **({"metric_start": self.start_phase} if self.start_phase is not None else {}),
         }
 
     def restore_state(self, state: dict[str, Any]) -> None:
         """Continue from a checkpoint's counters (after its fields were restored)."""
         super().restore_state(state)
+        self._start_pending = False  # the checkpoint's y is past the metric start
+        self.start_phase = state.get("metric_start")
         tau = float(state.get("tau", self.tau))
         if tau != self.tau:
             self.system.put_tau(tau)
@@ -336,6 +355,7 @@ class GradientFlow(EnergyFlow):
             "newton_rejections": counts.newton_rejections,
             "newton_factorisations": self.system.newton_factorisations(),
             "step_solves": counts.step_solves,
+            **({"metric_start": self.start_phase} if self.start_phase is not None else {}),
         }
 
     # -- the loop ---------------------------------------------------------------------------
@@ -348,6 +368,10 @@ class GradientFlow(EnergyFlow):
         Returns:
             How the run ended, with its records.
         """
+        if self._start_pending:
+            self._start_pending = False
+            self.start_phase = metric_start.run(self)
+            self.rebase_energy()
         budget = max_steps or self.remaining_steps()
         history: list[StepInfo] = []
         increases: list[int] = []

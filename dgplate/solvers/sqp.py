@@ -47,6 +47,8 @@ def lagrangian_curvature(
     ``multipliers`` is the mixed step solution (δy, λ/s[, edge λ/s]): the constraint rows of
     the step are scaled by s, so its multiplier components are λ/s (their sign is that of the
     step: DE_h + b_n(·, λ) = 0 at a critical point). ``directions`` are (trial δy, test v).
+    A target metric G (``model.metric``) leaves this curvature as it is: G does not depend on y,
+    so D²_y ∫ λ : (∇yᵀ∇y − G) = D²_y ∫ λ : (∇yᵀ∇y − I).
     """
     dy, v = directions
     _, mu, *edge_mu = ufl.split(multipliers)

@@ -18,6 +18,7 @@ import dolfinx.fem.petsc
 import numpy as np
 import ufl
 from petsc4py import PETSc
+from ufl.core.expr import Expr
 
 from dgplate import compat, values
 from dgplate.compat import Array, Function, FunctionSpace, Indices, Mesh
@@ -27,6 +28,7 @@ from dgplate.solvers import lagged, linear, ordering, sparsity, sqp
 from dgplate.solvers.constraint import (
     EdgeConstraint,
     linearised_isometry,
+    metric_measure,
     metric_tensor_defect,
     multiplier_element,
     symmetric,
@@ -99,9 +101,15 @@ class StepSystem:
         settings: StepSettings,
         tau: float,
         counts: FlowCounts,
+        metric: Expr | None = None,
     ):
-        """The forms, K and the solvers at the state ``spaces.y``, with τ = ``tau``."""
+        """The forms, K and the solvers at the state ``spaces.y``, with τ = ``tau``.
+
+        ``metric``: the target metric G of the constraint ∇yᵀ∇y = G (None: I, an isometry);
+        only the constraint's residual depends on it, not its linearisation.
+        """
         self.settings, self.counts, self.energy = settings, counts, energy
+        self.metric = metric
         self.W, self.V, self.vdofs, self.y = spaces.W, spaces.V, spaces.vdofs, spaces.y
         self.comm = facets.mesh.comm
         # factorisations of the runs this one resumes (the solvers count their own)
@@ -142,8 +150,9 @@ class StepSystem:
         # on the whole system would hardly see the constraint (see _balance_constraint_rows).
         s = self._scale = values.constant(facets.mesh, 1.0)
         b = linearised_isometry(v, y, multiplier) + linearised_isometry(dy, y, q)
-        # residual of the nonlinear constraint in the multiplier rows: ∫ (∇yᵀ∇y − I) : q
-        residual = -ufl.inner(metric_tensor_defect(y), symmetric(q)) * ufl.dx
+        # residual of the nonlinear constraint in the multiplier rows: ∫ (∇yᵀ∇y − G) : q
+        dx = metric_measure(y, self.metric)
+        residual = -ufl.inner(metric_tensor_defect(y, self.metric), symmetric(q)) * dx
         self._edge = None
         if self.settings.edge_constraint:
             (edge_trial,), (edge_test,) = edge_multiplier, edge_q
@@ -303,19 +312,20 @@ class StepSystem:
         self.solution.x.scatter_forward()
         return stats
 
-    def correct(self, stats: SolveStats, solver: StepSolver) -> Array:
-        """One correction towards ∫_T (∇yᵀ∇y − I) q = 0, reusing the step's factorisation.
+    def correct(self, stats: SolveStats, solver: StepSolver, refactor: bool = False) -> Array:
+        """One correction towards ∫_T (∇yᵀ∇y − G) q = 0, reusing the step's factorisation.
 
         Args:
             stats: the step's figures; the correction's fall-backs are added to them.
             solver: the solver that holds the step's factors.
+            refactor: factorise K first (K assembled at a new state, no step solved with it).
 
         Returns:
             The change of y's dofs (already added to y).
         """
         compat.assemble_vector_into(self.rhs, self._constraint_residual)
         correction: Function = dolfinx.fem.Function(self.W)
-        more = solver.solve(self.rhs, correction.x.petsc_vec, refactor=False)
+        more = solver.solve(self.rhs, correction.x.petsc_vec, refactor=refactor)
         self.counts.step_solves += 1
         stats.fallbacks += more.fallbacks
         correction.x.scatter_forward()

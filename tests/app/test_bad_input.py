@@ -347,6 +347,23 @@ BAD_INPUT = {
         b'[mesh]\ntype = "gmsh"\nfile = "{inputs}/binary.geo"\n',
         base=(),
     ),
+    # -- model.metric (docs/prestrain.md) ------------------------------------------------------
+    "metric not positive definite": Case(
+        ("model.metric={g11='x - 2'}",),
+        "model.metric: G is not symmetric positive definite at (x, y) = (",
+    ),
+    "metric nan on the plate": Case(
+        ("model.metric={g22='sqrt(x - 10)'}",),
+        "model.metric.g22: formula 'sqrt(x - 10)' is not finite on the plate: nan at",
+    ),
+    "metric with the ldg hessian": Case(
+        ("model.metric={g11=2.0}", "model.hessian='ldg'"),
+        "model.metric needs model.hessian = 'broken'",
+    ),
+    "metric with the edge constraint": Case(
+        ("model.metric={g11=2.0}", "flow.edge_constraint=true"),
+        "flow.edge_constraint holds free edges to the metric I: not with model.metric",
+    ),
 }
 
 #: Cases that also run under mpirun -n 2 (validation, and collective checks on the mesh).
@@ -371,6 +388,8 @@ MPI_CASES = [
     "unknown factor package",
     "fvk unknown snes type",
     "start formula not finite on the plate",
+    "metric not positive definite",
+    "metric nan on the plate",
 ]
 
 

@@ -235,3 +235,15 @@ def test_seeds_rerun_with_fewer_levels_keeps_the_finer_record():
     assert seeds.supersedes(four, {"cells_per_unit": 4, "levels": [{}] * 4})
     assert seeds.supersedes(four, {"cells_per_unit": 2, "levels": [{}] * 2})
     assert seeds.supersedes(None, {"cells_per_unit": 4, "levels": [{}]})
+
+
+def test_spherical_cap_page_is_generated(tmp_path):
+    """docs/prestrain.md's table is what --table-only writes from spherical_cap.json."""
+    page = BENCH.parent / "docs" / "prestrain.md"
+    assert_page_is_generated("spherical_cap", page, tmp_path)
+    record = json.loads((BENCH / "results" / "spherical_cap.json").read_text())
+    levels = record["levels"]
+    assert [level["h"] for level in levels] == [0.2, 0.1, 0.05, 0.025]
+    assert all(level["converged"] and level["metric_start"]["defect"] <= 1e-10 for level in levels)
+    errors = [abs(level["radius_error"]) for level in levels]
+    assert errors == sorted(errors, reverse=True)  # the fitted radius converges

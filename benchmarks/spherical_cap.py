@@ -1,0 +1,153 @@
+"""The prestrained disc of demos/problems/spherical_disc.toml at several mesh levels.
+
+The disc |x| < 1 with the metric of a sphere of radius R = 2 (free boundary, no load) becomes
+the spherical cap (dgplate.reference.spherical_cap). Per level (``mesh.parameters.h``): the
+cells, the energy E_h and its error against the cap's, E_h of the interpolated cap, the radius of the least-squares sphere
+through the nodal values and its error, the metric start (stretching steps, projections, its
+D_h and time), the flow's steps and the wall time. The observed orders take the mesh size as
+(cells)^(-1/2) (the polar mesh's h is a target, not the cells' size).
+
+    python benchmarks/spherical_cap.py [--h 0.2 0.1 0.05 0.025] [--json …]
+    python benchmarks/spherical_cap.py --table-only [--json …] [--page docs/prestrain.md]
+
+The table of docs/prestrain.md between ``<!-- spherical_cap:begin -->`` and
+``<!-- spherical_cap:end -->`` is generated from the JSON (``--table-only``: no runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+from pages import write_between
+
+from dgplate.io.output import print0
+from dgplate.measure.analysis import fit_sphere
+from dgplate.problems.prepare import build_model
+from dgplate.problems.runner import run as run_problem
+from dgplate.problems.specs import Problem, load_problem
+from dgplate.reference.spherical_cap import cap, energy
+from dgplate.solvers.driver import EnergyFlow
+
+ROOT = Path(__file__).resolve().parent.parent
+PROBLEM = ROOT / "demos" / "problems" / "spherical_disc.toml"
+RESULTS = ROOT / "benchmarks" / "results"
+BEGIN, END = "<!-- spherical_cap:begin -->", "<!-- spherical_cap:end -->"
+RADIUS = 2.0
+
+
+def one_level(comm: MPI.Comm, h: float) -> dict[str, Any]:
+    """The disc at ``mesh.parameters.h = h``: its figures (module docstring)."""
+    folder = comm.bcast(tempfile.mkdtemp(prefix="cap_") if comm.rank == 0 else None, root=0)
+    overrides = {"mesh.parameters.h": h, "output.vtx": False, "output.png": False}
+    problem = load_problem(PROBLEM, {**overrides, "output.progress": 0})
+    t0 = time.perf_counter()
+    result = run_problem(problem, Path(folder) / "run", comm, allow_large=True)
+    wall = time.perf_counter() - t0
+    assert result.shape is not None  # a plate's run keeps its deformation
+    fit = fit_sphere(result.shape)
+    s, exact = result.summary, energy(RADIUS)
+    interpolant = cap_energy(problem, comm)
+    return {
+        "h": h,
+        "cells": s["cells"],
+        "converged": s["converged"],
+        "steps": s["steps"],
+        "energy": s["energy"],
+        "energy_error": (s["energy"] - exact) / exact,
+        "interpolant_energy": interpolant,
+        "radius": fit["radius"],
+        "radius_error": (fit["radius"] - RADIUS) / RADIUS,
+        "rms": fit["rms"],
+        "isometry_defect": s["isometry_defect"],
+        "metric_start": s["metric_start"],
+        "wall_s": wall,
+    }
+
+
+def cap_energy(problem: Problem, comm: MPI.Comm) -> float:
+    """E_h of the exact cap interpolated on the problem's mesh (collective)."""
+    _, model = build_model(problem, comm)
+    flow = model.driver(problem.flow, [], lambda x: cap(x, RADIUS))
+    assert isinstance(flow, EnergyFlow)  # the kirchhoff plate's gradient flow
+    value = flow.evaluate_energy()
+    flow.destroy()
+    return value
+
+
+def _order(errors: list[float], cells: list[int], i: int) -> str:
+    """The observed order between levels i − 1 and i (mesh size ∝ cells^(-1/2))."""
+    if i == 0 or errors[i] == 0 or errors[i - 1] == 0:
+        return ""
+    ratio = math.log(abs(errors[i - 1]) / abs(errors[i]))
+    return f"{ratio / (0.5 * math.log(cells[i] / cells[i - 1])):.2f}"
+
+
+def table(record: dict[str, Any]) -> str:
+    """The Markdown table of a record: one row per level."""
+    levels = record["levels"]
+    cells = [level["cells"] for level in levels]
+    radius = [level["radius_error"] for level in levels]
+    rows = []
+    for i, level in enumerate(levels):
+        start = level["metric_start"]
+        rows.append(
+            f"| {level['h']:g} | {level['cells']} | {level['radius']:.6f} "
+            f"| {level['radius_error']:+.2e} | {_order(radius, cells, i)} "
+            f"| {level['energy']:.6f} | {level['energy_error']:+.2%} "
+            f"| {level['interpolant_energy']:.6f} "
+            f"| {start['stretching_steps']} + {start['projection_steps']} "
+            f"| {start['defect']:.1e} | {start['seconds']:.1f} | {level['steps']} "
+            f"| {level['wall_s']:.1f} |"
+        )
+    return "\n".join(
+        [
+            f"The disc with the metric of a sphere of radius 2, P2 on `polar_disc.geo`, "
+            f"{record['ranks']} rank(s) (`benchmarks/spherical_cap.py`, "
+            f"`benchmarks/results/spherical_cap.json`); exact E = {record['exact_energy']:.6f}. "
+            "Start: stretching steps + projections of the metric start, its D_h and seconds; "
+            "order: observed, with the mesh size ∝ cells^(-1/2); I_h cap: E_h of the exact cap "
+            "interpolated.",
+            "",
+            "| h | cells | radius | error | order | E_h | error | I_h cap | start | D_h "
+            "| start s | flow steps | wall s |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+            *rows,
+        ]
+    )
+
+
+def main(argv: list[str]) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--h", type=float, nargs="+", default=[0.2, 0.1, 0.05, 0.025])
+    parser.add_argument("--json", type=Path, default=RESULTS / "spherical_cap.json")
+    parser.add_argument("--page", type=Path, default=ROOT / "docs" / "prestrain.md")
+    parser.add_argument(
+        "--table-only", action="store_true", help="rewrite --page's table from --json"
+    )
+    args = parser.parse_args(argv)
+    comm = MPI.COMM_WORLD
+    if not args.table_only:
+        levels = []
+        for h in args.h:
+            levels.append(one_level(comm, h))
+            print0(comm, json.dumps(levels[-1]))
+        record = {"ranks": comm.size, "exact_energy": energy(RADIUS), "levels": levels}
+        if comm.rank == 0:
+            args.json.write_text(json.dumps(record, indent=2) + "\n")
+    if comm.rank == 0:
+        text = table(json.loads(args.json.read_text()))
+        write_between(args.page, BEGIN, END, f"{BEGIN}\n{text}\n{END}")
+        print(text)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
