@@ -34,6 +34,8 @@ COLOR_LABELS = {
     "defect": "isometry defect density",
     "gauss": "Gaussian curvature K",
 }
+#: The power of a length in each field (its unit with lengths in mm: mm^-power).
+_LENGTH_POWER = {"curvature": 1, "defect": 0, "gauss": 2}
 _VIEWS = {"iso": (1.0, -1.4, 1.1), "top": (0.0, 0.0, 1.0), "front": (0.0, -1.0, 0.0)}
 _VIEWS.update({"xy": _VIEWS["top"], "xz": _VIEWS["front"], "yz": (1.0, 0.0, 0.0)})
 _LOOK = {"smooth_shading": True, "specular": 0.3, "specular_power": 25, "ambient": 0.15}
@@ -225,6 +227,7 @@ def plot_deformation(
     clim: tuple[float, float] | None = None,
     show_edges: bool = False,
     lines: Sequence[np.ndarray] | None = None,
+    length_mm: float | None = None,
     **options: Any,
 ) -> None:
     """Picture of the deformed plate, coloured or plain.
@@ -233,7 +236,9 @@ def plot_deformation(
     density ("defect", vector y only), the Gaussian curvature K = det(II)/det(∇yᵀ∇y) per cell
     ("gauss") or nothing. Collective; rank 0 writes ``path``.
 
-    ``options`` go to ``render_png`` (reference, window_size, cmap).
+    ``length_mm``: the length of a mesh unit in mm (a [material]'s); the colours are then in
+    physical units, a curvature in 1/mm and K in 1/mm². ``options`` go to ``render_png``
+    (reference, window_size, cmap).
     """
     if color_by not in (None, *COLOR_LABELS):
         raise ValueError(
@@ -246,7 +251,12 @@ def plot_deformation(
     if scalars and not u.ufl_shape:  # a scalar deflection w
         scalars = scalars.replace("y", "w")
     densities = {"curvature": bending_density, "defect": defect_density, "gauss": gauss_density}
-    values = {scalars: densities[color_by](u)} if scalars and color_by else {}
+    values = {}
+    if scalars and color_by:
+        power = _LENGTH_POWER[color_by] if length_mm else 0
+        if power:
+            scalars += " (1/mm)" if power == 1 else f" (1/mm^{power})"
+        values = {scalars: densities[color_by](u) / (length_mm or 1.0) ** power}
     grid = surface_grid(u, cell_values=values)
     render_png(grid, path, scalars, title, camera, clim, show_edges, lines, **options)
 

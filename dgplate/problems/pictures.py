@@ -97,11 +97,13 @@ def _draw(
 
     if model.picture(driver, path, title):  # a model's own picture (a rod: a striped tube)
         return
+    material = problem.material
     plot_deformation(
         driver.shape,
         path,
         title=title,
         color_by=problem.output.color_by,
         lines=model.lines(driver),
+        length_mm=material.length * 1e3 if material else None,
         **options,
     )

@@ -18,7 +18,13 @@ from dgplate import compat
 from dgplate.errors import InputError
 from dgplate.io.images import frames_to_gif
 from dgplate.io.montage import montage
-from dgplate.io.plotting import REFERENCE, plot_deformation, render_png, surface_grid
+from dgplate.io.plotting import (
+    COLOR_LABELS,
+    REFERENCE,
+    plot_deformation,
+    render_png,
+    surface_grid,
+)
 from dgplate.io.vtx import DeformationWriter, bp_variables
 from dgplate.measure.fields import bending_density, cell_field, defect_density, dg0_dofs_to_cells
 from dgplate.mesh.tagged import rectangle
@@ -170,6 +176,26 @@ def test_plot_deformation_and_gif(comm, shared_dir):
         assert gif.format == "GIF" and gif.n_frames == 4 and gif.size == SMALL
     with pytest.raises(ValueError, match="color_by"):
         plot_deformation(y, shared_dir / "bad.png", color_by="energy")
+
+
+@pytest.mark.parametrize(("color_by", "label", "factor"), [
+    ("curvature", "bending |D²y| (1/mm)", 0.1), ("gauss", "Gaussian curvature K (1/mm^2)", 0.01),
+    ("defect", "isometry defect density", 1.0),
+])  # fmt: skip
+def test_colours_in_physical_units(color_by, label, factor, comm, monkeypatch, tmp_path):
+    """With a mesh unit of 10 mm a curvature is shown in 1/mm (÷ 10), K in 1/mm² (÷ 100)."""
+    import dgplate.io.plotting as plotting
+
+    drawn = []
+    monkeypatch.setattr(plotting, "render_png", lambda grid, path, scalars, *a, **k: drawn.append(
+        (scalars, np.asarray(grid.cell_data[scalars]))))  # fmt: skip
+    y = rolled(comm, "triangle")
+    plotting.plot_deformation(y, tmp_path / "a.png", color_by=color_by)
+    plotting.plot_deformation(y, tmp_path / "b.png", color_by=color_by, length_mm=10.0)
+    (plain, values), (scaled, physical) = drawn
+    assert plain == COLOR_LABELS[color_by] and scaled == label
+    assert np.abs(values).max() > 0  # |D²y| = 1; K and the defect are round-off here
+    assert np.allclose(physical, factor * values, rtol=1e-14, atol=0)
 
 
 def test_montage_of_pictures(tmp_path):
