@@ -22,6 +22,7 @@ from helpers import PROBLEMS, QUIET, ROOT, mpirun
 
 from dgplate import expressions, interrupt, load_problem, run
 from dgplate.dg.forms import hessian, metric_weighted
+from dgplate.errors import InputError
 from dgplate.measure.analysis import fit_sphere
 from dgplate.measure.fields import defect_density
 from dgplate.mesh.tagged import rectangle
@@ -210,3 +211,9 @@ def test_defect_picture_measures_against_the_metric():
     to_g = defect_density(y, target_metric(spec, mesh))
     to_identity = defect_density(y)
     assert to_g.max() < 1e-6 and to_identity.max() > 0.03  # measured 1.2e-8, 0.0316
+
+
+def test_a_bad_metric_formula_fails_before_the_mesh():
+    """``load_problem`` (no mesh yet) names the entry of a formula that does not parse."""
+    with pytest.raises(InputError, match=r"^model\.metric\.g11: "):
+        load_problem(SPHERICAL, {"model.metric": {"g11": "x +", "g12": 0.0, "g22": 1.0}})
