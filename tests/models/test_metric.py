@@ -193,13 +193,14 @@ def test_a_signal_stops_the_metric_start(tmp_path, monkeypatch):
     assert json.loads((out / "summary.json").read_text())["reason"] == "interrupted (SIGTERM)"
 
 
-def test_a_given_start_is_projected_onto_the_metric(tmp_path):
+def test_a_given_start_is_projected_onto_the_metric(tmp_path, capsys):
     """``initial`` = the interpolated cap: no stretching, projections until D_h ≤ 1e-10."""
-    problem = load_problem(SPHERICAL, {**QUIET, "flow.max_steps": 1})
+    problem = load_problem(SPHERICAL, {**QUIET, "flow.max_steps": 1, "output.progress": 1})
     result = run(problem, out=tmp_path / "run", initial=lambda x: spherical_cap.cap(x, 2.0))
     start = result["metric_start"]
     assert start["stretching_steps"] == 0 and start["projection_steps"] >= 1
     assert start["defect"] <= 1e-10
+    assert "metric start: 0 stretching steps" in capsys.readouterr().out  # output.progress = 1
 
 
 def test_defect_picture_measures_against_the_metric():
