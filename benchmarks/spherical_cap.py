@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import shutil
 import sys
 import tempfile
 import time
@@ -45,12 +46,25 @@ RADIUS = 2.0
 
 
 def one_level(comm: MPI.Comm, h: float) -> dict[str, Any]:
-    """The disc at ``mesh.parameters.h = h``: its figures (module docstring)."""
+    """The disc at ``mesh.parameters.h = h``: its figures (module docstring).
+
+    The run's outputs go to a temporary folder, removed afterwards.
+    """
     folder = comm.bcast(tempfile.mkdtemp(prefix="cap_") if comm.rank == 0 else None, root=0)
+    try:
+        return _measure(comm, h, Path(folder))
+    finally:
+        comm.barrier()  # every rank is done with the folder
+        if comm.rank == 0:
+            shutil.rmtree(folder, ignore_errors=True)
+
+
+def _measure(comm: MPI.Comm, h: float, folder: Path) -> dict[str, Any]:
+    """The figures of one level, its run's outputs written under ``folder``."""
     overrides = {"mesh.parameters.h": h, "output.vtx": False, "output.png": False}
     problem = load_problem(PROBLEM, {**overrides, "output.progress": 0})
     t0 = time.perf_counter()
-    result = run_problem(problem, Path(folder) / "run", comm, allow_large=True)
+    result = run_problem(problem, folder / "run", comm, allow_large=True)
     wall = time.perf_counter() - t0
     assert result.shape is not None  # a plate's run keeps its deformation
     fit = fit_sphere(result.shape)

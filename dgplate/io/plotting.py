@@ -10,14 +10,17 @@ Functions taking a DOLFINx function are collective; only rank 0 renders and writ
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import functools
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import dolfinx.fem
 import numpy as np
 import pyvista
+from ufl.core.expr import Expr
 
+from dgplate.compat import Array
 from dgplate.io.images import frames_to_gif, offscreen_png, save_figure, start_offscreen
 from dgplate.io.montage import montage
 from dgplate.measure.fields import (
@@ -228,6 +231,7 @@ def plot_deformation(
     show_edges: bool = False,
     lines: Sequence[np.ndarray] | None = None,
     length_mm: float | None = None,
+    metric: Expr | None = None,
     **options: Any,
 ) -> None:
     """Picture of the deformed plate, coloured or plain.
@@ -237,7 +241,8 @@ def plot_deformation(
     ("gauss") or nothing. Collective; rank 0 writes ``path``.
 
     ``length_mm``: the length of a mesh unit in mm (a [material]'s); the colours are then in
-    physical units, a curvature in 1/mm and K in 1/mm². ``options`` go to ``render_png``
+    physical units, a curvature in 1/mm and K in 1/mm². ``metric``: the target metric G of a
+    prestrained plate (``model.metric``), the "defect" is then |∇yᵀ∇y − G|. ``options`` go to ``render_png``
     (reference, window_size, cmap).
     """
     if color_by not in (None, *COLOR_LABELS):
@@ -250,7 +255,11 @@ def plot_deformation(
     scalars = COLOR_LABELS[color_by] if color_by else None
     if scalars and not u.ufl_shape:  # a scalar deflection w
         scalars = scalars.replace("y", "w")
-    densities = {"curvature": bending_density, "defect": defect_density, "gauss": gauss_density}
+    densities: dict[str, Callable[[dolfinx.fem.Function[np.float64]], Array]] = {
+        "curvature": bending_density,
+        "defect": functools.partial(defect_density, metric=metric),
+        "gauss": gauss_density,
+    }
     values = {}
     if scalars and color_by:
         power = _LENGTH_POWER[color_by] if length_mm else 0

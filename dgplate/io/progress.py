@@ -70,6 +70,11 @@ class ProgressPrinter:
             self._print(f"{record.line()}  ({duration(now - self.start)}{left})")
             self._last = (record.step, now)
 
+    def note(self, line: str) -> None:
+        """Print a line of the run's own (the metric start's) unless ``every`` is 0 (rank 0)."""
+        if self.every != 0:
+            self._print(line)
+
     def _due(self, step: int, now: float) -> bool:
         """Whether the line of ``step`` is printed (see the class)."""
         if self.every != "auto":

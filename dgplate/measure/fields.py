@@ -116,13 +116,21 @@ def bending_density(y: Function) -> Array:
     return cell_field(hessian_norm(y), y.function_space.mesh)
 
 
-def defect_density(y: Function) -> Array:
-    """Isometry-defect density |∫_T (∇yᵀ∇y − I)| / |T| per owned cell (owned-cell order)."""
+def defect_density(y: Function, metric: Expr | None = None) -> Array:
+    """Isometry-defect density |∫_T (∇yᵀ∇y − G)| / |T| per owned cell (owned-cell order).
+
+    Args:
+        y: the deformation.
+        metric: the target metric G (None: I).
+
+    Returns:
+        One value per owned cell.
+    """
     if y.ufl_shape != (3,):
         raise ValueError("the isometry defect needs a deformation y with three components")
     from dgplate.solvers.constraint import IsometryDefect
 
-    defect = IsometryDefect(y)
+    defect = IsometryDefect(y, metric)
     # density() is indexed by the owned dofs of the defect's DG0 space, not by cell.
     return dg0_dofs_to_cells(defect.density(), defect.space)
 

@@ -72,6 +72,9 @@ class Model(Protocol):
         ...
 
     # -- optional capabilities, with their defaults --------------------------------------------
+    #: the target metric G of ∇yᵀ∇y = G (None: I); the picture's defect is measured against it
+    metric: Expr | None = None
+
     def pending_calibration(self) -> str | None:
         """What :meth:`calibrate` has yet to solve for, in words; None: nothing.
 

@@ -38,7 +38,11 @@ class MetricSpec:
     g22: float | str = option(1.0, "G₂₂: a number or a formula in x, y")
 
     def entries(self) -> dict[str, float | str]:
-        """The three entries by name (g11, g12, g22)."""
+        """The three entries by name.
+
+        Returns:
+            ``{"g11": …, "g12": …, "g22": …}``, each a number or a formula.
+        """
         return {"g11": self.g11, "g12": self.g12, "g22": self.g22}
 
     def validate(self, key: str) -> None:

@@ -105,5 +105,6 @@ def _draw(
         color_by=problem.output.color_by,
         lines=model.lines(driver),
         length_mm=material.length * 1e3 if material else None,
+        metric=model.metric,
         **options,
     )

@@ -56,7 +56,15 @@ def metric_formulas(R: float) -> dict[str, str]:
 
 
 def cap(x: npt.NDArray[np.float64], R: float) -> npt.NDArray[np.float64]:
-    """The cap y(x) = a(r) x + R(1 − cos(r/R)) e₃ at points x of shape (2 or 3, n)."""
+    """The cap y(x) = a(r) x + R(1 − cos(r/R)) e₃, a(r) = R sin(r/R)/r.
+
+    Args:
+        x: points of the disc, shape (2 or 3, n) (a third row is ignored).
+        R: the sphere's radius.
+
+    Returns:
+        y at the points, shape (3, n).
+    """
     r = np.hypot(x[0], x[1])
     with np.errstate(invalid="ignore", divide="ignore"):
         a = np.where(r > 0, R * np.sin(r / R) / np.where(r > 0, r, 1.0), 1.0)
@@ -68,6 +76,13 @@ def energy_density(r: npt.NDArray[np.float64], R: float) -> npt.NDArray[np.float
 
     With y = a(r)x + b(r)e₃, at x = r e₁: G⁻¹ = diag(1, a⁻²), D²y₁ = diag(ra'' + 2a', a'),
     D²y₂ = a'(e₁⊗e₂ + e₂⊗e₁), D²y₃ = diag(b'', b'/r).
+
+    Args:
+        r: radii, all > 0.
+        R: the sphere's radius.
+
+    Returns:
+        The density at each radius.
     """
     rho = r / R
     a = R * np.sin(rho) / r
@@ -85,6 +100,15 @@ def energy(R: float, radius: float = 1.0, mu: float = 1.0, points: int = 200) ->
 
     Gauss–Legendre quadrature with ``points`` nodes (the integrand is smooth: exact to
     round-off with the default).
+
+    Args:
+        R: the sphere's radius.
+        radius: the disc's radius.
+        mu: the rigidity μ.
+        points: the quadrature's nodes.
+
+    Returns:
+        The cap's energy.
     """
     nodes, weights = np.polynomial.legendre.leggauss(points)
     r = 0.5 * radius * (nodes + 1)

@@ -199,7 +199,15 @@ def _estimated_degree(form: ufl.Form) -> int:
 
 
 def metric_measure(y: Expr, metric: Expr | None) -> ufl.Measure:
-    """The cell measure of the constraint's integrals: FFCx's degree for G = I, else the energy's."""
+    """The cell measure of the constraint's integrals: FFCx's degree for G = I, else the energy's.
+
+    Args:
+        y: the deformation (its degree sets the quadrature with a G).
+        metric: the target metric G (None: I).
+
+    Returns:
+        ``dx``; with a G, of the energy's degree :func:`~dgplate.dg.forms.metric_quadrature`.
+    """
     dx: ufl.Measure = ufl.dx
     if metric is not None:
         dx = dx(metadata={"quadrature_degree": metric_quadrature(y)})

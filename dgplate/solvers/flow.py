@@ -212,8 +212,9 @@ class GradientFlow(EnergyFlow):
             observers: told of every step and of the end of each run.
             initial: the initial deformation; None: y(x) = (x₁, x₂, 0).
             metric: the target metric G of the constraint ∇yᵀ∇y = G (None: I, isometries).
-                With a G and no ``initial`` the first run begins with the metric start
-                (:mod:`dgplate.solvers.metric_start`): the flat plate violates the constraint.
+                With a G the first run begins with the metric start
+                (:mod:`dgplate.solvers.metric_start`; from an ``initial``, its projections
+                only): the flat plate violates the constraint.
         """
         if metric is not None and settings.edge_constraint:
             raise InputError(
@@ -231,7 +232,8 @@ class GradientFlow(EnergyFlow):
         self.metric = metric
         #: the metric start's figures (None: no start phase, or not run yet)
         self.start_phase: dict[str, Any] | None = None
-        self._start_pending = metric is not None and initial is None
+        self._start_pending = metric is not None
+        self._given_start = initial is not None  # the metric start only projects it
         self.time, self.step_count = 0.0, 0
         self.energy_increases: list[int] = []  # steps at which E_h went up, over all runs
         self.counts = FlowCounts()
@@ -323,8 +325,10 @@ class GradientFlow(EnergyFlow):
     def restore_state(self, state: dict[str, Any]) -> None:
         """Continue from a checkpoint's counters (after its fields were restored)."""
         super().restore_state(state)
-        self._start_pending = False  # the checkpoint's y is past the metric start
         self.start_phase = state.get("metric_start")
+        # a checkpoint written before the metric start ended (a signal) starts it anew
+        self._start_pending = self.metric is not None and self.start_phase is None
+        self._given_start = False
         tau = float(state.get("tau", self.tau))
         if tau != self.tau:
             self.system.put_tau(tau)
@@ -369,9 +373,9 @@ class GradientFlow(EnergyFlow):
             How the run ended, with its records.
         """
         if self._start_pending:
-            self._start_pending = False
-            self.start_phase = metric_start.run(self)
-            self.rebase_energy()
+            ended = self._metric_start()
+            if ended is not None:
+                return self._finish(False, *ended, [], [])
         budget = max_steps or self.remaining_steps()
         history: list[StepInfo] = []
         increases: list[int] = []
@@ -403,6 +407,17 @@ class GradientFlow(EnergyFlow):
             if signum:
                 reason = interrupt.reason(signum)
                 break
+        return self._finish(converged, reason, signum, history, increases)
+
+    def _finish(
+        self,
+        converged: bool,
+        reason: str,
+        signum: int,
+        history: list[StepInfo],
+        increases: list[int],
+    ) -> FlowResult:
+        """The run's result, told to the observers."""
         last = history[-1] if history else None
         energy = last.energy if last else self.evaluate_energy()
         defect = last.defect if last else self.defect()
@@ -410,6 +425,24 @@ class GradientFlow(EnergyFlow):
         for obs in self.observers:
             obs.finish(self, result)
         return result
+
+    def _metric_start(self) -> tuple[str, int] | None:
+        """Run the metric start; None when it succeeded, else the run's (reason, signal)."""
+        notes = [note for obs in self.observers if (note := getattr(obs, "note", None))]
+
+        def say(line: str) -> None:
+            for note in notes:
+                note(line)
+
+        try:
+            self.start_phase = metric_start.run(self, self._given_start, say)
+        except SolverError as exc:
+            return f"metric start failed: {exc}", 0
+        except metric_start.Stopped as stop:
+            return interrupt.reason(stop.signum), stop.signum
+        self._start_pending = False
+        self.rebase_energy()
+        return None
 
     # -- one step ---------------------------------------------------------------------------
     def step(self, newton: bool = False) -> StepInfo:

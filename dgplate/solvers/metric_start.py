@@ -2,8 +2,10 @@
 
 The flat plate y = (x₁, x₂, 0) has ∇yᵀ∇y = I, so under a target metric G ≠ I the flow has no
 admissible state to start from. Before its first step the flow (:class:`GradientFlow` with a
-metric and no start of the user's) makes one in two phases, as the preprocessing of Bonito,
-Guignard, Nochetto and Yang (J. Comput. Phys. 2022, §4.2) does with a stretching energy:
+metric) makes one in two phases, as the preprocessing of Bonito, Guignard, Nochetto and Yang
+(J. Comput. Phys. 2022, §4.2) does with a stretching energy; from a start of the user's
+(``model.start``, ``initial``) it makes only the second, when that start's D_h exceeds
+``DEFECT_TOL``:
 
 1. *Stretching.* From the flat plate lifted by the paraboloid z = δ|x − c|²/d (c the centre
    and d the diameter of the plate's bounding box: a metric of positive Gauss curvature
@@ -34,7 +36,7 @@ import numpy as np
 import ufl
 from ufl.core.expr import Expr
 
-from dgplate import compat, mpi
+from dgplate import compat, interrupt, mpi
 from dgplate.compat import Array, Function
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import integral
@@ -62,6 +64,14 @@ PROJECTION_STEPS = 30
 HALVINGS = 30
 
 
+class Stopped(Exception):
+    """A signal stopped the metric start (:mod:`dgplate.interrupt`); ``signum`` names it."""
+
+    def __init__(self, signum: int):
+        super().__init__(interrupt.reason(signum))
+        self.signum = signum
+
+
 class StartFlow(Protocol):
     """What the metric start needs of the flow (:class:`~dgplate.solvers.flow.GradientFlow`)."""
 
@@ -73,23 +83,33 @@ class StartFlow(Protocol):
     defect: IsometryDefect
 
 
-def run(flow: StartFlow) -> dict[str, Any]:
-    """Move ``flow.y`` from the flat plate onto ∇yᵀ∇y = G (collective; module docstring).
+def run(
+    flow: StartFlow, given: bool = False, say: Callable[[str], None] | None = None
+) -> dict[str, Any]:
+    """Move ``flow.y`` onto ∇yᵀ∇y = G (collective; module docstring).
 
     Args:
-        flow: a gradient flow with a target metric, at its flat first state.
+        flow: a gradient flow with a target metric, at its first state.
+        given: the first state is the user's (``model.start``, ``initial``): only the
+            projection phase, and only when its D_h exceeds ``DEFECT_TOL``.
+        say: prints the phase's line (rank 0; the flow passes its progress printer's).
 
     Returns:
         The phase's figures for ``summary.json``: the steps of each part, the stretching
         ∫|∇yᵀ∇y − G|² after the first, the defect D_h at the end and the seconds taken. A
-        flat plate that meets the constraint already (D_h ≤ ``DEFECT_TOL``: G = I) stays.
+        state that meets the constraint already (D_h ≤ ``DEFECT_TOL``: G = I) stays.
+
+    Raises:
+        SolverError: D_h > ``DEFECT_TOL`` after the projections.
+        Stopped: a signal arrived (checked between the steps of both phases).
     """
     assert flow.metric is not None
     t0 = time.perf_counter()
     steps, stretching, projections = 0, 0.0, 0
     if flow.defect() > DEFECT_TOL:  # else G = I: the flat plate is on the constraint already
-        flow.y.interpolate(_lifted(flow.y))
-        steps, stretching = _stretch(flow.y, flow.metric, flow.energy.implicit)
+        if not given:
+            flow.y.interpolate(_lifted(flow.y))
+            steps, stretching = _stretch(flow.y, flow.metric, flow.energy.implicit)
         projections = _project(flow)
     defect = flow.defect()
     figures = {
@@ -99,11 +119,10 @@ def run(flow: StartFlow) -> dict[str, Any]:
         "defect": defect,
         "seconds": time.perf_counter() - t0,
     }
-    if flow.comm.rank == 0:
-        print(
+    if say is not None:
+        say(
             f"metric start: {steps} stretching steps (∫|∇yᵀ∇y − G|² = {stretching:.3e}), "
-            f"{projections} projections, D_h = {defect:.3e} ({figures['seconds']:.1f} s)",
-            flush=True,
+            f"{projections} projections, D_h = {defect:.3e} ({figures['seconds']:.1f} s)"
         )
     if not defect <= DEFECT_TOL:
         raise SolverError(
@@ -111,6 +130,13 @@ def run(flow: StartFlow) -> dict[str, Any]:
             f"{projections} projections: no state on the constraint ∇yᵀ∇y = G"
         )
     return figures
+
+
+def _check_signal(comm: MPI.Comm) -> None:
+    """Raise :class:`Stopped` when any rank received a signal (collective)."""
+    signum = interrupt.requested(comm)
+    if signum:
+        raise Stopped(signum)
 
 
 def _lifted(y: Function) -> Callable[[Array], Array]:
@@ -145,14 +171,14 @@ def _stretch(y: Function, metric: Expr, energy: ufl.Form) -> tuple[int, float]:
     matrix = ufl.inner(strain(dy), strain(v)) * dx + SIGMA * ufl.inner(dy, v) * ufl.dx
     matrix += EPSILON * ufl.derivative(ufl.derivative(energy, y, v), y, dy)
     A_form = dolfinx.fem.form(matrix)
-    A = dolfinx.fem.petsc.assemble_matrix(A_form)
-    A.assemble()
+    A = dolfinx.fem.petsc.create_matrix(A_form)  # assembled at each step
     rhs, step = dolfinx.fem.Function(space), dolfinx.fem.Function(space)
     solver = linear.DirectStepSolver(comm, A, None, prefix=None)
     value = integral(F, comm)
     steps = 0
     try:
         while steps < STRETCH_STEPS:
+            _check_signal(comm)
             steps += 1
             compat.assemble_matrix_into(A, A_form)
             compat.assemble_vector_into(rhs.x.petsc_vec, gradient)
@@ -194,5 +220,6 @@ def _project(flow: StartFlow) -> int:
             return count
         if count == PROJECTION_STEPS:
             break
+        _check_signal(flow.comm)
         system.correct(stats, system.assemble(), refactor=True)
     return PROJECTION_STEPS

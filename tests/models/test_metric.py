@@ -8,6 +8,7 @@ given explicitly is the run without a metric.
 import json
 import math
 import os
+import signal
 import subprocess
 import sys
 
@@ -19,11 +20,15 @@ import pytest
 import ufl
 from helpers import PROBLEMS, QUIET, ROOT, mpirun
 
-from dgplate import expressions, load_problem, run
+from dgplate import expressions, interrupt, load_problem, run
 from dgplate.dg.forms import hessian, metric_weighted
+from dgplate.errors import InputError
 from dgplate.measure.analysis import fit_sphere
+from dgplate.measure.fields import defect_density
 from dgplate.mesh.tagged import rectangle
+from dgplate.models.metric import MetricSpec, target_metric
 from dgplate.reference import spherical_cap
+from dgplate.solvers import metric_start
 
 SPHERICAL = PROBLEMS / "spherical_disc.toml"
 VERTICAL = PROBLEMS / "vertical_load.toml"
@@ -164,3 +169,52 @@ def test_a_resumed_run_keeps_its_metric_start(tmp_path):
     assert resumed["converged"] and resumed["steps"] == 7
     assert resumed["metric_start"] == first["metric_start"]
     assert resumed["energy"] == pytest.approx(0.91348334913985, abs=1e-10)
+
+
+def test_a_failed_metric_start_ends_the_run_with_a_summary(tmp_path, monkeypatch, capsys):
+    """No projection allowed: the run ends unconverged with the reason, and prints nothing."""
+    monkeypatch.setattr(metric_start, "STRETCH_STEPS", 1)
+    monkeypatch.setattr(metric_start, "PROJECTION_STEPS", 0)
+    out = tmp_path / "run"
+    result = run(load_problem(SPHERICAL, QUIET), out=out)
+    assert not result["converged"] and result["steps"] == 0
+    assert result["reason"].startswith("metric start failed: the metric start left D_h = ")
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reason"] == result["reason"]
+    assert "metric start: " not in capsys.readouterr().out  # output.progress = 0: no line
+
+
+def test_a_signal_stops_the_metric_start(tmp_path, monkeypatch):
+    """A SIGTERM before the first Gauss–Newton step: the run ends interrupted, with a summary."""
+    monkeypatch.setattr(interrupt, "requested", lambda comm: int(signal.SIGTERM))
+    out = tmp_path / "run"
+    result = run(load_problem(SPHERICAL, QUIET), out=out)
+    assert result["reason"] == "interrupted (SIGTERM)" and result["steps"] == 0
+    assert json.loads((out / "summary.json").read_text())["reason"] == "interrupted (SIGTERM)"
+
+
+def test_a_given_start_is_projected_onto_the_metric(tmp_path, capsys):
+    """``initial`` = the interpolated cap: no stretching, projections until D_h ≤ 1e-10."""
+    problem = load_problem(SPHERICAL, {**QUIET, "flow.max_steps": 1, "output.progress": 1})
+    result = run(problem, out=tmp_path / "run", initial=lambda x: spherical_cap.cap(x, 2.0))
+    start = result["metric_start"]
+    assert start["stretching_steps"] == 0 and start["projection_steps"] >= 1
+    assert start["defect"] <= 1e-10
+    assert "metric start: 0 stretching steps" in capsys.readouterr().out  # output.progress = 1
+
+
+def test_defect_picture_measures_against_the_metric():
+    """``color_by = "defect"`` with G: the interpolated cap is near G, far from I."""
+    mesh = rectangle(MPI.COMM_WORLD, [[-0.5, -0.5], [0.5, 0.5]], [8, 8]).mesh
+    y = dolfinx.fem.Function(dolfinx.fem.functionspace(mesh, ("DG", 2, (3,))))
+    y.interpolate(lambda x: spherical_cap.cap(x, 2.0))
+    spec = MetricSpec(**spherical_cap.metric_formulas(2.0))
+    to_g = defect_density(y, target_metric(spec, mesh))
+    to_identity = defect_density(y)
+    assert to_g.max() < 1e-6 and to_identity.max() > 0.03  # measured 1.2e-8, 0.0316
+
+
+def test_a_bad_metric_formula_fails_before_the_mesh():
+    """``load_problem`` (no mesh yet) names the entry of a formula that does not parse."""
+    with pytest.raises(InputError, match=r"^model\.metric\.g11: "):
+        load_problem(SPHERICAL, {"model.metric": {"g11": "x +", "g12": 0.0, "g22": 1.0}})
