@@ -19,9 +19,9 @@ Crisfield arc-length continuation of dolfiny). With the scaled inner product
 R is the residual as the Newton solver of the load path assembles it
 (:class:`dgplate.solvers.snes.NewtonSolver`: ``ufl.derivative`` of Π, Dirichlet rows u − λg₁).
 ∂R/∂λ is (R(u, λ + 1) − R(u, λ − 1))/2: exact, because at a fixed state R is at most quadratic
-in λ for every load the FvK model scales (pressure, prestrain and indentation enter Π at most
-quadratically, Dirichlet data linearly, and the lifting of the data by the Jacobian adds one
-more power).
+in λ for every load the FvK model scales. The terms of Π in λ² do not depend on u, so the
+derivative R and the Jacobian J are affine in λ; the Dirichlet rows lift the data λg by J, and
+J(λ)(λg − u) is quadratic in λ.
 
 Step length (:class:`StepLength`): a step whose corrector converged in at most ``fast``
 iterations makes the next one ``grow`` times longer (at most ``ds_max``); a failed corrector
