@@ -59,8 +59,8 @@ from dgplate.solvers.newton import LoadFactor
 from dgplate.solvers.snes import NewtonSolver
 
 #: The kinds of the points of a path: a regular point, the two special points, the first
-#: point on a branch left from a bifurcation.
-KINDS = ("regular", "fold", "bifurcation", "switch")
+#: point on a branch left from a bifurcation, the point after a special point not located.
+KINDS = ("regular", "fold", "bifurcation", "switch", "fold_unlocated", "bifurcation_unlocated")
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,10 @@
 probes, the stability index, the tangent's λ-component and the kind of point (``regular``,
 ``fold``, ``bifurcation``, or ``switch``: the first point on a branch left at a bifurcation).
 The special points are located between two points of the path (:mod:`dgplate.solvers.arclength`)
-and listed in the summary (``special_points``). The path ends after ``steps`` points, when λ
+and listed in the summary (``special_points``; their load factors in ``folds`` and
+``bifurcations``). A special point that cannot be located is not recorded: the point after it
+has the kind ``fold_unlocated`` or ``bifurcation_unlocated``, and its load factor is listed in
+``unlocated``, not in ``folds`` or ``bifurcations``. The path ends after ``steps`` points, when λ
 leaves [−``lambda_max``, ``lambda_max``], or when a corrector fails at the step ``ds_min``.
 """
 
@@ -193,7 +196,11 @@ class BranchPath(Driver):
 
     def summary(self) -> dict[str, Any]:
         """The points, the special points and the last load factor."""
-        special = [asdict(r) for r in self.history if r.kind != "regular"]
+        special = [
+            asdict(r)
+            for r in self.history
+            if r.kind != "regular" and not r.kind.endswith("_unlocated")
+        ]
         return {
             "dofs": self.num_dofs,
             "load_factor": self.load.value,
@@ -203,6 +210,7 @@ class BranchPath(Driver):
             "special_points": special,
             "folds": [r.load_factor for r in self.history if r.kind == "fold"],
             "bifurcations": [r.load_factor for r in self.history if r.kind == "bifurcation"],
+            "unlocated": [r.load_factor for r in self.history if r.kind.endswith("_unlocated")],
             "energy": self.newton.energy_value(),
         }
 
@@ -268,30 +276,52 @@ class BranchPath(Driver):
         return f"{self.step_count} points of the path"
 
     def _advance(self) -> list[BranchPoint]:
-        """One arclength step, and the special point before it, if any: their records."""
+        """One arclength step, and the special point before it, if any: their records.
+
+        Nothing is recorded when the step fails (a SolverError): the path stays at its last
+        point.
+        """
         self._clock = time.perf_counter()
         base = self._point()
         new, ds = self._step(base)
-        records, kind = [], self.special.kind(base, new)
-        last = "regular"
-        if kind:
-            try:
-                special = self.special.locate(kind, base, new, ds)
-            except SolverError:  # not located: the point after it carries the kind
-                special, last = None, kind
-            if special is not None:
-                records.append(self._report(special, ds, kind))
-                if kind == "bifurcation" and self.settings.switch and not self.switched:
-                    new.destroy()
-                    new, last = self.special.switch(special, ds), "switch"
-                    self.branch, self.switched = self.branch + 1, True
-                special.destroy()
+        try:
+            records, new, last = self._special(base, new, ds)
+        except BaseException:
+            new.destroy()
+            raise
         self.engine.set_state(new)
         records.append(self._report(new, ds, last))
         base.destroy()
         self.current = new
         self.ds = self.settings.step.after(ds, new.iterations)
         return records
+
+    def _special(self, base: Point, new: Point, ds: float) -> tuple[list[BranchPoint], Point, str]:
+        """The record of the special point between ``base`` and ``new`` (if any, and located).
+
+        Returns:
+            The records, the point to go on from (``new``, or the first point of the branch
+            switched to) and the kind of that point: ``"<kind>_unlocated"`` after a special point
+            that could not be located.
+        """
+        kind = self.special.kind(base, new)
+        if not kind:
+            return [], new, "regular"
+        try:
+            special = self.special.locate(kind, base, new, ds)
+        except SolverError:
+            return [], new, f"{kind}_unlocated"
+        try:
+            if kind != "bifurcation" or not self.settings.switch or self.switched:
+                return [self._report(special, ds, kind)], new, "regular"
+            switched = self.special.switch(special, ds)
+            self.engine.set_state(special)
+            record = self._report(special, ds, kind)
+            new.destroy()
+            self.branch, self.switched = self.branch + 1, True
+            return [record], switched, "switch"
+        finally:
+            special.destroy()
 
     def _point(self) -> Point:
         if self.current is None:

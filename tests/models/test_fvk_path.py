@@ -21,10 +21,12 @@ from helpers import ROOT
 import dgplate
 from dgplate import interrupt
 from dgplate.cli import main
+from dgplate.errors import SolverError
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk.model import build_fvk
 from dgplate.models.fvk.spec import FvKSpec, NewtonSpec, PathSpec
 from dgplate.reference.fvk import sinusoidal_strip_folds, square_plate_critical_shortening
+from dgplate.solvers.arclength import SpecialPoints
 from dgplate.solvers.continuation import BranchPath
 
 E, NU, T = 1.0, 0.3, 0.01
@@ -35,18 +37,28 @@ ARCH = ROOT / "demos" / "problems" / "fvk_arch.toml"
 
 def follow(comm, spec, cells, corners, initial=None):
     """The points of the path of ``spec`` (records as dicts) and its summary."""
+    outcome, points, summary = attempt(comm, spec, cells, corners, initial)
+    assert outcome.converged, outcome.reason
+    return points, summary
+
+
+def attempt(comm, spec, cells, corners, initial=None):
+    """The outcome of the path of ``spec``, its points (records as dicts) and its summary.
+
+    The summary's ``load_factor`` is the load factor the path's state is left at.
+    """
     model = build_fvk(spec, rectangle(comm, corners, cells))
     driver = model.driver(None, [], initial)
     assert isinstance(driver, BranchPath)
     try:
-        result = driver.run()
-        assert result.converged, result.reason
-        return [asdict(r) for r in driver.history], driver.summary()
+        outcome = driver.run()
+        assert driver.step_count == len(driver.history)
+        return outcome, [asdict(r) for r in driver.history], driver.summary()
     finally:
         driver.destroy()
 
 
-def plate(comm, n, switch, steps):
+def plate(comm, n, switch, steps, run=follow):
     """The perfect square plate of demos/fvk_buckling.py shortened by λ Δ_cr, n × n cells."""
     spec = FvKSpec(
         E=E,
@@ -64,7 +76,7 @@ def plate(comm, n, switch, steps):
             method="arclength", ds=0.3, ds_max=3.0, steps=steps, switch=switch, lambda_max=1.5
         ),
     )
-    return follow(comm, spec, [n, n], [[0, 0], [1, 1]])
+    return run(comm, spec, [n, n], [[0, 0], [1, 1]])
 
 
 def arch(comm, n, steps=10):
@@ -146,6 +158,38 @@ def test_arch_snaps_through_its_limit_point():
     assert [p["stability_index"] for p in before] == [0] * len(before)
     assert [p["stability_index"] for p in after] == [1] * len(after)
     assert points[0]["w_center"] == pytest.approx(math.sqrt(2 / 3) * T, rel=0.002)  # a₀
+
+
+def test_an_unlocated_fold_is_not_listed_as_a_fold(monkeypatch):
+    """When locating fails, the point after the fold is ``fold_unlocated``, listed apart."""
+
+    def fail(*args):
+        raise SolverError("the corrector failed while locating a fold")
+
+    monkeypatch.setattr(SpecialPoints, "locate", fail)
+    points, summary = arch(MPI.COMM_WORLD, 8, steps=9)
+    kinds = [p["kind"] for p in points]
+    assert "fold" not in kinds and kinds.count("fold_unlocated") == 1
+    after = points[kinds.index("fold_unlocated")]
+    assert after["tangent_load"] < 0
+    assert summary["folds"] == [] and summary["special_points"] == []
+    assert summary["unlocated"] == [after["load_factor"]]
+
+
+def test_a_failed_switch_keeps_the_path_at_its_last_point(monkeypatch):
+    """A switch that fails records nothing: the path ends at the point before the bifurcation."""
+
+    def fail(*args):
+        raise SolverError("the arclength step fell below ds_min = 1e-06")
+
+    monkeypatch.setattr(SpecialPoints, "switch", fail)
+    outcome, points, summary = plate(MPI.COMM_WORLD, 4, switch=True, steps=6, run=attempt)
+    assert not outcome.converged
+    assert outcome.reason == "the arclength step fell below ds_min = 1e-06; the last point is kept"
+    assert [p["kind"] for p in points] == ["regular"] * len(points)
+    assert outcome.steps == len(points) and points[-1]["load_factor"] < 0.99
+    assert summary["load_factor"] == points[-1]["load_factor"]
+    assert summary["bifurcations"] == []
 
 
 def test_arch_fold_converges_to_the_exact_limit_load():
