@@ -46,8 +46,9 @@ branch it left.
 
 from __future__ import annotations
 
+import contextlib
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,6 +62,22 @@ from dgplate.solvers.snes import NewtonSolver
 #: The kinds of the points of a path: a regular point, the two special points, the first
 #: point on a branch left from a bifurcation, the point after a special point not located.
 KINDS = ("regular", "fold", "bifurcation", "switch", "fold_unlocated", "bifurcation_unlocated")
+
+
+@contextlib.contextmanager
+def petsc_failure(what: str) -> Iterator[None]:
+    """A PETSc error inside becomes a :class:`SolverError`: "<what> failed: <PETSc's reason>".
+
+    Args:
+        what: the operation, the subject of the message.
+
+    Returns:
+        The context manager.
+    """
+    try:
+        yield
+    except PETSc.Error as err:
+        raise SolverError(f"{what} failed: {linear.petsc_reason(err)}") from None
 
 
 @dataclass(frozen=True)
@@ -245,9 +262,10 @@ class ArcLength:
 
     def _load_tangent(self, lam: float) -> PETSc.Vec:
         """δu₂ = −J⁻¹ ∂R/∂λ at the current state (the work vector, overwritten later)."""
-        self.system.factorise(lam)
-        self.system.load_derivative(lam, self._r_lam)
-        self.system.solve(self._r_lam, self._du2)
+        with petsc_failure("the tangent's solve"):
+            self.system.factorise(lam)
+            self.system.load_derivative(lam, self._r_lam)
+            self.system.solve(self._r_lam, self._du2)
         du: PETSc.Vec = self._du2
         return du
 
@@ -280,7 +298,8 @@ class ArcLength:
 
     def index(self) -> int:
         """The stability index: negative Hessian eigenvalues on the free unknowns (inertia)."""
-        hessian = self.newton.free_hessian()
+        with petsc_failure("the Hessian on the free unknowns"):
+            hessian = self.newton.free_hessian()
         try:
             return eigen.negative_count(hessian)
         finally:
@@ -425,7 +444,8 @@ class SpecialPoints:
             pairs.destroy()
 
     def _eigenpairs(self) -> eigen.Eigenpairs:
-        hessian = self.engine.newton.free_hessian()
+        with petsc_failure("the Hessian on the free unknowns"):
+            hessian = self.engine.newton.free_hessian()
         try:
             return eigen.nearest_eigenpairs(hessian, 3, 0.0)
         finally:

@@ -29,7 +29,7 @@ from dgplate import interrupt
 from dgplate.errors import SolverError
 from dgplate.solvers.arclength import ArcLength, Point, SpecialPoints, StepLength
 from dgplate.solvers.driver import Driver, Observer, RunOutcome, RunResult
-from dgplate.solvers.newton import LoadFactor
+from dgplate.solvers.newton import LoadFactor, check_prefix, hold_prefix, release_prefix
 from dgplate.solvers.snes import NewtonSolver
 
 Probes = Callable[[], Mapping[str, float]]
@@ -120,6 +120,7 @@ class BranchPath(Driver):
         probes: Probes | None = None,
         observers: Sequence[Observer] = (),
     ) -> None:
+        check_prefix(prefix)
         self.state, self.comm = state, state.function_space.mesh.comm
         self.settings, self.observers = settings, list(observers)
         self._shape_source, self._probes = shape, probes
@@ -135,12 +136,18 @@ class BranchPath(Driver):
         self._sigma: float | None = None  # σ of a resumed path (None: set at the start)
         self._clock = time.perf_counter()  # the start of the current step
         self._shape = shape()
+        self._prefix: str | None = prefix
+        hold_prefix(prefix)
 
     # -- the Driver protocol ----------------------------------------------------------------
     @property
     def checkpoint_every(self) -> int:
-        """No checkpoints during the path (one at the end)."""
-        return 0
+        """A checkpoint at every point, as a load path's.
+
+        The row of a special point is saved with the path still at the point before it; the
+        row of the point after it follows with no solve in between and replaces that checkpoint.
+        """
+        return 1
 
     @property
     def time(self) -> float:
@@ -215,12 +222,16 @@ class BranchPath(Driver):
         }
 
     def destroy(self) -> None:
-        """Free the PETSc objects."""
+        """Free the PETSc objects and the options prefix (idempotent)."""
+        if self._prefix is None:
+            return
         if self.current is not None:
             self.current.destroy()
             self.current = None
         self.engine.destroy()
         self.newton.destroy()
+        release_prefix(self._prefix)
+        self._prefix = None
 
     # -- the path ---------------------------------------------------------------------------
     def run(self, max_steps: int | None = None) -> RunResult:
@@ -290,10 +301,10 @@ class BranchPath(Driver):
             new.destroy()
             raise
         self.engine.set_state(new)
-        records.append(self._report(new, ds, last))
         base.destroy()
         self.current = new
         self.ds = self.settings.step.after(ds, new.iterations)
+        records.append(self._report(new, ds, last))  # a checkpoint here holds the new point
         return records
 
     def _special(self, base: Point, new: Point, ds: float) -> tuple[list[BranchPoint], Point, str]:

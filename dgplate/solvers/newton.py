@@ -60,6 +60,38 @@ __all__ = ["Leave", "LoadFactor", "LoadPath", "LoadStep", "Relaxation", "Stabili
 #: Options prefixes of the live drivers: two at once would read each other's options.
 _LIVE_PREFIXES: set[str] = set()
 
+
+def check_prefix(prefix: str) -> None:
+    """A ValueError when a live driver holds the PETSc options prefix ``prefix``.
+
+    A driver checks its prefix before it sets options under it, and holds it
+    (:func:`hold_prefix`) once it is built.
+
+    Args:
+        prefix: the prefix.
+    """
+    if prefix in _LIVE_PREFIXES:
+        raise ValueError(f"PETSc options prefix {prefix!r} is in use by a live driver")
+
+
+def hold_prefix(prefix: str) -> None:
+    """Mark ``prefix`` as held by a live driver until :func:`release_prefix`.
+
+    Args:
+        prefix: the prefix.
+    """
+    _LIVE_PREFIXES.add(prefix)
+
+
+def release_prefix(prefix: str) -> None:
+    """Free a prefix held by :func:`hold_prefix` (nothing if it is not).
+
+    Args:
+        prefix: the prefix.
+    """
+    _LIVE_PREFIXES.discard(prefix)
+
+
 # strings: DOLFINx 0.9's Function is not subscriptable at run time
 Shape: TypeAlias = (
     "dolfinx.fem.Function[np.float64] | Callable[[], dolfinx.fem.Function[np.float64]]"
@@ -185,8 +217,7 @@ class LoadPath(Driver):
         options_key: str = "newton.snes",
     ) -> None:
         self.schedule = _checked_schedule(schedule, float(load_factor.value))
-        if prefix in _LIVE_PREFIXES:
-            raise ValueError(f"PETSc options prefix {prefix!r} is in use by a live LoadPath")
+        check_prefix(prefix)
         self.state, self.comm = state, state.function_space.mesh.comm
         self.load = LoadFactor(load_factor, bc_values)
         self.secant, self.observers, self.hint = secant, list(observers), hint
@@ -212,7 +243,7 @@ class LoadPath(Driver):
         self.newton = NewtonSolver(state, energy, bcs, prefix, options, options_key)
         self.branches = BranchLeaving(self)
         self._live = True
-        _LIVE_PREFIXES.add(prefix)
+        hold_prefix(prefix)
 
     # -- the Driver protocol ----------------------------------------------------------------
     @property
@@ -339,7 +370,7 @@ class LoadPath(Driver):
             return
         self._live = False
         self.newton.destroy()
-        _LIVE_PREFIXES.discard(self._prefix)
+        release_prefix(self._prefix)
 
     def __enter__(self) -> LoadPath:
         """``with LoadPath(...) as driver:`` destroys the driver at the end."""

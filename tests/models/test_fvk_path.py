@@ -17,6 +17,7 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 from helpers import ROOT
+from petsc4py import PETSc
 
 import dgplate
 from dgplate import interrupt
@@ -28,6 +29,7 @@ from dgplate.models.fvk.spec import FvKSpec, NewtonSpec, PathSpec
 from dgplate.reference.fvk import sinusoidal_strip_folds, square_plate_critical_shortening
 from dgplate.solvers.arclength import SpecialPoints
 from dgplate.solvers.continuation import BranchPath
+from dgplate.solvers.snes import NewtonSolver
 
 E, NU, T = 1.0, 0.3, 0.01
 DELTA_CR = square_plate_critical_shortening(T, 1.0, NU)
@@ -192,6 +194,43 @@ def test_a_failed_switch_keeps_the_path_at_its_last_point(monkeypatch):
     assert summary["bifurcations"] == []
 
 
+def test_a_petsc_error_ends_the_path_with_a_reason(monkeypatch):
+    """A PETSc error in the stability index ends the run with a reason, not a traceback."""
+    points = []
+
+    def fail(self):
+        if len(points) == 0:
+            points.append(0)  # the start's index is counted
+            return hessian(self)
+        raise PETSc.Error(73)
+
+    hessian = NewtonSolver.free_hessian
+    monkeypatch.setattr(NewtonSolver, "free_hessian", fail)
+    outcome, rows, summary = plate(MPI.COMM_WORLD, 4, switch=False, steps=4, run=attempt)
+    assert not outcome.converged
+    assert outcome.reason.startswith("the Hessian on the free unknowns failed: ")
+    assert outcome.reason.endswith("; the last point is kept")
+    assert len(rows) == 1 and summary["load_factor"] == rows[0]["load_factor"]
+
+
+def test_two_live_paths_cannot_share_an_options_prefix():
+    """The second path on a live one's prefix is refused; once destroyed, the prefix is free."""
+    spec = FvKSpec(
+        E=E,
+        nu=NU,
+        thickness=T,
+        simply_supported=["left", "right"],
+        path=PathSpec(method="arclength", ds=0.3, steps=2),
+    )
+    model = build_fvk(spec, rectangle(MPI.COMM_WORLD, [[0, 0], [1, 1]], [2, 2]))
+    first = model.driver(None, [], None)
+    with pytest.raises(ValueError, match="is in use by a live driver"):
+        model.driver(None, [], None)
+    first.destroy()
+    first.destroy()  # idempotent
+    model.driver(None, [], None).destroy()
+
+
 def test_arch_fold_converges_to_the_exact_limit_load():
     """The fold load factor on 8, 16, 32 cells: error −0.95, −0.24, −0.06 %, O(h²)."""
     folds = [arch(MPI.COMM_WORLD, n, steps=9)[1]["folds"][0] for n in (8, 16, 32)]
@@ -244,26 +283,33 @@ def test_problem_file_writes_the_branch(tmp_path):
     assert (out / "branch.png").is_file()
 
 
-@pytest.mark.parametrize("stop_at", [4, 9])
-def test_an_interrupted_path_resumes_to_the_same_points(stop_at, tmp_path, monkeypatch):
-    """SIGTERM after point 4 (λ rising) or 9 (past the fold, λ falling), then ``resume``: the
-    points are those of the uninterrupted path (λ, energy, index, kind, step length)."""
+@pytest.mark.parametrize(("stop_at", "crash"), [(4, False), (9, False), (9, True)])
+def test_an_interrupted_path_resumes_to_the_same_points(stop_at, crash, tmp_path, monkeypatch):
+    """SIGTERM after point 4 (λ rising) or 9 (past the fold, λ falling), or a crash in the step
+    after point 9, then ``resume``: the points are those of the uninterrupted path (λ, energy,
+    index, kind, step length)."""
     problem = dgplate.load_problem(ARCH, {"output.vtx": False, "output.png": False})
     problem = dataclasses.replace(problem, output=dataclasses.replace(problem.output, progress=0))
     straight = dgplate.run(problem, out=tmp_path / "straight", comm=MPI.COMM_SELF)
     advance = BranchPath._advance
 
     def advance_then_signal(self):
+        if crash and self.step_count >= stop_at:
+            raise RuntimeError("crash")
         records = advance(self)
-        if self.step_count >= stop_at:
+        if not crash and self.step_count >= stop_at:
             monkeypatch.setattr(interrupt, "_received", signal.SIGTERM)
         return records
 
     with monkeypatch.context() as patched:
         patched.setattr(BranchPath, "_advance", advance_then_signal)
-        stopped = dgplate.run(problem, out=tmp_path / "resumed", comm=MPI.COMM_SELF)
+        if crash:
+            with pytest.raises(RuntimeError, match="crash"):
+                dgplate.run(problem, out=tmp_path / "resumed", comm=MPI.COMM_SELF)
+        else:
+            stopped = dgplate.run(problem, out=tmp_path / "resumed", comm=MPI.COMM_SELF)
+            assert stopped["reason"] == "interrupted (SIGTERM)" and stopped["points"] == stop_at
     monkeypatch.setattr(interrupt, "_received", 0)
-    assert stopped["reason"] == "interrupted (SIGTERM)" and stopped["points"] == stop_at
     resumed = dgplate.run(problem, out=tmp_path / "resumed", comm=MPI.COMM_SELF, resume=True)
     assert resumed["converged"]
     assert resumed["folds"] == pytest.approx(straight["folds"], rel=1e-10)
