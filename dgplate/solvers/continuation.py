@@ -41,7 +41,9 @@ class PathSettings:
 
     Attributes:
         step: the step-length control.
-        steps: points of the path at most (the start and the special points included).
+        steps: points of the path: no step starts once there are this many (the start and
+            the special points count; a last step that finds a special point adds it and the
+            point after it, one more).
         lambda_max: the path ends beyond this load factor.
         switch: leave the first bifurcation along the critical eigenvector.
     """
@@ -235,7 +237,18 @@ class BranchPath(Driver):
 
     # -- the path ---------------------------------------------------------------------------
     def run(self, max_steps: int | None = None) -> RunResult:
-        """Follow the path for at most ``max_steps`` more points (None: up to ``steps``)."""
+        """Follow the path until ``max_steps`` more points (None: ``steps`` points in all).
+
+        No step starts once the points are that many; a step adds one point, or two when it
+        finds a special point (so the count can end one over).
+
+        Args:
+            max_steps: the points to add at most in this call, but for that one over.
+
+        Returns:
+            The outcome: converged unless a step failed or a signal stopped the path, with
+            the reason and this call's records.
+        """
         budget = (
             self.remaining_steps() if max_steps is None else min(max_steps, self.remaining_steps())
         )
