@@ -15,7 +15,6 @@ leaves [−``lambda_max``, ``lambda_max``], or when a corrector fails at the ste
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
@@ -29,10 +28,16 @@ from dgplate import interrupt
 from dgplate.errors import SolverError
 from dgplate.solvers.arclength import ArcLength, Point, SpecialPoints, StepLength
 from dgplate.solvers.driver import Driver, Observer, RunOutcome, RunResult
-from dgplate.solvers.newton import LoadFactor, check_prefix, hold_prefix, release_prefix
+from dgplate.solvers.newton import (
+    LoadFactor,
+    Probes,
+    check_prefix,
+    hold_prefix,
+    probe_text,
+    release_prefix,
+    with_probes,
+)
 from dgplate.solvers.snes import NewtonSolver
-
-Probes = Callable[[], Mapping[str, float]]
 
 
 @dataclass(frozen=True)
@@ -71,23 +76,12 @@ class BranchPoint:
 
     def line(self) -> str:
         """One line of progress output."""
-        probes = "".join(
-            f"  {f.name} {getattr(self, f.name):.6g}"
-            for f in dataclasses.fields(self)[len(dataclasses.fields(BranchPoint)) :]
-        )
+        probes = probe_text(self, BranchPoint)
         return (
             f"point {self.step:4d}  load factor {self.load_factor:.6g}  index "
             f"{self.stability_index}  {self.kind:<11s} ds {self.ds:.3g}  its {self.iterations:2d}"
             f"  energy {self.energy:+.6e}{probes}"
         )
-
-
-def _record_type(probes: Sequence[str]) -> type[BranchPoint]:
-    """:class:`BranchPoint` with one float field per probe name."""
-    if not probes:
-        return BranchPoint
-    fields = [(name, float) for name in probes]
-    return dataclasses.make_dataclass("BranchPointWithProbes", fields, bases=(BranchPoint,))
 
 
 class BranchPath(Driver):
@@ -130,7 +124,7 @@ class BranchPath(Driver):
         self.newton = NewtonSolver(state, energy, bcs, prefix, options, "newton.snes")
         self.engine = ArcLength(self.newton, self.load, f"{prefix}path_")
         self.special = SpecialPoints(self.engine, settings.step)
-        self._record = _record_type(list(probes()) if probes else [])
+        self._record = with_probes(BranchPoint, list(probes()) if probes else [])
         self.history: list[BranchPoint] = []
         self.step_count, self.branch, self.switched = 0, 0, False
         self.current: Point | None = None

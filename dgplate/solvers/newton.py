@@ -40,7 +40,7 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
-from typing import Any, TypeAlias
+from typing import Any, TypeAlias, TypeVar
 
 import dolfinx.fem
 import numpy as np
@@ -115,10 +115,7 @@ class LoadStep:
 
     def line(self) -> str:
         """One line of progress output, the probes included."""
-        probes = "".join(
-            f"  {f.name} {getattr(self, f.name):.6g}"
-            for f in dataclasses.fields(self)[len(dataclasses.fields(LoadStep)) :]
-        )
+        probes = probe_text(self, LoadStep)
         return (
             f"load step {self.step:4d}  load factor {self.load_factor:.4g}  Newton its "
             f"{self.iterations:2d}  energy {self.energy:+.6e}{probes}  {self.seconds:.2f} s"
@@ -127,13 +124,48 @@ class LoadStep:
 
 def record_type(probes: Sequence[str]) -> type[LoadStep]:
     """:class:`LoadStep` with one more float field per probe name (flat history rows)."""
+    return with_probes(LoadStep, probes)
+
+
+Record = TypeVar("Record")
+
+
+def with_probes(base: type[Record], probes: Sequence[str]) -> type[Record]:
+    """The dataclass ``base`` with one more float field per probe name.
+
+    Args:
+        base: the record's dataclass.
+        probes: the probe names; a ValueError when one is a field of ``base``.
+
+    Returns:
+        ``base`` itself without probes, else its subclass ``<base>WithProbes``.
+    """
     if not probes:
-        return LoadStep
-    clash = sorted(set(probes) & {f.name for f in dataclasses.fields(LoadStep)})
+        return base
+    clash = sorted(set(probes) & {f.name for f in dataclasses.fields(base)})  # type: ignore[arg-type]
     if clash:
-        raise ValueError(f"probe name {clash[0]!r} is a field of LoadStep")
+        raise ValueError(f"probe name {clash[0]!r} is a field of {base.__name__}")
     fields = [(name, float) for name in probes]
-    return dataclasses.make_dataclass("LoadStepWithProbes", fields, bases=(LoadStep,))
+    made: type[Record] = dataclasses.make_dataclass(
+        f"{base.__name__}WithProbes", fields, bases=(base,)
+    )
+    return made
+
+
+def probe_text(record: Any, base: type) -> str:
+    """The probes of ``record`` (its fields after those of ``base``) for a progress line.
+
+    Args:
+        record: an instance of :func:`with_probes` of ``base``.
+        base: the record's dataclass without probes.
+
+    Returns:
+        ``"  name value"`` per probe.
+    """
+    return "".join(
+        f"  {f.name} {getattr(record, f.name):.6g}"
+        for f in dataclasses.fields(record)[len(dataclasses.fields(base)) :]
+    )
 
 
 class LoadFactor:
