@@ -99,11 +99,27 @@ class StepLength:
     grow: float = 1.5
 
     def after(self, ds: float, iterations: int) -> float:
-        """The step after a converged corrector of ``iterations`` iterations."""
+        """The step after a converged corrector.
+
+        Args:
+            ds: the step that converged.
+            iterations: its corrector's iterations.
+
+        Returns:
+            ``grow`` times ``ds`` (at most ``ds_max``) after at most ``fast`` iterations, else
+            ``ds``.
+        """
         return min(ds * self.grow, self.ds_max) if iterations <= self.fast else ds
 
     def halved(self, ds: float) -> float:
-        """Half the step after a failed corrector; a SolverError below ``ds_min``."""
+        """The step after a failed corrector.
+
+        Args:
+            ds: the step that failed.
+
+        Returns:
+            ``ds``/2; a SolverError when that is below ``ds_min``.
+        """
         if ds / 2 < self.ds_min:
             raise SolverError(f"the arclength step fell below ds_min = {self.ds_min:g}")
         return ds / 2
@@ -128,12 +144,22 @@ class Bordered:
         self._plus, self._minus = vector.duplicate(), vector.duplicate()
 
     def residual(self, lam: float, out: PETSc.Vec) -> None:
-        """R(u, λ) of the current state u into ``out``."""
+        """R(u, λ) of the current state u into ``out``; the load factor is left at λ.
+
+        Args:
+            lam: the load factor λ.
+            out: the vector written.
+        """
         self.load.set(lam)
         self.newton.residual(out)
 
     def load_derivative(self, lam: float, out: PETSc.Vec) -> None:
-        """∂R/∂λ of the current state into ``out`` (exact: the module's docstring)."""
+        """∂R/∂λ of the current state into ``out`` (exact: the module's docstring).
+
+        Args:
+            lam: the load factor λ (the load factor is left there).
+            out: the vector written.
+        """
         self.residual(lam + 1.0, self._plus)
         self.residual(lam - 1.0, self._minus)
         self._plus.copy(out)
@@ -142,13 +168,22 @@ class Bordered:
         self.load.set(lam)
 
     def factorise(self, lam: float) -> None:
-        """Assemble J at the current state and load factor and factorise it."""
+        """Assemble J at the current state and factorise it.
+
+        Args:
+            lam: the load factor J is assembled at (the load factor is left there).
+        """
         self.load.set(lam)
         self.ksp.setOperators(self.newton.jacobian())
         linear.factorise(self.ksp)
 
     def solve(self, rhs: PETSc.Vec, out: PETSc.Vec) -> None:
-        """J out = −rhs with the current factorisation."""
+        """Solve J out = −rhs with the current factorisation.
+
+        Args:
+            rhs: the right-hand side (negated).
+            out: the solution written.
+        """
         linear.solve(self.ksp, rhs, out)
         out.scale(-1.0)
 
@@ -270,9 +305,14 @@ class ArcLength:
         return du
 
     def tangent(self, lam: float, along: tuple[PETSc.Vec, float] | None) -> tuple[PETSc.Vec, float]:
-        """The unit tangent (t, τ) at the current state, oriented along ``along`` (or λ up).
+        """The unit tangent (t, τ) at the current state.
 
-        ``t`` is a view of a work vector, overwritten by the next solve.
+        Args:
+            lam: the load factor of the state.
+            along: the direction (t, τ) the tangent is oriented along; None: λ up.
+
+        Returns:
+            (t, τ); ``t`` is a work vector, overwritten by the next solve.
         """
         t = self._load_tangent(lam)
         norm = math.sqrt(self.inner(t, t) + 1.0)
@@ -286,18 +326,35 @@ class ArcLength:
     def point(
         self, lam: float, along: tuple[PETSc.Vec, float] | None, iterations: int = 0
     ) -> Point:
-        """The current state as a point: its unit tangent oriented along ``along``, its index."""
+        """The current state as a point, with its unit tangent and its stability index.
+
+        Args:
+            lam: the load factor of the state.
+            along: the direction the tangent is oriented along; None: λ up.
+            iterations: the corrector iterations that reached it.
+
+        Returns:
+            The point (copies of the state and of the tangent: destroy it).
+        """
         t, tau = self.tangent(lam, along)
         return Point(lam, self.state.x.petsc_vec.copy(), t.copy(), tau, self.index(), iterations)
 
     def set_state(self, point: Point) -> None:
-        """The state and the load factor of ``point``."""
+        """Set the state and the load factor to those of ``point``.
+
+        Args:
+            point: the point.
+        """
         point.x.copy(self.state.x.petsc_vec)
         self.state.x.scatter_forward()
         self.load.set(point.lam)
 
     def index(self) -> int:
-        """The stability index: negative Hessian eigenvalues on the free unknowns (inertia)."""
+        """The stability index of the current state.
+
+        Returns:
+            The number of negative Hessian eigenvalues on the free unknowns (the inertia).
+        """
         with petsc_failure("the Hessian on the free unknowns"):
             hessian = self.newton.free_hessian()
         try:
@@ -386,7 +443,15 @@ class SpecialPoints:
 
     @staticmethod
     def kind(base: Point, new: Point) -> str:
-        """A fold (τ changed sign), a bifurcation (the index changed, τ did not) or "" (none)."""
+        """The special point between two points of a path.
+
+        Args:
+            base: the earlier point.
+            new: the later point.
+
+        Returns:
+            "fold" (τ changed sign), "bifurcation" (the index changed, τ did not) or "" (none).
+        """
         if (base.tau > 0) != (new.tau > 0):
             return "fold"
         return "bifurcation" if base.index != new.index else ""

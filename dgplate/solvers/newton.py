@@ -191,7 +191,11 @@ class LoadFactor:
         return float(self.constant.value)
 
     def set(self, factor: float) -> None:
-        """The load factor and the Dirichlet data at it."""
+        """Set the load factor and the Dirichlet data at it.
+
+        Args:
+            factor: the load factor λ; each datum becomes λ times its value at full load.
+        """
         self.constant.value = np.asarray(factor)
         for datum, value in self.bc_values:
             datum.value = np.asarray(factor * value)

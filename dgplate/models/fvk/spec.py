@@ -146,7 +146,11 @@ class PathSpec:
             )
 
     def settings(self) -> PathSettings:
-        """The continuation's settings."""
+        """The continuation's settings.
+
+        Returns:
+            The step control and the path's bounds of these keys.
+        """
         step = StepLength(ds=self.ds, ds_max=self.ds_max, ds_min=self.ds_min)
         return PathSettings(step, self.steps, self.lambda_max, self.switch)
 
