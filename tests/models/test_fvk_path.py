@@ -304,6 +304,7 @@ def test_an_interrupted_path_resumes_to_the_same_points(stop_at, crash, tmp_path
 
     def advance_then_signal(self):
         if crash and self.step_count >= stop_at:
+            self.destroy()  # a dying process takes its PETSc objects and options prefix along
             raise RuntimeError("crash")
         records = advance(self)
         if not crash and self.step_count >= stop_at:
