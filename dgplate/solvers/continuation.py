@@ -26,18 +26,12 @@ import ufl
 
 from dgplate import interrupt
 from dgplate.errors import SolverError
-from dgplate.solvers.arclength import ArcLength, Point, SpecialPoints, StepLength
+from dgplate.solvers.arclength import ArcLength, Point, StepLength
 from dgplate.solvers.driver import Driver, Observer, RunOutcome, RunResult
-from dgplate.solvers.newton import (
-    LoadFactor,
-    Probes,
-    check_prefix,
-    hold_prefix,
-    probe_text,
-    release_prefix,
-    with_probes,
-)
+from dgplate.solvers.newton import LoadFactor, Probes, probe_text, with_probes
+from dgplate.solvers.prefixes import check_prefix, hold_prefix, release_prefix
 from dgplate.solvers.snes import NewtonSolver
+from dgplate.solvers.special_points import SpecialPoints
 
 
 @dataclass(frozen=True)

@@ -52,45 +52,11 @@ from dgplate.errors import SolverError
 from dgplate.solvers.branch import BranchLeaving
 from dgplate.solvers.driver import Driver, Observer, RunOutcome, RunResult
 from dgplate.solvers.path_options import Leave, Relaxation, Stability
+from dgplate.solvers.prefixes import check_prefix, hold_prefix, release_prefix
 from dgplate.solvers.snes import NewtonSolver, snes_reason
 from dgplate.solvers.stability import LOWEST, StabilityObserver
 
 __all__ = ["Leave", "LoadFactor", "LoadPath", "LoadStep", "Relaxation", "Stability", "record_type"]
-
-#: Options prefixes of the live drivers: two at once would read each other's options.
-_LIVE_PREFIXES: set[str] = set()
-
-
-def check_prefix(prefix: str) -> None:
-    """A ValueError when a live driver holds the PETSc options prefix ``prefix``.
-
-    A driver checks its prefix before it sets options under it, and holds it
-    (:func:`hold_prefix`) once it is built.
-
-    Args:
-        prefix: the prefix.
-    """
-    if prefix in _LIVE_PREFIXES:
-        raise ValueError(f"PETSc options prefix {prefix!r} is in use by a live driver")
-
-
-def hold_prefix(prefix: str) -> None:
-    """Mark ``prefix`` as held by a live driver until :func:`release_prefix`.
-
-    Args:
-        prefix: the prefix.
-    """
-    _LIVE_PREFIXES.add(prefix)
-
-
-def release_prefix(prefix: str) -> None:
-    """Free a prefix held by :func:`hold_prefix` (nothing if it is not).
-
-    Args:
-        prefix: the prefix.
-    """
-    _LIVE_PREFIXES.discard(prefix)
-
 
 # strings: DOLFINx 0.9's Function is not subscriptable at run time
 Shape: TypeAlias = (

@@ -27,9 +27,9 @@ from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk.model import build_fvk
 from dgplate.models.fvk.spec import FvKSpec, NewtonSpec, PathSpec
 from dgplate.reference.fvk import sinusoidal_strip_folds, square_plate_critical_shortening
-from dgplate.solvers.arclength import SpecialPoints
 from dgplate.solvers.continuation import BranchPath
 from dgplate.solvers.snes import NewtonSolver
+from dgplate.solvers.special_points import SpecialPoints
 
 E, NU, T = 1.0, 0.3, 0.01
 DELTA_CR = square_plate_critical_shortening(T, 1.0, NU)
