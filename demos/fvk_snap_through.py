@@ -11,9 +11,9 @@
 #
 # A strip of span L = 1, width 0.1 and thickness t = 0.01 (E = 1, ν = 0) is pinned at its short
 # edges, which cannot move in-plane either; the long edges are free. Its natural shape is the
-# shallow sinusoidal arch w₀ = e sin(πx), rise e = t: bending is measured from this shape, so
-# the flat strip is a compressed one and the unloaded strip stands as an arch. A pressure
-# −λ q* sin(πx) pushes the arch down.
+# shallow sinusoidal arch w₀ = e sin(πx), rise e = t: the membrane strain is measured from this
+# shape (bending from flat, `dgplate.models.fvk`), so the flat strip is a compressed one and the
+# unloaded strip stands as an arch. A pressure −λ q* sin(πx) pushes the arch down.
 #
 # For ν = 0 the strip is exactly a beam, and the one-mode deflection w = a sin(πx) solves the
 # FvK equations exactly: the membrane force N = E t π² (a² − e²)/4 is uniform, and equilibrium

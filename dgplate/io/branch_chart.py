@@ -22,7 +22,15 @@ MARKERS = {"fold": "^", "bifurcation": "s"}
 def plot_branch(rows: Sequence[Mapping[str, Any]], path: str | Path, title: str = "") -> bool:
     """Draw the rows of a followed path into ``path`` (not collective: call on one rank).
 
-    Returns False (and writes nothing) for rows without a stability index or a deflection.
+    Args:
+        rows: the rows of ``history.csv`` (``load_factor``, ``w_center``, ``stability_index``,
+            ``kind``).
+        path: the picture's file.
+        title: the picture's title.
+
+    Returns:
+        Whether the picture was written: False (nothing written) for rows without a stability
+        index or a deflection.
     """
     if not rows or not all("stability_index" in r and "w_center" in r for r in rows):
         return False

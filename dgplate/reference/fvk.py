@@ -164,5 +164,14 @@ def sinusoidal_strip_folds(E: float, t: float, L: float, e: float) -> tuple[floa
 
 
 def square_plate_critical_shortening(t: float, a: float, nu: float) -> float:
-    """Δ_cr = N_cr a/(E t) = π² t²/(3(1 − ν²) a) of a simply supported square plate (k = 4)."""
+    """Δ_cr = N_cr a/(E t) = π² t²/(3(1 − ν²) a) of a simply supported square plate (k = 4).
+
+    Args:
+        t: the thickness.
+        a: the side.
+        nu: Poisson's ratio.
+
+    Returns:
+        The shortening Δ_cr of the loaded edge at the buckling load.
+    """
     return math.pi**2 * t * t / (3 * (1 - nu * nu) * a)

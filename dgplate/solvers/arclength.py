@@ -19,9 +19,9 @@ Crisfield arc-length continuation of dolfiny). With the scaled inner product
 R is the residual as the Newton solver of the load path assembles it
 (:class:`dgplate.solvers.snes.NewtonSolver`: ``ufl.derivative`` of Π, Dirichlet rows u − λg₁).
 ∂R/∂λ is (R(u, λ + 1) − R(u, λ − 1))/2: exact, because at a fixed state R is at most quadratic
-in λ for every load the FvK model scales (pressure, prestrain and indentation enter Π at most
-quadratically, Dirichlet data linearly, and the lifting of the data by the Jacobian adds one
-more power).
+in λ for every load the FvK model scales. The terms of Π in λ² do not depend on u, so the
+derivative R and the Jacobian J are affine in λ; the Dirichlet rows lift the data λg by J, and
+J(λ)(λg − u) is quadratic in λ.
 
 Step length (:class:`StepLength`): a step whose corrector converged in at most ``fast``
 iterations makes the next one ``grow`` times longer (at most ``ds_max``); a failed corrector
@@ -46,8 +46,9 @@ branch it left.
 
 from __future__ import annotations
 
+import contextlib
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,8 +60,24 @@ from dgplate.solvers.newton import LoadFactor
 from dgplate.solvers.snes import NewtonSolver
 
 #: The kinds of the points of a path: a regular point, the two special points, the first
-#: point on a branch left from a bifurcation.
-KINDS = ("regular", "fold", "bifurcation", "switch")
+#: point on a branch left from a bifurcation, the point after a special point not located.
+KINDS = ("regular", "fold", "bifurcation", "switch", "fold_unlocated", "bifurcation_unlocated")
+
+
+@contextlib.contextmanager
+def petsc_failure(what: str) -> Iterator[None]:
+    """A PETSc error inside becomes a :class:`SolverError`: "<what> failed: <PETSc's reason>".
+
+    Args:
+        what: the operation, the subject of the message.
+
+    Returns:
+        The context manager.
+    """
+    try:
+        yield
+    except PETSc.Error as err:
+        raise SolverError(f"{what} failed: {linear.petsc_reason(err)}") from None
 
 
 @dataclass(frozen=True)
@@ -82,11 +99,27 @@ class StepLength:
     grow: float = 1.5
 
     def after(self, ds: float, iterations: int) -> float:
-        """The step after a converged corrector of ``iterations`` iterations."""
+        """The step after a converged corrector.
+
+        Args:
+            ds: the step that converged.
+            iterations: its corrector's iterations.
+
+        Returns:
+            ``grow`` times ``ds`` (at most ``ds_max``) after at most ``fast`` iterations, else
+            ``ds``.
+        """
         return min(ds * self.grow, self.ds_max) if iterations <= self.fast else ds
 
     def halved(self, ds: float) -> float:
-        """Half the step after a failed corrector; a SolverError below ``ds_min``."""
+        """The step after a failed corrector.
+
+        Args:
+            ds: the step that failed.
+
+        Returns:
+            ``ds``/2; a SolverError when that is below ``ds_min``.
+        """
         if ds / 2 < self.ds_min:
             raise SolverError(f"the arclength step fell below ds_min = {self.ds_min:g}")
         return ds / 2
@@ -111,12 +144,22 @@ class Bordered:
         self._plus, self._minus = vector.duplicate(), vector.duplicate()
 
     def residual(self, lam: float, out: PETSc.Vec) -> None:
-        """R(u, λ) of the current state u into ``out``."""
+        """R(u, λ) of the current state u into ``out``; the load factor is left at λ.
+
+        Args:
+            lam: the load factor λ.
+            out: the vector written.
+        """
         self.load.set(lam)
         self.newton.residual(out)
 
     def load_derivative(self, lam: float, out: PETSc.Vec) -> None:
-        """∂R/∂λ of the current state into ``out`` (exact: the module's docstring)."""
+        """∂R/∂λ of the current state into ``out`` (exact: the module's docstring).
+
+        Args:
+            lam: the load factor λ (the load factor is left there).
+            out: the vector written.
+        """
         self.residual(lam + 1.0, self._plus)
         self.residual(lam - 1.0, self._minus)
         self._plus.copy(out)
@@ -125,13 +168,22 @@ class Bordered:
         self.load.set(lam)
 
     def factorise(self, lam: float) -> None:
-        """Assemble J at the current state and load factor and factorise it."""
+        """Assemble J at the current state and factorise it.
+
+        Args:
+            lam: the load factor J is assembled at (the load factor is left there).
+        """
         self.load.set(lam)
         self.ksp.setOperators(self.newton.jacobian())
         linear.factorise(self.ksp)
 
     def solve(self, rhs: PETSc.Vec, out: PETSc.Vec) -> None:
-        """J out = −rhs with the current factorisation."""
+        """Solve J out = −rhs with the current factorisation.
+
+        Args:
+            rhs: the right-hand side (negated).
+            out: the solution written.
+        """
         linear.solve(self.ksp, rhs, out)
         out.scale(-1.0)
 
@@ -245,16 +297,22 @@ class ArcLength:
 
     def _load_tangent(self, lam: float) -> PETSc.Vec:
         """δu₂ = −J⁻¹ ∂R/∂λ at the current state (the work vector, overwritten later)."""
-        self.system.factorise(lam)
-        self.system.load_derivative(lam, self._r_lam)
-        self.system.solve(self._r_lam, self._du2)
+        with petsc_failure("the tangent's solve"):
+            self.system.factorise(lam)
+            self.system.load_derivative(lam, self._r_lam)
+            self.system.solve(self._r_lam, self._du2)
         du: PETSc.Vec = self._du2
         return du
 
     def tangent(self, lam: float, along: tuple[PETSc.Vec, float] | None) -> tuple[PETSc.Vec, float]:
-        """The unit tangent (t, τ) at the current state, oriented along ``along`` (or λ up).
+        """The unit tangent (t, τ) at the current state.
 
-        ``t`` is a view of a work vector, overwritten by the next solve.
+        Args:
+            lam: the load factor of the state.
+            along: the direction (t, τ) the tangent is oriented along; None: λ up.
+
+        Returns:
+            (t, τ); ``t`` is a work vector, overwritten by the next solve.
         """
         t = self._load_tangent(lam)
         norm = math.sqrt(self.inner(t, t) + 1.0)
@@ -268,19 +326,37 @@ class ArcLength:
     def point(
         self, lam: float, along: tuple[PETSc.Vec, float] | None, iterations: int = 0
     ) -> Point:
-        """The current state as a point: its unit tangent oriented along ``along``, its index."""
+        """The current state as a point, with its unit tangent and its stability index.
+
+        Args:
+            lam: the load factor of the state.
+            along: the direction the tangent is oriented along; None: λ up.
+            iterations: the corrector iterations that reached it.
+
+        Returns:
+            The point (copies of the state and of the tangent: destroy it).
+        """
         t, tau = self.tangent(lam, along)
         return Point(lam, self.state.x.petsc_vec.copy(), t.copy(), tau, self.index(), iterations)
 
     def set_state(self, point: Point) -> None:
-        """The state and the load factor of ``point``."""
+        """Set the state and the load factor to those of ``point``.
+
+        Args:
+            point: the point.
+        """
         point.x.copy(self.state.x.petsc_vec)
         self.state.x.scatter_forward()
         self.load.set(point.lam)
 
     def index(self) -> int:
-        """The stability index: negative Hessian eigenvalues on the free unknowns (inertia)."""
-        hessian = self.newton.free_hessian()
+        """The stability index of the current state.
+
+        Returns:
+            The number of negative Hessian eigenvalues on the free unknowns (the inertia).
+        """
+        with petsc_failure("the Hessian on the free unknowns"):
+            hessian = self.newton.free_hessian()
         try:
             return eigen.negative_count(hessian)
         finally:
@@ -350,123 +426,3 @@ class ArcLength:
         self.system.destroy()
         for vector in (self._r, self._r_lam, self._du1, self._du2):
             vector.destroy()
-
-
-class SpecialPoints:
-    """Folds and simple bifurcations between two points of a path, and the switch at one.
-
-    Args:
-        engine: the continuation's predictor, corrector, tangents and indices.
-        step: the step control (the switch halves its step as a path step does).
-
-    All methods are collective.
-    """
-
-    def __init__(self, engine: ArcLength, step: StepLength) -> None:
-        self.engine, self.step = engine, step
-
-    @staticmethod
-    def kind(base: Point, new: Point) -> str:
-        """A fold (τ changed sign), a bifurcation (the index changed, τ did not) or "" (none)."""
-        if (base.tau > 0) != (new.tau > 0):
-            return "fold"
-        return "bifurcation" if base.index != new.index else ""
-
-    def locate(self, kind: str, base: Point, new: Point, ds: float) -> Point:
-        """The special point between ``base`` and ``new`` (the secant method on the step).
-
-        Args:
-            kind: "fold" (the root of τ) or "bifurcation" (the root of the eigenvalue whose
-                sign changes).
-            base: the point before it.
-            new: the point after it, ``ds`` from ``base``.
-            ds: the step from ``base`` to ``new``.
-
-        Returns:
-            The located point, the state at it; a SolverError when a corrector fails.
-        """
-        direction = (base.t, base.tau)
-
-        def corrected(s: float) -> float:
-            result = self.engine.correct(base, s, direction)
-            if result is None:
-                raise SolverError(f"the corrector failed while locating a {kind}")
-            if kind == "fold":
-                return self.engine.tangent(result[0], direction)[1]
-            return self._crossing_eigenvalue(max(base.index, new.index))
-
-        if kind == "fold":
-            ends = base.tau, new.tau
-        else:
-            ends = corrected(0.0), corrected(ds)
-        secant_root(corrected, 0.0, ends[0], ds, ends[1], xtol=1e-6 * ds)
-        special = self.engine.point(self.engine.load.value, direction, 0)
-        # the Hessian is singular there: its zero eigenvalue is not negative, and the inertia
-        # of the factorisation would count it either way
-        special.index = min(base.index, new.index)
-        return special
-
-    def _crossing_eigenvalue(self, k: int) -> float:
-        """The k-th lowest Hessian eigenvalue (free unknowns), for an index that changes k−1 ↔ k.
-
-        With the index n of the state, it is the negative eigenvalue nearest 0 if n ≥ k, else the
-        non-negative one nearest 0 (exactly the k-th lowest when n is k − 1 or k).
-        """
-        negative = self.engine.index()
-        pairs = self._eigenpairs()
-        try:
-            values = pairs.values
-            below, above = values[values < 0], values[values >= 0]
-            nearest = below[-1:] if negative >= k else above[:1]
-            if not len(nearest):
-                raise SolverError("no Hessian eigenvalue of the crossing sign near 0")
-            return float(nearest[0])
-        finally:
-            pairs.destroy()
-
-    def _eigenpairs(self) -> eigen.Eigenpairs:
-        hessian = self.engine.newton.free_hessian()
-        try:
-            return eigen.nearest_eigenpairs(hessian, 3, 0.0)
-        finally:
-            hessian.destroy()
-
-    def switch(self, at: Point, ds: float) -> Point:
-        """The first point on the branch that leaves ``at`` along the critical eigenvector.
-
-        Args:
-            at: the bifurcation point.
-            ds: the push along the eigenvector (halved while the corrector fails).
-
-        Returns:
-            The point, ds from ``at`` along the eigenvector, on the bifurcating branch.
-        """
-        self.engine.set_state(at)
-        mode = self._critical_mode()
-        try:
-            direction = (mode, 0.0)
-            step = ds
-            while True:
-                corrected = self.engine.correct(at, step, direction)
-                if corrected is not None:
-                    return self.engine.point(corrected[0], direction, corrected[1])
-                step = self.step.halved(step)
-        finally:
-            mode.destroy()
-
-    def _critical_mode(self) -> PETSc.Vec:
-        """The eigenvector of the eigenvalue nearest 0, unit in the scaled norm.
-
-        On all unknowns: 0 on the Dirichlet ones.
-        """
-        pairs = self._eigenpairs()
-        try:
-            nearest = int(np.argmin(np.abs(pairs.values)))
-            mode: PETSc.Vec = self.engine.state.x.petsc_vec.duplicate()
-            mode.set(0.0)
-            with mode.localForm() as local:
-                local.array[self.engine.newton.free[1]] = eigen.values_of(pairs.vectors[nearest])
-            mode.scale(1.0 / np.sqrt(self.engine.inner(mode, mode)))
-            return mode
-        finally:
-            pairs.destroy()

@@ -6,13 +6,15 @@
 probes, the stability index, the tangent's λ-component and the kind of point (``regular``,
 ``fold``, ``bifurcation``, or ``switch``: the first point on a branch left at a bifurcation).
 The special points are located between two points of the path (:mod:`dgplate.solvers.arclength`)
-and listed in the summary (``special_points``). The path ends after ``steps`` points, when λ
+and listed in the summary (``special_points``; their load factors in ``folds`` and
+``bifurcations``). A special point that cannot be located is not recorded: the point after it
+has the kind ``fold_unlocated`` or ``bifurcation_unlocated``, and its load factor is listed in
+``unlocated``, not in ``folds`` or ``bifurcations``. The path ends after ``steps`` points, when λ
 leaves [−``lambda_max``, ``lambda_max``], or when a corrector fails at the step ``ds_min``.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
@@ -24,12 +26,12 @@ import ufl
 
 from dgplate import interrupt
 from dgplate.errors import SolverError
-from dgplate.solvers.arclength import ArcLength, Point, SpecialPoints, StepLength
+from dgplate.solvers.arclength import ArcLength, Point, StepLength
 from dgplate.solvers.driver import Driver, Observer, RunOutcome, RunResult
-from dgplate.solvers.newton import LoadFactor
+from dgplate.solvers.newton import LoadFactor, Probes, probe_text, with_probes
+from dgplate.solvers.prefixes import check_prefix, hold_prefix, release_prefix
 from dgplate.solvers.snes import NewtonSolver
-
-Probes = Callable[[], Mapping[str, float]]
+from dgplate.solvers.special_points import SpecialPoints
 
 
 @dataclass(frozen=True)
@@ -38,7 +40,9 @@ class PathSettings:
 
     Attributes:
         step: the step-length control.
-        steps: points of the path at most (the start and the special points included).
+        steps: points of the path: no step starts once there are this many (the start and
+            the special points count; a last step that finds a special point adds it and the
+            point after it, one more).
         lambda_max: the path ends beyond this load factor.
         switch: leave the first bifurcation along the critical eigenvector.
     """
@@ -66,23 +70,12 @@ class BranchPoint:
 
     def line(self) -> str:
         """One line of progress output."""
-        probes = "".join(
-            f"  {f.name} {getattr(self, f.name):.6g}"
-            for f in dataclasses.fields(self)[len(dataclasses.fields(BranchPoint)) :]
-        )
+        probes = probe_text(self, BranchPoint)
         return (
             f"point {self.step:4d}  load factor {self.load_factor:.6g}  index "
             f"{self.stability_index}  {self.kind:<11s} ds {self.ds:.3g}  its {self.iterations:2d}"
             f"  energy {self.energy:+.6e}{probes}"
         )
-
-
-def _record_type(probes: Sequence[str]) -> type[BranchPoint]:
-    """:class:`BranchPoint` with one float field per probe name."""
-    if not probes:
-        return BranchPoint
-    fields = [(name, float) for name in probes]
-    return dataclasses.make_dataclass("BranchPointWithProbes", fields, bases=(BranchPoint,))
 
 
 class BranchPath(Driver):
@@ -117,6 +110,7 @@ class BranchPath(Driver):
         probes: Probes | None = None,
         observers: Sequence[Observer] = (),
     ) -> None:
+        check_prefix(prefix)
         self.state, self.comm = state, state.function_space.mesh.comm
         self.settings, self.observers = settings, list(observers)
         self._shape_source, self._probes = shape, probes
@@ -124,7 +118,7 @@ class BranchPath(Driver):
         self.newton = NewtonSolver(state, energy, bcs, prefix, options, "newton.snes")
         self.engine = ArcLength(self.newton, self.load, f"{prefix}path_")
         self.special = SpecialPoints(self.engine, settings.step)
-        self._record = _record_type(list(probes()) if probes else [])
+        self._record = with_probes(BranchPoint, list(probes()) if probes else [])
         self.history: list[BranchPoint] = []
         self.step_count, self.branch, self.switched = 0, 0, False
         self.current: Point | None = None
@@ -132,12 +126,18 @@ class BranchPath(Driver):
         self._sigma: float | None = None  # σ of a resumed path (None: set at the start)
         self._clock = time.perf_counter()  # the start of the current step
         self._shape = shape()
+        self._prefix: str | None = prefix
+        hold_prefix(prefix)
 
     # -- the Driver protocol ----------------------------------------------------------------
     @property
     def checkpoint_every(self) -> int:
-        """No checkpoints during the path (one at the end)."""
-        return 0
+        """A checkpoint at every point, as a load path's.
+
+        The row of a special point is saved with the path still at the point before it; the
+        row of the point after it follows with no solve in between and replaces that checkpoint.
+        """
+        return 1
 
     @property
     def time(self) -> float:
@@ -193,7 +193,11 @@ class BranchPath(Driver):
 
     def summary(self) -> dict[str, Any]:
         """The points, the special points and the last load factor."""
-        special = [asdict(r) for r in self.history if r.kind != "regular"]
+        special = [
+            asdict(r)
+            for r in self.history
+            if r.kind != "regular" and not r.kind.endswith("_unlocated")
+        ]
         return {
             "dofs": self.num_dofs,
             "load_factor": self.load.value,
@@ -203,20 +207,36 @@ class BranchPath(Driver):
             "special_points": special,
             "folds": [r.load_factor for r in self.history if r.kind == "fold"],
             "bifurcations": [r.load_factor for r in self.history if r.kind == "bifurcation"],
+            "unlocated": [r.load_factor for r in self.history if r.kind.endswith("_unlocated")],
             "energy": self.newton.energy_value(),
         }
 
     def destroy(self) -> None:
-        """Free the PETSc objects."""
+        """Free the PETSc objects and the options prefix (idempotent)."""
+        if self._prefix is None:
+            return
         if self.current is not None:
             self.current.destroy()
             self.current = None
         self.engine.destroy()
         self.newton.destroy()
+        release_prefix(self._prefix)
+        self._prefix = None
 
     # -- the path ---------------------------------------------------------------------------
     def run(self, max_steps: int | None = None) -> RunResult:
-        """Follow the path for at most ``max_steps`` more points (None: up to ``steps``)."""
+        """Follow the path until ``max_steps`` more points (None: ``steps`` points in all).
+
+        No step starts once the points are that many; a step adds one point, or two when it
+        finds a special point (so the count can end one over).
+
+        Args:
+            max_steps: the points to add at most in this call, but for that one over.
+
+        Returns:
+            The outcome: converged unless a step failed or a signal stopped the path, with
+            the reason and this call's records.
+        """
         budget = (
             self.remaining_steps() if max_steps is None else min(max_steps, self.remaining_steps())
         )
@@ -268,30 +288,52 @@ class BranchPath(Driver):
         return f"{self.step_count} points of the path"
 
     def _advance(self) -> list[BranchPoint]:
-        """One arclength step, and the special point before it, if any: their records."""
+        """One arclength step, and the special point before it, if any: their records.
+
+        Nothing is recorded when the step fails (a SolverError): the path stays at its last
+        point.
+        """
         self._clock = time.perf_counter()
         base = self._point()
         new, ds = self._step(base)
-        records, kind = [], self.special.kind(base, new)
-        last = "regular"
-        if kind:
-            try:
-                special = self.special.locate(kind, base, new, ds)
-            except SolverError:  # not located: the point after it carries the kind
-                special, last = None, kind
-            if special is not None:
-                records.append(self._report(special, ds, kind))
-                if kind == "bifurcation" and self.settings.switch and not self.switched:
-                    new.destroy()
-                    new, last = self.special.switch(special, ds), "switch"
-                    self.branch, self.switched = self.branch + 1, True
-                special.destroy()
+        try:
+            records, new, last = self._special(base, new, ds)
+        except BaseException:
+            new.destroy()
+            raise
         self.engine.set_state(new)
-        records.append(self._report(new, ds, last))
         base.destroy()
         self.current = new
         self.ds = self.settings.step.after(ds, new.iterations)
+        records.append(self._report(new, ds, last))  # a checkpoint here holds the new point
         return records
+
+    def _special(self, base: Point, new: Point, ds: float) -> tuple[list[BranchPoint], Point, str]:
+        """The record of the special point between ``base`` and ``new`` (if any, and located).
+
+        Returns:
+            The records, the point to go on from (``new``, or the first point of the branch
+            switched to) and the kind of that point: ``"<kind>_unlocated"`` after a special point
+            that could not be located.
+        """
+        kind = self.special.kind(base, new)
+        if not kind:
+            return [], new, "regular"
+        try:
+            special = self.special.locate(kind, base, new, ds)
+        except SolverError:
+            return [], new, f"{kind}_unlocated"
+        try:
+            if kind != "bifurcation" or not self.settings.switch or self.switched:
+                return [self._report(special, ds, kind)], new, "regular"
+            switched = self.special.switch(special, ds)
+            self.engine.set_state(special)
+            record = self._report(special, ds, kind)
+            new.destroy()
+            self.branch, self.switched = self.branch + 1, True
+            return [record], switched, "switch"
+        finally:
+            special.destroy()
 
     def _point(self) -> Point:
         if self.current is None:

@@ -40,7 +40,7 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
-from typing import Any, TypeAlias
+from typing import Any, TypeAlias, TypeVar
 
 import dolfinx.fem
 import numpy as np
@@ -52,13 +52,11 @@ from dgplate.errors import SolverError
 from dgplate.solvers.branch import BranchLeaving
 from dgplate.solvers.driver import Driver, Observer, RunOutcome, RunResult
 from dgplate.solvers.path_options import Leave, Relaxation, Stability
+from dgplate.solvers.prefixes import check_prefix, hold_prefix, release_prefix
 from dgplate.solvers.snes import NewtonSolver, snes_reason
 from dgplate.solvers.stability import LOWEST, StabilityObserver
 
 __all__ = ["Leave", "LoadFactor", "LoadPath", "LoadStep", "Relaxation", "Stability", "record_type"]
-
-#: Options prefixes of the live drivers: two at once would read each other's options.
-_LIVE_PREFIXES: set[str] = set()
 
 # strings: DOLFINx 0.9's Function is not subscriptable at run time
 Shape: TypeAlias = (
@@ -83,10 +81,7 @@ class LoadStep:
 
     def line(self) -> str:
         """One line of progress output, the probes included."""
-        probes = "".join(
-            f"  {f.name} {getattr(self, f.name):.6g}"
-            for f in dataclasses.fields(self)[len(dataclasses.fields(LoadStep)) :]
-        )
+        probes = probe_text(self, LoadStep)
         return (
             f"load step {self.step:4d}  load factor {self.load_factor:.4g}  Newton its "
             f"{self.iterations:2d}  energy {self.energy:+.6e}{probes}  {self.seconds:.2f} s"
@@ -95,13 +90,48 @@ class LoadStep:
 
 def record_type(probes: Sequence[str]) -> type[LoadStep]:
     """:class:`LoadStep` with one more float field per probe name (flat history rows)."""
+    return with_probes(LoadStep, probes)
+
+
+Record = TypeVar("Record")
+
+
+def with_probes(base: type[Record], probes: Sequence[str]) -> type[Record]:
+    """The dataclass ``base`` with one more float field per probe name.
+
+    Args:
+        base: the record's dataclass.
+        probes: the probe names; a ValueError when one is a field of ``base``.
+
+    Returns:
+        ``base`` itself without probes, else its subclass ``<base>WithProbes``.
+    """
     if not probes:
-        return LoadStep
-    clash = sorted(set(probes) & {f.name for f in dataclasses.fields(LoadStep)})
+        return base
+    clash = sorted(set(probes) & {f.name for f in dataclasses.fields(base)})  # type: ignore[arg-type]
     if clash:
-        raise ValueError(f"probe name {clash[0]!r} is a field of LoadStep")
+        raise ValueError(f"probe name {clash[0]!r} is a field of {base.__name__}")
     fields = [(name, float) for name in probes]
-    return dataclasses.make_dataclass("LoadStepWithProbes", fields, bases=(LoadStep,))
+    made: type[Record] = dataclasses.make_dataclass(
+        f"{base.__name__}WithProbes", fields, bases=(base,)
+    )
+    return made
+
+
+def probe_text(record: Any, base: type) -> str:
+    """The probes of ``record`` (its fields after those of ``base``) for a progress line.
+
+    Args:
+        record: an instance of :func:`with_probes` of ``base``.
+        base: the record's dataclass without probes.
+
+    Returns:
+        ``"  name value"`` per probe.
+    """
+    return "".join(
+        f"  {f.name} {getattr(record, f.name):.6g}"
+        for f in dataclasses.fields(record)[len(dataclasses.fields(base)) :]
+    )
 
 
 class LoadFactor:
@@ -127,7 +157,11 @@ class LoadFactor:
         return float(self.constant.value)
 
     def set(self, factor: float) -> None:
-        """The load factor and the Dirichlet data at it."""
+        """Set the load factor and the Dirichlet data at it.
+
+        Args:
+            factor: the load factor λ; each datum becomes λ times its value at full load.
+        """
         self.constant.value = np.asarray(factor)
         for datum, value in self.bc_values:
             datum.value = np.asarray(factor * value)
@@ -185,8 +219,7 @@ class LoadPath(Driver):
         options_key: str = "newton.snes",
     ) -> None:
         self.schedule = _checked_schedule(schedule, float(load_factor.value))
-        if prefix in _LIVE_PREFIXES:
-            raise ValueError(f"PETSc options prefix {prefix!r} is in use by a live LoadPath")
+        check_prefix(prefix)
         self.state, self.comm = state, state.function_space.mesh.comm
         self.load = LoadFactor(load_factor, bc_values)
         self.secant, self.observers, self.hint = secant, list(observers), hint
@@ -212,7 +245,7 @@ class LoadPath(Driver):
         self.newton = NewtonSolver(state, energy, bcs, prefix, options, options_key)
         self.branches = BranchLeaving(self)
         self._live = True
-        _LIVE_PREFIXES.add(prefix)
+        hold_prefix(prefix)
 
     # -- the Driver protocol ----------------------------------------------------------------
     @property
@@ -339,7 +372,7 @@ class LoadPath(Driver):
             return
         self._live = False
         self.newton.destroy()
-        _LIVE_PREFIXES.discard(self._prefix)
+        release_prefix(self._prefix)
 
     def __enter__(self) -> LoadPath:
         """``with LoadPath(...) as driver:`` destroys the driver at the end."""

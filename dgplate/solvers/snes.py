@@ -142,14 +142,19 @@ class NewtonSolver:
 
         The Dirichlet rows hold u − g (g the data at the current load factor), the free rows
         DΠ(u) lifted by the Jacobian's Dirichlet columns times g − u.
+
+        Args:
+            b: the vector written (of the state's layout).
         """
         self.state.x.petsc_vec.copy(self._x)
         self._assemble_residual(self.snes, self._x, b)
 
     def jacobian(self) -> PETSc.Mat:
-        """The Jacobian of the current state (the solver's own matrix: do not destroy it).
+        """The Jacobian of the current state (collective).
 
-        The Dirichlet rows and columns are those of the identity.
+        Returns:
+            The solver's own matrix (do not destroy it), assembled now; its Dirichlet rows and
+            columns are those of the identity.
         """
         self._assemble_jacobian(self.snes, self.state.x.petsc_vec, self._A, self._A)
         return self._A

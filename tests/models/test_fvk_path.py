@@ -17,15 +17,19 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 from helpers import ROOT
+from petsc4py import PETSc
 
 import dgplate
 from dgplate import interrupt
 from dgplate.cli import main
+from dgplate.errors import SolverError
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk.model import build_fvk
 from dgplate.models.fvk.spec import FvKSpec, NewtonSpec, PathSpec
 from dgplate.reference.fvk import sinusoidal_strip_folds, square_plate_critical_shortening
 from dgplate.solvers.continuation import BranchPath
+from dgplate.solvers.snes import NewtonSolver
+from dgplate.solvers.special_points import SpecialPoints
 
 E, NU, T = 1.0, 0.3, 0.01
 DELTA_CR = square_plate_critical_shortening(T, 1.0, NU)
@@ -35,18 +39,28 @@ ARCH = ROOT / "demos" / "problems" / "fvk_arch.toml"
 
 def follow(comm, spec, cells, corners, initial=None):
     """The points of the path of ``spec`` (records as dicts) and its summary."""
+    outcome, points, summary = attempt(comm, spec, cells, corners, initial)
+    assert outcome.converged, outcome.reason
+    return points, summary
+
+
+def attempt(comm, spec, cells, corners, initial=None):
+    """The outcome of the path of ``spec``, its points (records as dicts) and its summary.
+
+    The summary's ``load_factor`` is the load factor the path's state is left at.
+    """
     model = build_fvk(spec, rectangle(comm, corners, cells))
     driver = model.driver(None, [], initial)
     assert isinstance(driver, BranchPath)
     try:
-        result = driver.run()
-        assert result.converged, result.reason
-        return [asdict(r) for r in driver.history], driver.summary()
+        outcome = driver.run()
+        assert driver.step_count == len(driver.history)
+        return outcome, [asdict(r) for r in driver.history], driver.summary()
     finally:
         driver.destroy()
 
 
-def plate(comm, n, switch, steps):
+def plate(comm, n, switch, steps, run=follow):
     """The perfect square plate of demos/fvk_buckling.py shortened by λ Δ_cr, n × n cells."""
     spec = FvKSpec(
         E=E,
@@ -64,7 +78,7 @@ def plate(comm, n, switch, steps):
             method="arclength", ds=0.3, ds_max=3.0, steps=steps, switch=switch, lambda_max=1.5
         ),
     )
-    return follow(comm, spec, [n, n], [[0, 0], [1, 1]])
+    return run(comm, spec, [n, n], [[0, 0], [1, 1]])
 
 
 def arch(comm, n, steps=10):
@@ -123,9 +137,18 @@ def test_switching_onto_the_buckled_branch():
     load = np.array([p["load_factor"] for p in buckled])
     assert np.all(np.diff(deflection) > 0) and deflection[-1] > 0.1 * T
     assert np.all(load > critical) and np.all(np.diff(load) > 0)
+    assert deflection[0] == pytest.approx(0.0212 * T, rel=0.01)  # the first point after it
     # stable symmetric bifurcation: λ − λ_c grows like w², the ratio settles
-    ratio = (load - critical) / deflection**2
-    assert ratio[-1] == pytest.approx(ratio[-2], rel=0.1)
+    ratio = (load - critical) / (deflection / T) ** 2
+    assert deflection[-2:] / T == pytest.approx([0.4525, 0.5453], abs=1e-3)
+    assert ratio[-2:] == pytest.approx([0.6399, 0.6407], abs=2e-4)
+
+
+def test_the_coarsest_plate_bifurcates_below_the_euler_load():
+    """On 4 × 4 cells (306 dofs) the first bifurcation is at 0.98755 (−1.24 %)."""
+    _, summary = plate(MPI.COMM_WORLD, 4, switch=False, steps=6)
+    assert summary["dofs"] == 306
+    assert summary["bifurcations"] == [pytest.approx(0.98755, abs=2e-5)]
 
 
 def test_arch_snaps_through_its_limit_point():
@@ -146,6 +169,75 @@ def test_arch_snaps_through_its_limit_point():
     assert [p["stability_index"] for p in before] == [0] * len(before)
     assert [p["stability_index"] for p in after] == [1] * len(after)
     assert points[0]["w_center"] == pytest.approx(math.sqrt(2 / 3) * T, rel=0.002)  # a₀
+
+
+def test_an_unlocated_fold_is_not_listed_as_a_fold(monkeypatch):
+    """When locating fails, the point after the fold is ``fold_unlocated``, listed apart."""
+
+    def fail(*args):
+        raise SolverError("the corrector failed while locating a fold")
+
+    monkeypatch.setattr(SpecialPoints, "locate", fail)
+    points, summary = arch(MPI.COMM_WORLD, 8, steps=9)
+    kinds = [p["kind"] for p in points]
+    assert "fold" not in kinds and kinds.count("fold_unlocated") == 1
+    after = points[kinds.index("fold_unlocated")]
+    assert after["tangent_load"] < 0
+    assert summary["folds"] == [] and summary["special_points"] == []
+    assert summary["unlocated"] == [after["load_factor"]]
+
+
+def test_a_failed_switch_keeps_the_path_at_its_last_point(monkeypatch):
+    """A switch that fails records nothing: the path ends at the point before the bifurcation."""
+
+    def fail(*args):
+        raise SolverError("the arclength step fell below ds_min = 1e-06")
+
+    monkeypatch.setattr(SpecialPoints, "switch", fail)
+    outcome, points, summary = plate(MPI.COMM_WORLD, 4, switch=True, steps=6, run=attempt)
+    assert not outcome.converged
+    assert outcome.reason == "the arclength step fell below ds_min = 1e-06; the last point is kept"
+    assert [p["kind"] for p in points] == ["regular"] * len(points)
+    assert outcome.steps == len(points) and points[-1]["load_factor"] < 0.99
+    assert summary["load_factor"] == points[-1]["load_factor"]
+    assert summary["bifurcations"] == []
+
+
+def test_a_petsc_error_ends_the_path_with_a_reason(monkeypatch):
+    """A PETSc error in the stability index ends the run with a reason, not a traceback."""
+    points = []
+
+    def fail(self):
+        if len(points) == 0:
+            points.append(0)  # the start's index is counted
+            return hessian(self)
+        raise PETSc.Error(73)
+
+    hessian = NewtonSolver.free_hessian
+    monkeypatch.setattr(NewtonSolver, "free_hessian", fail)
+    outcome, rows, summary = plate(MPI.COMM_WORLD, 4, switch=False, steps=4, run=attempt)
+    assert not outcome.converged
+    assert outcome.reason.startswith("the Hessian on the free unknowns failed: ")
+    assert outcome.reason.endswith("; the last point is kept")
+    assert len(rows) == 1 and summary["load_factor"] == rows[0]["load_factor"]
+
+
+def test_two_live_paths_cannot_share_an_options_prefix():
+    """The second path on a live one's prefix is refused; once destroyed, the prefix is free."""
+    spec = FvKSpec(
+        E=E,
+        nu=NU,
+        thickness=T,
+        simply_supported=["left", "right"],
+        path=PathSpec(method="arclength", ds=0.3, steps=2),
+    )
+    model = build_fvk(spec, rectangle(MPI.COMM_WORLD, [[0, 0], [1, 1]], [2, 2]))
+    first = model.driver(None, [], None)
+    with pytest.raises(ValueError, match="is in use by a live driver"):
+        model.driver(None, [], None)
+    first.destroy()
+    first.destroy()  # idempotent
+    model.driver(None, [], None).destroy()
 
 
 def test_arch_fold_converges_to_the_exact_limit_load():
@@ -200,26 +292,34 @@ def test_problem_file_writes_the_branch(tmp_path):
     assert (out / "branch.png").is_file()
 
 
-@pytest.mark.parametrize("stop_at", [4, 9])
-def test_an_interrupted_path_resumes_to_the_same_points(stop_at, tmp_path, monkeypatch):
-    """SIGTERM after point 4 (λ rising) or 9 (past the fold, λ falling), then ``resume``: the
-    points are those of the uninterrupted path (λ, energy, index, kind, step length)."""
+@pytest.mark.parametrize(("stop_at", "crash"), [(4, False), (9, False), (9, True)])
+def test_an_interrupted_path_resumes_to_the_same_points(stop_at, crash, tmp_path, monkeypatch):
+    """SIGTERM after point 4 (λ rising) or 9 (past the fold, λ falling), or a crash in the step
+    after point 9, then ``resume``: the points are those of the uninterrupted path (λ, energy,
+    index, kind, step length)."""
     problem = dgplate.load_problem(ARCH, {"output.vtx": False, "output.png": False})
     problem = dataclasses.replace(problem, output=dataclasses.replace(problem.output, progress=0))
     straight = dgplate.run(problem, out=tmp_path / "straight", comm=MPI.COMM_SELF)
     advance = BranchPath._advance
 
     def advance_then_signal(self):
+        if crash and self.step_count >= stop_at:
+            self.destroy()  # a dying process takes its PETSc objects and options prefix along
+            raise RuntimeError("crash")
         records = advance(self)
-        if self.step_count >= stop_at:
+        if not crash and self.step_count >= stop_at:
             monkeypatch.setattr(interrupt, "_received", signal.SIGTERM)
         return records
 
     with monkeypatch.context() as patched:
         patched.setattr(BranchPath, "_advance", advance_then_signal)
-        stopped = dgplate.run(problem, out=tmp_path / "resumed", comm=MPI.COMM_SELF)
+        if crash:
+            with pytest.raises(RuntimeError, match="crash"):
+                dgplate.run(problem, out=tmp_path / "resumed", comm=MPI.COMM_SELF)
+        else:
+            stopped = dgplate.run(problem, out=tmp_path / "resumed", comm=MPI.COMM_SELF)
+            assert stopped["reason"] == "interrupted (SIGTERM)" and stopped["points"] == stop_at
     monkeypatch.setattr(interrupt, "_received", 0)
-    assert stopped["reason"] == "interrupted (SIGTERM)" and stopped["points"] == stop_at
     resumed = dgplate.run(problem, out=tmp_path / "resumed", comm=MPI.COMM_SELF, resume=True)
     assert resumed["converged"]
     assert resumed["folds"] == pytest.approx(straight["folds"], rel=1e-10)

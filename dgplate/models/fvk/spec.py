@@ -124,7 +124,11 @@ class PathSpec:
         1e-6, "shortest arclength step: a corrector failing at it ends the path", gt=0
     )
     steps: int = option(
-        50, "points of the path at most (the start and the special points included)", ge=2
+        50,
+        "points of the path: no step starts once there are this many (the start and the special "
+        "points count; a last step that finds a special point adds it and the point after it, "
+        "one more)",
+        ge=2,
     )
     lambda_max: float = option(
         1.0, "the path ends when the load factor leaves [-lambda_max, lambda_max]", gt=0
@@ -142,7 +146,11 @@ class PathSpec:
             )
 
     def settings(self) -> PathSettings:
-        """The continuation's settings."""
+        """The continuation's settings.
+
+        Returns:
+            The step control and the path's bounds of these keys.
+        """
         step = StepLength(ds=self.ds, ds_max=self.ds_max, ds_min=self.ds_min)
         return PathSettings(step, self.steps, self.lambda_max, self.switch)
 

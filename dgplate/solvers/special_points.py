@@ -1,0 +1,145 @@
+"""Folds and simple bifurcations between two points of an arclength path, and branch switching.
+
+The special points of :mod:`dgplate.solvers.arclength`: a fold where the tangent's λ-component
+changes sign, a simple bifurcation where the stability index changes and it does not, both
+located by the secant method on the step from the earlier point; the switch leaves a
+bifurcation along the critical eigenvector.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+
+from dgplate.errors import SolverError
+from dgplate.solvers import eigen
+from dgplate.solvers.arclength import ArcLength, Point, StepLength, petsc_failure, secant_root
+
+
+class SpecialPoints:
+    """Folds and simple bifurcations between two points of a path, and the switch at one.
+
+    Args:
+        engine: the continuation's predictor, corrector, tangents and indices.
+        step: the step control (the switch halves its step as a path step does).
+
+    All methods are collective.
+    """
+
+    def __init__(self, engine: ArcLength, step: StepLength) -> None:
+        self.engine, self.step = engine, step
+
+    @staticmethod
+    def kind(base: Point, new: Point) -> str:
+        """The special point between two points of a path.
+
+        Args:
+            base: the earlier point.
+            new: the later point.
+
+        Returns:
+            "fold" (τ changed sign), "bifurcation" (the index changed, τ did not) or "" (none).
+        """
+        if (base.tau > 0) != (new.tau > 0):
+            return "fold"
+        return "bifurcation" if base.index != new.index else ""
+
+    def locate(self, kind: str, base: Point, new: Point, ds: float) -> Point:
+        """The special point between ``base`` and ``new`` (the secant method on the step).
+
+        Args:
+            kind: "fold" (the root of τ) or "bifurcation" (the root of the eigenvalue whose
+                sign changes).
+            base: the point before it.
+            new: the point after it, ``ds`` from ``base``.
+            ds: the step from ``base`` to ``new``.
+
+        Returns:
+            The located point, the state at it; a SolverError when a corrector fails.
+        """
+        direction = (base.t, base.tau)
+
+        def corrected(s: float) -> float:
+            result = self.engine.correct(base, s, direction)
+            if result is None:
+                raise SolverError(f"the corrector failed while locating a {kind}")
+            if kind == "fold":
+                return self.engine.tangent(result[0], direction)[1]
+            return self._crossing_eigenvalue(max(base.index, new.index))
+
+        if kind == "fold":
+            ends = base.tau, new.tau
+        else:
+            ends = corrected(0.0), corrected(ds)
+        secant_root(corrected, 0.0, ends[0], ds, ends[1], xtol=1e-6 * ds)
+        special = self.engine.point(self.engine.load.value, direction, 0)
+        # the Hessian is singular there: its zero eigenvalue is not negative, and the inertia
+        # of the factorisation would count it either way
+        special.index = min(base.index, new.index)
+        return special
+
+    def _crossing_eigenvalue(self, k: int) -> float:
+        """The k-th lowest Hessian eigenvalue (free unknowns), for an index that changes k−1 ↔ k.
+
+        With the index n of the state, it is the negative eigenvalue nearest 0 if n ≥ k, else the
+        non-negative one nearest 0 (exactly the k-th lowest when n is k − 1 or k).
+        """
+        negative = self.engine.index()
+        pairs = self._eigenpairs()
+        try:
+            values = pairs.values
+            below, above = values[values < 0], values[values >= 0]
+            nearest = below[-1:] if negative >= k else above[:1]
+            if not len(nearest):
+                raise SolverError("no Hessian eigenvalue of the crossing sign near 0")
+            return float(nearest[0])
+        finally:
+            pairs.destroy()
+
+    def _eigenpairs(self) -> eigen.Eigenpairs:
+        with petsc_failure("the Hessian on the free unknowns"):
+            hessian = self.engine.newton.free_hessian()
+        try:
+            return eigen.nearest_eigenpairs(hessian, 3, 0.0)
+        finally:
+            hessian.destroy()
+
+    def switch(self, at: Point, ds: float) -> Point:
+        """The first point on the branch that leaves ``at`` along the critical eigenvector.
+
+        Args:
+            at: the bifurcation point.
+            ds: the push along the eigenvector (halved while the corrector fails).
+
+        Returns:
+            The point, ds from ``at`` along the eigenvector, on the bifurcating branch.
+        """
+        self.engine.set_state(at)
+        mode = self._critical_mode()
+        try:
+            direction = (mode, 0.0)
+            step = ds
+            while True:
+                corrected = self.engine.correct(at, step, direction)
+                if corrected is not None:
+                    return self.engine.point(corrected[0], direction, corrected[1])
+                step = self.step.halved(step)
+        finally:
+            mode.destroy()
+
+    def _critical_mode(self) -> PETSc.Vec:
+        """The eigenvector of the eigenvalue nearest 0, unit in the scaled norm.
+
+        On all unknowns: 0 on the Dirichlet ones.
+        """
+        pairs = self._eigenpairs()
+        try:
+            nearest = int(np.argmin(np.abs(pairs.values)))
+            mode: PETSc.Vec = self.engine.state.x.petsc_vec.duplicate()
+            mode.set(0.0)
+            with mode.localForm() as local:
+                local.array[self.engine.newton.free[1]] = eigen.values_of(pairs.vectors[nearest])
+            mode.scale(1.0 / np.sqrt(self.engine.inner(mode, mode)))
+            return mode
+        finally:
+            pairs.destroy()
