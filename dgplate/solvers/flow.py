@@ -230,10 +230,7 @@ class GradientFlow(EnergyFlow):
         self.energy = energy_fn(self.y)
         self.defect = IsometryDefect(self.y, metric)
         self.metric = metric
-        #: the metric start's figures (None: no start phase, or not run yet)
-        self.start_phase: dict[str, Any] | None = None
-        self._start_pending = metric is not None
-        self._given_start = initial is not None  # the metric start only projects it
+        self.start_phase = metric_start.StartPhase(metric, initial is not None)
         self.time, self.step_count = 0.0, 0
         self.energy_increases: list[int] = []  # steps at which E_h went up, over all runs
         self.counts = FlowCounts()
@@ -319,16 +316,13 @@ class GradientFlow(EnergyFlow):
             **asdict(self.counts),
             "factorisations": self.system.factorisations(),
             "newton_factorisations": self.system.newton_factorisations(),
-            **({"metric_start": self.start_phase} if self.start_phase is not None else {}),
+            **self.start_phase.entries(),
         }
 
     def restore_state(self, state: dict[str, Any]) -> None:
         """Continue from a checkpoint's counters (after its fields were restored)."""
         super().restore_state(state)
-        self.start_phase = state.get("metric_start")
-        # a checkpoint written before the metric start ended (a signal) starts it anew
-        self._start_pending = self.metric is not None and self.start_phase is None
-        self._given_start = False
+        self.start_phase.restore(state)
         tau = float(state.get("tau", self.tau))
         if tau != self.tau:
             self.system.put_tau(tau)
@@ -359,7 +353,7 @@ class GradientFlow(EnergyFlow):
             "newton_rejections": counts.newton_rejections,
             "newton_factorisations": self.system.newton_factorisations(),
             "step_solves": counts.step_solves,
-            **({"metric_start": self.start_phase} if self.start_phase is not None else {}),
+            **self.start_phase.entries(),
         }
 
     # -- the loop ---------------------------------------------------------------------------
@@ -372,10 +366,11 @@ class GradientFlow(EnergyFlow):
         Returns:
             How the run ended, with its records.
         """
-        if self._start_pending:
-            ended = self._metric_start()
+        if self.start_phase.pending:
+            ended = self.start_phase.run(self, self.observers)
             if ended is not None:
                 return self._finish(False, *ended, [], [])
+            self.rebase_energy()
         budget = max_steps or self.remaining_steps()
         history: list[StepInfo] = []
         increases: list[int] = []
@@ -425,24 +420,6 @@ class GradientFlow(EnergyFlow):
         for obs in self.observers:
             obs.finish(self, result)
         return result
-
-    def _metric_start(self) -> tuple[str, int] | None:
-        """Run the metric start; None when it succeeded, else the run's (reason, signal)."""
-        notes = [note for obs in self.observers if (note := getattr(obs, "note", None))]
-
-        def say(line: str) -> None:
-            for note in notes:
-                note(line)
-
-        try:
-            self.start_phase = metric_start.run(self, self._given_start, say)
-        except SolverError as exc:
-            return f"metric start failed: {exc}", 0
-        except metric_start.Stopped as stop:
-            return interrupt.reason(stop.signum), stop.signum
-        self._start_pending = False
-        self.rebase_energy()
-        return None
 
     # -- one step ---------------------------------------------------------------------------
     def step(self, newton: bool = False) -> StepInfo:

@@ -132,6 +132,58 @@ def run(
     return figures
 
 
+class StartPhase:
+    """The metric start as a phase of a flow: pending until it succeeded, its figures kept.
+
+    The flow owns one; it runs the start before its first step (:meth:`run`), and its
+    figures go into the flow's summary and checkpoint (:meth:`entries`), so that a resumed
+    run does not start again (:meth:`restore`).
+    """
+
+    def __init__(self, metric: Expr | None, given: bool):
+        """``metric``: the flow's target metric (None: no start); ``given``: a user's start."""
+        self.has_metric = metric is not None
+        self.pending = self.has_metric
+        self.given = given
+        #: the start's figures (None: no start, or not run yet)
+        self.figures: dict[str, Any] | None = None
+
+    def entries(self) -> dict[str, Any]:
+        """``{"metric_start": figures}`` once the start ran, else nothing."""
+        return {"metric_start": self.figures} if self.figures is not None else {}
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """The figures of a checkpoint's ``state``; one written before the start ended starts anew."""
+        self.figures = state.get("metric_start")
+        self.pending = self.has_metric and self.figures is None
+        self.given = False
+
+    def run(self, flow: StartFlow, observers: list[Any]) -> tuple[str, int] | None:
+        """Run the start (collective): None when it succeeded, else the run's (reason, signal).
+
+        Args:
+            flow: the flow, at its first state.
+            observers: the flow's observers; those with a ``note`` print the start's line.
+
+        Returns:
+            None, or why the run ends: the failure or the signal, and the signal's number.
+        """
+        notes = [note for obs in observers if (note := getattr(obs, "note", None))]
+
+        def say(line: str) -> None:
+            for note in notes:
+                note(line)
+
+        try:
+            self.figures = run(flow, self.given, say)
+        except SolverError as exc:
+            return f"metric start failed: {exc}", 0
+        except Stopped as stop:
+            return interrupt.reason(stop.signum), stop.signum
+        self.pending = False
+        return None
+
+
 def _check_signal(comm: MPI.Comm) -> None:
     """Raise :class:`Stopped` when any rank received a signal (collective)."""
     signum = interrupt.requested(comm)
