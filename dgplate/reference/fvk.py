@@ -17,7 +17,9 @@
   exact and derived there, as in the classical analysis of low arches (Timoshenko, J. Appl.
   Mech. 2, 1935; Fung & Kaplan, NACA TN 2840, 1952) but with the bending measured from flat.
 - Euler buckling of a simply supported square plate under uniaxial end shortening:
-  N_cr = 4π²D/a² (Timoshenko & Gere, §9.2, k = 4), :func:`square_plate_critical_shortening`.
+  N_cr = 4π²D/a² (Timoshenko & Gere, §9.2, k = 4), :func:`square_plate_critical_shortening`;
+  with the unloaded edges held straight and immovable, the buckling shortening and Koiter's
+  initial post-buckling slope (:func:`held_square_plate_postbuckling`, exact one-mode solution).
 """
 
 from __future__ import annotations
@@ -175,3 +177,44 @@ def square_plate_critical_shortening(t: float, a: float, nu: float) -> float:
         The shortening Δ_cr of the loaded edge at the buckling load.
     """
     return math.pi**2 * t * t / (3 * (1 - nu * nu) * a)
+
+
+def held_square_plate_postbuckling(t: float, a: float, nu: float) -> tuple[float, float]:
+    """Buckling and initial post-buckling of the square plate with held unloaded edges.
+
+    The square 0 < x, y < a, simply supported (w = 0) on all four edges; the loaded edges x = 0
+    and x = a straight, u = 0 and u = −Δ, free to slide along themselves (N_xy = 0); the
+    unloaded edges y = 0, a held straight and immovable, v = 0, free to slide (N_xy = 0). Before
+    buckling N_y = ν N_x, so the mode w = f sin(πx/a) sin(πy/a) appears at N_x = 4π²D/(a²(1+ν)),
+
+        Δ_c = π² t²/(3 (1 + ν) a),
+
+    and on the buckled branch
+
+        Δ/Δ_c = 1 + (3/8)(3 − ν)(1 + ν)(f/t)² + O(f⁴).
+
+    Derived here by the one-mode method of the classical large-deflection analysis of buckled
+    plates (Marguerre, *Die mittragende Breite der gedrückten Platte*, Luftfahrtforschung 14,
+    1937; Timoshenko & Gere, *Theory of Elastic Stability*, 2nd ed. 1961, ch. 9): the Airy
+    function F = E t f²/32 [cos(2πx/a) + cos(2πy/a)] − N_x y²/2 − N_y x²/2 solves the
+    compatibility equation for w exactly, has N_xy ≡ 0, and its displacements keep all four
+    edges straight with v = 0 on y = 0 and y = a once N_y = ν N_x − π²E t f²/(8a²) (checked by
+    integrating the strains), so it is the exact membrane field of w. The Galerkin equation of
+    the mode, N_x + N_y = 4π²D/a² + π²E t f²/(8a²), and the shortening
+    Δ = (N_x − ν N_y) a/(E t) + π² f²/(8a) give the relation. The coefficient is Koiter's
+    initial post-buckling slope exactly: by w ↦ −w the second-order field is the membrane field
+    of the mode alone (resolved here without approximation), and the deflection's correction
+    orthogonal to the mode enters the energy only at order f⁶. The terms O(f⁴) are not those of
+    the one-mode solution. (With the unloaded edges straight but free to move, N_y = 0, the
+    same steps give Δ/Δ_cr = 1 + (3/4)(1 − ν²)(f/t)²; with one unloaded edge stress-free the
+    membrane field of the mode has no such closed form.)
+
+    Args:
+        t: the thickness.
+        a: the side.
+        nu: Poisson's ratio.
+
+    Returns:
+        (Δ_c, b): the buckling shortening and the slope b = d(Δ/Δ_c)/d((f/t)²) at f = 0.
+    """
+    return math.pi**2 * t * t / (3 * (1 + nu) * a), 3 * (3 - nu) * (1 + nu) / 8
