@@ -247,3 +247,16 @@ def test_spherical_cap_page_is_generated(tmp_path):
     assert all(level["converged"] and level["metric_start"]["defect"] <= 1e-10 for level in levels)
     errors = [abs(level["radius_error"]) for level in levels]
     assert errors == sorted(errors, reverse=True)  # the fitted radius converges
+
+
+def test_path_following_page_is_generated(tmp_path):
+    """docs/path_following.md's tables are what --table-only writes from path_following.json."""
+    page = BENCH.parent / "docs" / "path_following.md"
+    assert_page_is_generated("path_following", page, tmp_path)
+    record = json.loads((BENCH / "results" / "path_following.json").read_text())
+    assert [level["n"] for level in record["euler"]] == [4, 8, 16]
+    assert [level["n"] for level in record["arch"]] == [8, 16, 32, 64]
+    held = [abs(level["error"]) for level in record["slope_held"]]
+    assert held == sorted(held, reverse=True) and held[-1] < 1e-3  # toward Koiter's slope
+    arch = [abs(level["error"]) for level in record["arch"]]
+    assert arch == sorted(arch, reverse=True)  # the fold converges to the exact limit load

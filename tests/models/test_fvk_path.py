@@ -10,13 +10,12 @@ import itertools
 import json
 import math
 import signal
-from dataclasses import asdict
 
 from mpi4py import MPI
 
 import numpy as np
 import pytest
-from helpers import ROOT
+from helpers import ROOT, load_benchmark
 from petsc4py import PETSc
 
 import dgplate
@@ -25,79 +24,28 @@ from dgplate.cli import main
 from dgplate.errors import SolverError
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk.model import build_fvk
-from dgplate.models.fvk.spec import FvKSpec, NewtonSpec, PathSpec
-from dgplate.reference.fvk import sinusoidal_strip_folds, square_plate_critical_shortening
+from dgplate.models.fvk.spec import FvKSpec, PathSpec
+from dgplate.reference.fvk import held_square_plate_postbuckling
 from dgplate.solvers.continuation import BranchPath
 from dgplate.solvers.snes import NewtonSolver
 from dgplate.solvers.special_points import SpecialPoints
 
-E, NU, T = 1.0, 0.3, 0.01
-DELTA_CR = square_plate_critical_shortening(T, 1.0, NU)
-Q_FOLD, A_FOLD = sinusoidal_strip_folds(E, T, 1.0, T)  # rise e = t
+PATHS = load_benchmark("path_following")  # the cases, shared with the benchmark
+E, NU, T = PATHS.E, PATHS.NU, PATHS.T
+A_FOLD = PATHS.A_FOLD
 ARCH = ROOT / "demos" / "problems" / "fvk_arch.toml"
+follow, attempt = PATHS.follow, PATHS.attempt
 
 
-def follow(comm, spec, cells, corners, initial=None):
-    """The points of the path of ``spec`` (records as dicts) and its summary."""
-    outcome, points, summary = attempt(comm, spec, cells, corners, initial)
-    assert outcome.converged, outcome.reason
-    return points, summary
-
-
-def attempt(comm, spec, cells, corners, initial=None):
-    """The outcome of the path of ``spec``, its points (records as dicts) and its summary.
-
-    The summary's ``load_factor`` is the load factor the path's state is left at.
-    """
-    model = build_fvk(spec, rectangle(comm, corners, cells))
-    driver = model.driver(None, [], initial)
-    assert isinstance(driver, BranchPath)
-    try:
-        outcome = driver.run()
-        assert driver.step_count == len(driver.history)
-        return outcome, [asdict(r) for r in driver.history], driver.summary()
-    finally:
-        driver.destroy()
-
-
-def plate(comm, n, switch, steps, run=follow):
-    """The perfect square plate of demos/fvk_buckling.py shortened by λ Δ_cr, n × n cells."""
-    spec = FvKSpec(
-        E=E,
-        nu=NU,
-        thickness=T,
-        simply_supported=["left", "right", "bottom", "top"],
-        membrane={
-            "left": [0.0, "free"],
-            "right": [-DELTA_CR, "free"],
-            "bottom": "normal",
-            "top": "free",
-        },
-        newton=NewtonSpec(stability=False),
-        path=PathSpec(
-            method="arclength", ds=0.3, ds_max=3.0, steps=steps, switch=switch, lambda_max=1.5
-        ),
-    )
-    return run(comm, spec, [n, n], [[0, 0], [1, 1]])
+def plate(comm, n, switch, steps, run=follow, held=False):
+    """The perfect square plate of demos/fvk_buckling.py shortened by λ Δ_cr, n × n cells
+    (``held``: both unloaded edges held, λ in units of that plate's Δ_c)."""
+    return run(comm, PATHS.plate_spec(switch, steps, held), [n, n], [[0, 0], [1, 1]])
 
 
 def arch(comm, n, steps=10):
     """The sinusoidal strip (rise t, ν = 0) from its unloaded arch, pushed down by λ q*."""
-    spec = FvKSpec(
-        E=E,
-        nu=0.0,
-        thickness=T,
-        natural_shape=f"{T}*sin(pi*x)",
-        pressure=f"-{Q_FOLD!r}*sin(pi*x)",
-        simply_supported=["left", "right"],
-        newton=NewtonSpec(stability=False),
-        path=PathSpec(method="arclength", ds=0.2, ds_max=0.4, steps=steps, lambda_max=1.5),
-    )
-
-    def start(x):  # near the arch a₀ = √(2/3) t: Newton at λ = 0 converges to it
-        return np.array([x[0], x[1], 0.8 * T * np.sin(np.pi * x[0])])
-
-    return follow(comm, spec, [n, 2], [[0, 0], [1, 0.1]], start)
+    return follow(comm, PATHS.arch_spec(steps), [n, 2], [[0, 0], [1, 0.1]], PATHS.arch_start)
 
 
 def test_flat_plate_loses_stability_at_the_euler_loads():
@@ -142,6 +90,30 @@ def test_switching_onto_the_buckled_branch():
     ratio = (load - critical) / (deflection / T) ** 2
     assert deflection[-2:] / T == pytest.approx([0.4525, 0.5453], abs=1e-3)
     assert ratio[-2:] == pytest.approx([0.6399, 0.6407], abs=2e-4)
+
+
+def test_postbuckling_slope_converges_to_koiters():
+    """Both unloaded edges held: the buckled branch's λ = 1 + b (w_c/t)² + … has Koiter's exact
+    slope b = (3/8)(3 − ν)(1 + ν) = 1.31625 (:func:`held_square_plate_postbuckling`).
+
+    Measured (fit of :func:`postbuckling_slope`): 1.37438 (+4.4 %) on 4 × 4 cells, 1.32434
+    (+0.61 %) on 8 × 8, order 2.8; the bifurcation 1.00392 and 1.00117 (exact 1).
+    """
+    _, slope = held_square_plate_postbuckling(T, 1.0, NU)
+    assert slope == pytest.approx(1.31625)
+    fits, errors = [], []
+    for n in (4, 8):
+        points, summary = plate(MPI.COMM_WORLD, n, switch=True, steps=12, held=True)
+        at = [p["kind"] for p in points].index("switch")
+        assert [p["stability_index"] for p in points[at:]] == [0] * (len(points) - at)
+        fit = PATHS.postbuckling_slope(points, T)
+        assert fit["lambda0"] == pytest.approx(summary["bifurcations"][0], abs=1e-6)
+        assert fit["w_max"] > 0.35  # the fit spans w_c up to a third of t and more
+        fits.append(fit["lambda0"])
+        errors.append(fit["slope"] / slope - 1)
+    assert fits == pytest.approx([1.00392, 1.00117], abs=2e-5)
+    assert errors == pytest.approx([0.0442, 0.0061], abs=5e-4)
+    assert 0 < errors[1] < 0.01 and math.log2(errors[0] / errors[1]) > 2.5
 
 
 def test_the_coarsest_plate_bifurcates_below_the_euler_load():

@@ -1,0 +1,375 @@
+"""Path following of FvK plates (docs/path_following.md): bifurcations, folds, post-buckling.
+
+Three studies over mesh levels, each against a closed form:
+
+- **Euler**: the perfect simply supported square plate of demos/fvk_buckling.py (t = 0.01,
+  ν = 0.3, one unloaded edge held straight, the other free) shortened by λΔ_cr, n × n Q2 cells,
+  followed on the flat branch: the first and second bifurcation against Δ/Δ_cr = 1 and 1.5625
+  (Timoshenko & Gere §9.2, k = (m + 1/m)², m = 1, 2), their errors, the observed orders and the
+  stability indices along the path.
+- **Slope**: the buckled branch after the switch at the first bifurcation, λ = λ₀ + b (w_c/t)²
+  + c (w_c/t)⁴ fitted by least squares (:func:`postbuckling_slope`); b against Koiter's slope
+  for the plate with both unloaded edges held straight and immovable
+  (:func:`dgplate.reference.fvk.held_square_plate_postbuckling`, λ = Δ/Δ_c), and measured
+  for the plate of the Euler study (no closed form).
+- **Arch**: the fold of the shallow sinusoidal strip on n × 2 cells against the exact limit
+  load λ = 1 (:func:`dgplate.reference.fvk.sinusoidal_strip_folds`), and w_c there over a*.
+
+Orders are log₂ of the ratio of successive errors (the cells halve). Wall times are per run.
+
+    python benchmarks/path_following.py [--json …] [--page docs/path_following.md]
+    python benchmarks/path_following.py --table-only [--json …] [--page …]
+
+The tables between ``<!-- path_following_<study>:begin -->`` and ``…:end -->`` of the page are
+generated from the JSON (``--table-only``: no runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import math
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+import numpy as np
+import numpy.typing as npt
+from pages import write_between
+
+from dgplate.io.output import print0
+from dgplate.mesh.tagged import rectangle
+from dgplate.models.fvk.model import build_fvk
+from dgplate.models.fvk.spec import FvKSpec, NewtonSpec, PathSpec
+from dgplate.reference.fvk import (
+    held_square_plate_postbuckling,
+    sinusoidal_strip_folds,
+    square_plate_critical_shortening,
+)
+from dgplate.solvers.continuation import BranchPath
+from dgplate.solvers.driver import RunOutcome
+
+ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "benchmarks" / "results"
+E, NU, T = 1.0, 0.3, 0.01
+DELTA_CR = square_plate_critical_shortening(T, 1.0, NU)
+DELTA_HELD, SLOPE_HELD = held_square_plate_postbuckling(T, 1.0, NU)
+Q_FOLD, A_FOLD = sinusoidal_strip_folds(E, T, 1.0, T)  # rise e = t
+EULER = (1.0, 6.25 / 4)  # Δ/Δ_cr at the first two bifurcations, k = (m + 1/m)²/4, m = 1, 2
+Initial = Callable[[npt.NDArray[np.float64]], npt.NDArray[np.float64]] | None
+
+
+def plate_spec(switch: bool, steps: int, held: bool = False) -> FvKSpec:
+    """The perfect simply supported square plate, its right edge moved by λΔ.
+
+    Args:
+        switch: leave the first bifurcation along the critical mode.
+        steps: the points of the path.
+        held: both unloaded edges held (v = 0) and Δ = Δ_c of that plate; if not, the plate of
+            demos/fvk_buckling.py (the bottom edge held, the top one free) and Δ = Δ_cr.
+
+    Returns:
+        The model's spec, followed by arclength from the flat plate.
+    """
+    delta, top = (DELTA_HELD, "normal") if held else (DELTA_CR, "free")
+    return FvKSpec(
+        E=E,
+        nu=NU,
+        thickness=T,
+        simply_supported=["left", "right", "bottom", "top"],
+        membrane={"left": [0.0, "free"], "right": [-delta, "free"], "bottom": "normal", "top": top},
+        newton=NewtonSpec(stability=False),
+        path=PathSpec(
+            method="arclength", ds=0.3, ds_max=3.0, steps=steps, switch=switch, lambda_max=1.5
+        ),
+    )
+
+
+def arch_spec(steps: int) -> FvKSpec:
+    """The sinusoidal strip (rise t, ν = 0) pushed down by λ q*, from its unloaded arch."""
+    return FvKSpec(
+        E=E,
+        nu=0.0,
+        thickness=T,
+        natural_shape=f"{T}*sin(pi*x)",
+        pressure=f"-{Q_FOLD!r}*sin(pi*x)",
+        simply_supported=["left", "right"],
+        newton=NewtonSpec(stability=False),
+        path=PathSpec(method="arclength", ds=0.2, ds_max=0.4, steps=steps, lambda_max=1.5),
+    )
+
+
+def arch_start(x: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """Near the arch a₀ = √(2/3) t: Newton at λ = 0 converges to it."""
+    return np.array([x[0], x[1], 0.8 * T * np.sin(np.pi * x[0])])
+
+
+def attempt(
+    comm: MPI.Comm, spec: FvKSpec, cells: Sequence[int], corners: Any, initial: Initial = None
+) -> tuple[RunOutcome, list[dict[str, Any]], dict[str, Any]]:
+    """The outcome of the path of ``spec`` on a rectangle, its points (dicts) and its summary."""
+    model = build_fvk(spec, rectangle(comm, corners, list(cells)))
+    driver = model.driver(None, [], initial)
+    assert isinstance(driver, BranchPath)  # a spec with path.method = "arclength"
+    try:
+        outcome = driver.run()
+        assert driver.step_count == len(driver.history)
+        return outcome, [asdict(r) for r in driver.history], driver.summary()
+    finally:
+        driver.destroy()
+
+
+def follow(
+    comm: MPI.Comm, spec: FvKSpec, cells: Sequence[int], corners: Any, initial: Initial = None
+) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """The points and the summary of a path that must reach its end."""
+    outcome, points, summary = attempt(comm, spec, cells, corners, initial)
+    if not outcome.converged:
+        raise RuntimeError(outcome.reason)
+    return points, summary
+
+
+def postbuckling_slope(points: list[dict[str, Any]], thickness: float) -> dict[str, float]:
+    """The fit λ = λ₀ + b s + c s², s = (w_c/t)², over the points from the switch on.
+
+    Args:
+        points: the path's points, a ``switch`` among them.
+        thickness: t.
+
+    Returns:
+        ``lambda0``, ``slope`` (b), ``quartic`` (c), and ``w_max``: the largest w_c/t fitted.
+    """
+    at = [p["kind"] for p in points].index("switch")
+    w = np.array([p["w_center"] for p in points[at:]]) / thickness
+    load = np.array([p["load_factor"] for p in points[at:]])
+    basis = np.column_stack([np.ones_like(w), w**2, w**4])
+    lambda0, slope, quartic = np.linalg.lstsq(basis, load, rcond=None)[0]
+    return {
+        "lambda0": float(lambda0),
+        "slope": float(slope),
+        "quartic": float(quartic),
+        "w_max": float(np.abs(w).max()),
+    }
+
+
+def runs(indices: Sequence[int]) -> list[int]:
+    """The stability indices along a path without repeats: [0, 0, 1, 1, 2] → [0, 1, 2]."""
+    return [k for k, _ in itertools.groupby(indices)]
+
+
+def euler_level(comm: MPI.Comm, n: int) -> dict[str, Any]:
+    """The flat branch of the n × n plate: its bifurcations, errors and indices."""
+    t0 = time.perf_counter()
+    points, summary = follow(comm, plate_spec(False, 8), [n, n], [[0, 0], [1, 1]])
+    wall = time.perf_counter() - t0
+    found = summary["bifurcations"]
+    return {
+        "n": n,
+        "dofs": summary["dofs"],
+        "bifurcations": found,
+        "errors": [f / exact - 1 for f, exact in zip(found, EULER, strict=False)],
+        "indices": runs([p["stability_index"] for p in points]),
+        "wall_s": wall,
+    }
+
+
+def slope_level(comm: MPI.Comm, n: int, held: bool) -> dict[str, Any]:
+    """The buckled branch of the n × n plate after the switch: the fitted slope."""
+    t0 = time.perf_counter()
+    points, summary = follow(comm, plate_spec(True, 12, held), [n, n], [[0, 0], [1, 1]])
+    wall = time.perf_counter() - t0
+    at = [p["kind"] for p in points].index("switch")
+    fit = postbuckling_slope(points, T)
+    return {
+        "n": n,
+        "dofs": summary["dofs"],
+        "bifurcation": summary["bifurcations"][0],
+        **fit,
+        "error": fit["slope"] / SLOPE_HELD - 1 if held else None,
+        "buckled_indices": runs([p["stability_index"] for p in points[at:]]),
+        "wall_s": wall,
+    }
+
+
+def arch_level(comm: MPI.Comm, n: int) -> dict[str, Any]:
+    """The fold of the strip on n × 2 cells."""
+    t0 = time.perf_counter()
+    points, summary = follow(comm, arch_spec(9), [n, 2], [[0, 0], [1, 0.1]], arch_start)
+    wall = time.perf_counter() - t0
+    (fold,) = (p for p in points if p["kind"] == "fold")
+    return {
+        "n": n,
+        "dofs": summary["dofs"],
+        "fold": fold["load_factor"],
+        "error": fold["load_factor"] - 1.0,
+        "w_ratio": fold["w_center"] / A_FOLD,
+        "indices": runs(summary["stability_indices"]),
+        "wall_s": wall,
+    }
+
+
+def orders(errors: Sequence[float | None]) -> list[float | None]:
+    """log₂ of successive error ratios (None at the first level or a missing error)."""
+    out: list[float | None] = [None]
+    for a, b in itertools.pairwise(errors):
+        out.append(math.log2(abs(a) / abs(b)) if a and b else None)
+    return out
+
+
+def measure(comm: MPI.Comm, levels: dict[str, list[int]]) -> dict[str, Any]:
+    """All three studies at their levels (collective); the record of the JSON."""
+    euler = [euler_level(comm, n) for n in levels["euler"]]
+    for k in range(2):
+        errors = [lv["errors"][k] if len(lv["errors"]) > k else None for lv in euler]
+        for lv, order in zip(euler, orders(errors), strict=True):
+            lv.setdefault("orders", []).append(order)
+    held = [slope_level(comm, n, True) for n in levels["slope"]]
+    for lv, order in zip(held, orders([lv["error"] for lv in held]), strict=True):
+        lv["order"] = order
+    arch = [arch_level(comm, n) for n in levels["arch"]]
+    for lv, order in zip(arch, orders([lv["error"] for lv in arch]), strict=True):
+        lv["order"] = order
+    return {
+        "ranks": comm.size,
+        "thickness": T,
+        "nu": NU,
+        "euler_exact": list(EULER),
+        "slope_exact": SLOPE_HELD,
+        "euler": euler,
+        "slope_held": held,
+        "slope_mixed": [slope_level(comm, n, False) for n in levels["slope"]],
+        "arch": arch,
+    }
+
+
+def _order(order: float | None) -> str:
+    """An observed order for a table cell ("" where there is none)."""
+    return "" if order is None else f"{order:.2f}"
+
+
+def _sequence(indices: Sequence[int]) -> str:
+    """Stability indices as 0 → 1 → 2."""
+    return " → ".join(map(str, indices))
+
+
+def _bifurcation(level: dict[str, Any], k: int) -> str:
+    """The k-th bifurcation's cells: λ, error, order (or beyond ``lambda_max``)."""
+    if len(level["bifurcations"]) <= k:
+        return "(beyond `lambda_max`) | | "
+    order = _order(level["orders"][k])
+    return f"{level['bifurcations'][k]:.5f} | {level['errors'][k]:+.2%} | {order}"
+
+
+def euler_table(record: dict[str, Any]) -> str:
+    """The Markdown table of the Euler study."""
+    rows = [
+        f"| {lv['n']} × {lv['n']} | {lv['dofs']} | {_bifurcation(lv, 0)} | {_bifurcation(lv, 1)} "
+        f"| {_sequence(lv['indices'])} | {lv['wall_s']:.1f} |"
+        for lv in record["euler"]
+    ]
+    return "\n".join(
+        [
+            "Exact: Δ/Δ_cr = 1 and 1.5625; order: log₂ of successive error ratios; indices: the "
+            "stability index along the path; wall: seconds for the path "
+            f"({record['ranks']} rank(s), `benchmarks/path_following.py`, "
+            "`benchmarks/results/path_following.json`).",
+            "",
+            "| cells | dofs | 1st bifurcation λ | error | order | 2nd bifurcation λ | error "
+            "| order | indices | wall s |",
+            "|---|---|---|---|---|---|---|---|---|---|",
+            *rows,
+        ]
+    )
+
+
+def slope_table(record: dict[str, Any]) -> str:
+    """The Markdown table of the post-buckling slopes, held and mixed unloaded edges."""
+    rows = [
+        f"| {h['n']} × {h['n']} | {h['dofs']} | {h['bifurcation']:.5f} | {h['lambda0']:.5f} "
+        f"| {h['slope']:.5f} | {h['error']:+.2%} | {_order(h['order'])} "
+        f"| {m['bifurcation']:.5f} | {m['lambda0']:.5f} | {m['slope']:.5f} "
+        f"| {h['wall_s']:.1f} + {m['wall_s']:.1f} |"
+        for h, m in zip(record["slope_held"], record["slope_mixed"], strict=True)
+    ]
+    fitted = max(lv["w_max"] for lv in record["slope_held"] + record["slope_mixed"])
+    return "\n".join(
+        [
+            f"b: the coefficient of (w_c/t)² in λ = λ₀ + b (w_c/t)² + c (w_c/t)⁴ fitted by least "
+            f"squares to the points of the buckled branch (w_c ≤ {fitted:.2f} t); λ_c: the "
+            "located bifurcation the branch leaves; held edges: "
+            f"Koiter's exact slope {record['slope_exact']:.5f} = (3/8)(3 − ν)(1 + ν), λ in units "
+            "of that plate's Δ_c; mixed (the plate above): no closed form "
+            f"({record['ranks']} rank(s), `benchmarks/path_following.py`, "
+            "`benchmarks/results/path_following.json`).",
+            "",
+            "| cells | dofs | held: λ_c | held: λ₀ | held: b | error | order | mixed: λ_c "
+            "| mixed: λ₀ | mixed: b | wall s (held + mixed) |",
+            "|---|---|---|---|---|---|---|---|---|---|---|",
+            *rows,
+        ]
+    )
+
+
+def arch_table(record: dict[str, Any]) -> str:
+    """The Markdown table of the arch's fold."""
+    rows = [
+        f"| {lv['n']} | {lv['dofs']} | {lv['fold']:.6f} | {lv['error']:+.3%} "
+        f"| {_order(lv['order'])} | {lv['w_ratio']:.4f} | {_sequence(lv['indices'])} "
+        f"| {lv['wall_s']:.1f} |"
+        for lv in record["arch"]
+    ]
+    return "\n".join(
+        [
+            "Exact: λ = 1 at w_c = a*; order: log₂ of successive error ratios; indices: along "
+            f"the path ({record['ranks']} rank(s), `benchmarks/path_following.py`, "
+            "`benchmarks/results/path_following.json`).",
+            "",
+            "| n | dofs | fold λ | error | order | w_c at the fold / a* | indices | wall s |",
+            "|---|---|---|---|---|---|---|---|",
+            *rows,
+        ]
+    )
+
+
+TABLES = {"euler": euler_table, "slope": slope_table, "arch": arch_table}
+LEVELS = {"euler": [4, 8, 16], "slope": [4, 8, 16, 32], "arch": [8, 16, 32, 64]}
+
+
+def write_tables(record: dict[str, Any], page: Path) -> None:
+    """Rewrite the page's generated tables from ``record``."""
+    for name, table in TABLES.items():
+        begin, end = f"<!-- path_following_{name}:begin -->", f"<!-- path_following_{name}:end -->"
+        write_between(page, begin, end, f"{begin}\n{table(record)}\n{end}")
+
+
+def main(argv: list[str]) -> dict[str, Any]:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    for name, default in LEVELS.items():
+        parser.add_argument(f"--{name}", type=int, nargs="+", default=default, help="cells")
+    parser.add_argument("--json", type=Path, default=RESULTS / "path_following.json")
+    parser.add_argument("--page", type=Path, default=ROOT / "docs" / "path_following.md")
+    parser.add_argument(
+        "--table-only", action="store_true", help="rewrite --page's tables from --json"
+    )
+    args = parser.parse_args(argv)
+    comm = MPI.COMM_WORLD
+    if args.table_only:
+        record = json.loads(args.json.read_text())
+    else:
+        record = measure(comm, {name: getattr(args, name) for name in LEVELS})
+        print0(comm, json.dumps(record))
+        if comm.rank == 0:
+            args.json.write_text(json.dumps(record, indent=2) + "\n")
+    if comm.rank == 0:
+        write_tables(record, args.page)
+    return record
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
