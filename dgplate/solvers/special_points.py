@@ -15,6 +15,9 @@ from dgplate.errors import SolverError
 from dgplate.solvers import eigen
 from dgplate.solvers.arclength import ArcLength, Point, StepLength, petsc_failure, secant_root
 
+#: Eigenvalues within this fraction of the largest computed one count as zero (round-off).
+ROUNDOFF = 1e-9
+
 
 class SpecialPoints:
     """Folds and simple bifurcations between two points of a path, and the switch at one.
@@ -82,12 +85,16 @@ class SpecialPoints:
         """The k-th lowest Hessian eigenvalue (free unknowns), for an index that changes k−1 ↔ k.
 
         With the index n of the state, it is the negative eigenvalue nearest 0 if n ≥ k, else the
-        non-negative one nearest 0 (exactly the k-th lowest when n is k − 1 or k).
+        non-negative one nearest 0 (exactly the k-th lowest when n is k − 1 or k). At the
+        crossing itself the eigenvalue's sign is round-off and may contradict the inertia: an
+        eigenvalue within :data:`ROUNDOFF` of the largest computed one is 0, the root.
         """
         negative = self.engine.index()
         pairs = self._eigenpairs()
         try:
             values = pairs.values
+            if len(values) and np.abs(values).min() <= ROUNDOFF * np.abs(values).max():
+                return 0.0
             below, above = values[values < 0], values[values >= 0]
             nearest = below[-1:] if negative >= k else above[:1]
             if not len(nearest):

@@ -1,11 +1,15 @@
 """The pieces of the arclength continuation that need no plate: the step control, the secant."""
 
 import math
+from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 from dgplate.errors import SolverError
 from dgplate.solvers.arclength import StepLength, secant_root
+from dgplate.solvers.eigen import Eigenpairs
+from dgplate.solvers.special_points import SpecialPoints
 
 
 def test_step_grows_after_fast_convergence_and_halves_on_failure():
@@ -28,6 +32,25 @@ def test_secant_finds_the_root_and_ends_there():
     root = secant_root(f, 0.0, 1.0, 1.0, math.cos(1.0) - 1.0, xtol=1e-12)
     assert root == pytest.approx(0.7390851332151607, abs=1e-12)
     assert calls[-1] == root and len(calls) <= 12
+
+
+@pytest.mark.parametrize(
+    ("index", "values", "expected"),
+    [
+        (0, [1.7e-14, 8.8e-9, 2.0e-8], 1.7e-14),  # before the crossing: the lowest
+        (1, [-3.1e-11, 8.6e-9, 2.0e-8], -3.1e-11),  # after it: the negative one
+        (0, [-3.6e-19, 8.8e-9, 2.0e-8], 0.0),  # at it, a round-off sign against the inertia
+        (1, [3.6e-19, 8.8e-9, 2.0e-8], 0.0),
+    ],
+)
+def test_the_crossing_eigenvalue_follows_the_inertia_up_to_round_off(index, values, expected):
+    """The eigenvalue whose root is a bifurcation (index 0 ↔ 1): at the root its computed sign
+    is round-off, and the next eigenvalue (another mode) must not be taken for it. The values
+    are those of the 32 × 32 plate of benchmarks/path_following.py near its first bifurcation.
+    """
+    special = SpecialPoints(SimpleNamespace(index=lambda: index), StepLength(0.1, 1.0, 1e-6))
+    special._eigenpairs = lambda: Eigenpairs(np.array(values), [], "slepc")
+    assert special._crossing_eigenvalue(1) == expected
 
 
 def test_the_residual_is_at_most_quadratic_in_the_load_factor():
