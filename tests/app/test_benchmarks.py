@@ -249,6 +249,32 @@ def test_spherical_cap_page_is_generated(tmp_path):
     assert errors == sorted(errors, reverse=True)  # the fitted radius converges
 
 
+def test_path_following_benchmark_smoke(tmp_path):
+    """The coarsest level of each study: the record and the three tables of a page."""
+    out, page = tmp_path / "path_following.json", tmp_path / "path_following.md"
+    page.write_text(
+        "".join(f"<!-- path_following_{k}:begin -->\nSTALE\n<!-- path_following_{k}:end -->\n"
+                for k in ("euler", "slope", "arch"))
+    )  # fmt: skip
+    args = ["--euler", "4", "--slope", "4", "--arch", "8", "--json", str(out), "--page", str(page)]
+    record = load_benchmark("path_following").main(args)
+    (euler,), (held,), (mixed,), (arch,) = (
+        record[k] for k in ("euler", "slope_held", "slope_mixed", "arch")
+    )
+    assert euler["bifurcations"] == [pytest.approx(0.98755, abs=2e-5)]
+    assert euler["indices"] == [0, 1] and euler["orders"] == [None, None]
+    assert held["error"] == pytest.approx(0.0442, abs=5e-4) and held["order"] is None
+    assert mixed["error"] is None and held["buckled_indices"] == mixed["buckled_indices"] == [0]
+    assert arch["error"] == pytest.approx(-9.45e-3, rel=0.03) and arch["indices"] == [0, 1]
+    if MPI.COMM_WORLD.rank == 0:
+        assert json.loads(out.read_text()) == record
+        text = page.read_text()
+        assert "STALE" not in text
+        assert "| 4 × 4 | 306 | 0.98755 | -1.24% |  | (beyond `lambda_max`) |" in text
+        assert "| 4 × 4 | 306 | 1.00392 | 1.00392 | 1.37438 | +4.42% |  |" in text
+        assert "| 8 | 314 | 0.990547 | -0.945% |  | 0.9936 | 0 → 1 |" in text
+
+
 def test_path_following_page_is_generated(tmp_path):
     """docs/path_following.md's tables are what --table-only writes from path_following.json."""
     page = BENCH.parent / "docs" / "path_following.md"

@@ -1,8 +1,10 @@
 """Path following of FvK plates through folds and bifurcations ([path] method = "arclength").
 
 References: the buckling shortening of a simply supported square plate, Δ_cr = π²t²/(3(1 − ν²)a)
-(Timoshenko & Gere, §9.2, k = 4), and the exact limit point of a shallow sinusoidal strip
-(:func:`dgplate.reference.fvk.sinusoidal_strip_folds`).
+(Timoshenko & Gere, §9.2, k = 4), Koiter's initial post-buckling slope of the plate with held
+unloaded edges (:func:`dgplate.reference.fvk.held_square_plate_postbuckling`), and the exact limit
+point of a shallow sinusoidal strip (:func:`dgplate.reference.fvk.sinusoidal_strip_folds`). The
+cases are those of benchmarks/path_following.py.
 """
 
 import dataclasses
