@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
+import argparse
+import json
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
 
 
 def write_between(page: Path, begin: str, end: str, text: str, heading: str = "") -> None:
@@ -28,3 +34,48 @@ def write_between(page: Path, begin: str, end: str, text: str, heading: str = ""
         return
     head, rest = content.split(begin, 1)
     page.write_text(head + text + rest.split(end, 1)[1])
+
+
+def add_page_options(parser: argparse.ArgumentParser, results: Path, page: Path) -> None:
+    """The options of a benchmark whose JSON makes a table of a page.
+
+    Args:
+        parser: the benchmark's parser; it gets ``--json``, ``--page`` and ``--table-only``.
+        results: the default JSON file.
+        page: the default Markdown page.
+    """
+    parser.add_argument("--json", type=Path, default=results)
+    parser.add_argument("--page", type=Path, default=page)
+    parser.add_argument(
+        "--table-only", action="store_true", help="rewrite --page's table from --json"
+    )
+
+
+def publish(
+    comm: MPI.Comm,
+    args: argparse.Namespace,
+    record: dict[str, Any] | None,
+    markers: tuple[str, str],
+    table: Callable[[dict[str, Any]], str],
+) -> str:
+    """Write ``record`` to ``args.json`` (if given), then ``args.page``'s table from the JSON.
+
+    Args:
+        comm: the benchmark's communicator; rank 0 writes and prints.
+        args: the parsed options of :func:`add_page_options`.
+        record: the results of this run, or None (``--table-only``): the JSON as it is.
+        markers: the page's begin and end markers.
+        table: the table's Markdown from the JSON's content.
+
+    Returns:
+        The table on rank 0, an empty string on the other ranks.
+    """
+    if comm.rank != 0:
+        return ""
+    if record is not None:
+        args.json.write_text(json.dumps(record, indent=2) + "\n")
+    text = table(json.loads(args.json.read_text()))
+    begin, end = markers
+    write_between(args.page, begin, end, f"{begin}\n{text}\n{end}")
+    print(text)
+    return text

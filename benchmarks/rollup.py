@@ -32,7 +32,7 @@ from typing import Any
 
 from mpi4py import MPI
 
-from pages import write_between
+from pages import add_page_options, publish
 
 from dgplate.io.output import print0
 from dgplate.problems.runner import run as run_problem
@@ -144,13 +144,10 @@ def main(argv: list[str]) -> None:
     parser.add_argument("--turns", type=float, nargs="+", default=list(TURNS))
     parser.add_argument("--controls", nargs="+", choices=CONTROLS, default=list(CONTROLS))
     parser.add_argument("--tol", type=float, default=1e-6, help="stationarity tolerance")
-    parser.add_argument("--json", type=Path, default=RESULTS / "rollup.json")
-    parser.add_argument("--page", type=Path, default=ROOT / "docs" / "performance.md")
-    parser.add_argument(
-        "--table-only", action="store_true", help="rewrite --page's table from --json"
-    )
+    add_page_options(parser, RESULTS / "rollup.json", ROOT / "docs" / "performance.md")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
+    record: dict[str, Any] | None = None
     if not args.table_only:
         runs = []
         for turns in args.turns:
@@ -158,12 +155,7 @@ def main(argv: list[str]) -> None:
                 runs.append(one_run(comm, turns, args.cells, control, args.tol))
                 print0(comm, json.dumps(runs[-1]))
         record = {"cells": args.cells, "ranks": comm.size, "tol": args.tol, "runs": runs}
-        if comm.rank == 0:
-            args.json.write_text(json.dumps(record, indent=2) + "\n")
-    if comm.rank == 0:
-        text = table(json.loads(args.json.read_text()))
-        write_between(args.page, BEGIN, END, f"{BEGIN}\n{text}\n{END}")
-        print(text)
+    publish(comm, args, record, (BEGIN, END), table)
 
 
 if __name__ == "__main__":

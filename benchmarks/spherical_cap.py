@@ -28,7 +28,7 @@ from typing import Any
 
 from mpi4py import MPI
 
-from pages import write_between
+from pages import add_page_options, publish
 
 from dgplate.io.output import print0
 from dgplate.measure.analysis import fit_sphere
@@ -142,25 +142,17 @@ def table(record: dict[str, Any]) -> str:
 def main(argv: list[str]) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--h", type=float, nargs="+", default=[0.2, 0.1, 0.05, 0.025])
-    parser.add_argument("--json", type=Path, default=RESULTS / "spherical_cap.json")
-    parser.add_argument("--page", type=Path, default=ROOT / "docs" / "prestrain.md")
-    parser.add_argument(
-        "--table-only", action="store_true", help="rewrite --page's table from --json"
-    )
+    add_page_options(parser, RESULTS / "spherical_cap.json", ROOT / "docs" / "prestrain.md")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
+    record: dict[str, Any] | None = None
     if not args.table_only:
         levels = []
         for h in args.h:
             levels.append(one_level(comm, h))
             print0(comm, json.dumps(levels[-1]))
         record = {"ranks": comm.size, "exact_energy": energy(RADIUS), "levels": levels}
-        if comm.rank == 0:
-            args.json.write_text(json.dumps(record, indent=2) + "\n")
-    if comm.rank == 0:
-        text = table(json.loads(args.json.read_text()))
-        write_between(args.page, BEGIN, END, f"{BEGIN}\n{text}\n{END}")
-        print(text)
+    publish(comm, args, record, (BEGIN, END), table)
 
 
 if __name__ == "__main__":

@@ -13,6 +13,8 @@ The Python API in two calls::
 it validates everything ``run`` would (output folder, mesh, model, start) without solving.
 ``converge(problem, levels=4)`` runs it on successively refined meshes and extrapolates its
 figures (a :class:`~dgplate.problems.converge.ConvergenceStudy`).
+``follow(problem, ds=0.05)`` follows an FvK problem's equilibrium path through folds and
+bifurcations by arclength continuation (a :class:`~dgplate.problems.follow.Branch`).
 ``load_result(folder)`` reads a finished run back (summary, history, final state).
 """
 
@@ -24,6 +26,7 @@ from dgplate.errors import DgplateError, InputError, SolverError, UnsupportedVer
 
 if TYPE_CHECKING:
     from dgplate.problems.converge import ConvergenceStudy, converge
+    from dgplate.problems.follow import Branch, follow
     from dgplate.problems.result import Result
     from dgplate.problems.results import load_result
     from dgplate.problems.runner import check, run
@@ -39,6 +42,8 @@ _LAZY = {
     "check": "dgplate.problems.runner",
     "converge": "dgplate.problems.converge",
     "ConvergenceStudy": "dgplate.problems.converge",
+    "follow": "dgplate.problems.follow",
+    "Branch": "dgplate.problems.follow",
     "Result": "dgplate.problems.result",
     "load_result": "dgplate.problems.results",
 }
@@ -54,6 +59,7 @@ def __getattr__(name: str) -> Any:
 
 
 __all__ = [
+    "Branch",
     "ConvergenceStudy",
     "DgplateError",
     "InputError",
@@ -64,6 +70,7 @@ __all__ = [
     "__version__",
     "check",
     "converge",
+    "follow",
     "load_problem",
     "load_result",
     "problem_from_dict",

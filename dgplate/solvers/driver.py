@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple, Protocol, cast
+from typing import Any, NamedTuple, Protocol, cast, runtime_checkable
 
 from mpi4py import MPI
 
@@ -102,6 +102,15 @@ class Observer(Protocol):
 
     def finish(self, driver: Driver, result: RunResult) -> None:
         """At the end of ``run`` (collective)."""
+        ...
+
+
+@runtime_checkable
+class Narrator(Protocol):
+    """An observer that also prints the lines of a run's own phases (the progress printer)."""
+
+    def note(self, line: str) -> None:
+        """Print ``line`` (rank 0)."""
         ...
 
 

@@ -43,6 +43,7 @@ from dgplate.dg.forms import integral
 from dgplate.errors import SolverError
 from dgplate.solvers import linear
 from dgplate.solvers.constraint import IsometryDefect, metric_measure, metric_tensor_defect
+from dgplate.solvers.driver import Narrator
 from dgplate.solvers.linear import SolveStats
 from dgplate.solvers.step_system import StepSystem
 
@@ -163,12 +164,12 @@ class StartPhase:
 
         Args:
             flow: the flow, at its first state.
-            observers: the flow's observers; those with a ``note`` print the start's line.
+            observers: the flow's observers; the :class:`Narrator` ones print the start's lines.
 
         Returns:
             None, or why the run ends: the failure or the signal, and the signal's number.
         """
-        notes = [note for obs in observers if (note := getattr(obs, "note", None))]
+        notes = [obs.note for obs in observers if isinstance(obs, Narrator)]
 
         def say(line: str) -> None:
             for note in notes:

@@ -74,7 +74,7 @@ from dgplate.solvers.rod_forms import (
     nodal,
     tangent,
 )
-from dgplate.solvers.safeguard import Safeguard, safety
+from dgplate.solvers.safeguard import Safeguard, passes, safety
 from dgplate.solvers.steps import FlowResult, measured, per_step, stop_reason, stopping_value
 
 __all__ = [
@@ -186,11 +186,10 @@ class RodTau:
         return info
 
     def _accepted(self, info: RodStep, energy0: float) -> bool:
-        """E did not rise, the linearisation error is small, the nonlocal terms accept."""
+        """E did not rise and the linearisation error is small; then the nonlocal terms accept."""
         lowered = info.energy <= energy0 + 1e-12 * max(1.0, abs(energy0))
         close = self.flow.linear_defect <= self.settings.defect_bound
-        accepted = all([term.accept() for term in self.flow.energy.nonlocal_terms])
-        return lowered and close and accepted
+        return passes(lowered and close, self.flow.energy.nonlocal_terms)
 
 
 class RodFlow(EnergyFlow):

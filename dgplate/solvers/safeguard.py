@@ -57,6 +57,24 @@ def safety(terms: Sequence[Nonlocal], redone: int) -> dict[str, float]:
     return {"min_distance": distance, "redone": float(redone)}
 
 
+def passes(local: bool, terms: Sequence[Nonlocal]) -> bool:
+    """Whether a step passes: its local tests, and then the nonlocal terms' ``accept()``.
+
+    The terms are asked only about a step that passed the rest (collective; ``local`` is the
+    same on every rank): their ``accept()`` takes the state as the reference of their next
+    test (self-avoidance: the least distance), and a refused state must not become it
+    (docs/performance.md, the trefoil ribbon).
+
+    Args:
+        local: whether the step passed the tests that need no reference.
+        terms: the energy's nonlocal terms.
+
+    Returns:
+        Whether the step is accepted.
+    """
+    return local and all([term.accept() for term in terms])
+
+
 def rose(info: GuardedRecord) -> bool:
     """Whether the step raised the energy beyond round-off."""
     return -info.rate * info.tau > 1e-12 * max(1.0, abs(info.energy))
@@ -96,9 +114,8 @@ class Safeguard:
         return info
 
     def acceptable(self, info: GuardedRecord) -> bool:
-        """The nonlocal terms accept the new state and E did not go up (beyond round-off)."""
-        accepted = all([term.accept() for term in self.energy.nonlocal_terms])
-        return accepted and not rose(info)
+        """E did not go up (beyond round-off), and then the nonlocal terms accept the new state."""
+        return passes(not rose(info), self.energy.nonlocal_terms)
 
 
 class ActiveSetStep:

@@ -16,7 +16,7 @@ from typing import Protocol
 from dgplate.errors import SolverError
 from dgplate.solvers.constraint import IsometryDefect
 from dgplate.solvers.projection import SQP_DEFECT_TOL
-from dgplate.solvers.safeguard import ActiveSetStep, Redoable, Safeguard, safety
+from dgplate.solvers.safeguard import ActiveSetStep, Redoable, Safeguard, passes, safety
 from dgplate.solvers.step_system import StepSystem
 from dgplate.solvers.steps import StepInfo
 
@@ -179,9 +179,7 @@ class TauController:
         trusted = math.isfinite(defect0) and self._trust_region()
         close = trusted or self.linear_defect <= self.settings.defect_bound
         on_constraint = info.defect <= max(defect0, SQP_DEFECT_TOL * self.flow.defect.area)
-        if not (lowered and close and on_constraint):  # the same on every rank
-            return False
-        return all([term.accept() for term in self.system.energy.nonlocal_terms])
+        return passes(lowered and close and on_constraint, self.system.energy.nonlocal_terms)
 
     def _newton_due(self) -> bool:
         """Whether the next step is an SQP step: ``flow.newton_finish`` and τ large enough.

@@ -304,3 +304,25 @@ def test_an_interrupted_path_resumes_to_the_same_points(stop_at, crash, tmp_path
     for key in ("load_factor", "energy", "ds", "w_center"):
         got, want = np.array([[r[key] for r in rows] for rows in (rows, expected)])
         assert np.allclose(got, want, rtol=1e-10, atol=1e-10 * np.abs(want).max()), key
+
+
+def test_follow_traces_the_arch_through_its_fold(tmp_path):
+    """``dgplate.follow``: the shipped arch, its fold at λ = 1 (16 cells: −0.24 %), its indices."""
+    problem = dgplate.load_problem(ARCH, {"output.progress": 0, "output.vtx": False})
+    branch = dgplate.follow(problem, out=tmp_path / "arch", steps=10)
+    assert len(branch.points) == 10 and branch.load_factors[0] == 0.0
+    assert len(branch.folds) == 1 and branch.folds[0] == pytest.approx(1.0, rel=5e-3)
+    assert branch.stability_indices[0] == 1 and branch.stability_indices[-1] == 0
+    assert [p["kind"] for p in branch.special_points] == ["fold"]
+    assert "folds at [0.99" in repr(branch) and (tmp_path / "arch" / "branch.png").is_file()
+
+
+def test_follow_refuses_a_model_without_paths_and_names_a_bad_setting(tmp_path):
+    """A kirchhoff problem: one clear error; ``ds=0``: the key named, nothing written."""
+    plate = dgplate.load_problem(ROOT / "demos" / "problems" / "vertical_load.toml")
+    with pytest.raises(dgplate.InputError, match="not available for the kirchhoff model"):
+        dgplate.follow(plate, out=tmp_path / "plate")
+    arch = dgplate.load_problem(ARCH)
+    with pytest.raises(dgplate.InputError, match=r"path\.ds must be > 0"):
+        dgplate.follow(arch, out=tmp_path / "arch", ds=0)
+    assert not (tmp_path / "plate").exists() and not (tmp_path / "arch").exists()

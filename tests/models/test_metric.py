@@ -111,6 +111,13 @@ def test_spherical_cap_from_the_flat_disc(tmp_path):
     assert radius_errors[1] < radius_errors[0] / 2 and energy_errors[1] < energy_errors[0] / 5
 
 
+def test_the_metric_start_says_its_line_in_the_progress_output(tmp_path, capsys):
+    """The progress printer (a :class:`Narrator` observer) prints the metric start's line."""
+    settings = {"mesh.cells": [2, 2], "flow.max_steps": 1, "model.metric": {"g11": 1.0}}
+    run(load_problem(VERTICAL, settings), out=tmp_path / "run")
+    assert "metric start: 0 stretching steps" in capsys.readouterr().out
+
+
 def test_identity_metric_is_the_isometric_run(tmp_path):
     """``model.metric = {g11 = 1, g12 = 0, g22 = 1}``: E_h and y of the run without one."""
     base = {"mesh.cells": [4, 4], **QUIET}

@@ -14,6 +14,7 @@ import pytest
 from helpers import PROBLEMS, QUIET
 
 from dgplate.cli import main
+from dgplate.solvers.safeguard import Safeguard
 from dgplate.solvers.tau import TauController
 
 CURVED = [
@@ -68,4 +69,15 @@ def test_nonlocal_terms_are_asked_only_about_steps_that_passed():
     assert not control._accepted(SimpleNamespace(energy=0.9, defect=1e-3), 1.0, 0.0)
     assert term.asked == 0
     assert control._accepted(SimpleNamespace(energy=0.9, defect=0.0), 1.0, 0.0)
+    assert term.asked == 1
+
+
+def test_the_fixed_tau_safeguard_asks_the_nonlocal_terms_only_about_steps_that_lowered_e():
+    """The safeguard of fixed-τ steps: a step that raised E_h does not reach accept()."""
+    term = Recording()
+    guard = Safeguard.__new__(Safeguard)
+    guard.energy = SimpleNamespace(nonlocal_terms=[term])
+    assert not guard.acceptable(SimpleNamespace(rate=-1.0, tau=0.1, energy=1.0))  # E up by 0.1
+    assert term.asked == 0
+    assert guard.acceptable(SimpleNamespace(rate=1.0, tau=0.1, energy=1.0))
     assert term.asked == 1
