@@ -41,7 +41,7 @@ from mpi4py import MPI
 
 import numpy as np
 import numpy.typing as npt
-from pages import write_between
+from pages import add_page_options, write_between
 
 from dgplate.io.output import print0
 from dgplate.mesh.tagged import rectangle
@@ -352,11 +352,7 @@ def main(argv: list[str]) -> dict[str, Any]:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     for name, default in LEVELS.items():
         parser.add_argument(f"--{name}", type=int, nargs="+", default=default, help="cells")
-    parser.add_argument("--json", type=Path, default=RESULTS / "path_following.json")
-    parser.add_argument("--page", type=Path, default=ROOT / "docs" / "path_following.md")
-    parser.add_argument(
-        "--table-only", action="store_true", help="rewrite --page's tables from --json"
-    )
+    add_page_options(parser, RESULTS / "path_following.json", ROOT / "docs" / "path_following.md")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     if args.table_only:
