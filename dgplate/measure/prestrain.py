@@ -1,0 +1,71 @@
+"""The Gaussian curvature of a prestrained plate against that of its target metric G.
+
+By Gauss's Theorema egregium every surface with ∇yᵀ∇y = G has the Gaussian curvature K of G
+alone (Brioschi's formula, :func:`dgplate.dg.geometry.metric_gauss_curvature`). The discrete
+surface's K_h = det(II)/det(∇yᵀ∇y) (:func:`dgplate.measure.fields.gauss_field`) is measured
+against it at each cell's midpoint: the figures of ``summary.json`` and the DG0 field
+``target_gauss_curvature`` written next to ``gauss_curvature`` (docs/prestrain.md).
+
+All functions are collective and return the same numbers on every rank.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from ufl.core.expr import Expr
+
+from dgplate import mpi
+from dgplate.compat import Function, Mesh
+from dgplate.dg.geometry import metric_gauss_curvature
+from dgplate.measure.analysis import cell_areas
+from dgplate.measure.fields import CellField, gauss_density
+
+#: Name of the target Gaussian curvature's cell field in time series.
+TARGET_GAUSS = "target_gauss_curvature"
+
+
+def target_gauss_field(mesh: Mesh, metric: Expr) -> CellField:
+    """The Gaussian curvature K of the metric G as a DG0 ``CellField`` (cell midpoints).
+
+    Args:
+        mesh: the plate's mesh.
+        metric: the target metric G (a UFL 2×2 expression of the spatial coordinates).
+
+    Returns:
+        The field named ``target_gauss_curvature``.
+    """
+    return CellField(metric_gauss_curvature(metric), mesh, name=TARGET_GAUSS)
+
+
+def gauss_curvature_figures(y: Function, metric: Expr) -> dict[str, dict[str, float]]:
+    """K of G and K_h of y at the cell midpoints: means, extremes and the error |K_h − K|.
+
+    Args:
+        y: the deformation in [DG_k]³.
+        metric: the target metric G.
+
+    Returns:
+        ``{"metric_gauss_curvature": {...}}``: ``target_mean``, ``target_min``,
+        ``target_max`` (K), ``mean`` (K_h), ``error_mean`` (the area-weighted mean of
+        |K_h − K|) and ``error_max``; means are weighted by the cell areas.
+    """
+    mesh = y.function_space.mesh
+    comm = mesh.comm
+    target = target_gauss_field(mesh, metric).values()
+    measured = gauss_density(y)
+    error = np.abs(measured - target)
+    areas = cell_areas(mesh)
+    total = mpi.global_sum(comm, float(areas.sum()))
+
+    def mean(values: np.ndarray) -> float:
+        return mpi.global_sum(comm, float(np.dot(values, areas))) / total
+
+    figures = {
+        "target_mean": mean(target),
+        "target_min": mpi.global_min(comm, float(target.min(initial=np.inf))),
+        "target_max": mpi.global_max(comm, float(target.max(initial=-np.inf))),
+        "mean": mean(measured),
+        "error_mean": mean(error),
+        "error_max": mpi.global_max(comm, float(error.max(initial=0.0))),
+    }
+    return {"metric_gauss_curvature": figures}
