@@ -69,3 +69,38 @@ def gauss_curvature_figures(y: Function, metric: Expr) -> dict[str, dict[str, fl
         "error_max": mpi.global_max(comm, float(error.max(initial=0.0))),
     }
     return {"metric_gauss_curvature": figures}
+
+
+def cone_half_angle(y: Function, inner: float, centre: tuple[float, float] = (0.0, 0.0)) -> float:
+    """The half-angle φ of the cone that y makes of a disc about ``centre`` (+1 defects).
+
+    The tip is y at the degree of freedom nearest ``centre``; the axis the mean of the unit
+    vectors from the tip to y at the dofs with |x − centre| > ``inner``; sin φ the slope of
+    the least-squares line of the distance ρ from the axis against the distance ℓ from the
+    tip over those dofs (a slope: a tip that is not quite a point shifts the line, not φ).
+
+    Args:
+        y: the deformation in [DG_k]³.
+        inner: the reference radius inside which the dofs are left out (the tip region).
+        centre: the reference point of the defect.
+
+    Returns:
+        φ in radians.
+    """
+    comm = y.function_space.mesh.comm
+    owned = y.function_space.dofmap.index_map.size_local
+    x = y.function_space.tabulate_dof_coordinates()[:owned, :2] - np.asarray(centre)
+    points = y.x.array.reshape(-1, 3)[:owned]
+    r = np.linalg.norm(x, axis=1)
+    nearest = (float(r.min()), points[int(np.argmin(r))].tolist()) if owned else (np.inf, [])
+    tip = np.asarray(min(comm.allgather(nearest), key=lambda item: item[0])[1])
+    v = points[r > inner] - tip
+    ell = np.linalg.norm(v, axis=1)
+    axis = mpi.sum_arrays(comm, (v / ell[:, None]).sum(axis=0))
+    axis /= np.linalg.norm(axis)
+    rho = np.linalg.norm(v - np.outer(v @ axis, axis), axis=1)
+    n, sl, sr, sll, slr = mpi.sum_arrays(
+        comm, [len(ell), ell.sum(), rho.sum(), ell @ ell, ell @ rho]
+    )
+    slope = (n * slr - sl * sr) / (n * sll - sl * sl)
+    return float(np.arcsin(min(slope, 1.0)))

@@ -57,7 +57,7 @@ class LCESpec(KirchhoffSpec):
     """[model] of a liquid-crystal-elastomer plate: the Kirchhoff keys plus the director."""
 
     name: str = option("lce", "the model")
-    director: str = option(
+    director: str = option(  # type: ignore[assignment]  # the profile, not the metric's table
         "twist",
         "director profile through the thickness: 'twist' (A₀ = diag(−1, 1)) or 'splay' (A₀ = diag(−1, 0))",
         choices=tuple(sorted(DIRECTORS)),
