@@ -186,6 +186,9 @@ def test_spherical_cap_on_two_ranks_is_the_serial_run(tmp_path):
         parallel["metric_start"]["projection_steps"] == serial["metric_start"]["projection_steps"]
     )
     assert parallel["energy"] == pytest.approx(serial["energy"], abs=1e-10)
+    gauss, serial_gauss = parallel["metric_gauss_curvature"], serial["metric_gauss_curvature"]
+    for name in ("target_mean", "mean", "error_mean", "error_max"):
+        assert gauss[name] == pytest.approx(serial_gauss[name], abs=1e-8)
     assert parallel["isometry_defect"] <= 1e-10
 
 
