@@ -8,7 +8,7 @@ energy: the gradient flow imposes its linearisation (:mod:`dgplate.solvers.const
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal, Unpack
+from typing import ClassVar, Literal, Unpack
 
 from mpi4py import MPI
 
@@ -121,6 +121,11 @@ class KirchhoffSpec:
                 "model.director sets the target metric, as model.metric does: give one of them"
             )
         target = "model.metric" if self.metric is not None else "model.director"
+        if self.target_metric is not None and not self.takes_metric:
+            raise InputError(
+                f"{target} is not taken by the {self.name} model (kirchhoff and foundation "
+                "plates take a target metric)"
+            )
         if self.target_metric is not None and self.hessian == "ldg":
             raise InputError(f"{target} needs model.hessian = 'broken' (the LDG energy has no G)")
         expressions.check(self.load, "model.load")
@@ -143,6 +148,9 @@ class KirchhoffSpec:
     def ldg_degree(self) -> int | None:
         """The degree of the liftings with ``hessian = 'ldg'`` (that of y), else None."""
         return self.degree if self.hessian == "ldg" else None
+
+    #: whether the model's energy takes ``metric``/``director`` (not a bilayer's, an lce's yet)
+    takes_metric: ClassVar[bool] = True
 
     @property
     def target_metric(self) -> MetricSpec | None:

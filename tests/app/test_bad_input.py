@@ -394,6 +394,21 @@ BAD_INPUT = {
         ("model.director={angle=0, lambda=0.9}", "model.metric={g11=2.0}"),
         "model.director sets the target metric, as model.metric does: give one of them",
     ),
+    "metric on a bilayer": Case(
+        ("model.metric={g11=2.0}",),
+        "model.metric is not taken by the bilayer model",
+        problem=BILAYER,
+    ),
+    "metric on an lce plate": Case(
+        ("model.metric={g11=2.0}",),
+        "model.metric is not taken by the lce model",
+        problem=PROBLEMS / "lce_strip.toml",
+    ),
+    "director on a bilayer": Case(
+        ("model.director={angle=0, lambda=0.9}",),
+        "model.director is not taken by the bilayer model",
+        problem=BILAYER,
+    ),
     "director with the ldg hessian": Case(
         ("model.director={angle=0, lambda=0.9}", "model.hessian='ldg'"),
         "model.director needs model.hessian = 'broken'",
