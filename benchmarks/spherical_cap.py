@@ -4,7 +4,8 @@ The disc |x| < 1 with the metric of a sphere of radius R = 2 (free boundary, no 
 the spherical cap (dgplate.reference.spherical_cap). Per level (``mesh.parameters.h``): the
 cells, the energy E_h and its error against the cap's, E_h of the interpolated cap, the radius of the least-squares sphere
 through the nodal values and its error, the metric start (stretching steps, projections, its
-D_h and time), the flow's steps and the wall time. The observed orders take the mesh size as
+D_h and time), the flow's steps, K_h against K = 1/R² (summary.json's metric_gauss_curvature)
+and the wall time. The observed orders take the mesh size as
 (cells)^(-1/2) (the polar mesh's h is a target, not the cells' size).
 
     python benchmarks/spherical_cap.py [--h 0.2 0.1 0.05 0.025] [--json …]
@@ -83,6 +84,7 @@ def _measure(comm: MPI.Comm, h: float, folder: Path) -> dict[str, Any]:
         "rms": fit["rms"],
         "isometry_defect": s["isometry_defect"],
         "metric_start": s["metric_start"],
+        "gauss": s["metric_gauss_curvature"],
         "wall_s": wall,
     }
 
@@ -120,7 +122,8 @@ def table(record: dict[str, Any]) -> str:
             f"| {level['interpolant_energy']:.6f} "
             f"| {start['stretching_steps']} + {start['projection_steps']} "
             f"| {start['defect']:.1e} | {start['seconds']:.1f} | {level['steps']} "
-            f"| {level['wall_s']:.1f} |"
+            f"| {level['gauss']['mean']:.4f} | {level['gauss']['error_mean']:.4f} "
+            f"| {level['gauss']['error_max']:.3f} | {level['wall_s']:.1f} |"
         )
     return "\n".join(
         [
@@ -129,11 +132,12 @@ def table(record: dict[str, Any]) -> str:
             f"`benchmarks/results/spherical_cap.json`); exact E = {record['exact_energy']:.6f}. "
             "Start: stretching steps + projections of the metric start, its D_h and seconds; "
             "order: observed, with the mesh size ∝ cells^(-1/2); I_h cap: E_h of the exact cap "
-            "interpolated.",
+            "interpolated; K_h: the area-weighted mean of the cell-wise K_h, the mean and the "
+            "largest |K_h − K| (K = 1/4).",
             "",
             "| h | cells | radius | error | order | E_h | error | I_h cap | start | D_h "
-            "| start s | flow steps | wall s |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+            "| start s | flow steps | K_h | mean err | max err | wall s |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
             *rows,
         ]
     )

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 import dolfinx.fem
 import numpy as np
 import ufl
+from ufl.constantvalue import Zero
 from ufl.core.expr import Expr
 
 from dgplate import mpi
@@ -70,6 +71,34 @@ def gauss_curvature(y: Expr) -> Expr:
     metric = ufl.grad(y).T * ufl.grad(y)
     K: Expr = ufl.det(second_fundamental_form(y)) / ufl.det(metric)
     return K
+
+
+def metric_gauss_curvature(metric: Expr) -> Expr:
+    """K of a metric G = [[E, F], [F, G₂₂]] of x₁, x₂ by Brioschi's formula (a UFL scalar).
+
+    The intrinsic Gaussian curvature, from G and its first and second derivatives alone
+    (Theorema egregium): that of every surface y with ∇yᵀ∇y = G. Zero for a constant G, 1/R²
+    for the metric of a sphere of radius R.
+
+    Args:
+        metric: a symmetric positive definite 2×2 UFL expression of the spatial coordinates.
+
+    Returns:
+        K = (det A − det B)/(EG₂₂ − F²)² with Brioschi's 3×3 matrices A and B.
+    """
+    E, F, G = metric[0, 0], metric[0, 1], metric[1, 1]
+    E_u, E_v, F_u, F_v, G_u, G_v = (_d(f, i) for f in (E, F, G) for i in (0, 1))
+    corner = -_d(E_v, 1) / 2 + _d(F_u, 1) - _d(G_u, 0) / 2
+    A = ufl.as_matrix([[corner, E_u / 2, F_u - E_v / 2], [F_v - G_u / 2, E, F], [G_v / 2, F, G]])
+    B = ufl.as_matrix([[0.0, E_v / 2, G_u / 2], [E_v / 2, E, F], [G_u / 2, F, G]])
+    K: Expr = (ufl.det(A) - ufl.det(B)) / (E * G - F * F) ** 2
+    return K
+
+
+def _d(f: Expr, i: int) -> Expr:
+    """∂f/∂x_i; a zero (the derivative of a constant) stays zero."""
+    derivative: Expr = f if isinstance(f, Zero) else f.dx(i)
+    return derivative
 
 
 def pointwise_norm(a: Expr) -> Expr:

@@ -2,7 +2,8 @@
 
 ``DeformationWriter`` writes the deformation y and the displacement u = y − x (so ParaView's
 "Warp By Vector" on u shows the deformed plate) as DG fields of y's degree and, for a plate,
-the Gaussian curvature ``gauss_curvature`` of the deformed surface per cell. VTX takes DG
+the Gaussian curvature ``gauss_curvature`` of the deformed surface per cell (with a target
+metric G also ``target_gauss_curvature``, that of G). VTX takes DG
 fields of any degree, but one writer needs one element for all its functions, so extra
 functions on other elements (a P1 temperature, a DG0 cell field) go to their own ``.bp``
 files next to the main one. XDMF stores only fields of the mesh's geometry degree: there
@@ -19,6 +20,7 @@ from mpi4py import MPI
 import dolfinx.common
 import dolfinx.fem
 import dolfinx.io
+from ufl.core.expr import Expr
 
 from dgplate import compat
 from dgplate.compat import Function
@@ -30,6 +32,7 @@ from dgplate.measure.fields import (
     set_displacement,
     to_output_space,
 )
+from dgplate.measure.prestrain import target_gauss_field
 
 BACKENDS = ("auto", "vtx", "xdmf")
 
@@ -51,7 +54,9 @@ class DeformationWriter:
     ``path`` names the main file (``.bp`` for VTX, ``.xdmf`` for XDMF; the suffix is set
     from the backend). Extra functions need unique names; on VTX those whose element differs
     from y's go to ``<stem>_<name>.bp``. ``backend``: "vtx", "xdmf" or "auto" (VTX when
-    DOLFINx has ADIOS2). Collective: every rank constructs, writes and closes.
+    DOLFINx has ADIOS2). ``metric``: a plate's target metric G, whose Gaussian curvature is
+    written too (``target_gauss_curvature``). Collective: every rank constructs, writes and
+    closes.
     """
 
     def __init__(
@@ -61,6 +66,7 @@ class DeformationWriter:
         extras: Sequence[Function] = (),
         backend: str = "auto",
         comm: MPI.Comm | None = None,
+        metric: Expr | None = None,
     ):
         if backend not in BACKENDS:
             raise InputError(
@@ -78,6 +84,8 @@ class DeformationWriter:
         # the Gaussian curvature of a surface (not of a rod's centreline), a DG0 cell field
         plate = y.function_space.mesh.topology.dim == 2
         self._cell_fields: list[CellField] = [gauss_field(y)] if plate else []
+        if plate and metric is not None:  # K of the target metric G, to compare with
+            self._cell_fields.append(target_gauss_field(y.function_space.mesh, metric))
         self.extras = [*extras, *(field.function for field in self._cell_fields)]
         names = ["deformation", "displacement", *(f.name for f in self.extras)]
         if len(set(names)) != len(names):

@@ -20,6 +20,9 @@ import basix.ufl
 import dolfinx.fem
 import numpy as np
 import numpy.typing as npt
+from ufl.algorithms.apply_algebra_lowering import apply_algebra_lowering
+from ufl.algorithms.apply_derivatives import apply_derivatives
+from ufl.constantvalue import Zero
 from ufl.core.expr import Expr
 
 from dgplate import compat
@@ -69,12 +72,21 @@ class CellField:
     def __init__(self, expr: Expr, mesh: Mesh, name: str = "cell field"):
         space = dolfinx.fem.functionspace(mesh, ("DG", 0))
         points = compat.interpolation_points(space.element)
-        self._expr: compat.Expression = dolfinx.fem.Expression(expr, points)
+        # an expression that is zero once its derivatives are taken (the curvature of a
+        # constant metric) has no cell to compile an Expression on: the field is zero
+        lowered = apply_algebra_lowering(expr)  # type: ignore[no-untyped-call]
+        zero = isinstance(apply_derivatives(lowered), Zero)  # type: ignore[no-untyped-call]
+        self._expr: compat.Expression | None = (
+            None if zero else dolfinx.fem.Expression(expr, points)
+        )
         self.function: Function = dolfinx.fem.Function(space, name=name)
 
     def update(self) -> Function:
         """The DG0 function, set to the expression's current midpoint values."""
-        self.function.interpolate(self._expr)
+        if self._expr is None:
+            self.function.x.array[:] = 0.0
+        else:
+            self.function.interpolate(self._expr)
         return self.function
 
     def values(self) -> Array:

@@ -27,6 +27,7 @@ from dgplate.dg.forms import FacetSets
 from dgplate.errors import InputError
 from dgplate.measure.analysis import l1_norms
 from dgplate.measure.creases import crease_polylines, fold_angle_summary
+from dgplate.measure.prestrain import gauss_curvature_figures
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import REQUIRED, Check, option
 from dgplate.solvers.driver import Driver, Observer
@@ -147,8 +148,10 @@ class PlateModel(Model):
         return MovingClampFlow(plain, path.alpha, path.schedule, observers)
 
     def figures(self, driver: GradientFlow | MovingClampFlow) -> dict[str, Any]:
-        """‖K_h‖_L¹, ‖δI_h‖_L¹, fold angles along creases and the numbers of :attr:`measures`."""
+        """‖K_h‖_L¹, ‖δI_h‖_L¹, K_h against G's K, crease fold angles, :attr:`measures`."""
         out: dict[str, Any] = l1_norms(driver.y, self.metric)
+        if self.metric is not None:
+            out.update(gauss_curvature_figures(driver.y, self.metric))
         if self.facets.num_crease:
             out.update(fold_angle_summary(driver.y, self.facets))
         for measure in self.measures:

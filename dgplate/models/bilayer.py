@@ -20,6 +20,7 @@ The coupling term is not quadratic: the gradient flow treats it explicitly (at y
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import ClassVar
 
 import ufl
 from ufl.core.expr import Expr
@@ -172,6 +173,7 @@ class BilayerSpec(KirchhoffSpec):
     """[model] of a bilayer plate: the Kirchhoff keys plus the spontaneous curvature."""
 
     name: str = option("bilayer", "the model")
+    takes_metric: ClassVar[bool] = False  # its energy has no G yet
     Z: float | list[list[float | str]] | dict[str, float | list[list[float]]] = option(
         1.0,
         "spontaneous curvature: α (Z = αI), [[Z11, Z12], [Z12, Z22]] (numbers or formulas in x, y), or {cell group = α or a matrix of numbers}",

@@ -8,7 +8,7 @@ energy: the gradient flow imposes its linearisation (:mod:`dgplate.solvers.const
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal, Unpack
+from typing import ClassVar, Literal, Unpack
 
 from mpi4py import MPI
 
@@ -42,6 +42,8 @@ from dgplate.models.base import (
     continuation_schedule,
     piecewise_constant,
 )
+from dgplate.models.director import HELP as director_help
+from dgplate.models.director import Director
 from dgplate.models.metric import HELP as metric_help
 from dgplate.models.metric import MetricSpec, target_metric
 from dgplate.models.obstacle import with_obstacle
@@ -108,13 +110,24 @@ class KirchhoffSpec:
     )
     start: str | dict[str, object] = option("flat", starts.HELP)
     metric: MetricSpec | None = option(None, metric_help)
+    director: dict[str, float | str] = option({}, director_help)
 
     def __post_init__(self) -> None:
         self._start = starts.Start.from_table(self.start)
-        if self.metric is not None and self.hessian == "ldg":
+        table = self.director  # the lce model's own 'director' is a profile name
+        self._director = Director.from_table(table) if isinstance(table, dict) and table else None
+        if self.metric is not None and self._director is not None:
             raise InputError(
-                "model.metric needs model.hessian = 'broken' (the LDG energy has no G)"
+                "model.director sets the target metric, as model.metric does: give one of them"
             )
+        target = "model.metric" if self.metric is not None else "model.director"
+        if self.target_metric is not None and not self.takes_metric:
+            raise InputError(
+                f"{target} is not taken by the {self.name} model (kirchhoff and foundation "
+                "plates take a target metric)"
+            )
+        if self.target_metric is not None and self.hessian == "ldg":
+            raise InputError(f"{target} needs model.hessian = 'broken' (the LDG energy has no G)")
         expressions.check(self.load, "model.load")
         data = self.boundary_data
         self._schedule = continuation_schedule(
@@ -135,6 +148,14 @@ class KirchhoffSpec:
     def ldg_degree(self) -> int | None:
         """The degree of the liftings with ``hessian = 'ldg'`` (that of y), else None."""
         return self.degree if self.hessian == "ldg" else None
+
+    #: whether the model's energy takes ``metric``/``director`` (not a bilayer's, an lce's yet)
+    takes_metric: ClassVar[bool] = True
+
+    @property
+    def target_metric(self) -> MetricSpec | None:
+        """G of ``metric`` or of ``director`` (None: neither, the isometric plate)."""
+        return self._director.metric() if self._director is not None else self.metric
 
     @property
     def start_params(self) -> starts.Start:
@@ -158,7 +179,9 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     path = continuation_path(spec.schedule, tagged.mesh)
     g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path)
     penalty = spec.penalty
-    metric = None if spec.metric is None else target_metric(spec.metric, tagged.mesh)
+    given = spec.target_metric
+    key = "model.metric" if spec.metric is not None else "model.director"
+    metric = None if given is None else target_metric(given, tagged.mesh, key)
     data: BendingData = {"mu": mu, "g": g, "Phi": Phi}
     if metric is not None:
         data["metric"] = metric

@@ -20,7 +20,7 @@ attains it (docs/lce.md).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import dolfinx.fem
 import ufl
@@ -57,7 +57,8 @@ class LCESpec(KirchhoffSpec):
     """[model] of a liquid-crystal-elastomer plate: the Kirchhoff keys plus the director."""
 
     name: str = option("lce", "the model")
-    director: str = option(
+    takes_metric: ClassVar[bool] = False  # its energy has no G yet
+    director: str = option(  # type: ignore[assignment]  # the profile, not the metric's table
         "twist",
         "director profile through the thickness: 'twist' (A₀ = diag(−1, 1)) or 'splay' (A₀ = diag(−1, 0))",
         choices=tuple(sorted(DIRECTORS)),

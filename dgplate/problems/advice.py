@@ -127,7 +127,7 @@ def nothing_to_solve(problem: Problem, mesh: Mesh, starts_flat: bool = True) -> 
     spec = problem.model
     if not starts_flat or spec.name not in ("kirchhoff", "bilayer") or spec.continuation:
         return None
-    if getattr(spec, "metric", None) is not None:  # the flat start violates ∇yᵀ∇y = G
+    if getattr(spec, "target_metric", None) is not None:  # the flat start violates ∇yᵀ∇y = G
         return None
     if not all(_agree(f, 0.0, mesh) for f in spec.load):
         return None

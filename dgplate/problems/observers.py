@@ -17,6 +17,8 @@ from typing import Any
 
 from mpi4py import MPI
 
+from ufl.core.expr import Expr
+
 from dgplate.io import checkpoint
 from dgplate.solvers.driver import Driver
 
@@ -25,17 +27,20 @@ FRAMES_PER_SECOND = 5.0
 
 
 class SeriesWriter:
-    """VTX time series of ``driver.shape``, every ``every`` steps and at the end."""
+    """VTX time series of ``driver.shape``, every ``every`` steps and at the end.
 
-    def __init__(self, every: int):
-        self.every = every
+    ``metric``: the plate's target metric G (None: none), for its Gaussian curvature field.
+    """
+
+    def __init__(self, every: int, metric: Expr | None = None):
+        self.every, self.metric = every, metric
         self.writer: Any = None  # a DeformationWriter once opened
 
     def open(self, driver: Driver, path: Path) -> None:
         """Create the series at ``path`` and write the first state (collective)."""
         from dgplate.io.vtx import DeformationWriter
 
-        self.writer = DeformationWriter(path, driver.shape, comm=driver.comm)
+        self.writer = DeformationWriter(path, driver.shape, comm=driver.comm, metric=self.metric)
         self.writer.write(driver.time)
 
     def step(self, driver: Driver, record: Any) -> None:

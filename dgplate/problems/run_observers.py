@@ -41,7 +41,8 @@ class RunObservers:
             earlier,
             (earlier_wall, wall0),
         )
-        self.series = SeriesWriter(problem.output.every) if problem.output.vtx else None
+        every, metric = problem.output.every, prepared.model.metric
+        self.series = SeriesWriter(every, metric) if problem.output.vtx else None
         self.frames: FrameWriter | None = pictures.frames(problem, prepared.model)
 
     @property

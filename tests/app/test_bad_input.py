@@ -364,6 +364,55 @@ BAD_INPUT = {
         ("model.metric={g11=2.0}", "flow.edge_constraint=true"),
         "flow.edge_constraint holds free edges to the metric I: not with model.metric",
     ),
+    # -- model.director (docs/prestrain.md) ----------------------------------------------------
+    "director lambda zero": Case(
+        ("model.director={angle=0.3, lambda=0}",), "model.director.lambda must be > 0, got 0"
+    ),
+    "director lambda negative": Case(
+        ("model.director={angle=0.3, lambda=-0.9}",),
+        "model.director.lambda must be > 0, got -0.9",
+    ),
+    "director lambda a formula": Case(
+        ("model.director={angle=0.3, lambda='x'}",), "model.director.lambda must be a number"
+    ),
+    "director without an angle": Case(
+        ("model.director={lambda=0.9}",), "model.director.angle is required"
+    ),
+    "director unknown key": Case(
+        ("model.director={angle=0, lambda=0.9, mu=1}",),
+        "unknown key model.director.mu (known keys: angle, lambda, nu)",
+    ),
+    "director angle not parsed": Case(
+        ("model.director={angle='x +', lambda=0.9}",),
+        "model.director.angle: cannot parse formula 'x +'",
+    ),
+    "director nu nan": Case(
+        ("model.director={angle=0, lambda=0.9, nu=nan}",),
+        "model.director.nu must be a finite number",
+    ),
+    "director and metric": Case(
+        ("model.director={angle=0, lambda=0.9}", "model.metric={g11=2.0}"),
+        "model.director sets the target metric, as model.metric does: give one of them",
+    ),
+    "metric on a bilayer": Case(
+        ("model.metric={g11=2.0}",),
+        "model.metric is not taken by the bilayer model",
+        problem=BILAYER,
+    ),
+    "metric on an lce plate": Case(
+        ("model.metric={g11=2.0}",),
+        "model.metric is not taken by the lce model",
+        problem=PROBLEMS / "lce_strip.toml",
+    ),
+    "director on a bilayer": Case(
+        ("model.director={angle=0, lambda=0.9}",),
+        "model.director is not taken by the bilayer model",
+        problem=BILAYER,
+    ),
+    "director with the ldg hessian": Case(
+        ("model.director={angle=0, lambda=0.9}", "model.hessian='ldg'"),
+        "model.director needs model.hessian = 'broken'",
+    ),
 }
 
 #: Cases that also run under mpirun -n 2 (validation, and collective checks on the mesh).

@@ -286,3 +286,14 @@ def test_path_following_page_is_generated(tmp_path):
     assert held == sorted(held, reverse=True) and held[-1] < 1e-3  # toward Koiter's slope
     arch = [abs(level["error"]) for level in record["arch"]]
     assert arch == sorted(arch, reverse=True)  # the fold converges to the exact limit load
+
+
+def test_lce_cone_page_is_generated(tmp_path):
+    """docs/prestrain.md's cone table is what --table-only writes from lce_cone.json."""
+    page = BENCH.parent / "docs" / "prestrain.md"
+    assert_page_is_generated("lce_cone", page, tmp_path)
+    record = json.loads((BENCH / "results" / "lce_cone.json").read_text())
+    levels = record["levels"]
+    assert [level["h"] for level in levels] == [0.2, 0.1, 0.05]
+    assert all(level["converged"] and level["metric_start"]["defect"] <= 1e-10 for level in levels)
+    assert all(abs(level["half_angle_error"]["0.3"]) < 0.01 for level in levels)

@@ -22,9 +22,12 @@ from helpers import PROBLEMS, QUIET, ROOT, mpirun
 
 from dgplate import expressions, interrupt, load_problem, run
 from dgplate.dg.forms import hessian, metric_weighted
+from dgplate.dg.geometry import metric_gauss_curvature
 from dgplate.errors import InputError
+from dgplate.io.vtx import bp_variables
 from dgplate.measure.analysis import fit_sphere
-from dgplate.measure.fields import defect_density
+from dgplate.measure.fields import cell_field, defect_density
+from dgplate.measure.prestrain import gauss_curvature_figures
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.metric import MetricSpec, target_metric
 from dgplate.reference import spherical_cap
@@ -92,7 +95,9 @@ def test_spherical_cap_from_the_flat_disc(tmp_path):
 
     Measured (h = 0.2, 0.1: 256 and 736 cells): radius 2.00205, 2.00075 (errors 1.0e-3,
     3.8e-4); E_h 0.91348, 0.82842 against 0.81938 (+11.5 %, +1.1 %); the metric start takes
-    7 stretching steps and 4 projections to D_h ~ 1e-14.
+    7 stretching steps and 4 projections to D_h ~ 1e-14. K of G is 1/4 to 1e-14; the cell-wise
+    K_h of the discrete minimiser does not converge: mean |K_h − K| 0.0148, 0.0180 (0.0204 at
+    h = 0.05), mean K_h 0.2385, 0.2356, the largest errors at the free edge.
     """
     exact = spherical_cap.energy(2.0)
     radius_errors, energy_errors = [], []
@@ -105,6 +110,10 @@ def test_spherical_cap_from_the_flat_disc(tmp_path):
         fit = fit_sphere(result.shape)
         assert fit["rms"] < 2e-4
         radius_errors.append(abs(fit["radius"] - 2.0) / 2.0)
+        gauss = result["metric_gauss_curvature"]
+        assert gauss["target_min"] == pytest.approx(0.25, abs=1e-12)
+        assert gauss["target_max"] == pytest.approx(0.25, abs=1e-12)
+        assert gauss["mean"] == pytest.approx(0.25, abs=0.02) and gauss["error_mean"] < 0.02
         energy_errors.append(abs(result["energy"] - exact) / exact)
     assert radius_errors[0] < 1.5e-3 and radius_errors[1] < 5e-4
     assert energy_errors[0] < 0.12 and energy_errors[1] < 0.015
@@ -116,6 +125,27 @@ def test_the_metric_start_says_its_line_in_the_progress_output(tmp_path, capsys)
     settings = {"mesh.cells": [2, 2], "flow.max_steps": 1, "model.metric": {"g11": 1.0}}
     run(load_problem(VERTICAL, settings), out=tmp_path / "run")
     assert "metric start: 0 stretching steps" in capsys.readouterr().out
+
+
+def test_a_constant_metric_gives_a_flat_plate(tmp_path):
+    """A constant G: the minimiser is the flat affine map with ∇yᵀ∇y = G, E = 0 and K = 0.
+
+    Measured (h = 0.2): 12 stretching steps reach the flat map (stretching 1e-27), one flow
+    step, E_h 4e-23, K_h ~ 1e-28.
+    """
+    metric = {"g11": 1.3, "g12": 0.2, "g22": 0.8}
+    overrides = {**QUIET, "model.metric": metric, "output.vtx": True}
+    result = run(load_problem(SPHERICAL, overrides), out=tmp_path)
+    cells = bp_variables(tmp_path / "deformation_gauss_curvature.bp")
+    assert cells == {"gauss_curvature", "target_gauss_curvature"}  # K_h and K of G per cell
+    assert result["converged"] and result["isometry_defect"] <= 1e-10
+    assert abs(result["energy"]) < 1e-12
+    gauss = result["metric_gauss_curvature"]
+    assert gauss["target_min"] == gauss["target_max"] == 0.0
+    assert gauss["error_max"] < 1e-10
+    points = result.shape.x.array.reshape(-1, 3)
+    spread = np.linalg.svd(points - points.mean(axis=0), compute_uv=False)
+    assert spread[2] / np.sqrt(len(points)) < 1e-9  # in a plane (rms distance)
 
 
 def test_identity_metric_is_the_isometric_run(tmp_path):
@@ -163,6 +193,9 @@ def test_spherical_cap_on_two_ranks_is_the_serial_run(tmp_path):
         parallel["metric_start"]["projection_steps"] == serial["metric_start"]["projection_steps"]
     )
     assert parallel["energy"] == pytest.approx(serial["energy"], abs=1e-10)
+    gauss, serial_gauss = parallel["metric_gauss_curvature"], serial["metric_gauss_curvature"]
+    for name in ("target_mean", "mean", "error_mean", "error_max"):
+        assert gauss[name] == pytest.approx(serial_gauss[name], abs=1e-8)
     assert parallel["isometry_defect"] <= 1e-10
 
 
@@ -225,3 +258,36 @@ def test_a_bad_metric_formula_fails_before_the_mesh():
     """``load_problem`` (no mesh yet) names the entry of a formula that does not parse."""
     with pytest.raises(InputError, match=r"^model\.metric\.g11: "):
         load_problem(SPHERICAL, {"model.metric": {"g11": "x +", "g12": 0.0, "g22": 1.0}})
+
+
+def test_gauss_curvature_of_the_metric_by_brioschi():
+    """K of G: 1/R² for the sphere's metric (r = 0 included), 0 for a constant G, −1 for the
+    Poincaré disc's 4|dx|²/(1 − |x|²)²."""
+    mesh = rectangle(MPI.COMM_WORLD, [[-0.7, -0.7], [0.7, 0.7]], [6, 6]).mesh
+    sphere = MetricSpec(**spherical_cap.metric_formulas(2.0))
+    constant = MetricSpec(g11=1.2, g12=0.1, g22=0.9)
+    poincare = MetricSpec(g11="4/(1 - x*x - y*y)**2", g12=0.0, g22="4/(1 - x*x - y*y)**2")
+    for spec, K in ((sphere, 0.25), (constant, 0.0), (poincare, -1.0)):
+        values = cell_field(metric_gauss_curvature(target_metric(spec, mesh)), mesh)
+        assert np.abs(values - K).max() < 1e-12
+
+
+def test_gauss_curvature_of_the_interpolated_cap_converges():
+    """K_h of the interpolated cap against K = 1/4 of G: the error falls with an order > 1.8.
+
+    Measured on 4, 8, 16 Q2 cells a side of (−0.7, 0.7)²: error_mean 9.6e-4, 2.4e-4, 6.0e-5
+    (order 2.0).
+    """
+    spec = MetricSpec(**spherical_cap.metric_formulas(2.0))
+    errors = []
+    for n in (4, 8, 16):
+        mesh = rectangle(MPI.COMM_WORLD, [[-0.7, -0.7], [0.7, 0.7]], [n, n]).mesh
+        y = dolfinx.fem.Function(dolfinx.fem.functionspace(mesh, ("DG", 2, (3,))))
+        y.interpolate(lambda x: spherical_cap.cap(x, 2.0))
+        figures = gauss_curvature_figures(y, target_metric(spec, mesh))["metric_gauss_curvature"]
+        assert figures["target_mean"] == pytest.approx(0.25, abs=1e-12)
+        assert figures["target_min"] == pytest.approx(figures["target_max"], abs=1e-12)
+        errors.append(figures["error_mean"])
+        assert figures["error_max"] >= figures["error_mean"]
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert orders.min() > 1.8, (errors, orders)

@@ -1,0 +1,106 @@
+"""The Gaussian curvature of a prestrained plate against that of its target metric G.
+
+By Gauss's Theorema egregium every surface with ∇yᵀ∇y = G has the Gaussian curvature K of G
+alone (Brioschi's formula, :func:`dgplate.dg.geometry.metric_gauss_curvature`). The discrete
+surface's K_h = det(II)/det(∇yᵀ∇y) (:func:`dgplate.measure.fields.gauss_field`) is measured
+against it at each cell's midpoint: the figures of ``summary.json`` and the DG0 field
+``target_gauss_curvature`` written next to ``gauss_curvature`` (docs/prestrain.md).
+
+All functions are collective and return the same numbers on every rank.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from ufl.core.expr import Expr
+
+from dgplate import mpi
+from dgplate.compat import Function, Mesh
+from dgplate.dg.geometry import metric_gauss_curvature
+from dgplate.measure.analysis import cell_areas
+from dgplate.measure.fields import CellField, gauss_density
+
+#: Name of the target Gaussian curvature's cell field in time series.
+TARGET_GAUSS = "target_gauss_curvature"
+
+
+def target_gauss_field(mesh: Mesh, metric: Expr) -> CellField:
+    """The Gaussian curvature K of the metric G as a DG0 ``CellField`` (cell midpoints).
+
+    Args:
+        mesh: the plate's mesh.
+        metric: the target metric G (a UFL 2×2 expression of the spatial coordinates).
+
+    Returns:
+        The field named ``target_gauss_curvature``.
+    """
+    return CellField(metric_gauss_curvature(metric), mesh, name=TARGET_GAUSS)
+
+
+def gauss_curvature_figures(y: Function, metric: Expr) -> dict[str, dict[str, float]]:
+    """K of G and K_h of y at the cell midpoints: means, extremes and the error |K_h − K|.
+
+    Args:
+        y: the deformation in [DG_k]³.
+        metric: the target metric G.
+
+    Returns:
+        ``{"metric_gauss_curvature": {...}}``: ``target_mean``, ``target_min``,
+        ``target_max`` (K), ``mean`` (K_h), ``error_mean`` (the area-weighted mean of
+        |K_h − K|) and ``error_max``; means are weighted by the cell areas.
+    """
+    mesh = y.function_space.mesh
+    comm = mesh.comm
+    target = target_gauss_field(mesh, metric).values()
+    measured = gauss_density(y)
+    error = np.abs(measured - target)
+    areas = cell_areas(mesh)
+    total = mpi.global_sum(comm, float(areas.sum()))
+
+    def mean(values: np.ndarray) -> float:
+        return mpi.global_sum(comm, float(np.dot(values, areas))) / total
+
+    figures = {
+        "target_mean": mean(target),
+        "target_min": mpi.global_min(comm, float(target.min(initial=np.inf))),
+        "target_max": mpi.global_max(comm, float(target.max(initial=-np.inf))),
+        "mean": mean(measured),
+        "error_mean": mean(error),
+        "error_max": mpi.global_max(comm, float(error.max(initial=0.0))),
+    }
+    return {"metric_gauss_curvature": figures}
+
+
+def cone_half_angle(y: Function, inner: float, centre: tuple[float, float] = (0.0, 0.0)) -> float:
+    """The half-angle φ of the cone that y makes of a disc about ``centre`` (+1 defects).
+
+    The tip is y at the degree of freedom nearest ``centre``; the axis the mean of the unit
+    vectors from the tip to y at the dofs with |x − centre| > ``inner``; sin φ the slope of
+    the least-squares line of the distance ρ from the axis against the distance ℓ from the
+    tip over those dofs (a slope: a tip that is not quite a point shifts the line, not φ).
+
+    Args:
+        y: the deformation in [DG_k]³.
+        inner: the reference radius inside which the dofs are left out (the tip region).
+        centre: the reference point of the defect.
+
+    Returns:
+        φ in radians.
+    """
+    comm = y.function_space.mesh.comm
+    owned = y.function_space.dofmap.index_map.size_local
+    x = y.function_space.tabulate_dof_coordinates()[:owned, :2] - np.asarray(centre)
+    points = y.x.array.reshape(-1, 3)[:owned]
+    r = np.linalg.norm(x, axis=1)
+    nearest = (float(r.min()), points[int(np.argmin(r))].tolist()) if owned else (np.inf, [])
+    tip = np.asarray(min(comm.allgather(nearest), key=lambda item: item[0])[1])
+    v = points[r > inner] - tip
+    ell = np.linalg.norm(v, axis=1)
+    axis = mpi.sum_arrays(comm, (v / ell[:, None]).sum(axis=0))
+    axis /= np.linalg.norm(axis)
+    rho = np.linalg.norm(v - np.outer(v @ axis, axis), axis=1)
+    n, sl, sr, sll, slr = mpi.sum_arrays(
+        comm, [len(ell), ell.sum(), rho.sum(), ell @ ell, ell @ rho]
+    )
+    slope = (n * slr - sl * sr) / (n * sll - sl * sl)
+    return float(np.arcsin(min(slope, 1.0)))
