@@ -64,6 +64,15 @@ class Director:
         if stretch <= 0:
             raise InputError(f"{key}.lambda must be > 0, got {table['lambda']!r}")
         nu = expressions.finite_number(table.get("nu", 0.5), f"{key}.nu")
+        try:
+            along, across = stretch**2, stretch ** (-2 * nu)
+        except OverflowError:
+            along = across = math.inf
+        if not (0 < along < math.inf and 0 < across < math.inf):
+            raise InputError(
+                f"{key}.lambda, {key}.nu: λ² and λ^(-2ν) must be finite and > 0 in floating "
+                f"point, got λ = {stretch!r}, ν = {nu!r}"
+            )
         assert isinstance(angle, float | int | str)  # expressions.check took it
         return cls(angle if isinstance(angle, str) else float(angle), stretch, nu)
 

@@ -158,6 +158,11 @@ class KirchhoffSpec:
         return self._director.metric() if self._director is not None else self.metric
 
     @property
+    def director_params(self) -> Director | None:
+        """The validated ``director`` table (None: none, or the lce model's profile name)."""
+        return self._director
+
+    @property
     def start_params(self) -> starts.Start:
         """The validated ``start`` (the flow's first state)."""
         return self._start
@@ -181,6 +186,9 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     penalty = spec.penalty
     given = spec.target_metric
     key = "model.metric" if spec.metric is not None else "model.director"
+    director = spec.director_params
+    if director is not None and isinstance(director.angle, str):  # before G's formulas, on θ
+        expressions.check_finite_on_mesh(director.angle, tagged.mesh, "model.director.angle")
     metric = None if given is None else target_metric(given, tagged.mesh, key)
     data: BendingData = {"mu": mu, "g": g, "Phi": Phi}
     if metric is not None:

@@ -109,7 +109,8 @@ def follow(
         The :class:`Branch`: its points, folds, bifurcations and the run's result.
 
     Raises:
-        InputError: a model without path following, or a bad ``[path]`` setting (named).
+        InputError: a model without path following, a ``method``, or a bad ``[path]`` setting
+            (named).
     """
     model = problem.model.name
     if "path" not in [name for name, _ in sections(model)]:
@@ -117,6 +118,8 @@ def follow(
             f"dgplate.follow: path following is not available for the {model} model "
             "(it is for fvk); use dgplate.run"
         )
+    if "method" in path:
+        raise InputError("path.method: dgplate.follow always follows by arclength; give no method")
     settings = {f"path.{key}": value for key, value in path.items()}
     followed = problem_from_dict(problem.raw, problem.name, settings | {"path.method": "arclength"})
     return Branch(run(followed, out, comm, initial, force=force, resume=resume))

@@ -218,7 +218,8 @@ class GradientFlow(EnergyFlow):
         """
         if metric is not None and settings.edge_constraint:
             raise InputError(
-                "flow.edge_constraint holds free edges to the metric I: not with model.metric"
+                "flow.edge_constraint holds free edges to the metric I: not with model.metric "
+                "or model.director"
             )
         self.facets, self.settings, self.observers = facets, settings, list(observers)
         mesh = facets.mesh

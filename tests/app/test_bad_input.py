@@ -413,10 +413,23 @@ BAD_INPUT = {
         ("model.director={angle=0, lambda=0.9}", "model.hessian='ldg'"),
         "model.director needs model.hessian = 'broken'",
     ),
+    "director angle not finite": Case(
+        ("model.director={angle='log(x)', lambda=0.9}",),
+        "model.director.angle: formula 'log(x)' is not finite on the plate: -inf at (x, y) = (0,",
+    ),
+    "director lambda overflows": Case(
+        ("model.director={angle=0, lambda=1e-100, nu=4}",),
+        "model.director.lambda, model.director.nu: λ² and λ^(-2ν) must be finite and > 0",
+    ),
+    "director with the edge constraint": Case(
+        ("model.director={angle=0, lambda=0.9}", "flow.edge_constraint=true"),
+        "not with model.metric or model.director",
+    ),
 }
 
 #: Cases that also run under mpirun -n 2 (validation, and collective checks on the mesh).
 MPI_CASES = [
+    "director angle not finite",
     "a modulus for a length",
     "rod of 1e8 cells",
     "load inf",

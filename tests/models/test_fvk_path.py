@@ -325,4 +325,6 @@ def test_follow_refuses_a_model_without_paths_and_names_a_bad_setting(tmp_path):
     arch = dgplate.load_problem(ARCH)
     with pytest.raises(dgplate.InputError, match=r"path\.ds must be > 0"):
         dgplate.follow(arch, out=tmp_path / "arch", ds=0)
+    with pytest.raises(dgplate.InputError, match=r"path\.method: dgplate\.follow always follows"):
+        dgplate.follow(arch, out=tmp_path / "arch", method="load_steps")
     assert not (tmp_path / "plate").exists() and not (tmp_path / "arch").exists()
