@@ -35,7 +35,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from mpi4py import MPI
 
@@ -53,7 +53,7 @@ from dgplate.reference.fvk import (
     square_plate_critical_shortening,
 )
 from dgplate.solvers.continuation import BranchPath
-from dgplate.solvers.driver import RunOutcome
+from dgplate.solvers.driver import RunResult
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
@@ -77,7 +77,8 @@ def plate_spec(switch: bool, steps: int, held: bool = False) -> FvKSpec:
     Returns:
         The model's spec, followed by arclength from the flat plate.
     """
-    delta, top = (DELTA_HELD, "normal") if held else (DELTA_CR, "free")
+    delta = DELTA_HELD if held else DELTA_CR
+    top: Literal["normal", "free"] = "normal" if held else "free"
     return FvKSpec(
         E=E,
         nu=NU,
@@ -112,7 +113,7 @@ def arch_start(x: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
 
 def attempt(
     comm: MPI.Comm, spec: FvKSpec, cells: Sequence[int], corners: Any, initial: Initial = None
-) -> tuple[RunOutcome, list[dict[str, Any]], dict[str, Any]]:
+) -> tuple[RunResult, list[dict[str, Any]], dict[str, Any]]:
     """The outcome of the path of ``spec`` on a rectangle, its points (dicts) and its summary."""
     model = build_fvk(spec, rectangle(comm, corners, list(cells)))
     driver = model.driver(None, [], initial)
