@@ -135,7 +135,12 @@ def _end_now(signum: int) -> None:
     Called by the C library in the signal's context, even inside compiled code: the least
     Python possible, and no MPI. The process's own children (a C compiler FFCx started) end
     first: left running, they would report the C file the clean-up renamed as missing.
+
+    The signal may come while the interrupted code has an exception set (being raised or
+    handled): every builtin called then fails with SystemError ("returned a result with an
+    exception set") and the handler returned without ending the process. It is cleared first.
     """
+    _clear_python_error()
     _end_children(os.getpid())
     for clean_up in CLEAN_UP:
         with contextlib.suppress(Exception):
@@ -186,6 +191,8 @@ def _parent(pid: str) -> int:
 
 _HANDLER = ctypes.CFUNCTYPE(None, ctypes.c_int)
 _END_NOW = _HANDLER(_end_now)
+_clear_python_error = ctypes.pythonapi.PyErr_Clear
+_clear_python_error.argtypes, _clear_python_error.restype = [], None
 
 
 def _libc_signal(signum: int, handler: Any) -> None:
