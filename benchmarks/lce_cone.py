@@ -17,7 +17,6 @@ is generated from the JSON (``--table-only``: no runs).
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import shutil
 import sys
@@ -30,11 +29,10 @@ from mpi4py import MPI
 
 import dolfinx.fem
 import ufl
-from pages import add_page_options, publish
+from pages import add_page_options, publish, run_levels
 
 from dgplate.compat import Function
 from dgplate.dg.forms import hessian, metric_weighted
-from dgplate.io.output import print0
 from dgplate.measure.prestrain import cone_half_angle
 from dgplate.models.metric import target_metric
 from dgplate.problems.runner import run as run_problem
@@ -143,10 +141,7 @@ def main(argv: list[str]) -> None:
     comm = MPI.COMM_WORLD
     record: dict[str, Any] | None = None
     if not args.table_only:
-        levels = []
-        for h in args.h:
-            levels.append(one_level(comm, h))
-            print0(comm, json.dumps(levels[-1]))
+        levels = run_levels(comm, args.h, one_level)
         record = {"ranks": comm.size, "exact_deg": math.degrees(exact_angle()), "levels": levels}
     publish(comm, args, record, (BEGIN, END), table)
 

@@ -10,6 +10,8 @@ from typing import Any
 
 from mpi4py import MPI
 
+from dgplate.io.output import print0
+
 
 def write_between(page: Path, begin: str, end: str, text: str, heading: str = "") -> None:
     """Replace the page's text from ``begin`` to ``end`` (both markers included) by ``text``.
@@ -79,3 +81,23 @@ def publish(
     write_between(args.page, begin, end, f"{begin}\n{text}\n{end}")
     print(text)
     return text
+
+
+def run_levels(
+    comm: MPI.Comm, sizes: list[float], one_level: Callable[[MPI.Comm, float], dict[str, Any]]
+) -> list[dict[str, Any]]:
+    """``one_level(comm, size)`` for each mesh size, each record printed as JSON (rank 0).
+
+    Args:
+        comm: the runs' communicator (collective).
+        sizes: the mesh sizes, coarsest first.
+        one_level: the record of the benchmark at one size.
+
+    Returns:
+        The records, in the order of ``sizes``.
+    """
+    levels = []
+    for size in sizes:
+        levels.append(one_level(comm, size))
+        print0(comm, json.dumps(levels[-1]))
+    return levels

@@ -18,7 +18,6 @@ The table of docs/prestrain.md between ``<!-- spherical_cap:begin -->`` and
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import shutil
 import sys
@@ -29,9 +28,8 @@ from typing import Any
 
 from mpi4py import MPI
 
-from pages import add_page_options, publish
+from pages import add_page_options, publish, run_levels
 
-from dgplate.io.output import print0
 from dgplate.measure.analysis import fit_sphere
 from dgplate.problems.prepare import build_model
 from dgplate.problems.runner import run as run_problem
@@ -151,10 +149,7 @@ def main(argv: list[str]) -> None:
     comm = MPI.COMM_WORLD
     record: dict[str, Any] | None = None
     if not args.table_only:
-        levels = []
-        for h in args.h:
-            levels.append(one_level(comm, h))
-            print0(comm, json.dumps(levels[-1]))
+        levels = run_levels(comm, args.h, one_level)
         record = {"ranks": comm.size, "exact_energy": energy(RADIUS), "levels": levels}
     publish(comm, args, record, (BEGIN, END), table)
 
