@@ -8,15 +8,20 @@ bifurcation along the critical eigenvector.
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 from petsc4py import PETSc
 
+from dgplate import compat
 from dgplate.errors import SolverError
 from dgplate.solvers import eigen
 from dgplate.solvers.arclength import ArcLength, Point, StepLength, petsc_failure, secant_root
 
-#: Eigenvalues within this fraction of the largest computed one count as zero (round-off).
-ROUNDOFF = 1e-9
+#: Hessian eigenvalues within ROUNDOFF · ε · ‖K‖_∞ of 0 count as zero (round-off): the
+#: constant of a backward error of size O(ε‖K‖). Small enough to keep the sign of every
+#: eigenvalue the secant needs on the plates of benchmarks/path_following.py (≥ 45 ε‖K‖_∞).
+ROUNDOFF = 10.0
 
 
 class SpecialPoints:
@@ -86,14 +91,16 @@ class SpecialPoints:
 
         With the index n of the state, it is the negative eigenvalue nearest 0 if n ≥ k, else the
         non-negative one nearest 0 (exactly the k-th lowest when n is k − 1 or k). At the
-        crossing itself the eigenvalue's sign is round-off and may contradict the inertia: an
-        eigenvalue within :data:`ROUNDOFF` of the largest computed one is 0, the root.
+        crossing itself the eigenvalue's sign is round-off and may contradict the inertia. The
+        round-off of the eigensolver and of the LDLᵀ factorisation acts as a perturbation of K of
+        size O(ε‖K‖₂), which moves an eigenvalue by as much (Weyl): an eigenvalue within
+        :data:`ROUNDOFF` · ε · ‖K‖_∞ of 0 (‖K‖_∞ ≥ ‖K‖₂, K symmetric) is 0, the root.
         """
         negative = self.engine.index()
-        pairs = self._eigenpairs()
+        pairs, size = self._eigenpairs()
         try:
             values = pairs.values
-            if len(values) and np.abs(values).min() <= ROUNDOFF * np.abs(values).max():
+            if len(values) and np.abs(values).min() <= ROUNDOFF * np.finfo(float).eps * size:
                 return 0.0
             below, above = values[values < 0], values[values >= 0]
             nearest = below[-1:] if negative >= k else above[:1]
@@ -103,11 +110,13 @@ class SpecialPoints:
         finally:
             pairs.destroy()
 
-    def _eigenpairs(self) -> eigen.Eigenpairs:
+    def _eigenpairs(self) -> tuple[eigen.Eigenpairs, float]:
+        """The 3 eigenpairs of the Hessian on the free unknowns nearest 0, and its ‖K‖_∞."""
         with petsc_failure("the Hessian on the free unknowns"):
             hessian = self.engine.newton.free_hessian()
         try:
-            return eigen.nearest_eigenpairs(hessian, 3, 0.0)
+            norm = cast(float, hessian.norm(compat.NORM_INFINITY))  # a tuple only for NORM_1_AND_2
+            return eigen.nearest_eigenpairs(hessian, 3, 0.0), norm
         finally:
             hessian.destroy()
 
@@ -139,7 +148,7 @@ class SpecialPoints:
 
         On all unknowns: 0 on the Dirichlet ones.
         """
-        pairs = self._eigenpairs()
+        pairs, _ = self._eigenpairs()
         try:
             nearest = int(np.argmin(np.abs(pairs.values)))
             mode: PETSc.Vec = self.engine.state.x.petsc_vec.duplicate()

@@ -34,22 +34,34 @@ def test_secant_finds_the_root_and_ends_there():
     assert calls[-1] == root and len(calls) <= 12
 
 
+#: ‖K‖_∞ of the free Hessian of the 32 × 32 plate of benchmarks/path_following.py (ε‖K‖_∞ 2.2e-16)
+NORM_32 = 1.013
+
+
 @pytest.mark.parametrize(
-    ("index", "values", "expected"),
+    ("index", "values", "norm", "expected"),
     [
-        (0, [1.7e-14, 8.8e-9, 2.0e-8], 1.7e-14),  # before the crossing: the lowest
-        (1, [-3.1e-11, 8.6e-9, 2.0e-8], -3.1e-11),  # after it: the negative one
-        (0, [-3.6e-19, 8.8e-9, 2.0e-8], 0.0),  # at it, a round-off sign against the inertia
-        (1, [3.6e-19, 8.8e-9, 2.0e-8], 0.0),
+        (0, [1.7e-14, 8.8e-9, 2.0e-8], NORM_32, 1.7e-14),  # before the crossing: the lowest
+        (1, [-3.1e-11, 8.6e-9, 2.0e-8], NORM_32, -3.1e-11),  # after it: the negative one
+        # at it, a round-off sign against the inertia
+        (0, [-3.6e-19, 8.8e-9, 2.0e-8], NORM_32, 0.0),
+        (1, [3.6e-19, 8.8e-9, 2.0e-8], NORM_32, 0.0),
+        # round-off for ‖K‖ (4.5 ε‖K‖_∞), not for the largest computed eigenvalue (5e-8 of it)
+        (0, [-1e-15, 8.8e-9, 2.0e-8], NORM_32, 0.0),
+        (1, [1e-15, 8.6e-9, 2.0e-8], NORM_32, 0.0),
+        # the other way round: ‖K‖ small, 1e-18 is 45 ε‖K‖_∞ but 5e-11 of the largest
+        (0, [1e-18, 8.8e-9, 2.0e-8], 1e-4, 1e-18),
     ],
 )
-def test_the_crossing_eigenvalue_follows_the_inertia_up_to_round_off(index, values, expected):
+def test_the_crossing_eigenvalue_follows_the_inertia_up_to_round_off(index, values, norm, expected):
     """The eigenvalue whose root is a bifurcation (index 0 ↔ 1): at the root its computed sign
-    is round-off, and the next eigenvalue (another mode) must not be taken for it. The values
-    are those of the 32 × 32 plate of benchmarks/path_following.py near its first bifurcation.
+    is round-off (of size ε‖K‖), and the next eigenvalue (another mode) must not be taken for
+    it. The values are those of the 32 × 32 plate of benchmarks/path_following.py near its first
+    bifurcation (mixed unloaded edges), and made-up ones that tell the scale ε‖K‖_∞ from a
+    fraction of the largest computed eigenvalue.
     """
     special = SpecialPoints(SimpleNamespace(index=lambda: index), StepLength(0.1, 1.0, 1e-6))
-    special._eigenpairs = lambda: Eigenpairs(np.array(values), [], "slepc")
+    special._eigenpairs = lambda: (Eigenpairs(np.array(values), [], "slepc"), norm)
     assert special._crossing_eigenvalue(1) == expected
 
 
