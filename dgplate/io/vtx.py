@@ -3,7 +3,9 @@
 ``DeformationWriter`` writes the deformation y and the displacement u = y − x (so ParaView's
 "Warp By Vector" on u shows the deformed plate) as DG fields of y's degree and, for a plate,
 the Gaussian curvature ``gauss_curvature`` of the deformed surface per cell (with a target
-metric G also ``target_gauss_curvature``, that of G). VTX takes DG
+metric G also ``target_gauss_curvature``, that of G). With a ``[material]`` (``length_mm``) the
+mesh, y and u are written in millimetres and the curvatures in 1/mm², the units of the run's
+pictures. VTX takes DG
 fields of any degree, but one writer needs one element for all its functions, so extra
 functions on other elements (a P1 temperature, a DG0 cell field) go to their own ``.bp``
 files next to the main one. XDMF stores only fields of the mesh's geometry degree: there
@@ -12,7 +14,8 @@ everything is interpolated into P1 (DG0 fields stay cell data).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 from mpi4py import MPI
@@ -55,8 +58,9 @@ class DeformationWriter:
     from the backend). Extra functions need unique names; on VTX those whose element differs
     from y's go to ``<stem>_<name>.bp``. ``backend``: "vtx", "xdmf" or "auto" (VTX when
     DOLFINx has ADIOS2). ``metric``: a plate's target metric G, whose Gaussian curvature is
-    written too (``target_gauss_curvature``). Collective: every rank constructs, writes and
-    closes.
+    written too (``target_gauss_curvature``). ``length_mm``: the length of one mesh unit in
+    mm (a ``[material]``'s), to write the mesh and the fields in mm and 1/mm²; None: mesh units.
+    Collective: every rank constructs, writes and closes.
     """
 
     def __init__(
@@ -67,6 +71,7 @@ class DeformationWriter:
         backend: str = "auto",
         comm: MPI.Comm | None = None,
         metric: Expr | None = None,
+        length_mm: float | None = None,
     ):
         if backend not in BACKENDS:
             raise InputError(
@@ -81,6 +86,7 @@ class DeformationWriter:
         self.backend = backend
         self.comm = comm or y.function_space.mesh.comm
         self.y = y
+        self.length_mm = length_mm
         # the Gaussian curvature of a surface (not of a rod's centreline), a DG0 cell field
         plate = y.function_space.mesh.topology.dim == 2
         self._cell_fields: list[CellField] = [gauss_field(y)] if plate else []
@@ -143,7 +149,8 @@ class DeformationWriter:
             self._extra_outputs.append((f, f if _is_cellwise(f) else to_output_space(f, 1, False)))
         mesh = self.y.function_space.mesh
         writer = dolfinx.io.XDMFFile(self.comm, str(self.path), "w")
-        writer.write_mesh(mesh)
+        with self._geometry_in_mm():
+            writer.write_mesh(mesh)
         self._writers.append(writer)
         self.paths += [self.path, self.path.with_suffix(".h5")]
 
@@ -157,6 +164,11 @@ class DeformationWriter:
         set_displacement(self.u_out, self.y_out, self._x)
         for field in self._cell_fields:
             field.update()
+        if self.length_mm is not None:  # lengths in mm, the Gaussian curvatures in 1/mm²
+            for length in (self.y_out, self.u_out):
+                length.x.array[:] *= self.length_mm
+            for field in self._cell_fields:
+                field.function.x.array[:] /= self.length_mm**2
         for source, out in self._extra_outputs:
             if out is not source:
                 out.interpolate(source)
@@ -167,8 +179,9 @@ class DeformationWriter:
             raise RuntimeError("DeformationWriter.write after close()")
         self._update()
         if self.backend == "vtx":
-            for writer in self._writers:
-                writer.write(float(t))
+            with self._geometry_in_mm():  # VTX writes the mesh at its first step
+                for writer in self._writers:
+                    writer.write(float(t))
             return
         (writer,) = self._writers
         assert isinstance(writer, dolfinx.io.XDMFFile)
@@ -176,6 +189,23 @@ class DeformationWriter:
             writer.write_function(f, float(t))
         for _, out in self._extra_outputs:
             writer.write_function(out, float(t))
+
+    @contextmanager
+    def _geometry_in_mm(self) -> Iterator[None]:
+        """The mesh's coordinates in mm for the duration (with ``length_mm``), then restored.
+
+        DOLFINx's writers write the mesh's own geometry and take no scale; nothing is assembled
+        while they write, and the coordinates are restored bit for bit from a copy.
+        """
+        x = self.y.function_space.mesh.geometry.x
+        saved = x.copy() if self.length_mm is not None else None
+        if self.length_mm is not None:
+            x *= self.length_mm
+        try:
+            yield
+        finally:
+            if saved is not None:
+                x[:] = saved
 
     def close(self) -> None:
         """Close every file (collective); later calls do nothing."""

@@ -161,6 +161,18 @@ class Material:
         return figures
 
 
+def length_mm(material: Material | None) -> float | None:
+    """One mesh unit in mm, the length unit of a run's pictures and VTX (None: no material).
+
+    Args:
+        material: the problem's material, or None.
+
+    Returns:
+        1000 L, or None without a material (the outputs keep the mesh's units).
+    """
+    return material.length * 1e3 if material is not None else None
+
+
 def with_material(data: Mapping[str, Any]) -> tuple[Material | None, object]:
     """The material of a problem (None without one) and its [model] table with the derived keys.
 

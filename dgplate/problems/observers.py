@@ -30,17 +30,20 @@ class SeriesWriter:
     """VTX time series of ``driver.shape``, every ``every`` steps and at the end.
 
     ``metric``: the plate's target metric G (None: none), for its Gaussian curvature field.
+    ``length_mm``: one mesh unit in mm (a ``[material]``'s): the series in mm; None: mesh units.
     """
 
-    def __init__(self, every: int, metric: Expr | None = None):
-        self.every, self.metric = every, metric
+    def __init__(self, every: int, metric: Expr | None = None, length_mm: float | None = None):
+        self.every, self.metric, self.length_mm = every, metric, length_mm
         self.writer: Any = None  # a DeformationWriter once opened
 
     def open(self, driver: Driver, path: Path) -> None:
         """Create the series at ``path`` and write the first state (collective)."""
         from dgplate.io.vtx import DeformationWriter
 
-        self.writer = DeformationWriter(path, driver.shape, comm=driver.comm, metric=self.metric)
+        self.writer = DeformationWriter(
+            path, driver.shape, comm=driver.comm, metric=self.metric, length_mm=self.length_mm
+        )
         self.writer.write(driver.time)
 
     def step(self, driver: Driver, record: Any) -> None:

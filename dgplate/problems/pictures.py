@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Any
 
 from dgplate.models.base import Model
+from dgplate.problems.material import length_mm
 from dgplate.problems.observers import FrameWriter
 from dgplate.problems.specs import Problem
 from dgplate.solvers.driver import Driver
@@ -97,14 +98,13 @@ def _draw(
 
     if model.picture(driver, path, title):  # a model's own picture (a rod: a striped tube)
         return
-    material = problem.material
     plot_deformation(
         driver.shape,
         path,
         title=title,
         color_by=problem.output.color_by,
         lines=model.lines(driver),
-        length_mm=material.length * 1e3 if material else None,
+        length_mm=length_mm(problem.material),
         metric=model.metric,
         **options,
     )

@@ -13,6 +13,7 @@ from pathlib import Path
 from dgplate.io.output import CHECKPOINT
 from dgplate.io.progress import ProgressPrinter
 from dgplate.problems import pictures, report
+from dgplate.problems.material import length_mm
 from dgplate.problems.observers import Checkpoints, FrameWriter, SeriesWriter
 from dgplate.problems.pictures import FRAMES
 from dgplate.problems.prepare import Prepared
@@ -42,7 +43,8 @@ class RunObservers:
             (earlier_wall, wall0),
         )
         every, metric = problem.output.every, prepared.model.metric
-        self.series = SeriesWriter(every, metric) if problem.output.vtx else None
+        unit = length_mm(problem.material)
+        self.series = SeriesWriter(every, metric, unit) if problem.output.vtx else None
         self.frames: FrameWriter | None = pictures.frames(problem, prepared.model)
 
     @property

@@ -4,6 +4,7 @@ and the plate stiffness, and a run's physical figures in summary.json."""
 import json
 import tomllib
 
+import dolfinx.common
 import numpy as np
 import pytest
 from helpers import PROBLEMS
@@ -293,3 +294,14 @@ def test_a_rods_summary_has_its_energy_in_joules(tmp_path):
     assert physical["bbox_m"][1][0] == pytest.approx(summary["bbox"][1][0] * 0.1, rel=1e-14)
     with pytest.raises(InputError, match="a rod's run has a centreline, not a sheet"):
         export_solid(tmp_path / "rod", tmp_path / "rod.stl", 0.01)
+
+
+@pytest.mark.skipif(not dolfinx.common.has_adios2, reason="DOLFINx without ADIOS2")
+def test_the_vtx_series_is_in_millimetres(tmp_path):
+    """The shipped strip (one mesh unit = 10 mm) at 4×2: deformation.bp holds y in mm."""
+    sets = ["mesh.cells=[4,2]", "output.png=false", "output.progress=0", "flow.max_steps=3"]
+    result = run(load_problem(TIMOSHENKO, sets), out=tmp_path / "out")
+    assert result.shape is not None
+    y = result.shape.x.array
+    data = (tmp_path / "out" / "deformation.bp" / "data.0").read_bytes()
+    assert (10.0 * y).tobytes() in data and y.tobytes() not in data

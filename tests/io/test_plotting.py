@@ -247,6 +247,37 @@ def test_vtx_writer(comm, shared_dir, cell_type, degree):
 
 
 @pytest.mark.mpi
+@pytest.mark.skipif(not dolfinx.common.has_adios2, reason="DOLFINx without ADIOS2")
+def test_vtx_in_millimetres(comm, shared_dir):
+    """With a material's length (here 1 mesh unit = 10 mm): the mesh, y and u in mm and K in
+    1/mm² in the file, the mesh's own coordinates untouched after the write."""
+    y = rolled(comm, "quadrilateral")
+    y.interpolate(lambda x: np.vstack([x[0], x[1], 0.25 * (x[0] ** 2 + x[1] ** 2)]))  # K > 0
+    mesh = y.function_space.mesh
+    x = mesh.geometry.x.copy()
+    with DeformationWriter(shared_dir / "mm", y) as plain:
+        plain.write(0.0)
+    with DeformationWriter(shared_dir / "flow", y, length_mm=10.0) as writer:
+        writer.write(0.0)
+    assert mesh.geometry.x.tobytes() == x.tobytes()  # restored bit for bit
+    assert np.array_equal(writer.y_out.x.array, 10.0 * y.x.array)
+    assert np.array_equal(writer.u_out.x.array, 10.0 * plain.u_out.x.array)
+    (K,), (K_plain,) = ([f.function.x.array for f in w._cell_fields] for w in (writer, plain))
+    assert np.allclose(K, K_plain / 100.0, rtol=1e-14) and np.abs(K_plain).max() > 0.1
+    # VTX writes a DG field's nodes as its mesh: y's dof coordinates, here from the mesh in mm
+    space = writer.y_out.function_space
+    owned = space.dofmap.index_map.size_local
+    plain_nodes = space.tabulate_dof_coordinates()[:owned]
+    mesh.geometry.x[:] *= 10.0
+    nodes = space.tabulate_dof_coordinates()[:owned]
+    mesh.geometry.x[:] = x
+    comm.barrier()
+    data = b"".join(p.read_bytes() for p in sorted((shared_dir / "flow.bp").glob("data.*")))
+    assert nodes.tobytes() in data and plain_nodes.tobytes() not in data
+    assert writer.y_out.x.array[: 3 * owned].tobytes() in data
+
+
+@pytest.mark.mpi
 def test_xdmf_fallback(comm, shared_dir):
     y = rolled(comm, "triangle")
     cells = dolfinx.fem.Function(dolfinx.fem.functionspace(y.function_space.mesh, ("DG", 0)))
