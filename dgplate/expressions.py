@@ -1,7 +1,8 @@
 """Safe expressions of the reference coordinates, written in problem files.
 
 A problem file may give a load, a spontaneous curvature or a heat source as a formula in
-``x``, ``y`` (or ``x[0]``, ``x[1]``), ``t`` and named parameters, e.g. ``"0.1*sin(pi*x)"``. The
+``x``, ``y`` (or ``x[0]``, ``x[1]``), the polar ``r`` = √(x² + y²) and ``theta`` = atan2(y, x)
+(in (−π, π]), ``t`` and named parameters, e.g. ``"0.1*sin(pi*x)"``. The
 text is parsed with :mod:`ast` and only numbers, the names above, arithmetic, comparisons (as
 the condition of ``where``) and a fixed set of functions are accepted; nothing is ever passed to
 ``eval``. The result is a UFL expression, so it enters the forms exactly.
@@ -76,6 +77,14 @@ _COMPARE: dict[type[ast.cmpop], tuple[Callable[..., Value], Callable[..., Value]
     ast.GtE: (ufl.ge, np.greater_equal),
 }
 _CONSTANTS = {"pi": math.pi, "e": math.e}
+
+
+def _polar(x: Value, y: Value, numeric: bool) -> dict[str, Value]:
+    """The polar coordinates ``r`` and ``theta`` of (x, y): NumPy values, or UFL expressions."""
+    sqrt, atan2 = _FUNCTIONS["sqrt"], _FUNCTIONS["atan2"]
+    if numeric:
+        return {"r": sqrt.numpy(x * x + y * y), "theta": atan2.numpy(y, x)}
+    return {"r": sqrt.ufl(x * x + y * y), "theta": atan2.ufl(y, x)}
 
 
 def _shown(text: str) -> str:
@@ -240,7 +249,9 @@ class _Builder(ast.NodeVisitor):
     ):
         self.key, self.text, self.coords, self.numeric = key, text, coords, numeric
         self.shown = _shown(text)
-        self.symbols: dict[str, object] = {"x": coords[0], "y": coords[1], **_CONSTANTS, **names}
+        x, y = coords
+        polar = _polar(x, y, numeric)
+        self.symbols: dict[str, object] = {"x": x, "y": y, **polar, **_CONSTANTS, **names}
 
     def build(self) -> Value:
         """The formula's value: a UFL expression, NumPy values (``numeric``) or a constant."""
@@ -286,7 +297,7 @@ class _Builder(ast.NodeVisitor):
         return value
 
     def visit_Name(self, node: ast.Name) -> object:
-        """x, y, pi, e or a named parameter."""
+        """x, y, r, theta, pi, e or a named parameter."""
         if node.id not in self.symbols:
             known = ", ".join(sorted(self.symbols))
             raise InputError(

@@ -25,7 +25,7 @@ from dgplate.schema import option
 #: ``dgplate schema``'s line for ``model.metric``.
 HELP = (
     "target metric G of a prestrained plate, the constraint ∇yᵀ∇y = G instead of I "
-    "(docs/prestrain.md): {g11 = .., g12 = .., g22 = ..}, numbers or formulas in x, y; {} none"
+    "(docs/prestrain.md): {g11 = .., g12 = .., g22 = ..}, numbers or formulas in x, y (or r, theta); {} none"
 )
 
 
@@ -33,9 +33,9 @@ HELP = (
 class MetricSpec:
     """``model.metric``: the entries of the symmetric G (each a number or a formula in x, y)."""
 
-    g11: float | str = option(1.0, "G₁₁: a number or a formula in x, y")
-    g12: float | str = option(0.0, "G₁₂ = G₂₁: a number or a formula in x, y")
-    g22: float | str = option(1.0, "G₂₂: a number or a formula in x, y")
+    g11: float | str = option(1.0, "G₁₁: a number or a formula in x, y (or r, theta)")
+    g12: float | str = option(0.0, "G₁₂ = G₂₁: a number or a formula in x, y (or r, theta)")
+    g22: float | str = option(1.0, "G₂₂: a number or a formula in x, y (or r, theta)")
 
     def entries(self) -> dict[str, float | str]:
         """The three entries by name.

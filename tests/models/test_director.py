@@ -90,3 +90,18 @@ def test_azimuthal_defect_makes_the_cone_of_modes_bhattacharya_warner(tmp_path):
     for inner in (0.3, 0.5):
         phi = cone_half_angle(result.shape, inner)
         assert phi == pytest.approx(exact, rel=0.01)
+
+
+def test_formulas_take_polar_coordinates():
+    """r = √(x² + y²) and theta = atan2(y, x), in NumPy and in UFL alike."""
+    points = np.array([[0.5, 0.0], [0.0, 2.0], [-1.0, -1.0]])
+    r, theta = (expressions.evaluate(name, points, "k") for name in ("r", "theta"))
+    assert np.allclose(r, [0.5, 2.0, math.sqrt(2)], rtol=1e-15)
+    assert np.allclose(theta, [0.0, math.pi / 2, -3 * math.pi / 4], rtol=1e-15)
+    mesh = rectangle(MPI.COMM_WORLD, [[-1.0, 0.1], [1.0, 1.0]], [3, 2]).mesh
+    back = expressions.formula("(r*cos(theta) - x)**2 + (r*sin(theta) - y)**2", mesh, "k")
+    assert np.abs(cell_field(back, mesh)).max() < 1e-28
+    angle = expressions.formula("theta", mesh, "k")
+    assert np.allclose(
+        cell_field(angle, mesh), cell_field(expressions.formula("atan2(y, x)", mesh, "k"), mesh)
+    )
