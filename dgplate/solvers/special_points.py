@@ -97,10 +97,10 @@ class SpecialPoints:
         :data:`ROUNDOFF` · ε · ‖K‖_∞ of 0 (‖K‖_∞ ≥ ‖K‖₂, K symmetric) is 0, the root.
         """
         negative = self.engine.index()
-        pairs, size = self._eigenpairs()
+        pairs, norm = self._eigenpairs()
         try:
             values = pairs.values
-            if len(values) and np.abs(values).min() <= ROUNDOFF * np.finfo(float).eps * size:
+            if len(values) and np.abs(values).min() <= ROUNDOFF * np.finfo(float).eps * norm:
                 return 0.0
             below, above = values[values < 0], values[values >= 0]
             nearest = below[-1:] if negative >= k else above[:1]
