@@ -2,7 +2,8 @@
 
 A problem file may give a load, a spontaneous curvature or a heat source as a formula in
 ``x``, ``y`` (or ``x[0]``, ``x[1]``), the polar ``r`` = √(x² + y²) and ``theta`` = atan2(y, x)
-(in (−π, π]), ``t`` and named parameters, e.g. ``"0.1*sin(pi*x)"``. The
+(in [−π, π]: a formula in ``theta`` should be 2π-periodic, as theta jumps across the negative
+x axis), ``t`` and named parameters, e.g. ``"0.1*sin(pi*x)"``. The
 text is parsed with :mod:`ast` and only numbers, the names above, arithmetic, comparisons (as
 the condition of ``where``) and a fixed set of functions are accepted; nothing is ever passed to
 ``eval``. The result is a UFL expression, so it enters the forms exactly.

@@ -26,7 +26,7 @@ from dgplate.models.metric import MetricSpec
 HELP = (
     "director of a liquid-crystal elastomer, its target metric G = R(θ) diag(λ², λ^(-2ν)) R(θ)ᵀ "
     "in place of model.metric (docs/prestrain.md): {angle = θ (radians from the x axis, a "
-    "number or a formula in x, y, or r, theta), lambda = λ > 0 (contraction along the director), nu = ν "
+    "number or a formula in x, y (or r, theta)), lambda = λ > 0 (contraction along the director), nu = ν "
     "(0.5)}; {} none"
 )
 

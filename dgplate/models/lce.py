@@ -68,7 +68,7 @@ class LCESpec(KirchhoffSpec):
     )
     theta: float | str = option(
         0.0,
-        "director angle θ in radians from the x axis: a number or a formula in x, y; the eigenvalue −γ of A is along (cos θ, sin θ)",
+        "director angle θ in radians from the x axis: a number or a formula in x, y (or r, theta); the eigenvalue −γ of A is along (cos θ, sin θ)",
     )
 
     def __post_init__(self) -> None:
