@@ -6,7 +6,9 @@ cells, the energy E_h and its error against the cap's, E_h of the interpolated c
 through the nodal values and its error, the metric start (stretching steps, projections, its
 D_h and time), the flow's steps, K_h against K = 1/R² (summary.json's metric_gauss_curvature)
 and the wall time. The observed orders take the mesh size as
-(cells)^(-1/2) (the polar mesh's h is a target, not the cells' size).
+(cells)^(-1/2) (the polar mesh's h is a target, not the cells' size). Each level is run twice:
+with the problem file's Gauss-curvature penalty (``model.gauss_penalty``), and without it
+(``without_gauss``: the energy, radius and K_h figures and the wall time).
 
     python benchmarks/spherical_cap.py [--h 0.2 0.1 0.05 0.025] [--json …]
     python benchmarks/spherical_cap.py --table-only [--json …] [--page docs/prestrain.md]
@@ -44,31 +46,49 @@ BEGIN, END = "<!-- spherical_cap:begin -->", "<!-- spherical_cap:end -->"
 RADIUS = 2.0
 
 
-def one_level(comm: MPI.Comm, h: float) -> dict[str, Any]:
-    """The disc at ``mesh.parameters.h = h``: its figures (module docstring).
+#: The comparison run of each level: the file's problem without the Gauss-curvature penalty.
+WITHOUT_GAUSS = {"model.gauss_penalty": 0.0}
 
-    The run's outputs go to a temporary folder, removed afterwards.
+
+def one_level(comm: MPI.Comm, h: float) -> dict[str, Any]:
+    """The disc at ``mesh.parameters.h = h``: its figures, and those without the penalty.
+
+    Args:
+        comm: the runs' communicator (collective).
+        h: the mesh size ``mesh.parameters.h``.
+
+    Returns:
+        The figures of the module docstring; ``without_gauss`` those of the run with
+        ``model.gauss_penalty = 0`` (no interpolant, no metric start).
     """
+    record = _measure(comm, h)
+    baseline = _measure(comm, h, WITHOUT_GAUSS, interpolant=False)
+    record["without_gauss"] = {
+        key: baseline[key]
+        for key in ("converged", "steps", "energy", "energy_error", "radius_error", "wall_s")
+    }
+    record["without_gauss"]["gauss"] = baseline["gauss"]
+    return record
+
+
+def _measure(
+    comm: MPI.Comm, h: float, settings: dict[str, Any] | None = None, interpolant: bool = True
+) -> dict[str, Any]:
+    """The figures of one run, its outputs in a temporary folder, removed afterwards."""
+    overrides = {"mesh.parameters.h": h, "output.vtx": False, "output.png": False}
+    problem = load_problem(PROBLEM, {**overrides, "output.progress": 0, **(settings or {})})
     folder = comm.bcast(tempfile.mkdtemp(prefix="cap_") if comm.rank == 0 else None, root=0)
     try:
-        return _measure(comm, h, Path(folder))
+        t0 = time.perf_counter()
+        result = run_problem(problem, Path(folder) / "run", comm, allow_large=True)
+        wall = time.perf_counter() - t0
     finally:
         comm.barrier()  # every rank is done with the folder
         if comm.rank == 0:
             shutil.rmtree(folder, ignore_errors=True)
-
-
-def _measure(comm: MPI.Comm, h: float, folder: Path) -> dict[str, Any]:
-    """The figures of one level, its run's outputs written under ``folder``."""
-    overrides = {"mesh.parameters.h": h, "output.vtx": False, "output.png": False}
-    problem = load_problem(PROBLEM, {**overrides, "output.progress": 0})
-    t0 = time.perf_counter()
-    result = run_problem(problem, folder / "run", comm, allow_large=True)
-    wall = time.perf_counter() - t0
     assert result.shape is not None  # a plate's run keeps its deformation
     fit = fit_sphere(result.shape)
     s, exact = result.summary, energy(RADIUS)
-    interpolant = cap_energy(problem, comm)
     return {
         "h": h,
         "cells": s["cells"],
@@ -76,7 +96,7 @@ def _measure(comm: MPI.Comm, h: float, folder: Path) -> dict[str, Any]:
         "steps": s["steps"],
         "energy": s["energy"],
         "energy_error": (s["energy"] - exact) / exact,
-        "interpolant_energy": interpolant,
+        "interpolant_energy": cap_energy(problem, comm) if interpolant else None,
         "radius": fit["radius"],
         "radius_error": (fit["radius"] - RADIUS) / RADIUS,
         "rms": fit["rms"],
@@ -106,10 +126,16 @@ def _order(errors: list[float], cells: list[int], i: int) -> str:
 
 
 def table(record: dict[str, Any]) -> str:
-    """The Markdown table of a record: one row per level."""
+    """The Markdown tables of a record: one row per level, with and without the penalty."""
+    return "\n\n".join([_main_table(record), _comparison_table(record)])
+
+
+def _main_table(record: dict[str, Any]) -> str:
+    """The levels with the file's settings: radius, energy, metric start, K_h, time."""
     levels = record["levels"]
     cells = [level["cells"] for level in levels]
     radius = [level["radius_error"] for level in levels]
+    energies = [level["energy_error"] for level in levels]
     rows = []
     for i, level in enumerate(levels):
         start = level["metric_start"]
@@ -117,7 +143,7 @@ def table(record: dict[str, Any]) -> str:
             f"| {level['h']:g} | {level['cells']} | {level['radius']:.6f} "
             f"| {level['radius_error']:+.2e} | {_order(radius, cells, i)} "
             f"| {level['energy']:.6f} | {level['energy_error']:+.2%} "
-            f"| {level['interpolant_energy']:.6f} "
+            f"| {_order(energies, cells, i)} | {level['interpolant_energy']:.6f} "
             f"| {start['stretching_steps']} + {start['projection_steps']} "
             f"| {start['defect']:.1e} | {start['seconds']:.1f} | {level['steps']} "
             f"| {level['gauss']['mean']:.4f} | {level['gauss']['error_mean']:.4f} "
@@ -126,6 +152,7 @@ def table(record: dict[str, Any]) -> str:
     return "\n".join(
         [
             f"The disc with the metric of a sphere of radius 2, P2 on `polar_disc.geo`, "
+            f"Gauss-curvature penalty β = {record['gauss_penalty']:g}, "
             f"{record['ranks']} rank(s) (`benchmarks/spherical_cap.py`, "
             f"`benchmarks/results/spherical_cap.json`); exact E = {record['exact_energy']:.6f}. "
             "Start: stretching steps + projections of the metric start, its D_h and seconds; "
@@ -133,9 +160,35 @@ def table(record: dict[str, Any]) -> str:
             "interpolated; K_h: the area-weighted mean of the cell-wise K_h, the mean and the "
             "largest |K_h − K| (K = 1/4).",
             "",
-            "| h | cells | radius | error | order | E_h | error | I_h cap | start | D_h "
+            "| h | cells | radius | error | order | E_h | error | order | I_h cap | start | D_h "
             "| start s | flow steps | K_h | mean err | max err | wall s |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+            *rows,
+        ]
+    )
+
+
+def _comparison_table(record: dict[str, Any]) -> str:
+    """The levels with β against β = 0: energy and radius errors, largest |K_h − K|, time."""
+    beta = f"{record['gauss_penalty']:g}"
+    rows = []
+    for level in record["levels"]:
+        plain = level["without_gauss"]
+        rows.append(
+            f"| {level['h']:g} | {plain['energy_error']:+.2%} | {level['energy_error']:+.2%} "
+            f"| {plain['radius_error']:+.2e} | {level['radius_error']:+.2e} "
+            f"| {plain['gauss']['error_max']:.3f} | {level['gauss']['error_max']:.3f} "
+            f"| {plain['wall_s']:.1f} | {level['wall_s']:.1f} |"
+        )
+    return "\n".join(
+        [
+            f"The same levels without the Gauss-curvature penalty (β = 0) and with it "
+            f"(β = {beta}): the errors of E_h and of the fitted radius, the largest |K_h − K| "
+            "and the wall time.",
+            "",
+            f"| h | E_h error, β = 0 | β = {beta} | radius error, β = 0 | β = {beta} "
+            f"| max K_h error, β = 0 | β = {beta} | wall s, β = 0 | β = {beta} |",
+            "|---|---|---|---|---|---|---|---|---|",
             *rows,
         ]
     )
@@ -150,7 +203,13 @@ def main(argv: list[str]) -> None:
     record: dict[str, Any] | None = None
     if not args.table_only:
         levels = run_levels(comm, args.h, one_level)
-        record = {"ranks": comm.size, "exact_energy": energy(RADIUS), "levels": levels}
+        beta = load_problem(PROBLEM).model.gauss_penalty
+        record = {
+            "ranks": comm.size,
+            "exact_energy": energy(RADIUS),
+            "gauss_penalty": beta,
+            "levels": levels,
+        }
     publish(comm, args, record, (BEGIN, END), table)
 
 

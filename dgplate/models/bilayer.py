@@ -36,6 +36,7 @@ from dgplate.dg.forms import (
     distributional_hessian,
     facet_sets,
 )
+from dgplate.dg.gauss_penalty import gauss_penalty
 from dgplate.dg.geometry import second_fundamental_form, unit_normal
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
@@ -74,21 +75,6 @@ def curvature_coupling(
         coupling: ufl.Form = -distributional_hessian(y, T, facets, g, Phi, degree)
         return coupling
     form: ufl.Form = -ufl.inner(ufl.grad(ufl.grad(y)), T) * cell_measure(facets.mesh, degree)
-    return form
-
-
-def gauss_penalty(y: Expr, facets: FacetSets, beta: float, degree: int | None = None) -> ufl.Form:
-    """(β/2) Σ_T h_T⁻¹ ∫_T K², K = det II(y) the Gauss curvature of the deformed plate (broken).
-
-    Every isometry of a flat plate has K = 0 (Theorema Egregium), so the term vanishes on the
-    exact solutions: it is consistent. It prices the doubly curved states that a constraint
-    imposed on cell moments leaves free (the one-cell layer along a free edge, docs/bilayer.md);
-    the weight h⁻¹ makes the price grow under refinement.
-    """
-    II = second_fundamental_form(y)
-    K = II[0, 0] * II[1, 1] - II[0, 1] * II[1, 0]
-    weight = values.constant(facets.mesh, beta) / facets.h
-    form: ufl.Form = 0.5 * weight * K**2 * cell_measure(facets.mesh, degree)
     return form
 
 
@@ -182,11 +168,6 @@ class BilayerSpec(KirchhoffSpec):
     )
     consistent: bool = option(
         True, "include the face terms of the distributional Hessian in the Z coupling"
-    )
-    gauss_penalty: float = option(
-        0.0,
-        "β: add (β/2)Σ_T h⁻¹∫_T K² (K: Gauss curvature, zero for isometries) against doubly curved free-edge layers",
-        ge=0,
     )
 
     def __post_init__(self) -> None:

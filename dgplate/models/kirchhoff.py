@@ -7,7 +7,7 @@ energy: the gradient flow imposes its linearisation (:mod:`dgplate.solvers.const
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar, Literal, Unpack
 
 from mpi4py import MPI
@@ -28,6 +28,7 @@ from dgplate.dg.forms import (
     bending_energy,
     facet_sets,
 )
+from dgplate.dg.gauss_penalty import gauss_penalty
 from dgplate.dg.lifting import HESSIAN_HELP, HESSIANS, ldg_energy
 from dgplate.dg.obstacle_penalty import Obstacle
 from dgplate.dg.self_avoidance import SelfAvoidance
@@ -93,6 +94,11 @@ class KirchhoffSpec:
     penalty: Penalty = option(Penalty(), "IP penalties γ₀ (h⁻³[y]) and γ₁ (h⁻ᵖ[∇y])")
     penalty_length: str = option("diameter", PENALTY_LENGTH_HELP, choices=PENALTY_LENGTHS)
     hessian: str = option("broken", HESSIAN_HELP, choices=HESSIANS)
+    gauss_penalty: float = option(
+        0.0,
+        "β: add (β/2)Σ_T h⁻¹∫_T (det II − K det G)² (K: the Gauss curvature of the target metric G; K = 0, G = I without one) against the free-edge layers of the cell-moment constraint (docs/prestrain.md); 0: none",
+        ge=0,
+    )
     continuation: MovingClampSpec | None = option(
         None,
         "move the clamped data along α ∈ (0, 1] (docs/continuation.md): {} none. Path: boundary_data formulas in x, y, alpha, else (1 − α)·id + α·g",
@@ -195,7 +201,12 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
         data["metric"] = metric
 
     def energy_fn(y: Function) -> Energy:
-        return kirchhoff_energy(y, facets, penalty, load, spec.ldg_degree, **data)
+        energy = kirchhoff_energy(y, facets, penalty, load, spec.ldg_degree, **data)
+        if spec.gauss_penalty > 0:
+            degree = 3 * spec.degree + 2
+            gauss = gauss_penalty(y, facets, spec.gauss_penalty, degree, metric)
+            energy = replace(energy, explicit=gauss)
+        return energy
 
     plate = PlateModel(facets, spec.degree, energy_fn, continuation=path, metric=metric)
     return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)

@@ -106,7 +106,17 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
 
     def energy_fn(y: Function) -> Energy:
         return bilayer_energy(
-            y, facets, penalty, A, mu, load, g, Phi, degree=degree, ldg_degree=spec.ldg_degree
+            y,
+            facets,
+            penalty,
+            A,
+            mu,
+            load,
+            g,
+            Phi,
+            degree=degree,
+            gauss=spec.gauss_penalty,
+            ldg_degree=spec.ldg_degree,
         )
 
     def lower_bound(y: Function) -> dict[str, Any]:

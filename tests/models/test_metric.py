@@ -21,7 +21,8 @@ import ufl
 from helpers import PROBLEMS, QUIET, ROOT, mpirun
 
 from dgplate import expressions, interrupt, load_problem, run
-from dgplate.dg.forms import hessian, metric_weighted
+from dgplate.dg.forms import facet_sets, hessian, metric_weighted
+from dgplate.dg.gauss_penalty import gauss_penalty
 from dgplate.dg.geometry import metric_gauss_curvature
 from dgplate.errors import InputError
 from dgplate.io.vtx import bp_variables
@@ -91,13 +92,14 @@ def spherical_run(h, tmp_path):
 
 
 def test_spherical_cap_from_the_flat_disc(tmp_path):
-    """The disc under the sphere's metric becomes the cap: radius and energy converge.
+    """The disc under the sphere's metric becomes the cap: radius, energy and K_h converge.
 
-    Measured (h = 0.2, 0.1: 256 and 736 cells): radius 2.00205, 2.00075 (errors 1.0e-3,
-    3.8e-4); E_h 0.91348, 0.82842 against 0.81938 (+11.5 %, +1.1 %); the metric start takes
-    7 stretching steps and 4 projections to D_h ~ 1e-14. K of G is 1/4 to 1e-14; the cell-wise
-    K_h of the discrete minimiser does not converge: mean |K_h − K| 0.0148, 0.0180 (0.0204 at
-    h = 0.05), mean K_h 0.2385, 0.2356, the largest errors at the free edge.
+    The file's Gauss-curvature penalty β = 10. Measured (h = 0.2, 0.1: 256 and 736 cells):
+    radius 2.00127, 2.00028 (errors 6.4e-4, 1.4e-4); E_h 0.92652, 0.84896 against 0.81938
+    (+13.1 %, +3.6 %, from above like the interpolated cap's); the metric start takes 7
+    stretching steps and 4 projections to D_h ~ 1e-14. K of G is 1/4 to 1e-14; mean K_h
+    0.2449, 0.2474, the largest |K_h − K| 0.019, 0.014. Without the penalty the cells along the
+    free edge flatten: largest |K_h − K| 0.046, 0.094, radius errors 1.0e-3, 3.8e-4.
     """
     exact = spherical_cap.energy(2.0)
     radius_errors, energy_errors = [], []
@@ -113,11 +115,38 @@ def test_spherical_cap_from_the_flat_disc(tmp_path):
         gauss = result["metric_gauss_curvature"]
         assert gauss["target_min"] == pytest.approx(0.25, abs=1e-12)
         assert gauss["target_max"] == pytest.approx(0.25, abs=1e-12)
-        assert gauss["mean"] == pytest.approx(0.25, abs=0.02) and gauss["error_mean"] < 0.02
-        energy_errors.append(abs(result["energy"] - exact) / exact)
-    assert radius_errors[0] < 1.5e-3 and radius_errors[1] < 5e-4
-    assert energy_errors[0] < 0.12 and energy_errors[1] < 0.015
-    assert radius_errors[1] < radius_errors[0] / 2 and energy_errors[1] < energy_errors[0] / 5
+        assert gauss["mean"] == pytest.approx(0.25, abs=0.01) and gauss["error_max"] < 0.025
+        energy_errors.append((result["energy"] - exact) / exact)
+    assert radius_errors[0] < 8e-4 and radius_errors[1] < 2e-4
+    assert 0 < energy_errors[1] < 0.04 and energy_errors[0] < 0.14
+    assert radius_errors[1] < radius_errors[0] / 3 and energy_errors[1] < energy_errors[0] / 3
+
+
+def test_gauss_penalty_measures_det_II_against_K_det_G():
+    """(β/2)Σ h⁻¹∫(det II − K det G)² with G of the paraboloid z = |x|²/2: zero on it.
+
+    G = I + x⊗x, K = (1 + r²)⁻², det G = 1 + r²: the paraboloid meets det II = K det G
+    pointwise; the flat plate has det II = 0 and pays (β/2h)∫(1 + r²)⁻², the paraboloid's
+    price without a metric (G = I, K = 0).
+    """
+    tagged = rectangle(MPI.COMM_WORLD, [[0, 0], [1, 1]], [4, 4])
+    facets = facet_sets(tagged)
+    metric = target_metric(MetricSpec(g11="1 + x*x", g12="x*y", g22="1 + y*y"), tagged.mesh)
+    x = ufl.SpatialCoordinate(tagged.mesh)
+    flat = ufl.as_vector([x[0], x[1], 0.0 * x[0]])
+    dome = ufl.as_vector([x[0], x[1], 0.5 * (x[0] ** 2 + x[1] ** 2)])
+
+    def value(y, G):
+        form = dolfinx.fem.form(gauss_penalty(y, facets, 3.0, 12, G))
+        return tagged.mesh.comm.allreduce(dolfinx.fem.assemble_scalar(form))
+
+    points, weights = np.polynomial.legendre.leggauss(40)
+    s, w = 0.5 * (points + 1), 0.5 * weights  # on (0, 1)
+    exact = np.einsum("i,j,ij", w, w, (1 + s[:, None] ** 2 + s[None, :] ** 2) ** -2.0)
+    h = np.sqrt(2) / 4  # the cell diameter
+    assert abs(value(dome, metric)) < 1e-14
+    assert value(flat, metric) == pytest.approx(1.5 / h * exact, rel=1e-6)
+    assert value(dome, None) == pytest.approx(value(flat, metric), rel=1e-10)
 
 
 def test_the_metric_start_says_its_line_in_the_progress_output(tmp_path, capsys):
@@ -206,9 +235,9 @@ def test_a_resumed_run_keeps_its_metric_start(tmp_path):
     first = run(problem, out=out)
     assert not first["converged"] and first["steps"] == 3
     resumed = run(load_problem(SPHERICAL, QUIET), out=out, resume=True)
-    assert resumed["converged"] and resumed["steps"] == 7
+    assert resumed["converged"] and resumed["steps"] == 6
     assert resumed["metric_start"] == first["metric_start"]
-    assert resumed["energy"] == pytest.approx(0.91348334913985, abs=1e-10)
+    assert resumed["energy"] == pytest.approx(0.92652107375472, abs=1e-10)
 
 
 def test_a_failed_metric_start_ends_the_run_with_a_summary(tmp_path, monkeypatch, capsys):
