@@ -83,7 +83,7 @@
 #
 # Run: `python demos/spherical_cap.py` (h = 0.1, about 15 s), `--h 0.05` to choose the
 # mesh size (`mesh.parameters.h`), `--paper` for the levels of `benchmarks/spherical_cap.py`,
-# h = 0.2, 0.1, 0.05, 0.025 (minutes). Under MPI: `mpirun -n 2 python demos/spherical_cap.py`.
+# h = 0.2, 0.1, 0.05, 0.025 (about 3 minutes). Under MPI: `mpirun -n 2 python demos/spherical_cap.py`.
 # Output: `out/spherical_cap/` (VTX, final.png, summary.json; one subfolder per level with
 # `--paper`).
 
@@ -120,7 +120,10 @@ rows = []
 for h in levels:
     problem = dgplate.load_problem(PROBLEM, overrides={"mesh.parameters.h": h})
     subfolder = [] if len(levels) == 1 else [f"h{h:g}"]
-    result = demo.run(problem, args, *subfolder)
+    # The size guard's estimate of this mesh (gmsh's, scaled from a coarse mesh) is far above
+    # its real size (3.6 million cells for the 2528 at h = 0.05): the measured levels, at most
+    # 10,080 cells, run without it; a finer --h keeps it.
+    result = demo.run(problem, args, *subfolder, allow_large=h >= min(PAPER))
     fit = fit_sphere(result.shape)  # a finished run reused by --resume has its y back too
     rows.append((h, result.summary, fit))
 demo.copy_figure(Path(args.out, *subfolder), args.figure)
