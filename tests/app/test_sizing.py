@@ -106,3 +106,21 @@ def test_allow_large_lifts_the_degree_limit():
     with pytest.raises(InputError, match=f"^model.degree = {sizing.MAX_DEGREE + 1} is above"):
         sizing.check_degree(problem.model, allow_large=False)
     sizing.check_degree(problem.model, allow_large=True)
+
+
+@pytest.mark.parametrize(
+    ("name", "h", "rel"),
+    # the hole's curves coarsen with the size factor; the polar disc's cells are transfinite
+    # surfaces (its own coarse mesh: exact), whose estimate was 3.6 million cells for 2528
+    [("plate_with_hole", 0.05, 0.05), ("polar_disc", 0.05, 0.0)],
+)
+def test_geo_size_estimates_the_cells_that_load_geo_makes(name, h, rel):
+    from mpi4py import MPI
+
+    from dgplate.mesh.tagged import geo_size, load_geo
+
+    comm = MPI.COMM_WORLD
+    estimate = geo_size(comm, name, {"h": h}, None)
+    mesh = load_geo(comm, name, {"h": h}).mesh
+    cells = mesh.topology.index_map(2).size_global
+    assert estimate is not None and estimate[0] == pytest.approx(cells, rel=rel)
