@@ -120,10 +120,7 @@ rows = []
 for h in levels:
     problem = dgplate.load_problem(PROBLEM, overrides={"mesh.parameters.h": h})
     subfolder = [] if len(levels) == 1 else [f"h{h:g}"]
-    # The size guard's estimate of this mesh (gmsh's, scaled from a coarse mesh) is far above
-    # its real size (3.6 million cells for the 2528 at h = 0.05): the measured levels, at most
-    # 10,080 cells, run without it; a finer --h keeps it.
-    result = demo.run(problem, args, *subfolder, allow_large=h >= min(PAPER))
+    result = demo.run(problem, args, *subfolder)
     fit = fit_sphere(result.shape)  # a finished run reused by --resume has its y back too
     rows.append((h, result.summary, fit))
 demo.copy_figure(Path(args.out, *subfolder), args.figure)
