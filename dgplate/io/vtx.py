@@ -4,11 +4,10 @@
 "Warp By Vector" on u shows the deformed plate) as DG fields of y's degree and, for a plate,
 the Gaussian curvature ``gauss_curvature`` of the deformed surface per cell (with a target
 metric G also ``target_gauss_curvature``, that of G). With a ``[material]`` (``length_mm``) the
-mesh, y and u are written in millimetres and the curvatures in 1/mm², the units of the run's
-pictures. VTX takes DG
-fields of any degree, but one writer needs one element for all its functions, so extra
-functions on other elements (a P1 temperature, a DG0 cell field) go to their own ``.bp``
-files next to the main one. XDMF stores only fields of the mesh's geometry degree: there
+mesh, y and u are written in millimetres and the curvatures in 1/mm², the units of a plate's
+pictures' colours and of ``dgplate export``'s solids. VTX takes DG fields of any degree, but
+one writer needs one element for all its functions, so extra functions on other elements (a P1
+temperature, a DG0 cell field) go to their own ``.bp`` files next to the main one. XDMF stores only fields of the mesh's geometry degree: there
 everything is interpolated into P1 (DG0 fields stay cell data).
 """
 
@@ -156,7 +155,10 @@ class DeformationWriter:
 
     # -- output -----------------------------------------------------------------------------
     def _update(self) -> None:
-        """Bring the written copies up to date with y and the extras."""
+        """Bring the written copies up to date with y and the extras (in mm with ``length_mm``).
+
+        Never inside :meth:`_geometry_in_mm`: the curvature fields depend on the coordinates.
+        """
         if self._copy:
             self.y_out.x.array[:] = self.y.x.array
         else:
@@ -179,7 +181,7 @@ class DeformationWriter:
             raise RuntimeError("DeformationWriter.write after close()")
         self._update()
         if self.backend == "vtx":
-            with self._geometry_in_mm():  # VTX writes the mesh at its first step
+            with self._geometry_in_mm():  # the mesh is written at the first step (DG0: each)
                 for writer in self._writers:
                     writer.write(float(t))
             return

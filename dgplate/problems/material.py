@@ -111,6 +111,11 @@ class Material:
     curvature: float = 0.0
     torsion: float | None = None
 
+    @property
+    def length_mm(self) -> float:
+        """L in mm: the length unit of a run's pictures, VTX series and solids."""
+        return self.length * 1e3
+
     def model_keys(self, model: str) -> dict[str, Any]:
         """The [model] keys the material gives the model ``model`` (Z; a rod's c_b, c_t)."""
         if self.torsion is not None:
@@ -154,7 +159,7 @@ class Material:
         fit = summary.get("cylinder_fit")
         if fit:
             figures["cylinder_radius_m"] = fit["radius"] * L
-            figures["cylinder_radius_mm"] = fit["radius"] * L * 1e3
+            figures["cylinder_radius_mm"] = fit["radius"] * self.length_mm
         curvatures = summary.get("principal_curvatures")
         if curvatures:
             figures["principal_curvatures_1_per_m"] = {k: v / L for k, v in curvatures.items()}
@@ -170,7 +175,7 @@ def length_mm(material: Material | None) -> float | None:
     Returns:
         1000 L, or None without a material (the outputs keep the mesh's units).
     """
-    return material.length * 1e3 if material is not None else None
+    return material.length_mm if material is not None else None
 
 
 def with_material(data: Mapping[str, Any]) -> tuple[Material | None, object]:

@@ -157,7 +157,7 @@ def _surface(folder: str | Path, comm: MPI.Comm) -> tuple[Any, float, float | No
     surface = solid.mid_surface(result.shape)
     if material is None:
         return surface, 1.0, None
-    scale = material.length * 1e3
+    scale = material.length_mm
     if surface is not None:
         surface = (surface[0] * scale, surface[1])
     return surface, scale, material.thickness / material.length

@@ -304,3 +304,29 @@ def test_lce_cone_page_is_generated(tmp_path):
     assert [level["h"] for level in levels] == [0.2, 0.1, 0.05]
     assert all(level["converged"] and level["metric_start"]["defect"] <= 1e-10 for level in levels)
     assert all(abs(level["half_angle_error"]["0.3"]) < 0.01 for level in levels)
+
+
+def test_timoshenko_cases_with_l_equal_r_are_one_problem():
+    """Equal layers and the 1:3, 1:5 layers on strips 2R × R: both Z = 1, the same run (8×4)."""
+    timoshenko = load_benchmark("timoshenko")
+    equal, unequal = (timoshenko.one_level(MPI.COMM_WORLD, c, 4) for c in ("equal", "thick_stiff"))
+    assert equal["Z"] == pytest.approx(1.0, rel=1e-14) and unequal["Z"] == pytest.approx(1.0)
+    assert unequal["steps"] == equal["steps"]
+    for key in ("radius_error", "energy_error"):
+        assert unequal[key] == pytest.approx(equal[key], abs=1e-9), key
+    assert unequal["radius_mm"] / timoshenko.radius("thick_stiff") / 1e3 - 1 == pytest.approx(
+        unequal["radius_error"], abs=1e-12
+    )
+
+
+def test_timoshenko_page_is_generated(tmp_path):
+    """docs/units.md's table is what --table-only writes from timoshenko.json; at the finest
+    level the Z = 1 strips curl to Timoshenko's radius within 0.5 % (issue acceptance)."""
+    assert_page_is_generated("timoshenko", BENCH.parent / "docs" / "units.md", tmp_path)
+    record = json.loads((BENCH / "results" / "timoshenko.json").read_text())
+    for name in ("equal", "thick_stiff"):
+        levels = record["cases"][name]["levels"]
+        assert [level["cells"] for level in levels] == [[16, 8], [32, 16], [64, 32]]
+        errors = [abs(level["radius_error"]) for level in levels]
+        assert errors == sorted(errors, reverse=True) and errors[-1] <= 5e-3, name
+        assert all(level["converged"] for level in levels)

@@ -298,7 +298,8 @@ def test_a_rods_summary_has_its_energy_in_joules(tmp_path):
 
 @pytest.mark.skipif(not dolfinx.common.has_adios2, reason="DOLFINx without ADIOS2")
 def test_the_vtx_series_is_in_millimetres(tmp_path):
-    """The shipped strip (one mesh unit = 10 mm) at 4×2: deformation.bp holds y in mm."""
+    """The shipped strip (one mesh unit = 10 mm) at 4×2: deformation.bp holds y in mm (serial:
+    the whole array is this rank's, in data.0)."""
     sets = ["mesh.cells=[4,2]", "output.png=false", "output.progress=0", "flow.max_steps=3"]
     result = run(load_problem(TIMOSHENKO, sets), out=tmp_path / "out")
     assert result.shape is not None

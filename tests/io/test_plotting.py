@@ -255,15 +255,15 @@ def test_vtx_in_millimetres(comm, shared_dir):
     y.interpolate(lambda x: np.vstack([x[0], x[1], 0.25 * (x[0] ** 2 + x[1] ** 2)]))  # K > 0
     mesh = y.function_space.mesh
     x = mesh.geometry.x.copy()
-    with DeformationWriter(shared_dir / "mm", y) as plain:
+    with DeformationWriter(shared_dir / "plain", y) as plain:
         plain.write(0.0)
-    with DeformationWriter(shared_dir / "flow", y, length_mm=10.0) as writer:
+    with DeformationWriter(shared_dir / "mm", y, length_mm=10.0) as writer:
         writer.write(0.0)
     assert mesh.geometry.x.tobytes() == x.tobytes()  # restored bit for bit
     assert np.array_equal(writer.y_out.x.array, 10.0 * y.x.array)
     assert np.array_equal(writer.u_out.x.array, 10.0 * plain.u_out.x.array)
     (K,), (K_plain,) = ([f.function.x.array for f in w._cell_fields] for w in (writer, plain))
-    assert np.allclose(K, K_plain / 100.0, rtol=1e-14) and np.abs(K_plain).max() > 0.1
+    assert np.allclose(K, K_plain / 100.0, rtol=1e-14, atol=0) and np.abs(K_plain).max() > 0.1
     # VTX writes a DG field's nodes as its mesh: y's dof coordinates, here from the mesh in mm
     space = writer.y_out.function_space
     owned = space.dofmap.index_map.size_local
@@ -272,7 +272,7 @@ def test_vtx_in_millimetres(comm, shared_dir):
     nodes = space.tabulate_dof_coordinates()[:owned]
     mesh.geometry.x[:] = x
     comm.barrier()
-    data = b"".join(p.read_bytes() for p in sorted((shared_dir / "flow.bp").glob("data.*")))
+    data = b"".join(p.read_bytes() for p in sorted((shared_dir / "mm.bp").glob("data.*")))
     assert nodes.tobytes() in data and plain_nodes.tobytes() not in data
     assert writer.y_out.x.array[: 3 * owned].tobytes() in data
 
@@ -293,3 +293,19 @@ def test_xdmf_fallback(comm, shared_dir):
     assert all(name in text for name in names)
     with pytest.raises(InputError, match="unique"):
         DeformationWriter(shared_dir / "x", y, [writer.y_out])
+
+
+@pytest.mark.mpi
+def test_xdmf_in_millimetres(comm, shared_dir):
+    """The XDMF fallback with a material's length: its mesh (in the .h5) and y in mm."""
+    y = rolled(comm, "triangle")
+    mesh = y.function_space.mesh
+    x = mesh.geometry.x.copy()
+    with DeformationWriter(shared_dir / "mm", y, backend="xdmf", length_mm=10.0) as writer:
+        writer.write(0.0)
+    assert mesh.geometry.x.tobytes() == x.tobytes()  # restored bit for bit
+    comm.barrier()
+    data = (shared_dir / "mm.h5").read_bytes()
+    nodes = x[: mesh.geometry.index_map().size_local, : mesh.geometry.dim]  # as XDMF stores them
+    assert (10.0 * nodes).tobytes() in data and nodes.tobytes() not in data
+    assert np.allclose(writer.y_out.x.array.reshape(-1, 3)[:, 2].max(), 10 * y.x.array[2::3].max())
