@@ -272,8 +272,8 @@ def geo_size(
 
     gmsh meshes the curves (their nodes grow like 1/h only), then the surfaces with every size
     scaled by f = curve nodes / :data:`ESTIMATE_NODES` where that is > 1: the cells grow like
-    1/h², so the estimate is f² times those of the coarse mesh (exact for f = 1), f measured as
-    how much the curves' nodes fell (1 for transfinite curves, which keep theirs). None when
+    1/h², so the estimate is f² times those of the coarse mesh (exact for f = 1). A geometry
+    whose curves all keep their nodes (transfinite) is meshed as it is: exact, not cheap. None when
     gmsh fails: :func:`load_geo` reports why. Collective (gmsh runs on rank 0).
     """
     path = resolve_geo(name)
@@ -313,10 +313,12 @@ def _coarse_count(
     gmsh.option.setNumber("Mesh.MeshSizeFactor", scale * factor)
     gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 0)  # not Blossom: as many, quicker
     gmsh.model.mesh.generate(1)
-    # the curves' coarsening as measured: transfinite curves keep their nodes at any size
-    # factor, and their surfaces' cells with them (a mesh of transfinite cells is its own
-    # coarse mesh)
-    factor = nodes / max(1, len(gmsh.model.mesh.getNodes(1, -1, includeBoundary=True)[0]))
+    # Transfinite curves keep their nodes at any size factor, and their surfaces' cells with
+    # them: when no curve coarsened (polar_disc.geo, every cell a transfinite surface) the
+    # coarse mesh is the mesh itself. When only some did, the assumed factor stays: the guard
+    # may over-estimate, never under-estimate, a surface bounded by free curves.
+    if len(gmsh.model.mesh.getNodes(1, -1, includeBoundary=True)[0]) >= 0.99 * nodes:
+        factor = 1.0
     gmsh.model.mesh.generate(2)
     types, tags, _ = gmsh.model.mesh.getElements(2)
     counts = {int(kind): len(cells) for kind, cells in zip(types, tags, strict=True)}

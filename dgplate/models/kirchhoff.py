@@ -205,7 +205,8 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
         if spec.gauss_penalty > 0:
             degree = 3 * spec.degree + 2
             gauss = gauss_penalty(y, facets, spec.gauss_penalty, degree, metric)
-            energy = replace(energy, explicit=gauss)
+            explicit = gauss if energy.explicit is None else energy.explicit + gauss
+            energy = replace(energy, explicit=explicit)
         return energy
 
     plate = PlateModel(facets, spec.degree, energy_fn, continuation=path, metric=metric)
