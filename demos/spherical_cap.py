@@ -130,15 +130,16 @@ demo.copy_figure(Path(args.out, *subfolder), args.figure)
 #
 # Measured (1 rank; `benchmarks/results/spherical_cap.json` has the same runs): at the default
 # h = 0.1, 736 cells and 15,456 DoFs, E_h = 0.848964, +3.6 % above the cap's 0.819381, the
-# fitted radius 2.000283 (+1.4·10⁻⁴), D_h = 5·10⁻¹⁵, the metric start 7 stretching steps and 4
+# fitted radius 2.000283 (relative error +1.4·10⁻⁴), D_h = 5·10⁻¹⁵, the metric start 7 stretching steps and 4
 # projections, then 7 flow steps. At h = 0.2, 0.1, 0.05, 0.025 the error of E_h is +13.1, +3.6,
 # +0.63 and +0.08 %, from above like the interpolated cap's, at an observed order of 2.8 to 2.9
 # on the three finer levels (the mesh size taken as cells^(−1/2), since the polar mesh's h is a
-# target); the fitted radius is 2 within 6.4·10⁻⁴, 1.4·10⁻⁴, 3.2·10⁻⁵, 7.8·10⁻⁶.
+# target); the fitted radius is 2 within relative errors of 6.4·10⁻⁴, 1.4·10⁻⁴, 3.2·10⁻⁵, 7.8·10⁻⁶.
 #
 # The demo asserts at every level: the flow converged, D_h ≤ 10⁻¹⁰ and the metric start's
-# D_h ≤ 10⁻¹⁰; and, by the mesh size, the relative errors of E_h and of the fitted radius
-# within the bounds below, about 1.5 to 6 times the measured errors (for h > 0.2 neither is
+# D_h ≤ 10⁻¹⁰; E_h above the cap's (the penalty keeps the free edge from flattening, which
+# took E_h below it); and, by the mesh size, the relative errors of E_h and of the fitted radius
+# within the bounds below, about 1.4 to 6 times the measured errors (for h > 0.2 neither is
 # checked):
 #
 # | h at most | E_h within | radius within |
@@ -148,7 +149,7 @@ demo.copy_figure(Path(args.out, *subfolder), args.figure)
 # | 0.05 | 1 % | 10⁻⁴ |
 # | 0.025 | 0.5 % | 3·10⁻⁵ |
 #
-# With `--paper` it also asserts an observed order of the energy error above 1.5, the
+# With `--paper` it also asserts an observed order of the energy error above 2.3, the
 # least-squares slope over the last three levels.
 
 # %%
@@ -175,6 +176,7 @@ for h, s, fit in rows:
     demo.check(f"h = {h:g}: the flow converged", s["converged"])
     demo.check_between("D_h", s["isometry_defect"], high=1e-10)
     demo.check_between("D_h of the metric start", s["metric_start"]["defect"], high=1e-10)
+    demo.check_between("E_h", s["energy"], low=exact, source=SOURCE)
     bound = next(((e, r) for most, e, r in BOUNDS if h <= most * (1 + 1e-12)), None)
     if bound is not None:
         demo.check_close("E_h", s["energy"], exact, rel=bound[0], source=SOURCE)
@@ -189,5 +191,5 @@ if args.paper:
     cells = np.array([s["cells"] for _, s, _ in rows[-3:]], dtype=float)
     errors = np.array([abs(s["energy"] - exact) for _, s, _ in rows[-3:]])
     order = float(np.polyfit(-0.5 * np.log(cells), np.log(errors), 1)[0])
-    demo.check_between("observed order of the E_h error, last three levels", order, low=1.5,
+    demo.check_between("observed order of the E_h error, last three levels", order, low=2.3,
                        source="measured 2.8 and 2.9 between neighbours")  # fmt: skip

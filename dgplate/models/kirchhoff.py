@@ -96,7 +96,7 @@ class KirchhoffSpec:
     hessian: str = option("broken", HESSIAN_HELP, choices=HESSIANS)
     gauss_penalty: float = option(
         0.0,
-        "β: add (β/2)Σ_T h⁻¹∫_T (det II − K det G)² (K: the Gauss curvature of the target metric G; K = 0, G = I without one) against the free-edge layers of the cell-moment constraint (docs/prestrain.md); 0: none",
+        "β: add (β/2)Σ_T h⁻¹∫_T (det II − K det G)² (K: the Gauss curvature of the target metric G of kirchhoff and foundation plates; K = 0, G = I without one) against the free-edge layers of the cell-moment constraint (docs/prestrain.md); 0: none",
         ge=0,
     )
     continuation: MovingClampSpec | None = option(

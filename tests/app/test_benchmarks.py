@@ -249,7 +249,8 @@ def test_spherical_cap_page_is_generated(tmp_path):
     errors = [abs(level["radius_error"]) for level in levels]
     assert errors == sorted(errors, reverse=True)  # the fitted radius converges
     # with the file's Gauss-curvature penalty E_h converges: within 0.5 % at the finest level,
-    # the error falling by more than 4 per level over the last three (order > 2)
+    # the error falling by more than 4 per level over the last three (order > 2 to 2.3: the
+    # cells grow by 3.4 and 4.0); the committed JSON's, checked again when it is regenerated
     assert record["gauss_penalty"] > 0
     energy = [abs(level["energy_error"]) for level in levels]
     assert energy[-1] < 5e-3 and all(a > 4 * b for a, b in itertools.pairwise(energy[1:]))

@@ -50,7 +50,7 @@ def run_demo(
 # FvK, LCE, rod, the linear biharmonic) and each feature (creases, obstacles, continuation,
 # stability, path following, self-avoidance of plates and rods, a target metric), the shortest
 # of each. The models' results on 1, 2 and 3 ranks are compared by the `mpi` parity tests;
-# running all 32 demos on 2 ranks as well took 7.7 of the suite's 22 minutes on 2 cores.
+# running all the demos (32 then) on 2 ranks as well took 7.7 of the suite's 22 minutes on 2 cores.
 NP2 = {
     "biharmonic",
     "bilayer_hole",
