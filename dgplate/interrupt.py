@@ -141,14 +141,28 @@ def _end_now(signum: int) -> None:
     exception set") and the handler returned without ending the process. It is cleared first.
     """
     _clear_python_error()
-    _end_children(os.getpid())
+    if _has_children():  # only then the scan of /proc, whose reads allocate (see below)
+        _end_children(os.getpid())
     for clean_up in CLEAN_UP:
         with contextlib.suppress(Exception):
             clean_up()
     if _rank == 0:  # mpirun forwards the signal to every rank: say it once
-        name = "SIGINT" if signum == signal.SIGINT else "SIGTERM"
-        os.write(2, f"dgplate: {name} during the set-up: stopped, nothing written\n".encode())
+        os.write(2, _ENDED[signum])
     os._exit(128 + signum)
+
+
+def _has_children() -> bool:
+    """Whether this process has a child (one system call, no allocation of note).
+
+    The handler runs inside whatever compiled code the signal interrupted, maybe inside the C
+    library's malloc, whose lock a second allocation of the same thread would wait for forever:
+    it does as little as it can when there is no compiler to end (a mesh's set-up).
+    """
+    try:
+        os.waitpid(-1, os.WNOHANG)  # reaps at most one finished child: the process ends anyway
+    except ChildProcessError:
+        return False
+    return True
 
 
 def _end_children(root: int) -> None:
@@ -189,6 +203,11 @@ def _parent(pid: str) -> int:
         return 0
 
 
+#: The line of :func:`_end_now` per signal, made beforehand (no formatting in the handler).
+_ENDED = {
+    int(sig): f"dgplate: {sig.name} during the set-up: stopped, nothing written\n".encode()
+    for sig in SIGNALS
+}
 _HANDLER = ctypes.CFUNCTYPE(None, ctypes.c_int)
 _END_NOW = _HANDLER(_end_now)
 _clear_python_error = ctypes.pythonapi.PyErr_Clear
