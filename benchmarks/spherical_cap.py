@@ -6,9 +6,11 @@ cells, the energy E_h and its error against the cap's, E_h of the interpolated c
 through the nodal values and its error, the metric start (stretching steps, projections, its
 D_h and time), the flow's steps, K_h against K = 1/R² (summary.json's metric_gauss_curvature)
 and the wall time. The observed orders take the mesh size as
-(cells)^(-1/2) (the polar mesh's h is a target, not the cells' size). Each level is run twice:
-with the problem file's Gauss-curvature penalty (``model.gauss_penalty``), and without it
-(``without_gauss``: the energy, radius and K_h figures and the wall time).
+(cells)^(-1/2) (the polar mesh's h is a target, not the cells' size). Each level is run three
+times: with the problem file's Gauss-curvature penalty (``model.gauss_penalty``), without it
+(``without_gauss``: the energy, radius and K_h figures and the wall time), and with the
+penalty and the trace term of Poisson's ratio ``POISSON`` (``with_poisson``: the energy
+against the cap's with that ν, the radius, the wall time).
 
     python benchmarks/spherical_cap.py [--h 0.2 0.1 0.05 0.025] [--json …]
     python benchmarks/spherical_cap.py --table-only [--json …] [--page docs/prestrain.md]
@@ -48,6 +50,8 @@ RADIUS = 2.0
 
 #: The comparison run of each level: the file's problem without the Gauss-curvature penalty.
 WITHOUT_GAUSS = {"model.gauss_penalty": 0.0}
+#: Poisson's ratio of the third run of each level (the energy's trace term, ``model.poisson``).
+POISSON = 0.3
 
 
 def one_level(comm: MPI.Comm, h: float) -> dict[str, Any]:
@@ -68,13 +72,23 @@ def one_level(comm: MPI.Comm, h: float) -> dict[str, Any]:
         for key in ("converged", "steps", "energy", "energy_error", "radius_error", "wall_s")
     }
     record["without_gauss"]["gauss"] = baseline["gauss"]
+    exact = energy(RADIUS, poisson=POISSON)
+    trace = _measure(comm, h, {"model.poisson": POISSON}, interpolant=False, exact=exact)
+    record["with_poisson"] = {
+        key: trace[key]
+        for key in ("converged", "steps", "energy", "energy_error", "radius_error", "wall_s")
+    }
     return record
 
 
 def _measure(
-    comm: MPI.Comm, h: float, settings: dict[str, Any] | None = None, interpolant: bool = True
+    comm: MPI.Comm,
+    h: float,
+    settings: dict[str, Any] | None = None,
+    interpolant: bool = True,
+    exact: float | None = None,
 ) -> dict[str, Any]:
-    """The figures of one run, its outputs in a temporary folder, removed afterwards."""
+    """The figures of one run (``exact``: the energy to compare, None: the cap's with ν = 0)."""
     overrides = {"mesh.parameters.h": h, "output.vtx": False, "output.png": False}
     problem = load_problem(PROBLEM, {**overrides, "output.progress": 0, **(settings or {})})
     folder = comm.bcast(tempfile.mkdtemp(prefix="cap_") if comm.rank == 0 else None, root=0)
@@ -88,7 +102,8 @@ def _measure(
             shutil.rmtree(folder, ignore_errors=True)
     assert result.shape is not None  # a plate's run keeps its deformation
     fit = fit_sphere(result.shape)
-    s, exact = result.summary, energy(RADIUS)
+    s = result.summary
+    exact = energy(RADIUS) if exact is None else exact
     return {
         "h": h,
         "cells": s["cells"],
@@ -127,7 +142,7 @@ def _order(errors: list[float], cells: list[int], i: int) -> str:
 
 def table(record: dict[str, Any]) -> str:
     """The Markdown tables of a record: one row per level, with and without the penalty."""
-    return "\n\n".join([_main_table(record), _comparison_table(record)])
+    return "\n\n".join([_main_table(record), _comparison_table(record), _poisson_table(record)])
 
 
 def _main_table(record: dict[str, Any]) -> str:
@@ -194,6 +209,33 @@ def _comparison_table(record: dict[str, Any]) -> str:
     )
 
 
+def _poisson_table(record: dict[str, Any]) -> str:
+    """The levels with the trace term of Poisson's ratio ν: energy and radius errors, orders."""
+    levels = record["levels"]
+    cells = [level["cells"] for level in levels]
+    runs = [level["with_poisson"] for level in levels]
+    energies = [run["energy_error"] for run in runs]
+    radius = [run["radius_error"] for run in runs]
+    rows = [
+        f"| {level['h']:g} | {run['energy']:.6f} | {run['energy_error']:+.3%} "
+        f"| {_order(energies, cells, i)} | {run['radius_error']:+.2e} "
+        f"| {_order(radius, cells, i)} | {run['steps']} | {run['wall_s']:.1f} |"
+        for i, (level, run) in enumerate(zip(levels, runs, strict=True))
+    ]
+    nu = record["poisson"]
+    return "\n".join(
+        [
+            f"The same levels with the trace term, `model.poisson = {nu:g}` (β = "
+            f"{record['gauss_penalty']:g}): exact E = {record['exact_energy_poisson']:.6f} "
+            f"(`spherical_cap.energy(2, poisson={nu:g})`).",
+            "",
+            "| h | E_h | error | order | radius error | order | flow steps | wall s |",
+            "|---|---|---|---|---|---|---|---|",
+            *rows,
+        ]
+    )
+
+
 def main(argv: list[str]) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--h", type=float, nargs="+", default=[0.2, 0.1, 0.05, 0.025])
@@ -208,6 +250,8 @@ def main(argv: list[str]) -> None:
             "ranks": comm.size,
             "exact_energy": energy(RADIUS),
             "gauss_penalty": beta,
+            "poisson": POISSON,
+            "exact_energy_poisson": energy(RADIUS, poisson=POISSON),
             "levels": levels,
         }
     publish(comm, args, record, (BEGIN, END), table)

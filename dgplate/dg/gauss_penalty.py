@@ -14,11 +14,15 @@ is not defined) has no smooth K det G to take: the term is for G of bounded curv
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
+import dolfinx.fem
 import ufl
 from ufl.core.expr import Expr
 
 from dgplate import values
-from dgplate.dg.forms import FacetSets, cell_measure
+from dgplate.compat import Function
+from dgplate.dg.forms import FacetSets, cell_measure, integral
 from dgplate.dg.geometry import metric_gauss_curvature, second_fundamental_form
 
 
@@ -48,3 +52,25 @@ def gauss_penalty(
     weight = values.constant(facets.mesh, beta) / facets.h
     form: ufl.Form = 0.5 * weight * defect**2 * cell_measure(facets.mesh, degree)
     return form
+
+
+def gauss_penalty_value(
+    facets: FacetSets, beta: float, degree: int | None = None, metric: Expr | None = None
+) -> Callable[[Function], dict[str, float]]:
+    """A measure for ``summary.json``: the penalty's value at the final y (a part of E_h).
+
+    Args:
+        facets: the mesh's facet sets.
+        beta: β > 0, the weight.
+        degree: the quadrature degree, as for :func:`gauss_penalty`.
+        metric: the target metric G (None: I).
+
+    Returns:
+        y ↦ ``{"gauss_penalty_energy": value}`` (collective).
+    """
+
+    def measure(y: Function) -> dict[str, float]:
+        form = dolfinx.fem.form(gauss_penalty(y, facets, beta, degree, metric))
+        return {"gauss_penalty_energy": integral(form, facets.mesh.comm)}
+
+    return measure

@@ -160,6 +160,7 @@ class BilayerSpec(KirchhoffSpec):
 
     name: str = option("bilayer", "the model")
     takes_metric: ClassVar[bool] = False  # its energy has no G yet
+    takes_poisson: ClassVar[bool] = False  # its Z coupling has no trace term
     Z: float | list[list[float | str]] | dict[str, float | list[list[float]]] = option(
         1.0,
         "spontaneous curvature: α (Z = αI), [[Z11, Z12], [Z12, Z22]] (numbers or formulas in x, y), or {cell group = α or a matrix of numbers}",

@@ -28,7 +28,7 @@ from dgplate.dg.forms import (
     bending_energy,
     facet_sets,
 )
-from dgplate.dg.gauss_penalty import gauss_penalty
+from dgplate.dg.gauss_penalty import gauss_penalty, gauss_penalty_value
 from dgplate.dg.lifting import HESSIAN_HELP, HESSIANS, ldg_energy
 from dgplate.dg.obstacle_penalty import Obstacle
 from dgplate.dg.self_avoidance import SelfAvoidance
@@ -99,6 +99,12 @@ class KirchhoffSpec:
         "β: add (β/2)Σ_T h⁻¹∫_T (det II − K det G)² (K: the Gauss curvature of the target metric G of kirchhoff and foundation plates; K = 0, G = I without one) against the free-edge layers of the cell-moment constraint (docs/prestrain.md); 0: none",
         ge=0,
     )
+    poisson: float = option(
+        0.0,
+        "Poisson's ratio ν of the bending energy: adds ½∫μ ν/(1−ν) Σ_k tr(G^{-1/2}D²y_k G^{-1/2})² (ν/(1−ν) = λ/(2μ+λ) in Lamé's constants; docs/prestrain.md); kirchhoff and foundation plates; 0: none",
+        gt=-1,
+        le=0.5,
+    )
     continuation: MovingClampSpec | None = option(
         None,
         "move the clamped data along α ∈ (0, 1] (docs/continuation.md): {} none. Path: boundary_data formulas in x, y, alpha, else (1 − α)·id + α·g",
@@ -134,6 +140,7 @@ class KirchhoffSpec:
             )
         if self.target_metric is not None and self.hessian == "ldg":
             raise InputError(f"{target} needs model.hessian = 'broken' (the LDG energy has no G)")
+        self._check_poisson()
         expressions.check(self.load, "model.load")
         data = self.boundary_data
         self._schedule = continuation_schedule(
@@ -144,6 +151,25 @@ class KirchhoffSpec:
             expressions.check(data.g, "model.boundary_data.g", moving)
             if data.Phi is not None:
                 expressions.check(data.Phi, "model.boundary_data.Phi", moving)
+
+    def _check_poisson(self) -> None:
+        """InputError when ``poisson`` is set on a model or Hessian whose energy has no trace term."""
+        if not self.poisson:
+            return
+        if not self.takes_poisson:
+            raise InputError(
+                f"model.poisson is not taken by the {self.name} model (kirchhoff and foundation "
+                "plates take it)"
+            )
+        if self.hessian == "ldg":
+            raise InputError(
+                "model.poisson needs model.hessian = 'broken' (the LDG energy has no trace term)"
+            )
+
+    @property
+    def trace_weight(self) -> float:
+        """The weight c = ν/(1 − ν) of the energy's trace term (0 without ``poisson``)."""
+        return self.poisson / (1 - self.poisson)
 
     @property
     def schedule(self) -> AlphaSchedule | None:
@@ -157,6 +183,8 @@ class KirchhoffSpec:
 
     #: whether the model's energy takes ``metric``/``director`` (not a bilayer's, an lce's yet)
     takes_metric: ClassVar[bool] = True
+    #: whether the model's energy takes ``poisson`` (not a bilayer's, an lce's: their Z has none)
+    takes_poisson: ClassVar[bool] = True
 
     @property
     def target_metric(self) -> MetricSpec | None:
@@ -196,20 +224,22 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     if director is not None and isinstance(director.angle, str):  # before G's formulas, on θ
         expressions.check_finite_on_mesh(director.angle, tagged.mesh, "model.director.angle")
     metric = None if given is None else target_metric(given, tagged.mesh, key)
-    data: BendingData = {"mu": mu, "g": g, "Phi": Phi}
+    data: BendingData = {"mu": mu, "g": g, "Phi": Phi, "trace_weight": spec.trace_weight}
     if metric is not None:
         data["metric"] = metric
 
+    beta, degree = spec.gauss_penalty, 3 * spec.degree + 2
+
     def energy_fn(y: Function) -> Energy:
         energy = kirchhoff_energy(y, facets, penalty, load, spec.ldg_degree, **data)
-        if spec.gauss_penalty > 0:
-            degree = 3 * spec.degree + 2
-            gauss = gauss_penalty(y, facets, spec.gauss_penalty, degree, metric)
+        if beta > 0:
+            gauss = gauss_penalty(y, facets, beta, degree, metric)
             explicit = gauss if energy.explicit is None else energy.explicit + gauss
             energy = replace(energy, explicit=explicit)
         return energy
 
-    plate = PlateModel(facets, spec.degree, energy_fn, continuation=path, metric=metric)
+    measures = [gauss_penalty_value(facets, beta, degree, metric)] if beta > 0 else []
+    plate = PlateModel(facets, spec.degree, energy_fn, measures, continuation=path, metric=metric)
     return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)
 
 

@@ -58,6 +58,7 @@ class LCESpec(KirchhoffSpec):
 
     name: str = option("lce", "the model")
     takes_metric: ClassVar[bool] = False  # its energy has no G yet
+    takes_poisson: ClassVar[bool] = False  # its Z coupling has no trace term
     director: str = option(  # type: ignore[assignment]  # the profile, not the metric's table
         "twist",
         "director profile through the thickness: 'twist' (A₀ = diag(−1, 1)) or 'splay' (A₀ = diag(−1, 0))",

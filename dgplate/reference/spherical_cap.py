@@ -28,7 +28,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["cap", "energy", "energy_density", "metric_formulas"]
+__all__ = ["cap", "energy", "energy_density", "metric_formulas", "trace_density"]
 
 #: below this (r/R)² the formulas of G use the Taylor series of q (no cancellation in a² − 1)
 SERIES_BELOW = 1 / 64
@@ -95,8 +95,38 @@ def energy_density(r: npt.NDArray[np.float64], R: float) -> npt.NDArray[np.float
     return density
 
 
-def energy(R: float, radius: float = 1.0, mu: float = 1.0, points: int = 200) -> float:
-    """E of the cap on the disc |x| < ``radius``: ½μ·2π ∫₀^radius density(r) r dr.
+def trace_density(r: npt.NDArray[np.float64], R: float) -> npt.NDArray[np.float64]:
+    """Σ_k tr(G^{-1/2} D²y_k G^{-1/2})² = Σ_k (G⁻¹ : D²y_k)² of the cap at |x| = r > 0 (→ 4/R²).
+
+    At x = r e₁, as :func:`energy_density`: G⁻¹ : D²y₁ = ra'' + 2a' + a'/a², G⁻¹ : D²y₂ = 0,
+    G⁻¹ : D²y₃ = b'' + b'/(ra²).
+
+    Args:
+        r: radii, all > 0.
+        R: the sphere's radius.
+
+    Returns:
+        The density of the trace term at each radius.
+    """
+    rho = r / R
+    a = R * np.sin(rho) / r
+    da = np.cos(rho) / r - R * np.sin(rho) / r**2
+    dda = -np.sin(rho) / (R * r) - 2 * np.cos(rho) / r**2 + 2 * R * np.sin(rho) / r**3
+    db, ddb = np.sin(rho), np.cos(rho) / R
+    density: npt.NDArray[np.float64] = (r * dda + 2 * da + da / a**2) ** 2 + (
+        ddb + db / (r * a**2)
+    ) ** 2
+    return density
+
+
+def energy(
+    R: float, radius: float = 1.0, mu: float = 1.0, points: int = 200, poisson: float = 0.0
+) -> float:
+    """E of the cap on the disc |x| < ``radius``: ½μ·2π ∫₀^radius (density + c·trace) r dr.
+
+    c = ν/(1 − ν) weighs :func:`trace_density` (the energy's trace term, ``model.poisson``).
+    On the constraint set both parts are least at umbilic points (κ₁² + κ₂² ≥ 2κ₁κ₂ and
+    (κ₁ + κ₂)² ≥ 4κ₁κ₂), so the cap is the minimiser for every ν ≥ 0.
 
     Gauss–Legendre quadrature with ``points`` nodes (the integrand is smooth: exact to
     round-off with the default).
@@ -106,11 +136,15 @@ def energy(R: float, radius: float = 1.0, mu: float = 1.0, points: int = 200) ->
         radius: the disc's radius.
         mu: the rigidity μ.
         points: the quadrature's nodes.
+        poisson: Poisson's ratio ν of the trace term.
 
     Returns:
         The cap's energy.
     """
     nodes, weights = np.polynomial.legendre.leggauss(points)
     r = 0.5 * radius * (nodes + 1)
-    integral = 0.5 * radius * float(np.sum(weights * energy_density(r, R) * r))
+    density = energy_density(r, R)
+    if poisson:
+        density = density + poisson / (1 - poisson) * trace_density(r, R)
+    integral = 0.5 * radius * float(np.sum(weights * density * r))
     return 0.5 * mu * 2 * math.pi * integral

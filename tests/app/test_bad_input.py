@@ -425,6 +425,19 @@ BAD_INPUT = {
         ("model.director={angle=0, lambda=0.9}", "flow.edge_constraint=true"),
         "not with model.metric or model.director",
     ),
+    # -- model.poisson: the trace term of the bending energy (docs/prestrain.md) -----------------
+    "poisson on a bilayer": Case(
+        ("model.poisson=0.3",), "model.poisson is not taken by the bilayer model", BILAYER
+    ),
+    "poisson with the ldg hessian": Case(
+        ("model.poisson=0.3", "model.hessian='ldg'"), "model.poisson needs model.hessian = 'broken'"
+    ),
+    "poisson above one half": Case(
+        ("model.poisson=0.6",), "model.poisson must be in (-1, 0.5], got 0.6"
+    ),
+    "poisson at minus one": Case(
+        ("model.poisson=-1",), "model.poisson must be in (-1, 0.5], got -1"
+    ),
 }
 
 #: Cases that also run under mpirun -n 2 (validation, and collective checks on the mesh).
