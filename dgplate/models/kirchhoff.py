@@ -223,7 +223,7 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     director = spec.director_params
     if director is not None and isinstance(director.angle, str):  # before G's formulas, on θ
         expressions.check_finite_on_mesh(director.angle, tagged.mesh, "model.director.angle")
-    metric = None if given is None else target_metric(given, tagged.mesh, key)
+    metric = None if given is None else target_metric(given, tagged.mesh, key, tagged)
     data: BendingData = {"mu": mu, "g": g, "Phi": Phi, "trace_weight": spec.trace_weight}
     if metric is not None:
         data["metric"] = metric

@@ -23,6 +23,7 @@ from dgplate.dg.geometry import max_cell_diameter
 from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.errors import InputError
 from dgplate.io.output import print0
+from dgplate.models.metric import MetricSpec, largest_jump
 from dgplate.solvers.tau import ADAPTIVE_ONLY
 
 if TYPE_CHECKING:
@@ -69,6 +70,7 @@ def before_run(
     messages.append(weak_self_avoidance(problem))
     messages += adaptive_only(problem)
     messages += path_only(problem)
+    messages.append(metric_jump(problem, tagged))
     if problem.flow.tau != "h":
         messages.append(tau_scale(float(problem.flow.tau), max_cell_diameter(tagged.mesh)))
     return [m for m in messages if m]
@@ -103,6 +105,32 @@ def path_only(problem: Problem) -> list[str]:
         "continuation reads newton.snes only)"
         for key in given
     ]
+
+
+#: A jump of G's entries between cell groups above this is a jump, not round-off.
+METRIC_JUMP = 1e-9
+
+
+def metric_jump(problem: Problem, tagged: TaggedMesh) -> str | None:
+    """A warning when a group table of ``model.metric`` makes G jump where no crease is.
+
+    Where G jumps, the surface that realises it has a kink in its plane, which the
+    interior-penalty energy charges in its gradient jumps: E_h then grows as h falls
+    (docs/prestrain.md). Collective.
+    """
+    spec = problem.model
+    metric = getattr(spec, "metric", None)
+    if not isinstance(metric, MetricSpec) or not metric.groups() or spec.crease:
+        return None
+    jump, (x, y) = largest_jump(metric, tagged.mesh, tagged)
+    if jump <= METRIC_JUMP:
+        return None
+    return (
+        f"model.metric: G jumps between cell groups (by {jump:.3g} at (x, y) = ({x:.4g}, "
+        f"{y:.4g})): the surface has a kink there that the energy's gradient-jump terms "
+        "charge, and E_h grows as h falls; make the interface a crease (model.crease), "
+        "docs/prestrain.md"
+    )
 
 
 def weak_self_avoidance(problem: Problem) -> str | None:

@@ -425,6 +425,21 @@ BAD_INPUT = {
         ("model.director={angle=0, lambda=0.9}", "flow.edge_constraint=true"),
         "not with model.metric or model.director",
     ),
+    "metric group unknown": Case(
+        ("model.metric={g11={nogroup=1.2}}",),
+        "model.metric.g11: unknown cell group 'nogroup'",
+        PROBLEMS / "straight_fold.toml",
+    ),
+    "metric group not SPD": Case(
+        ("model.metric={g11={side_left=-1.0}}",),
+        "): g11 = -1, g12 = 0, g22 = 1 (det G = -1)",
+        PROBLEMS / "straight_fold.toml",
+    ),
+    "metric group formula does not parse": Case(
+        ("model.metric={g22={side_left='x +'}}",),
+        "model.metric.g22.side_left: cannot parse formula 'x +'",
+        PROBLEMS / "straight_fold.toml",
+    ),
     # -- model.poisson: the trace term of the bending energy (docs/prestrain.md) -----------------
     "poisson on a bilayer": Case(
         ("model.poisson=0.3",), "model.poisson is not taken by the bilayer model", BILAYER

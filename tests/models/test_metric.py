@@ -198,6 +198,54 @@ def test_the_trace_term_keeps_the_cap_and_converges_to_its_energy(tmp_path):
     assert radius_errors[1] < 3e-4 and penalties[1] < penalties[0]
 
 
+STRIP = PROBLEMS / "straight_fold.toml"  # straight_crease.geo: side_left | side_right, x ∈ (−1, 1)
+#: a free strip whose left half wants to be 1.2 times as long along x: G = diag(1.44, 1) there
+GROUPED = {
+    "model.clamped": [],
+    "model.boundary_data": "flat",
+    "model.metric": {"g11": {"side_left": 1.44}},
+    "mesh.parameters.quads": 1,
+    **QUIET,
+}
+
+
+def test_a_metric_per_cell_group_is_met_with_a_crease_at_its_jump(tmp_path):
+    """G = diag(1.44, 1) on the left half, I on the right: flat halves of lengths 1.2 and 1.
+
+    The exact surface is flat with an in-plane kink along the interface x = 0 (t·Gt agrees
+    across it), E = 0. With the interface a crease, E_h ~ 1e-24 and the bottom edge's halves
+    have the lengths of G to 1e-6 (measured: the two halves meet at a small angle where the
+    metric start's bump left them, as a crease lets them).
+    """
+    problem = load_problem(STRIP, GROUPED)
+    result = run(problem, out=tmp_path / "run")
+    assert result["converged"] and result["isometry_defect"] <= 1e-10
+    assert abs(result["energy"]) < 1e-18
+    y = result.shape
+    points = y.function_space.tabulate_dof_coordinates()[:, :2]
+    values = y.x.array.reshape(-1, 3)
+
+    def at(x):
+        i = np.flatnonzero(np.hypot(points[:, 0] - x, points[:, 1]) < 1e-12)
+        return values[i].mean(axis=0)
+
+    assert np.linalg.norm(at(0.0) - at(-1.0)) == pytest.approx(1.2, abs=1e-6)
+    assert np.linalg.norm(at(1.0) - at(0.0)) == pytest.approx(1.0, abs=1e-6)
+
+
+def test_a_metric_that_jumps_without_a_crease_is_warned_about(tmp_path, capsys):
+    """Without the crease the kink costs gradient-jump energy (E_h 0.40, 1.53 at h = 0.25,
+    0.125, quads): a warning names the jump; none with the crease or a continuous table."""
+    advice_line = "model.metric: G jumps between cell groups (by 0.44"
+    no_crease = load_problem(STRIP, {**GROUPED, "model.crease": [], "flow.max_steps": 1})
+    run(no_crease, out=tmp_path / "a")
+    assert advice_line in capsys.readouterr().err
+    run(load_problem(STRIP, {**GROUPED, "flow.max_steps": 1}), out=tmp_path / "b")
+    continuous = {**GROUPED, "model.crease": [], "model.metric": {"g11": {"side_left": 1.0}}}
+    run(load_problem(STRIP, {**continuous, "flow.max_steps": 1}), out=tmp_path / "c")
+    assert "G jumps" not in capsys.readouterr().err
+
+
 def test_gauss_penalty_measures_det_II_against_K_det_G():
     """(β/2)Σ h⁻¹∫(det II − K det G)² with G of the paraboloid z = |x|²/2: zero on it.
 
