@@ -45,6 +45,7 @@ from dgplate.models.base import (
 )
 from dgplate.models.director import HELP as director_help
 from dgplate.models.director import Director
+from dgplate.models.director_smoothness import check_smooth
 from dgplate.models.metric import HELP as metric_help
 from dgplate.models.metric import MetricSpec, target_metric
 from dgplate.models.obstacle import with_obstacle
@@ -223,6 +224,7 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     director = spec.director_params
     if director is not None and isinstance(director.angle, str):  # before G's formulas, on θ
         expressions.check_finite_on_mesh(director.angle, tagged.mesh, "model.director.angle")
+        check_smooth(director, tagged.mesh)
     metric = None if given is None else target_metric(given, tagged.mesh, key, tagged)
     data: BendingData = {"mu": mu, "g": g, "Phi": Phi, "trace_weight": spec.trace_weight}
     if metric is not None:

@@ -421,6 +421,10 @@ BAD_INPUT = {
         ("model.director={angle=0, lambda=1e-100, nu=4}",),
         "model.director.lambda, model.director.nu: λ² and λ^(-2ν) must be finite and > 0",
     ),
+    "director with a jump": Case(
+        ("model.director={angle='where(x > 0.3, 0, pi/2)', lambda=0.9}",),
+        "model.director.angle: the director is not smooth: its metric G jumps by 1",
+    ),
     "director with the edge constraint": Case(
         ("model.director={angle=0, lambda=0.9}", "flow.edge_constraint=true"),
         "not with model.metric or model.director",

@@ -15,10 +15,12 @@ from helpers import PROBLEMS, QUIET
 
 from dgplate import expressions, load_problem, run
 from dgplate.dg.geometry import metric_gauss_curvature
+from dgplate.errors import InputError
 from dgplate.measure.fields import cell_field
 from dgplate.measure.prestrain import cone_half_angle
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.director import Director
+from dgplate.models.director_smoothness import check_smooth
 from dgplate.models.metric import target_metric
 
 SPHERICAL = PROBLEMS / "spherical_disc.toml"
@@ -105,3 +107,26 @@ def test_formulas_take_polar_coordinates():
     assert np.allclose(
         cell_field(angle, mesh), cell_field(expressions.formula("atan2(y, x)", mesh, "k"), mesh)
     )
+
+
+@pytest.mark.parametrize(
+    ("angle", "smooth"),
+    [
+        ("theta + pi/2", True),  # +1 defects, azimuthal and radial: G jumps at a point only
+        ("theta", True),
+        ("theta/2 + 0.3", True),  # +1/2: the angle's jump by π leaves G continuous
+        ("where(x > 0.3, 0, pi)", True),
+        ("20*x", True),  # steep, under-resolved, but smooth
+        ("where(x > 0.3, 0, pi/2)", False),
+        ("where(x*x + y*y < 0.25, 0, 1)", False),
+    ],
+)
+def test_a_director_whose_metric_jumps_along_a_line_is_refused(angle, smooth):
+    """A jump of G along a curve is refused with the key and a point on it; a defect is not."""
+    mesh = rectangle(MPI.COMM_WORLD, [[-1, -1], [1, 1]], [10, 10]).mesh
+    director = Director(angle, 0.9, 0.5)
+    if smooth:
+        check_smooth(director, mesh)
+        return
+    with pytest.raises(InputError, match=r"^model\.director\.angle: the director is not smooth"):
+        check_smooth(director, mesh)
