@@ -29,7 +29,7 @@ from mpi4py import MPI
 
 import dolfinx.fem
 import ufl
-from pages import add_page_options, publish, run_levels
+from pages import add_page_options, publish, run_levels, stop_if_interrupted
 
 from dgplate.compat import Function
 from dgplate.dg.forms import hessian, metric_weighted
@@ -63,6 +63,7 @@ def one_level(comm: MPI.Comm, h: float) -> dict[str, Any]:
         t0 = time.perf_counter()
         result = run_problem(problem, Path(folder) / "run", comm, allow_large=True)
         wall = time.perf_counter() - t0
+        stop_if_interrupted(result.summary, f"h = {h:g}")
         assert result.shape is not None  # a plate's run keeps its deformation
         angles = {str(inner): cone_half_angle(result.shape, inner) for inner in INNER}
         bending = broken_bending(result.shape, problem)

@@ -83,6 +83,20 @@ def publish(
     return text
 
 
+def stop_if_interrupted(summary: dict[str, Any], what: str) -> None:
+    """End the study when a run was interrupted (SIGINT/SIGTERM): its next level must not start.
+
+    Args:
+        summary: the run's summary.
+        what: the run, as named in the message (e.g. ``h = 0.05``).
+
+    Raises:
+        SystemExit: with the run's reason, when it was interrupted.
+    """
+    if summary.get("interrupted"):
+        raise SystemExit(f"{what}: {summary.get('reason', 'interrupted')}")
+
+
 def run_levels(
     comm: MPI.Comm, sizes: list[float], one_level: Callable[[MPI.Comm, float], dict[str, Any]]
 ) -> list[dict[str, Any]]:

@@ -32,7 +32,7 @@ from typing import Any
 
 from mpi4py import MPI
 
-from pages import add_page_options, publish, run_levels
+from pages import add_page_options, publish, run_levels, stop_if_interrupted
 
 from dgplate.measure.analysis import fit_sphere
 from dgplate.problems.prepare import build_model
@@ -103,6 +103,7 @@ def _measure(
     assert result.shape is not None  # a plate's run keeps its deformation
     fit = fit_sphere(result.shape)
     s = result.summary
+    stop_if_interrupted(s, f"h = {h:g}")
     exact = energy(RADIUS) if exact is None else exact
     return {
         "h": h,

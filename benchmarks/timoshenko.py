@@ -28,7 +28,7 @@ from typing import Any
 
 from mpi4py import MPI
 
-from pages import add_page_options, publish
+from pages import add_page_options, publish, stop_if_interrupted
 
 from dgplate.io.output import print0
 from dgplate.problems.runner import run as run_problem
@@ -101,8 +101,7 @@ def one_level(comm: MPI.Comm, case: str, cells: int) -> dict[str, Any]:
         if comm.rank == 0:
             shutil.rmtree(folder, ignore_errors=True)
     s = result.summary
-    if s["interrupted"]:
-        raise SystemExit(f"{case} at {2 * cells} × {cells}: {s['reason']}")
+    stop_if_interrupted(s, f"{case} at {2 * cells} × {cells}")
     physical = s["physical"]
     curvatures = s["principal_curvatures"]
     exact_energy = physical["bending_stiffness_J"] * (L / R) ** 2  # ½(L/R)²·|ω|, |ω| = 2

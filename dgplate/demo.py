@@ -41,8 +41,9 @@ from mpi4py import MPI
 
 import numpy as np
 
+from dgplate import interrupt
 from dgplate.errors import InputError
-from dgplate.io.output import OutputDir
+from dgplate.io.output import OutputDir, print0
 from dgplate.problems import folders
 from dgplate.problems.specs import Problem
 
@@ -194,6 +195,8 @@ def run(
     Raises:
         InputError: The output folder is not dgplate's (without ``--force``), or with
             ``--resume`` holds the checkpoint of another problem.
+        SystemExit: The run was interrupted (SIGINT/SIGTERM), with 130 or 143: its outputs
+            are written (``--resume`` continues it).
     """
     if subfolder:
         folders.claim(Path(args.out), args.force, comm)
@@ -203,6 +206,10 @@ def run(
             problem, output=dataclasses.replace(problem.output, frames_every=0)
         )
     result, _ = folders.run_or_reuse(problem, out, comm, args.force, args.resume, **options)
+    signum = result.summary.get("interrupted")
+    if signum:  # the run wrote what it had; the demo's later runs and checks do not start
+        print0(comm, f"{Path(sys.argv[0]).name}: {result.summary.get('reason', 'interrupted')}")
+        raise SystemExit(interrupt.exit_code(signum))
     return result
 
 

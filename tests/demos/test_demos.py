@@ -181,6 +181,24 @@ def test_demo_run_resumes_each_run_where_it_stopped(tmp_path):
     assert fresh["steps"] == resumed["steps"]
 
 
+def test_an_interrupted_run_ends_the_demo_with_the_signals_code(tmp_path, monkeypatch, capsys):
+    """A demo's later runs and checks do not start after a SIGTERM: SystemExit(143)."""
+    import signal
+
+    import dgplate
+    from dgplate import demo, interrupt
+
+    monkeypatch.setattr(interrupt, "requested", lambda comm: int(signal.SIGTERM))
+    problem_file = ROOT / "demos" / "problems" / "vertical_load.toml"
+    small = {"mesh.cells": [4, 4], "output.png": False, "output.progress": 0}
+    args = demo.arguments("vertical_load", argv=["--out", str(tmp_path)])
+    with pytest.raises(SystemExit) as stop:
+        demo.run(dgplate.load_problem(problem_file, small), args, "a")
+    assert stop.value.code == 143
+    assert "interrupted (SIGTERM)" in capsys.readouterr().out
+    assert (tmp_path / "a" / "summary.json").is_file()  # what the run had is written
+
+
 def test_a_demo_without_checkpoints_says_that_resume_starts_afresh(tmp_path, capsys):
     from dgplate import demo
 
