@@ -167,33 +167,6 @@ def test_bilayer_same_on_any_number_of_ranks(edge_constraint, gamma1, gradient_p
     assert np.isfinite(parallel.energy)
 
 
-def test_gauss_penalty_is_the_gauss_curvature_squared():
-    """(β/2)Σ h⁻¹∫K² is zero on a surface curved in one direction, exact on a paraboloid."""
-    import dolfinx.fem
-    import ufl
-
-    from dgplate.dg.forms import facet_sets
-    from dgplate.models.bilayer import gauss_penalty
-
-    tagged = rectangle(MPI.COMM_WORLD, [[0, 0], [1, 1]], [4, 4])
-    facets = facet_sets(tagged)
-    x = ufl.SpatialCoordinate(tagged.mesh)
-    h = np.sqrt(2) / 4  # the cell diameter
-    bent = ufl.as_vector([x[0], x[1], 0.5 * x[0] ** 2])  # K = 0
-    dome = ufl.as_vector([x[0], x[1], 0.5 * (x[0] ** 2 + x[1] ** 2)])  # K = 1/(1 + r²)
-    value = [
-        tagged.mesh.comm.allreduce(
-            dolfinx.fem.assemble_scalar(dolfinx.fem.form(gauss_penalty(y, facets, 3.0, 12)))
-        )
-        for y in (bent, dome)
-    ]
-    points, weights = np.polynomial.legendre.leggauss(40)
-    s, w = 0.5 * (points + 1), 0.5 * weights  # on (0, 1)
-    exact = np.einsum("i,j,ij", w, w, (1 + s[:, None] ** 2 + s[None, :] ** 2) ** -2.0)
-    assert abs(value[0]) < 1e-14
-    assert value[1] == pytest.approx(1.5 / h * exact, rel=1e-6)
-
-
 def test_kirchhoff_gauss_penalty_is_the_bilayers_with_zero_spontaneous_curvature(tmp_path):
     """``model.gauss_penalty`` on the Kirchhoff plate: the bilayer's run with Z = 0.
 

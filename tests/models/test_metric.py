@@ -21,8 +21,7 @@ import ufl
 from helpers import PROBLEMS, QUIET, ROOT, mpirun
 
 from dgplate import expressions, interrupt, load_problem, run
-from dgplate.dg.forms import bending_stress, facet_sets, hessian, metric_weighted
-from dgplate.dg.gauss_penalty import gauss_penalty
+from dgplate.dg.forms import bending_stress, hessian, metric_weighted
 from dgplate.dg.geometry import metric_gauss_curvature
 from dgplate.errors import InputError
 from dgplate.io.vtx import bp_variables
@@ -244,33 +243,6 @@ def test_a_metric_that_jumps_without_a_crease_is_warned_about(tmp_path, capsys):
     continuous = {**GROUPED, "model.crease": [], "model.metric": {"g11": {"side_left": 1.0}}}
     run(load_problem(STRIP, {**continuous, "flow.max_steps": 1}), out=tmp_path / "c")
     assert "G jumps" not in capsys.readouterr().err
-
-
-def test_gauss_penalty_measures_det_II_against_K_det_G():
-    """(β/2)Σ h⁻¹∫(det II − K det G)² with G of the paraboloid z = |x|²/2: zero on it.
-
-    G = I + x⊗x, K = (1 + r²)⁻², det G = 1 + r²: the paraboloid meets det II = K det G
-    pointwise; the flat plate has det II = 0 and pays (β/2h)∫(1 + r²)⁻², the paraboloid's
-    price without a metric (G = I, K = 0).
-    """
-    tagged = rectangle(MPI.COMM_WORLD, [[0, 0], [1, 1]], [4, 4])
-    facets = facet_sets(tagged)
-    metric = target_metric(MetricSpec(g11="1 + x*x", g12="x*y", g22="1 + y*y"), tagged.mesh)
-    x = ufl.SpatialCoordinate(tagged.mesh)
-    flat = ufl.as_vector([x[0], x[1], 0.0 * x[0]])
-    dome = ufl.as_vector([x[0], x[1], 0.5 * (x[0] ** 2 + x[1] ** 2)])
-
-    def value(y, G):
-        form = dolfinx.fem.form(gauss_penalty(y, facets, 3.0, 12, G))
-        return tagged.mesh.comm.allreduce(dolfinx.fem.assemble_scalar(form))
-
-    points, weights = np.polynomial.legendre.leggauss(40)
-    s, w = 0.5 * (points + 1), 0.5 * weights  # on (0, 1)
-    exact = np.einsum("i,j,ij", w, w, (1 + s[:, None] ** 2 + s[None, :] ** 2) ** -2.0)
-    h = np.sqrt(2) / 4  # the cell diameter
-    assert abs(value(dome, metric)) < 1e-14
-    assert value(flat, metric) == pytest.approx(1.5 / h * exact, rel=1e-6)
-    assert value(dome, None) == pytest.approx(value(flat, metric), rel=1e-10)
 
 
 def test_the_metric_start_says_its_line_in_the_progress_output(tmp_path, capsys):
