@@ -304,16 +304,13 @@ class BendingData(TypedDict, total=False):
 
     ``mu``: the cell-wise rigidity μ (default 1); ``g`` and ``Phi``: the Nitsche data g, Φ on
     clamped facets (needed when there are any); ``metric``: a target metric G (2×2, SPD) that
-    weights the Hessian as G^{-1/2} D²y G^{-1/2} (:func:`metric_weighted`; None: G = I);
-    ``trace_weight``: c = ν/(1 − ν) of the trace term c·tr(G^{-1/2} D²y_k G^{-1/2})²
-    (:func:`bending_stress`; None or 0: none).
+    weights the Hessian as G^{-1/2} D²y G^{-1/2} (:func:`metric_weighted`; None: G = I).
     """
 
     mu: Coefficient | None
     g: Coefficient | None
     Phi: Expr | None
     metric: Expr | None
-    trace_weight: float | None
 
 
 def bending_energy(
@@ -325,9 +322,8 @@ def bending_energy(
     penalties {μ}. ``ufl.derivative`` of this functional gives the symmetric interior-penalty
     residual and matrix, so no bilinear form is written twice.
 
-    With a target ``metric`` G (or a ``trace_weight`` c) the broken energy is
-    ½∫μ Σ_k (|G^{-1/2}D²y_k G^{-1/2}|² + c tr(G^{-1/2}D²y_k G^{-1/2})²) and the
-    consistency terms are those of ⟨D²y, T⟩ with T = μ 𝒞D²y (:func:`bending_stress`), the
+    With a target ``metric`` G the broken energy is ½∫μ|G^{-1/2}D²y G^{-1/2}|² and the
+    consistency terms are those of ⟨D²y, T⟩ with T = μ 𝒞D²y (:func:`metric_weighted`), the
     symmetric interior-penalty method of the operator with the coefficient 𝒞; the penalties
     are left unweighted (as the stabilisation of the LDG method of Bonito, Guignard, Nochetto
     and Yang, J. Comput. Phys. 2022, which penalises the plain jumps): they vanish for smooth
@@ -339,11 +335,10 @@ def bending_energy(
     mu = 1.0 if mu is None else mu
     D2 = hessian(y)
     metric = data.get("metric")
-    trace_weight = data.get("trace_weight") or 0.0
     energy: ufl.Form
-    if metric is not None or trace_weight:
-        degree = None if metric is None else metric_quadrature(y)
-        T = mu * bending_stress(D2, metric, trace_weight)
+    if metric is not None:
+        degree = metric_quadrature(y)
+        T = mu * metric_weighted(D2, metric)
         energy = distributional_hessian(y, T, facets, data.get("g"), data.get("Phi"), degree)
         energy -= 0.5 * ufl.inner(D2, T) * cell_measure(facets.mesh, degree)
     else:
@@ -372,33 +367,6 @@ def metric_weighted(D2: Expr, metric: Expr) -> Expr:
     k, a, b, i, j = ufl.indices(5)
     weighted: Expr = ufl.as_tensor(inverse[a, i] * D2[k, i, j] * inverse[j, b], (k, a, b))
     return weighted
-
-
-def bending_stress(D2: Expr, metric: Expr | None, trace_weight: float = 0.0) -> Expr:
-    """𝒞D²y = G⁻¹D²y_kG⁻¹ + c (G⁻¹ : D²y_k) G⁻¹ for each component k (G = I without a metric).
-
-    Then D²y : 𝒞D²y = Σ_k |A D²y_k A|² + c tr(A D²y_k A)², A = G^{-1/2}: the density of the
-    energy of Bonito, Guignard, Nochetto and Yang (J. Comput. Phys. 2022) with
-    c = λ/(2μ + λ) = ν/(1 − ν) (Lamé's λ, μ; Poisson's ratio ν), in the Hessian instead of the
-    second fundamental form (on the constraint set the two differ by a function of G alone).
-    𝒞 is positive definite for c > −1/2 (tr(B)² ≤ 2|B|² for a 2×2 B), i.e. ν > −1.
-
-    Args:
-        D2: the Hessian D²y, shape (3, 2, 2).
-        metric: the target metric G, a UFL 2×2 expression (None: I).
-        trace_weight: c.
-
-    Returns:
-        The tensor 𝒞D²y, shape (3, 2, 2).
-    """
-    weighted = D2 if metric is None else metric_weighted(D2, metric)
-    if not trace_weight:
-        return weighted
-    inverse = ufl.Identity(2) if metric is None else ufl.inv(metric)
-    k, a, b, i, j = ufl.indices(5)
-    trace = ufl.as_tensor(inverse[i, j] * D2[k, i, j] * inverse[a, b], (k, a, b))
-    stress: Expr = weighted + trace_weight * trace
-    return stress
 
 
 def metric_quadrature(y: Expr) -> int:

@@ -95,6 +95,48 @@ def metric_gauss_curvature(metric: Expr) -> Expr:
     return K
 
 
+def christoffel(metric: Expr) -> Expr:
+    """Γᵐᵢⱼ = ½ Gᵐˡ(∂ᵢGⱼₗ + ∂ⱼGᵢₗ − ∂ₗGᵢⱼ) of a metric G of x₁, x₂, as a tensor [m, i, j].
+
+    Args:
+        metric: a symmetric positive definite 2×2 UFL expression of the spatial coordinates.
+
+    Returns:
+        The Christoffel symbols of the second kind, shape (2, 2, 2).
+    """
+    dG = ufl.as_tensor(
+        [[[_d(metric[i, j], k) for j in range(2)] for i in range(2)] for k in range(2)]
+    )  # dG[k, i, j] = ∂ₖGᵢⱼ
+    inverse = ufl.inv(metric)
+    m, i, j, ell = ufl.indices(4)
+    gamma: Expr = ufl.as_tensor(
+        0.5 * inverse[m, ell] * (dG[i, j, ell] + dG[j, i, ell] - dG[ell, i, j]), (m, i, j)
+    )
+    return gamma
+
+
+def trace_excess(metric: Expr) -> Expr:
+    """Σₖ tr(AD²yₖA)² − Σₖ |AD²yₖA|², A = G^{-1/2}, on every y with ∇yᵀ∇y = G: G's alone.
+
+    On such y, D²yₖ = Γᵐ ∂ₘyₖ + II νₖ (∂ₘy ⊥ ν), so with tᵐ = G⁻¹ : Γᵐ the difference is
+    tᵐtⁿGₘₙ − (G⁻¹ΓᵐG⁻¹) : Γⁿ Gₘₙ + tr(G⁻¹II)² − |A II A|², and the last two give
+    2 det(G⁻¹II) = 2K (Gauss). Zero for a constant G.
+
+    Args:
+        metric: a symmetric positive definite 2×2 UFL expression of the spatial coordinates.
+
+    Returns:
+        The difference, a UFL scalar.
+    """
+    gamma = christoffel(metric)
+    inverse = ufl.inv(metric)
+    m, n, i, j, a, b = ufl.indices(6)
+    t = ufl.as_vector(inverse[i, j] * gamma[m, i, j], m)
+    full = inverse[i, a] * inverse[j, b] * gamma[m, i, j] * gamma[n, a, b] * metric[m, n]
+    excess: Expr = t[m] * t[n] * metric[m, n] - full + 2 * metric_gauss_curvature(metric)
+    return excess
+
+
 def _d(f: Expr, i: int) -> Expr:
     """∂f/∂x_i; a zero (the derivative of a constant) stays zero."""
     derivative: Expr = f if isinstance(f, Zero) else f.dx(i)

@@ -26,9 +26,11 @@ from dgplate.dg.forms import (
     FacetSets,
     Penalty,
     bending_energy,
+    cell_measure,
     facet_sets,
 )
 from dgplate.dg.gauss_penalty import gauss_penalty, gauss_penalty_value
+from dgplate.dg.geometry import trace_excess
 from dgplate.dg.lifting import HESSIAN_HELP, HESSIANS, ldg_energy
 from dgplate.dg.obstacle_penalty import Obstacle
 from dgplate.dg.self_avoidance import SelfAvoidance
@@ -141,7 +143,11 @@ class KirchhoffSpec:
             )
         if self.target_metric is not None and self.hessian == "ldg":
             raise InputError(f"{target} needs model.hessian = 'broken' (the LDG energy has no G)")
-        self._check_poisson()
+        if self.poisson and not self.takes_poisson:
+            raise InputError(
+                f"model.poisson is not taken by the {self.name} model (kirchhoff and foundation "
+                "plates take it)"
+            )
         expressions.check(self.load, "model.load")
         data = self.boundary_data
         self._schedule = continuation_schedule(
@@ -152,20 +158,6 @@ class KirchhoffSpec:
             expressions.check(data.g, "model.boundary_data.g", moving)
             if data.Phi is not None:
                 expressions.check(data.Phi, "model.boundary_data.Phi", moving)
-
-    def _check_poisson(self) -> None:
-        """InputError when ``poisson`` is set on a model or Hessian whose energy has no trace term."""
-        if not self.poisson:
-            return
-        if not self.takes_poisson:
-            raise InputError(
-                f"model.poisson is not taken by the {self.name} model (kirchhoff and foundation "
-                "plates take it)"
-            )
-        if self.hessian == "ldg":
-            raise InputError(
-                "model.poisson needs model.hessian = 'broken' (the LDG energy has no trace term)"
-            )
 
     @property
     def trace_weight(self) -> float:
@@ -226,7 +218,8 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
         expressions.check_finite_on_mesh(director.angle, tagged.mesh, "model.director.angle")
         check_smooth(director, tagged.mesh)
     metric = None if given is None else target_metric(given, tagged.mesh, key, tagged)
-    data: BendingData = {"mu": mu, "g": g, "Phi": Phi, "trace_weight": spec.trace_weight}
+    c = spec.trace_weight
+    data: BendingData = {"mu": (1 + c) * mu if c else mu, "g": g, "Phi": Phi}
     if metric is not None:
         data["metric"] = metric
 
@@ -234,6 +227,9 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
 
     def energy_fn(y: Function) -> Energy:
         energy = kirchhoff_energy(y, facets, penalty, load, spec.ldg_degree, **data)
+        if c and metric is not None:
+            constant = trace_constant(mu, c, metric, facets, degree)
+            energy = replace(energy, implicit=energy.implicit + constant)
         if beta > 0:
             gauss = gauss_penalty(y, facets, beta, degree, metric)
             explicit = gauss if energy.explicit is None else energy.explicit + gauss
@@ -243,6 +239,29 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     measures = [gauss_penalty_value(facets, beta, degree, metric)] if beta > 0 else []
     plate = PlateModel(facets, spec.degree, energy_fn, measures, continuation=path, metric=metric)
     return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)
+
+
+def trace_constant(mu: Expr, c: float, metric: Expr, facets: FacetSets, degree: int) -> ufl.Form:
+    """½∫μ c F(G): the part of the trace term c Σₖ tr(AD²yₖA)² that is not c Σₖ |AD²yₖA|².
+
+    On every y with ∇yᵀ∇y = G the trace term equals c(Σₖ|AD²yₖA|² + F(G)), F of G alone
+    (:func:`~dgplate.dg.geometry.trace_excess`): so the energy is the metric plate's with
+    rigidity (1 + c)μ plus this constant, and the minimisers do not depend on ν. Written so,
+    the discrete energy has no term 2c det(AD²yA) that a cell could lower by curving twice
+    where the constraint, held in cell means, lets it (docs/prestrain.md).
+
+    Args:
+        mu: the rigidity μ.
+        c: ν/(1 − ν).
+        metric: the target metric G.
+        facets: the mesh's facet sets.
+        degree: the quadrature degree.
+
+    Returns:
+        The constant as a form (no y in it).
+    """
+    form: ufl.Form = 0.5 * c * mu * trace_excess(metric) * cell_measure(facets.mesh, degree)
+    return form
 
 
 def bnn_plate(comm: MPI.Comm, cells: int) -> PlateModel:

@@ -448,9 +448,6 @@ BAD_INPUT = {
     "poisson on a bilayer": Case(
         ("model.poisson=0.3",), "model.poisson is not taken by the bilayer model", BILAYER
     ),
-    "poisson with the ldg hessian": Case(
-        ("model.poisson=0.3", "model.hessian='ldg'"), "model.poisson needs model.hessian = 'broken'"
-    ),
     "poisson above one half": Case(
         ("model.poisson=0.6",), "model.poisson must be in (-1, 0.5], got 0.6"
     ),

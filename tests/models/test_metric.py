@@ -21,8 +21,8 @@ import ufl
 from helpers import PROBLEMS, QUIET, ROOT, mpirun
 
 from dgplate import expressions, interrupt, load_problem, run
-from dgplate.dg.forms import bending_stress, hessian, metric_weighted
-from dgplate.dg.geometry import metric_gauss_curvature
+from dgplate.dg.forms import hessian, metric_weighted
+from dgplate.dg.geometry import metric_gauss_curvature, trace_excess
 from dgplate.errors import InputError
 from dgplate.io.vtx import bp_variables
 from dgplate.measure.analysis import fit_sphere
@@ -53,23 +53,31 @@ def test_metric_weighted_hessian_is_the_norm_of_g_inverse_sqrt_hessian():
     assert value == pytest.approx(expected, rel=1e-13)
 
 
-@pytest.mark.parametrize("with_metric", [True, False])
-def test_bending_stress_adds_the_trace_term(with_metric):
-    """D²y : 𝒞D²y = Σ_k |AD²y_kA|² + c tr(AD²y_kA)², A = G^{-1/2} (I without a metric)."""
-    mesh = rectangle(MPI.COMM_WORLD, [[0, 0], [2, 1]], [2, 2]).mesh
-    x = ufl.SpatialCoordinate(mesh)
-    H = np.array([[[1.0, 0.3], [0.3, -2.0]], [[0.5, 0.0], [0.0, 0.7]], [[-1.0, 2.0], [2.0, 4.0]]])
-    y = ufl.as_vector([0.5 * ufl.dot(x, ufl.dot(ufl.as_matrix(h.tolist()), x)) for h in H])
-    G = np.array([[2.0, 0.5], [0.5, 1.0]]) if with_metric else np.eye(2)
-    metric = ufl.as_matrix(G.tolist()) if with_metric else None
-    c = 0.3 / 0.7
-    D2 = hessian(y)
-    form = dolfinx.fem.form(ufl.inner(D2, bending_stress(D2, metric, c)) * ufl.dx)
-    value = mesh.comm.allreduce(dolfinx.fem.assemble_scalar(form), op=MPI.SUM)
-    w, V = np.linalg.eigh(G)
-    A = V @ np.diag(w**-0.5) @ V.T
-    expected = 2.0 * sum(np.sum((A @ h @ A) ** 2) + c * np.trace(A @ h @ A) ** 2 for h in H)
-    assert value == pytest.approx(expected, rel=1e-13)
+def test_trace_excess_is_the_caps_trace_density_less_its_energy_density():
+    """F(G) = Σₖ tr(AD²yₖA)² − Σₖ|AD²yₖA|² of the sphere's G: the cap's two densities' difference.
+
+    Integrated over a square off the centre (UFL's F from G's derivatives against the cap's
+    closed forms by Gauss–Legendre): equal to 1e-12 (measured 3e-17).
+    """
+    tagged = rectangle(MPI.COMM_WORLD, [[0.1, 0.2], [0.6, 0.7]], [4, 4])
+    metric = target_metric(MetricSpec(**spherical_cap.metric_formulas(2.0)), tagged.mesh)
+    form = dolfinx.fem.form(trace_excess(metric) * ufl.dx(metadata={"quadrature_degree": 12}))
+    value = tagged.mesh.comm.allreduce(dolfinx.fem.assemble_scalar(form), op=MPI.SUM)
+    points, weights = np.polynomial.legendre.leggauss(30)
+    xs, ys, w = 0.1 + 0.25 * (points + 1), 0.2 + 0.25 * (points + 1), 0.25 * weights
+    r = np.hypot(*np.meshgrid(xs, ys, indexing="ij"))
+    excess = spherical_cap.trace_density(r, 2.0) - spherical_cap.energy_density(r, 2.0)
+    assert value == pytest.approx(np.einsum("i,j,ij", w, w, excess), abs=1e-12)
+
+
+def test_poisson_without_a_metric_is_the_rigidity_scaled_by_one_over_one_minus_nu(tmp_path):
+    """G = I: tr(II)² = |II|² on isometries, so ν scales μ by 1/(1 − ν), to round-off."""
+    cantilever = PROBLEMS / "cantilever.toml"
+    small = {"mesh.cells": [8, 2], **QUIET}
+    nu = run(load_problem(cantilever, {**small, "model.poisson": 0.3}), out=tmp_path / "nu")
+    mu = run(load_problem(cantilever, {**small, "model.mu": 1 / 0.7}), out=tmp_path / "mu")
+    assert nu["steps"] == mu["steps"]
+    assert nu["energy"] == pytest.approx(mu["energy"], rel=1e-12)
 
 
 def test_spherical_cap_trace_density_is_the_trace_of_the_caps_hessian():
@@ -174,8 +182,8 @@ def test_spherical_cap_from_the_flat_disc(tmp_path):
 def test_the_trace_term_keeps_the_cap_and_converges_to_its_energy(tmp_path):
     """``model.poisson = 0.3``: the cap with c = ν/(1 − ν) is still the minimiser (umbilic).
 
-    Measured (β = 10; h = 0.2, 0.1): E_h 1.58643, 1.52075 against 1.50236 (+5.6 %, +1.2 %;
-    +0.019 % at h = 0.05), radius errors 1.0e-3, 2.5e-4; the penalty's value, part of E_h,
+    Measured (β = 10; h = 0.2, 0.1): E_h 1.65045, 1.54224 against 1.50236 (+9.9 %, +2.7 %;
+    +0.43 % at h = 0.05), radius errors 7.0e-4, 1.6e-4; the penalty's value, part of E_h,
     reported on its own and smaller on the finer mesh.
     """
     exact = spherical_cap.energy(2.0, poisson=0.3)
@@ -192,7 +200,7 @@ def test_the_trace_term_keeps_the_cap_and_converges_to_its_energy(tmp_path):
         radius_errors.append(abs(fit_sphere(result.shape)["radius"] - 2.0) / 2.0)
         penalties.append(result["gauss_penalty_energy"])
         assert 0 < result["gauss_penalty_energy"] < result["energy"] - exact
-    assert 0 < energy_errors[1] < 0.015 and energy_errors[0] < 0.07
+    assert 0 < energy_errors[1] < 0.035 and energy_errors[0] < 0.12
     assert energy_errors[1] < energy_errors[0] / 3 and radius_errors[1] < radius_errors[0] / 3
     assert radius_errors[1] < 3e-4 and penalties[1] < penalties[0]
 
