@@ -15,6 +15,16 @@ and the interior-penalty consistency terms −{D²y n}:[∇v] are left unbalance
 rolls to a wrong radius (``consistent=False`` keeps that variant for comparison; the cylinder
 test shows the difference). On crease facets the [∇y] term is dropped, like in the bending form.
 The coupling term is not quadratic: the gradient flow treats it explicitly (at yⁿ).
+
+With a target metric G (``model.metric``, ``model.director``; docs/prestrain.md) the plate is
+constrained to ∇yᵀ∇y = G and its energy is ½∫μ|G^{-1/2}(II − Z)G^{-1/2}|² (Bonito, Guignard,
+Nochetto and Yang, J. Comput. Phys. 2022, Z in the reference coordinates), i.e.
+
+    ½∫μ|G^{-1/2}IIG^{-1/2}|² − ∫μ II : G⁻¹ZG⁻¹ + ½∫μ Z : G⁻¹ZG⁻¹.
+
+The first term is the Kirchhoff energy with the metric (up to a function of G); as
+II : W = Σ_k D²y_k : W ν_k for any W (D²y_k = Γᵐ∂_m y_k + II ν_k and ν ⊥ ∂_m y), the
+coupling is the one above with Z replaced by G⁻¹ZG⁻¹ (:func:`metric_curvature`).
 """
 
 from __future__ import annotations
@@ -29,19 +39,21 @@ from dgplate import expressions, values
 from dgplate.compat import Function
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import (
+    BendingData,
     Coefficient,
     FacetSets,
     Penalty,
     cell_measure,
     distributional_hessian,
     facet_sets,
+    metric_quadrature,
 )
 from dgplate.dg.gauss_penalty import gauss_penalty
 from dgplate.dg.geometry import second_fundamental_form, unit_normal
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import PlateModel, clamped_data, continuation_path, piecewise_constant
-from dgplate.models.kirchhoff import KirchhoffSpec, kirchhoff_energy
+from dgplate.models.kirchhoff import KirchhoffSpec, kirchhoff_energy, spec_metric
 from dgplate.models.obstacle import with_obstacle
 from dgplate.models.self_avoidance import with_self_avoidance
 from dgplate.schema import Check, is_matrix, is_number, option
@@ -52,6 +64,7 @@ __all__ = [
     "build_bilayer",
     "curvature_coupling",
     "gauss_penalty",
+    "metric_curvature",
     "second_fundamental_form",
     "spontaneous_curvature",
     "unit_normal",
@@ -78,6 +91,26 @@ def curvature_coupling(
     return form
 
 
+def metric_curvature(Z: Expr, metric: Expr | None) -> Expr:
+    """G⁻¹ZG⁻¹, the spontaneous curvature as the coupling with a target metric G tests it.
+
+    Then II : G⁻¹ZG⁻¹ is the cross term of |G^{-1/2}(II − Z)G^{-1/2}|² and Z : G⁻¹ZG⁻¹ its
+    constant.
+
+    Args:
+        Z: the spontaneous curvature, a UFL 2×2 expression.
+        metric: the target metric G (None: I, and Z itself).
+
+    Returns:
+        The 2×2 expression G⁻¹ZG⁻¹.
+    """
+    if metric is None:
+        return Z
+    inverse = ufl.inv(metric)
+    weighted: Expr = ufl.dot(inverse, ufl.dot(Z, inverse))
+    return weighted
+
+
 def bilayer_energy(
     y: Expr,
     facets: FacetSets,
@@ -91,20 +124,31 @@ def bilayer_energy(
     degree: int | None = None,
     gauss: float = 0.0,
     ldg_degree: int | None = None,
+    metric: Expr | None = None,
 ) -> Energy:
-    """Bending (implicit) + curvature coupling and ½∫μ|Z|² (explicit) − load.
+    """Bending (implicit) + curvature coupling and ½∫μ Z : G⁻¹ZG⁻¹ (explicit) − load.
 
     ``gauss`` > 0 adds :func:`gauss_penalty` with β = ``gauss`` to the explicit part.
     ``ldg_degree``: the bending energy with the LDG reconstructed Hessian
     (:func:`~dgplate.models.kirchhoff.kirchhoff_energy`); the coupling keeps the
     distributional Hessian (equal to ∫ H_h(y) : T where T lies in the lifting space).
+    ``metric``: the target metric G (None: I, the isometric plate): the bending energy with
+    G, the coupling and the constant with G⁻¹ZG⁻¹ (module docstring), at the quadrature
+    degree ``degree`` (None: :func:`~dgplate.dg.forms.metric_quadrature`).
     """
     rigidity = 1.0 if mu is None else mu
-    bending = kirchhoff_energy(y, facets, penalty, load, ldg_degree, mu=mu, g=g, Phi=Phi)
-    explicit = curvature_coupling(y, facets, Z, rigidity, g, Phi, consistent, degree)
-    explicit += 0.5 * rigidity * ufl.inner(Z, Z) * facets.dx
+    data: BendingData = {"mu": mu, "g": g, "Phi": Phi}
+    dx = facets.dx
+    if metric is not None:
+        data["metric"] = metric
+        degree = metric_quadrature(y) if degree is None else degree
+        dx = cell_measure(facets.mesh, degree)
+    bending = kirchhoff_energy(y, facets, penalty, load, ldg_degree, **data)
+    weighted = metric_curvature(Z, metric)
+    explicit = curvature_coupling(y, facets, weighted, rigidity, g, Phi, consistent, degree)
+    explicit += 0.5 * rigidity * ufl.inner(Z, weighted) * dx
     if gauss > 0:
-        explicit += gauss_penalty(y, facets, gauss, degree)
+        explicit += gauss_penalty(y, facets, gauss, degree, metric)
     return replace(bending, explicit=explicit)
 
 
@@ -159,7 +203,6 @@ class BilayerSpec(KirchhoffSpec):
     """[model] of a bilayer plate: the Kirchhoff keys plus the spontaneous curvature."""
 
     name: str = option("bilayer", "the model")
-    takes_metric: ClassVar[bool] = False  # its energy has no G yet
     takes_poisson: ClassVar[bool] = False  # its Z coupling has no trace term
     Z: float | list[list[float | str]] | dict[str, float | list[list[float]]] = option(
         1.0,
@@ -198,6 +241,7 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
     g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path)
     penalty = spec.penalty
     degree = 3 * spec.degree + 2
+    metric = spec_metric(spec, tagged)
 
     def energy_fn(y: Function) -> Energy:
         return bilayer_energy(
@@ -213,9 +257,15 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
             degree,
             spec.gauss_penalty,
             spec.ldg_degree,
+            metric,
         )
 
     plate = PlateModel(
-        facets, spec.degree, energy_fn, measures=[curvature_summary], continuation=path
+        facets,
+        spec.degree,
+        energy_fn,
+        measures=[curvature_summary],
+        continuation=path,
+        metric=metric,
     )
     return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)

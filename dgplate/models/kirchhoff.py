@@ -99,7 +99,7 @@ class KirchhoffSpec:
     hessian: str = option("broken", HESSIAN_HELP, choices=HESSIANS)
     gauss_penalty: float = option(
         0.0,
-        "β: add (β/2)Σ_T h⁻¹∫_T (det II − K det G)² (K: the Gauss curvature of the target metric G of kirchhoff and foundation plates; K = 0, G = I without one) against the free-edge layers of the cell-moment constraint (docs/prestrain.md); 0: none",
+        "β: add (β/2)Σ_T h⁻¹∫_T (det II − K det G)² (K: the Gauss curvature of the target metric G; K = 0, G = I without one) against the free-edge layers of the cell-moment constraint (docs/prestrain.md); 0: none",
         ge=0,
     )
     poisson: float = option(
@@ -135,14 +135,10 @@ class KirchhoffSpec:
             raise InputError(
                 "model.director sets the target metric, as model.metric does: give one of them"
             )
-        target = "model.metric" if self.metric is not None else "model.director"
-        if self.target_metric is not None and not self.takes_metric:
-            raise InputError(
-                f"{target} is not taken by the {self.name} model (kirchhoff and foundation "
-                "plates take a target metric)"
-            )
         if self.target_metric is not None and self.hessian == "ldg":
-            raise InputError(f"{target} needs model.hessian = 'broken' (the LDG energy has no G)")
+            raise InputError(
+                f"{self.metric_key} needs model.hessian = 'broken' (the LDG energy has no G)"
+            )
         if self.poisson and not self.takes_poisson:
             raise InputError(
                 f"model.poisson is not taken by the {self.name} model (kirchhoff and foundation "
@@ -174,8 +170,6 @@ class KirchhoffSpec:
         """The degree of the liftings with ``hessian = 'ldg'`` (that of y), else None."""
         return self.degree if self.hessian == "ldg" else None
 
-    #: whether the model's energy takes ``metric``/``director`` (not a bilayer's, an lce's yet)
-    takes_metric: ClassVar[bool] = True
     #: whether the model's energy takes ``poisson`` (not a bilayer's, an lce's: their Z has none)
     takes_poisson: ClassVar[bool] = True
 
@@ -183,6 +177,11 @@ class KirchhoffSpec:
     def target_metric(self) -> MetricSpec | None:
         """G of ``metric`` or of ``director`` (None: neither, the isometric plate)."""
         return self._director.metric() if self._director is not None else self.metric
+
+    @property
+    def metric_key(self) -> str:
+        """The key that gives G, as named in messages: ``model.metric`` or ``model.director``."""
+        return "model.metric" if self.metric is not None else "model.director"
 
     @property
     def director_params(self) -> Director | None:
@@ -193,6 +192,26 @@ class KirchhoffSpec:
     def start_params(self) -> starts.Start:
         """The validated ``start`` (the flow's first state)."""
         return self._start
+
+
+def spec_metric(spec: KirchhoffSpec, tagged: TaggedMesh) -> Expr | None:
+    """G of a plate's ``model.metric`` or ``model.director`` on its mesh (collective).
+
+    Args:
+        spec: the validated ``[model]`` section (kirchhoff, foundation, bilayer, lce).
+        tagged: the plate's mesh with its cell groups (for G per group).
+
+    Returns:
+        G as a UFL 2×2 expression, checked SPD on the mesh; None without a target metric.
+    """
+    given = spec.target_metric
+    if given is None:
+        return None
+    director = spec.director_params
+    if director is not None and isinstance(director.angle, str):  # before G's formulas, on θ
+        expressions.check_finite_on_mesh(director.angle, tagged.mesh, "model.director.angle")
+        check_smooth(director, tagged.mesh)
+    return target_metric(given, tagged.mesh, spec.metric_key, tagged)
 
 
 def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
@@ -211,13 +230,7 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     path = continuation_path(spec.schedule, tagged.mesh)
     g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path)
     penalty = spec.penalty
-    given = spec.target_metric
-    key = "model.metric" if spec.metric is not None else "model.director"
-    director = spec.director_params
-    if director is not None and isinstance(director.angle, str):  # before G's formulas, on θ
-        expressions.check_finite_on_mesh(director.angle, tagged.mesh, "model.director.angle")
-        check_smooth(director, tagged.mesh)
-    metric = None if given is None else target_metric(given, tagged.mesh, key, tagged)
+    metric = spec_metric(spec, tagged)
     c = spec.trace_weight
     data: BendingData = {"mu": (1 + c) * mu if c else mu, "g": g, "Phi": Phi}
     if metric is not None:

@@ -15,6 +15,12 @@ A has the eigenvalues −γ along d = (cos θ, sin θ) and a₂γ (a₂ = 1 twis
 whatever θ is; hence the pointwise lower bound ½|II − A|² ≥ ½ (smaller eigenvalue)², i.e.
 ``lower_bound`` = ½γ²|ω| (twist) or 0 (splay) in ``summary.json``; for constant θ a cylinder
 attains it (docs/lce.md).
+
+``model.metric`` adds an in-plane target metric G, the constraint ∇yᵀ∇y = G and the energy
+½∫|G^{-1/2}(II − A)G^{-1/2}|² (:mod:`dgplate.models.bilayer`). The model's own
+``model.director`` is the profile through the thickness, so the G of an in-plane director
+field (:mod:`dgplate.models.director`) is given here by its entries in ``model.metric``. The
+bound ``lower_bound`` is that of the isometric plate: with a G it is left out.
 """
 
 from __future__ import annotations
@@ -33,7 +39,9 @@ from dgplate.dg.forms import facet_sets, integral
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import PlateModel, clamped_data, continuation_path, piecewise_constant
 from dgplate.models.bilayer import bilayer_energy
-from dgplate.models.kirchhoff import KirchhoffSpec
+from dgplate.models.kirchhoff import KirchhoffSpec, spec_metric
+from dgplate.models.metric import HELP as metric_help
+from dgplate.models.metric import MetricSpec
 from dgplate.models.obstacle import with_obstacle
 from dgplate.models.self_avoidance import with_self_avoidance
 from dgplate.schema import option
@@ -57,12 +65,15 @@ class LCESpec(KirchhoffSpec):
     """[model] of a liquid-crystal-elastomer plate: the Kirchhoff keys plus the director."""
 
     name: str = option("lce", "the model")
-    takes_metric: ClassVar[bool] = False  # its energy has no G yet
     takes_poisson: ClassVar[bool] = False  # its Z coupling has no trace term
     director: str = option(  # type: ignore[assignment]  # the profile, not the metric's table
         "twist",
         "director profile through the thickness: 'twist' (A₀ = diag(−1, 1)) or 'splay' (A₀ = diag(−1, 0))",
         choices=tuple(sorted(DIRECTORS)),
+    )
+    metric: MetricSpec | None = option(
+        None,
+        f"{metric_help}; an in-plane director's G goes here by its entries (model.director is the profile through the thickness)",
     )
     gamma: float = option(
         1.0, "actuation strength γ (a curvature; γ < 0 bends the other way): A = γ R(θ) A₀ R(θ)ᵀ"
@@ -104,6 +115,7 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
     A = director_curvature(gamma, theta, second)
     penalty = spec.penalty
     degree = 3 * spec.degree + 2
+    metric = spec_metric(spec, tagged)
 
     def energy_fn(y: Function) -> Energy:
         return bilayer_energy(
@@ -118,6 +130,7 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
             degree=degree,
             gauss=spec.gauss_penalty,
             ldg_degree=spec.ldg_degree,
+            metric=metric,
         )
 
     def lower_bound(y: Function) -> dict[str, Any]:
@@ -129,7 +142,8 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
         facets,
         spec.degree,
         energy_fn,
-        measures=[curvature_summary, lower_bound],
+        measures=[curvature_summary] if metric is not None else [curvature_summary, lower_bound],
         continuation=path,
+        metric=metric,
     )
     return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)

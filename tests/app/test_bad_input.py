@@ -394,20 +394,30 @@ BAD_INPUT = {
         ("model.director={angle=0, lambda=0.9}", "model.metric={g11=2.0}"),
         "model.director sets the target metric, as model.metric does: give one of them",
     ),
-    "metric on a bilayer": Case(
-        ("model.metric={g11=2.0}",),
-        "model.metric is not taken by the bilayer model",
+    "metric on a bilayer with the edge constraint": Case(
+        ("model.metric={g11=2.0}", "flow.edge_constraint=true"),
+        "flow.edge_constraint holds free edges to the metric I: not with model.metric",
         problem=BILAYER,
     ),
-    "metric on an lce plate": Case(
-        ("model.metric={g11=2.0}",),
-        "model.metric is not taken by the lce model",
+    "metric on a bilayer with the ldg hessian": Case(
+        ("model.metric={g11=2.0}", "model.hessian='ldg'", "flow.edge_constraint=false"),
+        "model.metric needs model.hessian = 'broken'",
+        problem=BILAYER,
+    ),
+    "director on a bilayer with the ldg hessian": Case(
+        ("model.director={angle=0, lambda=0.9}", "model.hessian='ldg'"),
+        "model.director needs model.hessian = 'broken'",
+        problem=BILAYER,
+    ),
+    "metric on an lce plate with the edge constraint": Case(
+        ("model.metric={g11=2.0}", "flow.edge_constraint=true"),
+        "flow.edge_constraint holds free edges to the metric I: not with model.metric",
         problem=PROBLEMS / "lce_strip.toml",
     ),
-    "director on a bilayer": Case(
+    "director table on an lce plate": Case(
         ("model.director={angle=0, lambda=0.9}",),
-        "model.director is not taken by the bilayer model",
-        problem=BILAYER,
+        "model.director must be str, got {",
+        problem=PROBLEMS / "lce_strip.toml",
     ),
     "director with the ldg hessian": Case(
         ("model.director={angle=0, lambda=0.9}", "model.hessian='ldg'"),
