@@ -369,6 +369,21 @@ def metric_weighted(D2: Expr, metric: Expr) -> Expr:
     return weighted
 
 
+def explicit_quadrature(degree: int) -> int:
+    """3k + 2, the quadrature degree of the nonlinear explicit terms of y of degree k.
+
+    The curvature coupling and the Gauss-curvature penalty hold the unit normal and II,
+    rational in ∇y and D²y: FFCx's estimate of their degree is far too high.
+
+    Args:
+        degree: the degree k of y.
+
+    Returns:
+        The quadrature degree.
+    """
+    return 3 * degree + 2
+
+
 def metric_quadrature(y: Expr) -> int:
     """The quadrature degree of the metric-weighted energy of y: 2k + 2 for y of degree k.
 

@@ -54,23 +54,23 @@ def gauss_penalty(
     return form
 
 
-def gauss_penalty_value(
+def gauss_penalty_measures(
     facets: FacetSets, beta: float, degree: int | None = None, metric: Expr | None = None
-) -> Callable[[Function], dict[str, float]]:
-    """A measure for ``summary.json``: the penalty's value at the final y (a part of E_h).
+) -> list[Callable[[Function], dict[str, float]]]:
+    """The measure for ``summary.json`` of the penalty's value at the final y (a part of E_h).
 
     Args:
         facets: the mesh's facet sets.
-        beta: β > 0, the weight.
+        beta: β ≥ 0, the weight (0: no penalty, no measure).
         degree: the quadrature degree, as for :func:`gauss_penalty`.
         metric: the target metric G (None: I).
 
     Returns:
-        y ↦ ``{"gauss_penalty_energy": value}`` (collective).
+        [y ↦ ``{"gauss_penalty_energy": value}``] (collective), or [] when β = 0.
     """
 
     def measure(y: Function) -> dict[str, float]:
         form = dolfinx.fem.form(gauss_penalty(y, facets, beta, degree, metric))
         return {"gauss_penalty_energy": integral(form, facets.mesh.comm)}
 
-    return measure
+    return [measure] if beta > 0 else []

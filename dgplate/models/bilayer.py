@@ -45,10 +45,11 @@ from dgplate.dg.forms import (
     Penalty,
     cell_measure,
     distributional_hessian,
+    explicit_quadrature,
     facet_sets,
     metric_quadrature,
 )
-from dgplate.dg.gauss_penalty import gauss_penalty
+from dgplate.dg.gauss_penalty import gauss_penalty, gauss_penalty_measures
 from dgplate.dg.geometry import second_fundamental_form, unit_normal
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
@@ -240,7 +241,7 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
     path = continuation_path(spec.schedule, tagged.mesh)
     g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path)
     penalty = spec.penalty
-    degree = 3 * spec.degree + 2
+    degree = explicit_quadrature(spec.degree)
     metric = spec_metric(spec, tagged)
 
     def energy_fn(y: Function) -> Energy:
@@ -264,7 +265,10 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
         facets,
         spec.degree,
         energy_fn,
-        measures=[curvature_summary],
+        measures=[
+            curvature_summary,
+            *gauss_penalty_measures(facets, spec.gauss_penalty, degree, metric),
+        ],
         continuation=path,
         metric=metric,
     )

@@ -27,9 +27,10 @@ from dgplate.dg.forms import (
     Penalty,
     bending_energy,
     cell_measure,
+    explicit_quadrature,
     facet_sets,
 )
-from dgplate.dg.gauss_penalty import gauss_penalty, gauss_penalty_value
+from dgplate.dg.gauss_penalty import gauss_penalty, gauss_penalty_measures
 from dgplate.dg.geometry import trace_excess
 from dgplate.dg.lifting import HESSIAN_HELP, HESSIANS, ldg_energy
 from dgplate.dg.obstacle_penalty import Obstacle
@@ -236,7 +237,7 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     if metric is not None:
         data["metric"] = metric
 
-    beta, degree = spec.gauss_penalty, 3 * spec.degree + 2
+    beta, degree = spec.gauss_penalty, explicit_quadrature(spec.degree)
 
     def energy_fn(y: Function) -> Energy:
         energy = kirchhoff_energy(y, facets, penalty, load, spec.ldg_degree, **data)
@@ -249,7 +250,7 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
             energy = replace(energy, explicit=explicit)
         return energy
 
-    measures = [gauss_penalty_value(facets, beta, degree, metric)] if beta > 0 else []
+    measures = gauss_penalty_measures(facets, beta, degree, metric)
     plate = PlateModel(facets, spec.degree, energy_fn, measures, continuation=path, metric=metric)
     return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)
 

@@ -35,7 +35,8 @@ from ufl.core.expr import Expr
 from dgplate import expressions, values
 from dgplate.compat import Function
 from dgplate.dg.energy import Energy
-from dgplate.dg.forms import facet_sets, integral
+from dgplate.dg.forms import explicit_quadrature, facet_sets, integral
+from dgplate.dg.gauss_penalty import gauss_penalty_measures
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import PlateModel, clamped_data, continuation_path, piecewise_constant
 from dgplate.models.bilayer import bilayer_energy
@@ -114,7 +115,7 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
     gamma = values.constant(mesh, spec.gamma)
     A = director_curvature(gamma, theta, second)
     penalty = spec.penalty
-    degree = 3 * spec.degree + 2
+    degree = explicit_quadrature(spec.degree)
     metric = spec_metric(spec, tagged)
 
     def energy_fn(y: Function) -> Energy:
@@ -142,7 +143,11 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
         facets,
         spec.degree,
         energy_fn,
-        measures=[curvature_summary] if metric is not None else [curvature_summary, lower_bound],
+        measures=[
+            curvature_summary,
+            *([] if metric is not None else [lower_bound]),  # an isometric plate's bound
+            *gauss_penalty_measures(facets, spec.gauss_penalty, degree, metric),
+        ],
         continuation=path,
         metric=metric,
     )

@@ -20,7 +20,7 @@ from dgplate.compat import Mesh
 from dgplate.coupling.heat import HeatSolver
 from dgplate.coupling.thermal_driver import Measure, Schedule, ThermalBilayer
 from dgplate.dg.energy import Energy
-from dgplate.dg.forms import FacetSets, Penalty, facet_sets
+from dgplate.dg.forms import FacetSets, Penalty, explicit_quadrature, facet_sets
 from dgplate.errors import InputError
 from dgplate.measure.analysis import curvature_summary, l1_norms
 from dgplate.measure.hinges import (
@@ -208,7 +208,7 @@ class ThermalModel(Model):
     ) -> Callable[[dolfinx.fem.Function[np.float64], dolfinx.fem.Function[np.float64]], Energy]:
         spec, tagged = self.spec, self.tagged
         alpha = region_coefficient(tagged, self.alpha, "model.alpha")
-        degree = 3 * spec.degree + 2
+        degree = explicit_quadrature(spec.degree)
 
         def energy(
             y: dolfinx.fem.Function[np.float64], theta: dolfinx.fem.Function[np.float64]
