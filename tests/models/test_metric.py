@@ -28,7 +28,7 @@ from dgplate.errors import InputError
 from dgplate.io.vtx import bp_variables
 from dgplate.measure.analysis import fit_sphere
 from dgplate.measure.fields import cell_field, defect_density
-from dgplate.measure.prestrain import gauss_curvature_figures
+from dgplate.measure.prestrain import edge_waves, gauss_curvature_figures
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.metric import MetricSpec, target_metric
 from dgplate.reference import spherical_cap
@@ -140,6 +140,24 @@ def test_spherical_cap_from_the_flat_disc(tmp_path):
     assert radius_errors[0] < 8e-4 and radius_errors[1] < 2e-4
     assert 0 < energy_errors[1] < 0.04 and energy_errors[0] < 0.14
     assert radius_errors[1] < radius_errors[0] / 3 and energy_errors[1] < energy_errors[0] / 3
+
+
+def test_hyperbolic_disc_becomes_a_saddle(tmp_path):
+    """demos/problems/hyperbolic_disc.toml (K = −1, h = 0.2): a saddle, K_h near −1.
+
+    Measured: 5 projections of the saddle start, 16 flow steps, D_h 3e-15; K of G −1 to 1e-14;
+    mean K_h −0.9696 (error_mean 0.048); two waves along the edge (amplitude 0.49, the next
+    mode 4e-4).
+    """
+    result = run(load_problem(PROBLEMS / "hyperbolic_disc.toml", QUIET), out=tmp_path)
+    assert result["converged"] and result["isometry_defect"] <= 1e-10
+    assert result["metric_start"]["defect"] <= 1e-10
+    gauss = result["metric_gauss_curvature"]
+    assert gauss["target_min"] == pytest.approx(-1.0, abs=1e-12)
+    assert gauss["target_max"] == pytest.approx(-1.0, abs=1e-12)
+    assert gauss["mean"] == pytest.approx(-1.0, abs=0.05)
+    waves = edge_waves(result.shape)
+    assert waves["waves"] == 2 and waves["amplitudes"][1] > 0.3
 
 
 def test_gauss_penalty_measures_det_II_against_K_det_G():
