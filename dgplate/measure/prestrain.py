@@ -17,11 +17,10 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import ufl
 from ufl.core.expr import Expr
 
 from dgplate import mpi
-from dgplate.compat import Function, Mesh
+from dgplate.compat import Function, Mesh, spatial_coordinate
 from dgplate.dg.geometry import metric_gauss_curvature
 from dgplate.measure.analysis import cell_areas
 from dgplate.measure.fields import CellField, cell_field, gauss_density
@@ -169,7 +168,7 @@ def gauss_curvature_outside(y: Function, inner: float) -> float:
         ∫|K_h| / area over those cells (cell-wise K_h at the midpoints).
     """
     mesh = y.function_space.mesh
-    x = ufl.SpatialCoordinate(mesh)
+    x = spatial_coordinate(mesh)
     r = np.hypot(cell_field(x[0], mesh), cell_field(x[1], mesh))
     areas = np.where(r > inner, cell_areas(mesh), 0.0)
     total = mpi.global_sum(mesh.comm, float(areas.sum()))
