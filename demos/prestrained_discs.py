@@ -33,6 +33,9 @@
 # piecewise smooth ones with a periodic profile of lower bending energy, the number of
 # periods set by the principal curvatures staying finite and growing about exponentially
 # with the radius.
+# `benchmarks/hyperbolic_waves.py` (its table in docs/prestrain.md) starts the disc of this
+# demo from surfaces of 2, 3 and 4 waves: each run keeps its waves, and the saddle has the
+# least energy for R = 1, four waves for R = 0.5 (a disc twice as large in units of R).
 #
 # ## The hyperbolic disc
 #

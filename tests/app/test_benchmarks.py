@@ -283,6 +283,24 @@ def test_prestrained_discs_page_is_generated(tmp_path):
     assert all(d["off_tip"] < d["without_gauss"]["off_tip"] for d in anticone)
 
 
+def test_hyperbolic_waves_page_is_generated(tmp_path):
+    """docs/prestrain.md's table of the states of n waves is what --table-only writes.
+
+    The committed JSON's figures: every state converged with D_h ≤ 1e-10 and kept the waves
+    of its start; at both levels E_h grows with the waves for R = 1 (the saddle least) and
+    falls with them for R = 0.5 (four waves least of 2, 3, 4).
+    """
+    page = BENCH.parent / "docs" / "prestrain.md"
+    assert_page_is_generated("hyperbolic_waves", page, tmp_path)
+    states = json.loads((BENCH / "results" / "hyperbolic_waves.json").read_text())["states"]
+    assert all(s["converged"] and s["isometry_defect"] <= 1e-10 for s in states)
+    assert all(s["waves"] == s["start_waves"] for s in states)
+    for h in (0.1, 0.05):
+        for R, order in ((1.0, 1), (0.5, -1)):
+            energy = [s["energy"] for s in states if (s["h"], s["R"]) == (h, R)]
+            assert len(energy) == 3 and energy == sorted(energy, reverse=order < 0)
+
+
 def test_path_following_benchmark_smoke(tmp_path):
     """The coarsest level of each study: the record and the three tables of a page."""
     out, page = tmp_path / "path_following.json", tmp_path / "path_following.md"
