@@ -55,6 +55,8 @@ _FUNCTIONS: dict[str, _Function] = {
     "log": _Function(1, ufl.ln, np.log),
     "sqrt": _Function(1, ufl.sqrt, np.sqrt),
     "abs": _Function(1, abs, np.abs),
+    "sinh": _Function(1, ufl.sinh, np.sinh),
+    "cosh": _Function(1, ufl.cosh, np.cosh),
     "tanh": _Function(1, ufl.tanh, np.tanh),
     "atan": _Function(1, ufl.atan, np.arctan),
     "atan2": _Function(2, ufl.atan2, np.arctan2),

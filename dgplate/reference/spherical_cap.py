@@ -28,7 +28,14 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["cap", "energy", "energy_density", "metric_formulas", "trace_density"]
+__all__ = [
+    "cap",
+    "energy",
+    "energy_density",
+    "geodesic_polar_formulas",
+    "metric_formulas",
+    "trace_density",
+]
 
 #: below this (r/R)² the formulas of G use the Taylor series of q (no cancellation in a² − 1)
 SERIES_BELOW = 1 / 64
@@ -47,10 +54,31 @@ def metric_formulas(R: float) -> dict[str, str]:
     Returns:
         The three formulas by key.
     """
+    return geodesic_polar_formulas(R, 1)
+
+
+def geodesic_polar_formulas(R: float, sign: int) -> dict[str, str]:
+    """G = dr² + S(r)² dθ² of the sphere (sign 1) or the hyperbolic plane (sign −1).
+
+    S(r) = R sin(r/R) for the sphere of radius R (K = 1/R²), R sinh(r/R) for the hyperbolic
+    plane of curvature K = −1/R²; G = I + q(r)(|x|²I − x⊗x) with q = (S²/r² − 1)/r², its
+    Taylor series for (r/R)² ≤ ``SERIES_BELOW`` (sinh²ρ/ρ² is sin²ρ/ρ² with ρ² → −ρ²: the
+    same coefficients, all positive).
+
+    Args:
+        R: the radius R > 0.
+        sign: 1 for the sphere, −1 for the hyperbolic plane.
+
+    Returns:
+        The three formulas g11, g12, g22 by key.
+    """
     s, R2 = "(x*x + y*y)", f"{R!r}**2"
     p = f"({s}/{R2})"  # ρ²
-    closed = f"({R2}*sin(sqrt{s}/{R!r})**2/{s} - 1)/{s}"
-    series = f"(-1/3 + 2*{p}/45 - {p}**2/315 + 2*{p}**3/14175 - 2*{p}**4/467775)/{R2}"
+    trig, first, minus = ("sin", "-", "-") if sign > 0 else ("sinh", "", "+")
+    closed = f"({R2}*{trig}(sqrt{s}/{R!r})**2/{s} - 1)/{s}"
+    series = (
+        f"({first}1/3 + 2*{p}/45 {minus} {p}**2/315 + 2*{p}**3/14175 {minus} 2*{p}**4/467775)/{R2}"
+    )
     q = f"where({p} > {SERIES_BELOW!r}, {closed}, {series})"
     return {"g11": f"1 + ({q})*y*y", "g12": f"-({q})*x*y", "g22": f"1 + ({q})*x*x"}
 

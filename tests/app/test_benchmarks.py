@@ -257,6 +257,50 @@ def test_spherical_cap_page_is_generated(tmp_path):
     assert all(level["without_gauss"]["converged"] for level in levels)
 
 
+def test_prestrained_discs_page_is_generated(tmp_path):
+    """docs/prestrain.md's table of the two discs is what --table-only writes from the JSON.
+
+    The committed JSON's figures, checked again when it is regenerated: every run converged
+    with D_h ≤ 1e-10 and two waves along the edge; K of G is −1 (hyperbolic) and 0 (anticone)
+    at every midpoint; the mean K_h approaches −1 and the anticone's |K_h| off the tip falls
+    with h, below its value without the penalty.
+    """
+    page = BENCH.parent / "docs" / "prestrain.md"
+    assert_page_is_generated("prestrained_discs", page, tmp_path)
+    levels = json.loads((BENCH / "results" / "prestrained_discs.json").read_text())["levels"]
+    assert [level["h"] for level in levels] == [0.2, 0.1, 0.05]
+    discs = [level[name] for level in levels for name in ("hyperbolic_disc", "lce_anticone")]
+    assert all(d["converged"] and d["isometry_defect"] <= 1e-10 for d in discs)
+    assert all(d["waves"] == 2 for d in discs)
+    saddle = [level["hyperbolic_disc"] for level in levels]
+    assert all(abs(d["gauss"][k] + 1) < 1e-10 for d in saddle for k in ("target_min", "target_max"))
+    errors = [abs(d["gauss"]["mean"] + 1) for d in saddle]
+    assert errors == sorted(errors, reverse=True) and errors[-1] < 0.01
+    anticone = [level["lce_anticone"] for level in levels]
+    assert all(abs(d["gauss"]["target_mean"]) < 1e-10 for d in anticone)
+    off_tip = [d["off_tip"] for d in anticone]
+    assert off_tip == sorted(off_tip, reverse=True)
+    assert all(d["off_tip"] < d["without_gauss"]["off_tip"] for d in anticone)
+
+
+def test_hyperbolic_waves_page_is_generated(tmp_path):
+    """docs/prestrain.md's table of the states of n waves is what --table-only writes.
+
+    The committed JSON's figures: every state converged with D_h ≤ 1e-10 and kept the waves
+    of its start; at both levels E_h grows with the waves for R = 1 (the saddle least) and
+    falls with them for R = 0.5 (four waves least of 2, 3, 4).
+    """
+    page = BENCH.parent / "docs" / "prestrain.md"
+    assert_page_is_generated("hyperbolic_waves", page, tmp_path)
+    states = json.loads((BENCH / "results" / "hyperbolic_waves.json").read_text())["states"]
+    assert all(s["converged"] and s["isometry_defect"] <= 1e-10 for s in states)
+    assert all(s["waves"] == s["start_waves"] for s in states)
+    for h in (0.1, 0.05):
+        for R, order in ((1.0, 1), (0.5, -1)):
+            energy = [s["energy"] for s in states if (s["h"], s["R"]) == (h, R)]
+            assert len(energy) == 3 and energy == sorted(energy, reverse=order < 0)
+
+
 def test_path_following_benchmark_smoke(tmp_path):
     """The coarsest level of each study: the record and the three tables of a page."""
     out, page = tmp_path / "path_following.json", tmp_path / "path_following.md"

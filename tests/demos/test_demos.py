@@ -61,6 +61,7 @@ NP2 = {
     "fvk_snap_through",
     "lce_director_pattern",
     "obstacle_bnn",
+    "prestrained_discs",  # the edge waves gathered from the ranks (measure.prestrain)
     "rod_sphere",
     "rod_trefoil",
     "self_avoiding_compressed_strip",

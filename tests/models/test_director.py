@@ -9,6 +9,7 @@ import math
 
 from mpi4py import MPI
 
+import dolfinx.fem
 import numpy as np
 import pytest
 from helpers import PROBLEMS, QUIET
@@ -17,11 +18,12 @@ from dgplate import expressions, load_problem, run
 from dgplate.dg.geometry import metric_gauss_curvature
 from dgplate.errors import InputError
 from dgplate.measure.fields import cell_field
-from dgplate.measure.prestrain import cone_half_angle
+from dgplate.measure.prestrain import cone_half_angle, edge_waves, gauss_curvature_outside
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.director import Director
 from dgplate.models.director_smoothness import check_smooth
 from dgplate.models.metric import target_metric
+from dgplate.problems.prepare import build_mesh
 
 SPHERICAL = PROBLEMS / "spherical_disc.toml"
 AZIMUTHAL = "atan2(y, x) + pi/2"
@@ -94,6 +96,22 @@ def test_azimuthal_defect_makes_the_cone_of_modes_bhattacharya_warner(tmp_path):
         assert phi == pytest.approx(exact, rel=0.01)
 
 
+def test_radial_defect_makes_an_anticone_of_two_waves(tmp_path):
+    """demos/problems/lce_anticone.toml (radial director, λ = 0.9, ν = 0.5, h = 0.2).
+
+    The excess angle 2π(λ^(−1−ν) − 1) makes the disc an anticone: measured two waves along the
+    edge (amplitude 0.41, the next mode 0.007), mean |K_h| 0.13 over |x| > 0.5 (K = 0 there;
+    0.04 at h = 0.1), D_h 2e-15 after 5 projections of the start.
+    """
+    result = run(load_problem(PROBLEMS / "lce_anticone.toml", QUIET), out=tmp_path)
+    assert result["converged"] and result["isometry_defect"] <= 1e-10
+    assert result["metric_start"]["defect"] <= 1e-10
+    assert abs(result["metric_gauss_curvature"]["target_mean"]) < 1e-12  # K = 0 off the tip
+    waves = edge_waves(result.shape)
+    assert waves["waves"] == 2 and waves["amplitudes"][1] > 0.3
+    assert gauss_curvature_outside(result.shape, 0.5) < 0.2
+
+
 def test_formulas_take_polar_coordinates():
     """r = √(x² + y²) and theta = atan2(y, x), in NumPy and in UFL alike."""
     points = np.array([[0.5, 0.0], [0.0, 2.0], [-1.0, -1.0]])
@@ -130,3 +148,40 @@ def test_a_director_whose_metric_jumps_along_a_line_is_refused(angle, smooth):
         return
     with pytest.raises(InputError, match=r"^model\.director\.angle: the director is not smooth"):
         check_smooth(director, mesh)
+
+
+def disc_deformation(g):
+    """g(x) interpolated in [DG2]³ on the polar disc of the problem files (h = 0.2)."""
+    problem = load_problem(PROBLEMS / "lce_anticone.toml")
+    mesh = build_mesh(problem.mesh, MPI.COMM_WORLD).mesh
+    y = dolfinx.fem.Function(dolfinx.fem.functionspace(mesh, ("DG", 2, (3,))))
+    y.interpolate(g)
+    return y
+
+
+def test_edge_waves_are_the_modes_of_the_edge_height():
+    """The height above the edge's plane: 0.1 r³cos 3θ has 3 waves of amplitude 0.1, the
+    saddle (x² − y²)/2 on a plane of slope 0.3, 2 of amplitude ½/√1.09 (normal to the plane)."""
+    three = edge_waves(
+        disc_deformation(lambda x: [x[0], x[1], 0.1 * (x[0] ** 3 - 3 * x[0] * x[1] ** 2)])
+    )
+    assert three["waves"] == 3 and three["amplitudes"][2] == pytest.approx(0.1, rel=0.02)
+    assert max(three["amplitudes"][:2] + three["amplitudes"][3:]) < 1e-3
+    saddle = edge_waves(
+        disc_deformation(lambda x: [x[0], x[1], 0.5 * (x[0] ** 2 - x[1] ** 2) + 0.3 * x[0]])
+    )
+    tilted = 0.5 / np.sqrt(1 + 0.3**2)  # the height normal to the tilted plane; measured 0.465
+    assert saddle["waves"] == 2 and saddle["amplitudes"][1] == pytest.approx(tilted, rel=0.05)
+    assert saddle["points"] >= 64
+
+
+def test_curvature_outside_a_tip_is_that_of_the_surface():
+    """Mean |K_h| over |x| > 0.5: 0 for the cone z = r/2 (off its tip), (1 + r²)⁻² averaged
+    for the paraboloid z = r²/2 (K_h exact at the midpoints: y is quadratic)."""
+    cone = disc_deformation(lambda x: [x[0], x[1], 0.5 * np.hypot(x[0], x[1])])
+    assert gauss_curvature_outside(cone, 0.5) < 0.01  # measured 4.7e-3: r interpolated in P2
+    dome = disc_deformation(lambda x: [x[0], x[1], 0.5 * (x[0] ** 2 + x[1] ** 2)])
+    r, w = np.polynomial.legendre.leggauss(20)
+    r, w = 0.75 + 0.25 * r, 0.25 * w  # on (0.5, 1)
+    exact = np.sum(w * r / (1 + r**2) ** 2) / np.sum(w * r)
+    assert gauss_curvature_outside(dome, 0.5) == pytest.approx(exact, rel=0.02)

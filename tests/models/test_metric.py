@@ -27,7 +27,7 @@ from dgplate.errors import InputError
 from dgplate.io.vtx import bp_variables
 from dgplate.measure.analysis import fit_sphere
 from dgplate.measure.fields import cell_field, defect_density
-from dgplate.measure.prestrain import gauss_curvature_figures
+from dgplate.measure.prestrain import edge_waves, gauss_curvature_figures
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.metric import MetricSpec, target_metric
 from dgplate.reference import spherical_cap
@@ -135,6 +135,26 @@ def test_spherical_cap_metric_formulas_are_the_caps_metric():
         assert metric[1, 1] == pytest.approx(G["g22"][i], abs=1e-9)
 
 
+def test_hyperbolic_metric_formulas_are_the_geodesic_polar_metric():
+    """G of the hyperbolic plane (K = −1/R²): n⊗n + a²(I − n⊗n) with a = R sinh(r/R)/r, at
+    r = 0 and on both sides of the switch to the Taylor series, and det G = a² > 1 off r = 0."""
+    R = 1.0
+    formulas = spherical_cap.geodesic_polar_formulas(R, -1)
+    rng = np.random.default_rng(2)
+    points = np.vstack([[1e-9, 0.0], [0.125, 0.0], [0.1249, 1e-4], rng.uniform(-0.7, 0.7, (20, 2))])
+    G = {k: expressions.evaluate(v, points, k) for k, v in formulas.items()}
+    r = np.hypot(points[:, 0], points[:, 1])
+    n = points / r[:, None]
+    a2 = (R * np.sinh(r / R) / r) ** 2
+    expected = n[:, :, None] * n[:, None, :] * (1 - a2)[:, None, None] + a2[:, None, None] * np.eye(
+        2
+    )
+    assert np.allclose(G["g11"], expected[:, 0, 0], rtol=0, atol=1e-14)
+    assert np.allclose(G["g12"], expected[:, 0, 1], rtol=0, atol=1e-14)
+    assert np.allclose(G["g22"], expected[:, 1, 1], rtol=0, atol=1e-14)
+    assert spherical_cap.geodesic_polar_formulas(2.0, 1) == spherical_cap.metric_formulas(2.0)
+
+
 def test_spherical_cap_energy_closed_form():
     """The density is 2/R² at the centre (Γ = 0 there); E = ½·2π∫ density r dr of the cap."""
     assert spherical_cap.energy_density(np.array([1e-4]), 2.0)[0] == pytest.approx(0.5, rel=1e-7)
@@ -177,6 +197,24 @@ def test_spherical_cap_from_the_flat_disc(tmp_path):
     assert radius_errors[0] < 8e-4 and radius_errors[1] < 2e-4
     assert 0 < energy_errors[1] < 0.04 and energy_errors[0] < 0.14
     assert radius_errors[1] < radius_errors[0] / 3 and energy_errors[1] < energy_errors[0] / 3
+
+
+def test_hyperbolic_disc_becomes_a_saddle(tmp_path):
+    """demos/problems/hyperbolic_disc.toml (K = −1, h = 0.2): a saddle, K_h near −1.
+
+    Measured: 5 projections of the saddle start, 16 flow steps, D_h 3e-15; K of G −1 to 1e-14;
+    mean K_h −0.9696 (error_mean 0.048); two waves along the edge (amplitude 0.49, the next
+    mode 4e-4).
+    """
+    result = run(load_problem(PROBLEMS / "hyperbolic_disc.toml", QUIET), out=tmp_path)
+    assert result["converged"] and result["isometry_defect"] <= 1e-10
+    assert result["metric_start"]["defect"] <= 1e-10
+    gauss = result["metric_gauss_curvature"]
+    assert gauss["target_min"] == pytest.approx(-1.0, abs=1e-12)
+    assert gauss["target_max"] == pytest.approx(-1.0, abs=1e-12)
+    assert gauss["mean"] == pytest.approx(-1.0, abs=0.05)
+    waves = edge_waves(result.shape)
+    assert waves["waves"] == 2 and waves["amplitudes"][1] > 0.3
 
 
 def test_the_trace_term_keeps_the_cap_and_converges_to_its_energy(tmp_path):
@@ -395,12 +433,14 @@ def test_a_bad_metric_formula_fails_before_the_mesh():
 
 def test_gauss_curvature_of_the_metric_by_brioschi():
     """K of G: 1/R² for the sphere's metric (r = 0 included), 0 for a constant G, −1 for the
-    Poincaré disc's 4|dx|²/(1 − |x|²)²."""
+    Poincaré disc's 4|dx|²/(1 − |x|²)², −1/R² for the hyperbolic plane in geodesic polar
+    coordinates."""
     mesh = rectangle(MPI.COMM_WORLD, [[-0.7, -0.7], [0.7, 0.7]], [6, 6]).mesh
     sphere = MetricSpec(**spherical_cap.metric_formulas(2.0))
     constant = MetricSpec(g11=1.2, g12=0.1, g22=0.9)
     poincare = MetricSpec(g11="4/(1 - x*x - y*y)**2", g12=0.0, g22="4/(1 - x*x - y*y)**2")
-    for spec, K in ((sphere, 0.25), (constant, 0.0), (poincare, -1.0)):
+    hyperbolic = MetricSpec(**spherical_cap.geodesic_polar_formulas(2.0, -1))
+    for spec, K in ((sphere, 0.25), (constant, 0.0), (poincare, -1.0), (hyperbolic, -0.25)):
         values = cell_field(metric_gauss_curvature(target_metric(spec, mesh)), mesh)
         assert np.abs(values - K).max() < 1e-12
 
