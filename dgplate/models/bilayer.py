@@ -30,7 +30,6 @@ coupling is the one above with Z replaced by G⁻¹ZG⁻¹ (:func:`metric_curvat
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import ClassVar
 
 import ufl
 from ufl.core.expr import Expr
@@ -54,7 +53,7 @@ from dgplate.dg.geometry import second_fundamental_form, unit_normal
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import PlateModel, clamped_data, continuation_path, piecewise_constant
-from dgplate.models.kirchhoff import KirchhoffSpec, kirchhoff_energy, spec_metric
+from dgplate.models.kirchhoff import KirchhoffSpec, kirchhoff_energy, spec_metric, trace_constant
 from dgplate.models.obstacle import with_obstacle
 from dgplate.models.self_avoidance import with_self_avoidance
 from dgplate.schema import Check, is_matrix, is_number, option
@@ -126,6 +125,7 @@ def bilayer_energy(
     gauss: float = 0.0,
     ldg_degree: int | None = None,
     metric: Expr | None = None,
+    trace_weight: float = 0.0,
 ) -> Energy:
     """Bending (implicit) + curvature coupling and ½∫μ Z : G⁻¹ZG⁻¹ (explicit) − load.
 
@@ -136,9 +136,14 @@ def bilayer_energy(
     ``metric``: the target metric G (None: I, the isometric plate): the bending energy with
     G, the coupling and the constant with G⁻¹ZG⁻¹ (module docstring), at the quadrature
     degree ``degree`` (None: :func:`~dgplate.dg.forms.metric_quadrature`).
+    ``trace_weight`` c = ν/(1 − ν): the trace term c tr(G^{-1/2}(II − Z)G^{-1/2})², i.e. the
+    rigidity (1 + c)μ of the bending part (with the constant of
+    :func:`~dgplate.models.kirchhoff.trace_constant`), the coupling with
+    G⁻¹ZG⁻¹ + c tr(G⁻¹Z)G⁻¹ and the constant ½∫μ (Z : G⁻¹ZG⁻¹ + c tr(G⁻¹Z)²).
     """
     rigidity = 1.0 if mu is None else mu
-    data: BendingData = {"mu": mu, "g": g, "Phi": Phi}
+    c = trace_weight
+    data: BendingData = {"mu": (1 + c) * rigidity if c else mu, "g": g, "Phi": Phi}
     dx = facets.dx
     if metric is not None:
         data["metric"] = metric
@@ -146,8 +151,17 @@ def bilayer_energy(
         dx = cell_measure(facets.mesh, degree)
     bending = kirchhoff_energy(y, facets, penalty, load, ldg_degree, **data)
     weighted = metric_curvature(Z, metric)
+    constant = ufl.inner(Z, weighted)
+    if c:
+        inverse = ufl.Identity(2) if metric is None else ufl.inv(metric)
+        trace = ufl.inner(inverse, Z)  # tr(G⁻¹Z)
+        weighted = weighted + c * trace * inverse
+        constant = constant + c * trace**2
+        if metric is not None:
+            implicit = bending.implicit + trace_constant(rigidity, c, metric, facets, degree)
+            bending = replace(bending, implicit=implicit)
     explicit = curvature_coupling(y, facets, weighted, rigidity, g, Phi, consistent, degree)
-    explicit += 0.5 * rigidity * ufl.inner(Z, weighted) * dx
+    explicit += 0.5 * rigidity * constant * dx
     if gauss > 0:
         explicit += gauss_penalty(y, facets, gauss, degree, metric)
     return replace(bending, explicit=explicit)
@@ -204,7 +218,6 @@ class BilayerSpec(KirchhoffSpec):
     """[model] of a bilayer plate: the Kirchhoff keys plus the spontaneous curvature."""
 
     name: str = option("bilayer", "the model")
-    takes_poisson: ClassVar[bool] = False  # its Z coupling has no trace term
     Z: float | list[list[float | str]] | dict[str, float | list[list[float]]] = option(
         1.0,
         "spontaneous curvature: α (Z = αI), [[Z11, Z12], [Z12, Z22]] (numbers or formulas in x, y), or {cell group = α or a matrix of numbers}",
@@ -259,6 +272,7 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
             spec.gauss_penalty,
             spec.ldg_degree,
             metric,
+            spec.trace_weight,
         )
 
     plate = PlateModel(

@@ -8,7 +8,7 @@ energy: the gradient flow imposes its linearisation (:mod:`dgplate.solvers.const
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import ClassVar, Literal, Unpack
+from typing import Literal, Unpack
 
 from mpi4py import MPI
 
@@ -23,6 +23,7 @@ from dgplate.dg.forms import (
     PENALTY_LENGTH_HELP,
     PENALTY_LENGTHS,
     BendingData,
+    Coefficient,
     FacetSets,
     Penalty,
     bending_energy,
@@ -105,7 +106,7 @@ class KirchhoffSpec:
     )
     poisson: float = option(
         0.0,
-        "Poisson's ratio ν of the bending energy: adds ½∫μ ν/(1−ν) Σ_k tr(G^{-1/2}D²y_k G^{-1/2})² (ν/(1−ν) = λ/(2μ+λ) in Lamé's constants; docs/prestrain.md); kirchhoff and foundation plates; 0: none",
+        "Poisson's ratio ν of the bending energy: adds ½∫μ ν/(1−ν) Σ_k tr(G^{-1/2}D²y_k G^{-1/2})² (ν/(1−ν) = λ/(2μ+λ) in Lamé's constants; with Z: tr(G^{-1/2}(II − Z)G^{-1/2})²; docs/prestrain.md); 0: none",
         gt=-1,
         le=0.5,
     )
@@ -140,11 +141,6 @@ class KirchhoffSpec:
             raise InputError(
                 f"{self.metric_key} needs model.hessian = 'broken' (the LDG energy has no G)"
             )
-        if self.poisson and not self.takes_poisson:
-            raise InputError(
-                f"model.poisson is not taken by the {self.name} model (kirchhoff and foundation "
-                "plates take it)"
-            )
         expressions.check(self.load, "model.load")
         data = self.boundary_data
         self._schedule = continuation_schedule(
@@ -170,9 +166,6 @@ class KirchhoffSpec:
     def ldg_degree(self) -> int | None:
         """The degree of the liftings with ``hessian = 'ldg'`` (that of y), else None."""
         return self.degree if self.hessian == "ldg" else None
-
-    #: whether the model's energy takes ``poisson`` (not a bilayer's, an lce's: their Z has none)
-    takes_poisson: ClassVar[bool] = True
 
     @property
     def target_metric(self) -> MetricSpec | None:
@@ -255,7 +248,9 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)
 
 
-def trace_constant(mu: Expr, c: float, metric: Expr, facets: FacetSets, degree: int) -> ufl.Form:
+def trace_constant(
+    mu: Coefficient, c: float, metric: Expr, facets: FacetSets, degree: int | None
+) -> ufl.Form:
     """½∫μ c F(G): the part of the trace term c Σₖ tr(AD²yₖA)² that is not c Σₖ |AD²yₖA|².
 
     On every y with ∇yᵀ∇y = G the trace term equals c(Σₖ|AD²yₖA|² + F(G)), F of G alone

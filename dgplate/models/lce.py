@@ -26,7 +26,7 @@ bound ``lower_bound`` is that of the isometric plate: with a G it is left out.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any
 
 import dolfinx.fem
 import ufl
@@ -66,7 +66,6 @@ class LCESpec(KirchhoffSpec):
     """[model] of a liquid-crystal-elastomer plate: the Kirchhoff keys plus the director."""
 
     name: str = option("lce", "the model")
-    takes_poisson: ClassVar[bool] = False  # its Z coupling has no trace term
     director: str = option(  # type: ignore[assignment]  # the profile, not the metric's table
         "twist",
         "director profile through the thickness: 'twist' (A₀ = diag(−1, 1)) or 'splay' (A₀ = diag(−1, 0))",
@@ -132,6 +131,7 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
             gauss=spec.gauss_penalty,
             ldg_degree=spec.ldg_degree,
             metric=metric,
+            trace_weight=spec.trace_weight,
         )
 
     def lower_bound(y: Function) -> dict[str, Any]:
@@ -145,7 +145,7 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
         energy_fn,
         measures=[
             curvature_summary,
-            *([] if metric is not None else [lower_bound]),  # an isometric plate's bound
+            *([lower_bound] if metric is None and not spec.poisson else []),  # G = I, ν = 0
             *gauss_penalty_measures(facets, spec.gauss_penalty, degree, metric),
         ],
         continuation=path,

@@ -16,7 +16,8 @@ density proportional to its modulus) then gives
   D = E t³/(12(1 − ν²))), the unit of energy: μ = 1 and E_phys = D · E_h.
 
 The model's energy density ½D|II − Z|² has no Poisson term: a strip rolls to the curvature
-Z, Timoshenko's (a narrow strip's; a wide plate with the Poisson term would roll to (1 + ν)Z).
+Z, Timoshenko's (a narrow strip's; a wide plate with the Poisson term, ``model.poisson``, rolls
+to (1 + ν)Z).
 The model keys are then Z = −κ L I (bilayer), and the physical figures of a run are its
 non-dimensional ones times L (lengths), 1/L (curvatures) and D (energy); a non-dimensional
 load f is the pressure f D/L³.

@@ -37,7 +37,7 @@ def stretched(s, t=None):
     return lambda x: np.vstack([s * x[0], t * x[1], 0.0 * x[0]])
 
 
-def roll(comm, n, Z, stretch=None, identity=False, scale=1.0, tau=0.25, tol=1e-6):
+def roll(comm, n, Z, stretch=None, identity=False, scale=1.0, tau=0.25, tol=1e-6, poisson=0.0):
     """The bilayer on 2n × n Q2 cells, γ₁h⁻³: (result, figures, dofs of y).
 
     ``stretch`` s or (s, t): G = diag(s², t²) with the clamped data g = (s x₁, t x₂, 0),
@@ -45,7 +45,7 @@ def roll(comm, n, Z, stretch=None, identity=False, scale=1.0, tau=0.25, tol=1e-6
     times it.
     """
     tagged = rectangle(comm, [[0, 0], [LENGTH, WIDTH]], [2 * n, n])
-    keys: dict = {"penalty": Penalty(5000.0 * scale, 86.0 * scale, 3.0)}
+    keys: dict = {"penalty": Penalty(5000.0 * scale, 86.0 * scale, 3.0), "poisson": poisson}
     initial = None
     if identity:
         keys["metric"] = MetricSpec(g11=1.0, g12=0.0, g22=1.0)
@@ -173,3 +173,31 @@ def test_stretched_bilayer_same_on_any_number_of_ranks():
     assert serial.converged and parallel.steps == serial.steps
     assert parallel.energy == pytest.approx(serial.energy, rel=1e-10, abs=0)
     assert parallel.defect == pytest.approx(serial.defect, rel=PARITY_RTOL, abs=1e-12)
+
+
+def test_poisson_rolls_a_wide_plate_to_one_plus_nu_times_z():
+    """``model.poisson = ν``: |II − Z|² + c tr(II − Z)² on a cylinder II = diag(κ, 0), Z = aI
+    is least at κ = a(1 + 2c)/(1 + c) = a(1 + ν), Timoshenko's wide plate; with G = s²I the
+    radius is s²/(a(1 + ν)) (the scaling of the module docstring, ν unchanged).
+
+    Measured (ν = 0.3; 8 × 4, 16 × 8): the radius with ν = 0 over that with ν is 1.2958,
+    1.3017 (G = I) and 1.2902, 1.3004 (G = 1.44 I); the radius with ν is 6.7 %, 2.4 % above
+    1/1.3 (G = I) and 6.8 %, 2.3 % above 1.44/1.3; E_h 1.29994, 1.29179 against
+    |ω|·½((κ − a)² + a² + c(κ − 2a)²) = 1.3 (G = I).
+    """
+    nu, a = 0.3, 1.0
+    c = nu / (1 - nu)
+    kappa = a * (1 + nu)
+    exact = 0.5 * ((kappa - a) ** 2 + a**2 + c * (kappa - 2 * a) ** 2) * LENGTH * WIDTH
+    radii = {}
+    for stretch in (None, S):
+        for value in (0.0, nu):
+            result, shape, _ = roll(MPI.COMM_SELF, 4, a, stretch=stretch, poisson=value)
+            assert result.converged and result.defect < 1e-10
+            radii[stretch, value] = shape["cylinder_fit"]["radius"]
+            if stretch is None and value:
+                assert result.energy == pytest.approx(exact, rel=0.02)
+    for stretch in (None, S):
+        assert radii[stretch, 0.0] / radii[stretch, nu] == pytest.approx(1 + nu, rel=0.01)
+    assert radii[None, nu] == pytest.approx(1 / kappa, rel=0.08)
+    assert radii[S, nu] == pytest.approx(S**2 / kappa, rel=0.08)
