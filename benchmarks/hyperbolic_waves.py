@@ -27,7 +27,7 @@ from typing import Any
 
 from mpi4py import MPI
 
-from pages import add_page_options, publish
+from pages import add_page_options, publish, stop_if_interrupted
 
 from dgplate.io.output import print0
 from dgplate.measure.prestrain import edge_waves
@@ -66,6 +66,7 @@ def one_state(comm: MPI.Comm, h: float, R: float, n: int) -> dict[str, Any]:
         t0 = time.perf_counter()
         result = run_problem(problem, Path(folder) / "run", comm, allow_large=True)
         wall = time.perf_counter() - t0
+        stop_if_interrupted(result.summary, f"{PROBLEM.stem}, {n} waves, R = {R:g}, h = {h:g}")
     finally:
         comm.barrier()  # every rank is done with the folder
         if comm.rank == 0:

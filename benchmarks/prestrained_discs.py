@@ -30,7 +30,7 @@ from typing import Any
 
 from mpi4py import MPI
 
-from pages import add_page_options, publish, run_levels
+from pages import add_page_options, publish, run_levels, stop_if_interrupted
 
 from dgplate.measure.prestrain import edge_waves, gauss_curvature_outside
 from dgplate.problems.runner import run as run_problem
@@ -76,6 +76,7 @@ def _measure(
         t0 = time.perf_counter()
         result = run_problem(problem, Path(folder) / "run", comm, allow_large=True)
         wall = time.perf_counter() - t0
+        stop_if_interrupted(result.summary, f"{name} at h = {h:g}")
     finally:
         comm.barrier()  # every rank is done with the folder
         if comm.rank == 0:

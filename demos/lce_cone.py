@@ -32,8 +32,10 @@
 #
 # All the Gauss curvature sits at the tip: ∫K dA = 2π(1 − sin φ), the angular deficit. A
 # circular cone is the only isometric immersion of this metric that is smooth off the tip and
-# symmetric about it; Modes, Bhattacharya and Warner observed the cones (and anticones, for the
-# radial director: `demos/prestrained_discs.py`) in heated LCE sheets.
+# symmetric about it. Modes, Bhattacharya and Warner predicted these cones (and anticones,
+# for the radial director: `demos/prestrained_discs.py`); heated LCE sheets with such defect
+# patterns make them in experiments (de Haan et al., Angew. Chem. 2012; Ware et al.,
+# Science 2015).
 #
 # ## The problem
 #

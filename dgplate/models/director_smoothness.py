@@ -10,8 +10,9 @@ from its geometry nodes to its midpoint:
 2. bisection of each to a point (``BISECTIONS`` halvings): a jump stays, a steep smooth G
    does not;
 3. a small circle about each point that keeps a jump: a line of discontinuity crosses the
-   circle, so G jumps between two of its neighbouring samples; about a defect's point G turns
-   continuously.
+   circle, so G jumps between two of its neighbouring samples, by as much on a ten times finer
+   sampling; about a defect's point (of any charge) G turns continuously, and the change
+   between neighbours falls tenfold with the sampling.
 """
 
 from __future__ import annotations
@@ -27,9 +28,10 @@ from dgplate.models.director import Director
 JUMP = 0.05
 #: halvings of a segment (2⁻⁴⁰ of a cell: far below any smooth variation)
 BISECTIONS = 40
-#: samples on the circle about a jump point, and its radius relative to the cell size
+#: samples on the circle about a jump point (and ten times as many), its radius relative to
+#: the cell size
 CIRCLE_SAMPLES, CIRCLE_RADIUS = 720, 1e-4
-#: most jump points tested on the circle per rank (the first ones found)
+#: most distinct jump points tested on the circle per rank (the first ones found)
 MOST_POINTS = 64
 
 KEY = "model.director.angle"
@@ -71,17 +73,21 @@ def _line_jump(director: Director, mesh: Mesh, scale: float) -> tuple[float, flo
         first = _change(director, a, middle) >= _change(director, middle, b)
         b = np.where(first[:, None], middle, b)
         a = np.where(first[:, None], a, middle)
-    kept = _change(director, a, b) / scale > JUMP / 2
-    for point in a[kept][:MOST_POINTS]:
-        jump = _circle_jump(director, point, CIRCLE_RADIUS * size) / scale
-        if jump > JUMP / 2:
-            return float(point[0]), float(point[1]), float(jump)
+    kept = a[_change(director, a, b) / scale > JUMP / 2]
+    radius = CIRCLE_RADIUS * size
+    # one test per point: the segments of all the cells about a defect lead to its point
+    _, distinct = np.unique(np.round(kept / radius), axis=0, return_index=True)
+    for point in kept[np.sort(distinct)][:MOST_POINTS]:
+        coarse = _circle_jump(director, point, radius, CIRCLE_SAMPLES) / scale
+        fine = _circle_jump(director, point, radius, 10 * CIRCLE_SAMPLES) / scale
+        if fine > JUMP / 2 and fine > coarse / 2:
+            return float(point[0]), float(point[1]), float(fine)
     return None
 
 
-def _circle_jump(director: Director, centre: Array, radius: float) -> float:
+def _circle_jump(director: Director, centre: Array, radius: float, samples: int) -> float:
     """The largest change of G between neighbouring samples on a circle about ``centre``."""
-    phi = np.linspace(0.0, 2 * np.pi, CIRCLE_SAMPLES, endpoint=False)
+    phi = np.linspace(0.0, 2 * np.pi, samples, endpoint=False)
     circle = centre + radius * np.column_stack([np.cos(phi), np.sin(phi)])
     return float(np.max(_change(director, circle, np.roll(circle, -1, axis=0))))
 

@@ -11,6 +11,7 @@ cell's group, else an ``InputError`` naming ``model.metric`` and the point.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,7 +19,7 @@ import ufl
 from ufl.core.expr import Expr
 
 from dgplate import expressions, values
-from dgplate.compat import Array, Indices, Mesh, geometry_dofmap
+from dgplate.compat import Array, Indices, Mesh, entities_to_geometry, geometry_dofmap
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import option
@@ -156,13 +157,16 @@ def check_positive_definite(
         )
 
 
-def largest_jump(spec: MetricSpec, mesh: Mesh, tagged: TaggedMesh) -> tuple[float, Array]:
+def largest_jump(
+    spec: MetricSpec, mesh: Mesh, tagged: TaggedMesh, creases: Sequence[str] = ()
+) -> tuple[float, Array]:
     """The largest jump of G's entries between cell groups at a geometry node (collective).
 
     Args:
         spec: the validated ``model.metric``.
         mesh: the plate's mesh.
-        tagged: its cell groups.
+        tagged: its cell and facet groups.
+        creases: facet groups whose nodes are left out (G may jump across a crease).
 
     Returns:
         max over the nodes and entries of (largest − least value among the node's cells), and
@@ -181,6 +185,9 @@ def largest_jump(spec: MetricSpec, mesh: Mesh, tagged: TaggedMesh) -> tuple[floa
         np.maximum.at(high, node_of_point[at_nodes], entry[at_nodes])
         np.minimum.at(low, node_of_point[at_nodes], entry[at_nodes])
         jump = np.maximum(jump, np.where(np.isfinite(high), high - low, 0.0))
+    for group in creases:
+        facets = tagged.facets(group, "model.crease")
+        jump[entities_to_geometry(mesh, mesh.topology.dim - 1, facets).ravel()] = 0.0
     i = int(np.argmax(jump)) if len(jump) else 0
     local = (float(jump[i]) if len(jump) else 0.0, mesh.geometry.x[i, :2] if len(jump) else None)
     best = max(mesh.comm.allgather(local), key=lambda item: item[0])

@@ -116,13 +116,13 @@ def metric_jump(problem: Problem, tagged: TaggedMesh) -> str | None:
 
     Where G jumps, the surface that realises it has a kink in its plane, which the
     interior-penalty energy charges in its gradient jumps: E_h then grows as h falls
-    (docs/prestrain.md). Collective.
+    (docs/prestrain.md). The nodes of crease facets are left out. Collective.
     """
     spec = problem.model
     metric = getattr(spec, "metric", None)
-    if not isinstance(metric, MetricSpec) or not metric.groups() or spec.crease:
+    if not isinstance(metric, MetricSpec) or not metric.groups():
         return None
-    jump, (x, y) = largest_jump(metric, tagged.mesh, tagged)
+    jump, (x, y) = largest_jump(metric, tagged.mesh, tagged, spec.crease)
     if jump <= METRIC_JUMP:
         return None
     return (

@@ -278,6 +278,19 @@ def test_a_metric_per_cell_group_is_met_with_a_crease_at_its_jump(tmp_path):
     assert np.linalg.norm(at(1.0) - at(0.0)) == pytest.approx(1.0, abs=1e-6)
 
 
+def test_the_largest_jump_leaves_out_the_nodes_of_creases():
+    """G = diag(1.44, 1) | I jumps by 0.44 at the interface nodes, by nothing off the crease."""
+    from dgplate.models.metric import largest_jump
+    from dgplate.problems.prepare import build_mesh
+
+    problem = load_problem(STRIP, GROUPED)
+    tagged = build_mesh(problem.mesh, MPI.COMM_WORLD)
+    spec = MetricSpec(g11={"side_left": 1.44})
+    jump, where = largest_jump(spec, tagged.mesh, tagged)
+    assert jump == pytest.approx(0.44, abs=1e-12) and abs(where[0]) < 1e-12
+    assert largest_jump(spec, tagged.mesh, tagged, ["crease"])[0] == 0.0
+
+
 def test_a_metric_that_jumps_without_a_crease_is_warned_about(tmp_path, capsys):
     """Without the crease the kink costs gradient-jump energy (E_h 0.40, 1.53 at h = 0.25,
     0.125, quads): a warning names the jump; none with the crease or a continuous table."""
