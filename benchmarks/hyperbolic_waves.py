@@ -18,20 +18,16 @@ from __future__ import annotations
 
 import argparse
 import math
-import shutil
 import sys
-import tempfile
-import time
 from pathlib import Path
 from typing import Any
 
 from mpi4py import MPI
 
-from pages import add_page_options, publish, stop_if_interrupted
+from pages import add_page_options, publish, run_in_scratch
 
 from dgplate.io.output import print0
 from dgplate.measure.prestrain import edge_waves
-from dgplate.problems.runner import run as run_problem
 from dgplate.problems.specs import load_problem
 from dgplate.reference.spherical_cap import geodesic_polar_formulas
 
@@ -61,16 +57,8 @@ def one_state(comm: MPI.Comm, h: float, R: float, n: int) -> dict[str, Any]:
         "model.start": {"type": "formula", "g": ["x", "y", harmonic(n, R)]},
     }
     problem = load_problem(PROBLEM, overrides)
-    folder = comm.bcast(tempfile.mkdtemp(prefix="waves_") if comm.rank == 0 else None, root=0)
-    try:
-        t0 = time.perf_counter()
-        result = run_problem(problem, Path(folder) / "run", comm, allow_large=True)
-        wall = time.perf_counter() - t0
-        stop_if_interrupted(result.summary, f"{PROBLEM.stem}, {n} waves, R = {R:g}, h = {h:g}")
-    finally:
-        comm.barrier()  # every rank is done with the folder
-        if comm.rank == 0:
-            shutil.rmtree(folder, ignore_errors=True)
+    what = f"{PROBLEM.stem}, {n} waves, R = {R:g}, h = {h:g}"
+    result, wall = run_in_scratch(comm, problem, what, "waves_")
     assert result.shape is not None  # a plate's run keeps its deformation
     s, waves = result.summary, edge_waves(result.shape)
     return {

@@ -18,10 +18,7 @@ from __future__ import annotations
 
 import argparse
 import math
-import shutil
 import sys
-import tempfile
-import time
 from pathlib import Path
 from typing import Any
 
@@ -29,13 +26,12 @@ from mpi4py import MPI
 
 import dolfinx.fem
 import ufl
-from pages import add_page_options, publish, run_levels, stop_if_interrupted
+from pages import add_page_options, publish, run_in_scratch, run_levels
 
 from dgplate.compat import Function
 from dgplate.dg.forms import hessian, metric_weighted
 from dgplate.measure.prestrain import cone_half_angle
 from dgplate.models.metric import target_metric
-from dgplate.problems.runner import run as run_problem
 from dgplate.problems.specs import Problem, load_problem
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -56,21 +52,12 @@ def one_level(comm: MPI.Comm, h: float) -> dict[str, Any]:
 
     The run's outputs go to a temporary folder, removed afterwards.
     """
-    folder = comm.bcast(tempfile.mkdtemp(prefix="cone_") if comm.rank == 0 else None, root=0)
-    try:
-        overrides = {"mesh.parameters.h": h, "output.vtx": False, "output.png": False}
-        problem = load_problem(PROBLEM, {**overrides, "output.progress": 0})
-        t0 = time.perf_counter()
-        result = run_problem(problem, Path(folder) / "run", comm, allow_large=True)
-        wall = time.perf_counter() - t0
-        stop_if_interrupted(result.summary, f"h = {h:g}")
-        assert result.shape is not None  # a plate's run keeps its deformation
-        angles = {str(inner): cone_half_angle(result.shape, inner) for inner in INNER}
-        bending = broken_bending(result.shape, problem)
-    finally:
-        comm.barrier()  # every rank is done with the folder
-        if comm.rank == 0:
-            shutil.rmtree(folder, ignore_errors=True)
+    overrides = {"mesh.parameters.h": h, "output.vtx": False, "output.png": False}
+    problem = load_problem(PROBLEM, {**overrides, "output.progress": 0})
+    result, wall = run_in_scratch(comm, problem, f"h = {h:g}", "cone_")
+    assert result.shape is not None  # a plate's run keeps its deformation
+    angles = {str(inner): cone_half_angle(result.shape, inner) for inner in INNER}
+    bending = broken_bending(result.shape, problem)
     s = result.summary
     return {
         "h": h,

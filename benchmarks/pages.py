@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
+import tempfile
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -11,6 +14,9 @@ from typing import Any
 from mpi4py import MPI
 
 from dgplate.io.output import print0
+from dgplate.problems.result import Result
+from dgplate.problems.runner import run as run_problem
+from dgplate.problems.specs import Problem
 
 
 def write_between(page: Path, begin: str, end: str, text: str, heading: str = "") -> None:
@@ -81,6 +87,36 @@ def publish(
     write_between(args.page, begin, end, f"{begin}\n{text}\n{end}")
     print(text)
     return text
+
+
+def run_in_scratch(
+    comm: MPI.Comm, problem: Problem, what: str, prefix: str = "bench_"
+) -> tuple[Result, float]:
+    """Run a problem with its outputs in a temporary folder, removed afterwards (collective).
+
+    Args:
+        comm: the run's communicator.
+        problem: the validated problem (the size guard is passed: a study chooses its sizes).
+        what: the run, as named when it was interrupted (``h = 0.05``).
+        prefix: the temporary folder's prefix.
+
+    Returns:
+        The run's result (its final y kept) and its wall time in seconds.
+
+    Raises:
+        SystemExit: the run was interrupted (:func:`stop_if_interrupted`).
+    """
+    folder = comm.bcast(tempfile.mkdtemp(prefix=prefix) if comm.rank == 0 else None, root=0)
+    try:
+        t0 = time.perf_counter()
+        result = run_problem(problem, Path(folder) / "run", comm, allow_large=True)
+        wall = time.perf_counter() - t0
+    finally:
+        comm.barrier()  # every rank is done with the folder
+        if comm.rank == 0:
+            shutil.rmtree(folder, ignore_errors=True)
+    stop_if_interrupted(result.summary, what)
+    return result, wall
 
 
 def stop_if_interrupted(summary: dict[str, Any], what: str) -> None:

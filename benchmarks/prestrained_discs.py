@@ -21,19 +21,15 @@ The table of docs/prestrain.md between ``<!-- prestrained_discs:begin -->`` and
 from __future__ import annotations
 
 import argparse
-import shutil
 import sys
-import tempfile
-import time
 from pathlib import Path
 from typing import Any
 
 from mpi4py import MPI
 
-from pages import add_page_options, publish, run_levels, stop_if_interrupted
+from pages import add_page_options, publish, run_in_scratch, run_levels
 
 from dgplate.measure.prestrain import edge_waves, gauss_curvature_outside
-from dgplate.problems.runner import run as run_problem
 from dgplate.problems.specs import load_problem
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -71,16 +67,7 @@ def _measure(
     overrides = {"mesh.parameters.h": h, "output.vtx": False, "output.png": False}
     problem = load_problem(PROBLEMS / f"{name}.toml", {**overrides, "output.progress": 0,
                                                        **(settings or {})})  # fmt: skip
-    folder = comm.bcast(tempfile.mkdtemp(prefix="disc_") if comm.rank == 0 else None, root=0)
-    try:
-        t0 = time.perf_counter()
-        result = run_problem(problem, Path(folder) / "run", comm, allow_large=True)
-        wall = time.perf_counter() - t0
-        stop_if_interrupted(result.summary, f"{name} at h = {h:g}")
-    finally:
-        comm.barrier()  # every rank is done with the folder
-        if comm.rank == 0:
-            shutil.rmtree(folder, ignore_errors=True)
+    result, wall = run_in_scratch(comm, problem, f"{name} at h = {h:g}", "disc_")
     assert result.shape is not None  # a plate's run keeps its deformation
     s, waves = result.summary, edge_waves(result.shape)
     return {

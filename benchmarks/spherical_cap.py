@@ -23,20 +23,16 @@ from __future__ import annotations
 
 import argparse
 import math
-import shutil
 import sys
-import tempfile
-import time
 from pathlib import Path
 from typing import Any
 
 from mpi4py import MPI
 
-from pages import add_page_options, publish, run_levels, stop_if_interrupted
+from pages import add_page_options, publish, run_in_scratch, run_levels
 
 from dgplate.measure.analysis import fit_sphere
 from dgplate.problems.prepare import build_model
-from dgplate.problems.runner import run as run_problem
 from dgplate.problems.specs import Problem, load_problem
 from dgplate.reference.spherical_cap import cap, energy
 from dgplate.solvers.driver import EnergyFlow
@@ -96,19 +92,10 @@ def _measure(
     """The figures of one run (``exact``: the energy to compare, None: the cap's with ν = 0)."""
     overrides = {"mesh.parameters.h": h, "output.vtx": False, "output.png": False}
     problem = load_problem(PROBLEM, {**overrides, "output.progress": 0, **(settings or {})})
-    folder = comm.bcast(tempfile.mkdtemp(prefix="cap_") if comm.rank == 0 else None, root=0)
-    try:
-        t0 = time.perf_counter()
-        result = run_problem(problem, Path(folder) / "run", comm, allow_large=True)
-        wall = time.perf_counter() - t0
-    finally:
-        comm.barrier()  # every rank is done with the folder
-        if comm.rank == 0:
-            shutil.rmtree(folder, ignore_errors=True)
+    result, wall = run_in_scratch(comm, problem, f"h = {h:g}", "cap_")
     assert result.shape is not None  # a plate's run keeps its deformation
     fit = fit_sphere(result.shape)
     s = result.summary
-    stop_if_interrupted(s, f"h = {h:g}")
     exact = energy(RADIUS) if exact is None else exact
     return {
         "h": h,

@@ -19,19 +19,15 @@ from __future__ import annotations
 
 import argparse
 import json
-import shutil
 import sys
-import tempfile
-import time
 from pathlib import Path
 from typing import Any
 
 from mpi4py import MPI
 
-from pages import add_page_options, publish, stop_if_interrupted
+from pages import add_page_options, publish, run_in_scratch
 
 from dgplate.io.output import print0
-from dgplate.problems.runner import run as run_problem
 from dgplate.problems.specs import load_problem
 from dgplate.reference.timoshenko import timoshenko_curvature
 
@@ -90,18 +86,9 @@ def one_level(comm: MPI.Comm, case: str, cells: int) -> dict[str, Any]:
         "output.png": False,
         "output.progress": 0,
     }
-    folder = comm.bcast(tempfile.mkdtemp(prefix="timoshenko_") if comm.rank == 0 else None, root=0)
-    try:
-        problem = load_problem(PROBLEM, overrides)
-        t0 = time.perf_counter()
-        result = run_problem(problem, Path(folder) / "run", comm, allow_large=True)
-        wall = time.perf_counter() - t0
-    finally:
-        comm.barrier()
-        if comm.rank == 0:
-            shutil.rmtree(folder, ignore_errors=True)
+    problem = load_problem(PROBLEM, overrides)
+    result, wall = run_in_scratch(comm, problem, f"{case} at {2 * cells} × {cells}", "timoshenko_")
     s = result.summary
-    stop_if_interrupted(s, f"{case} at {2 * cells} × {cells}")
     physical = s["physical"]
     curvatures = s["principal_curvatures"]
     exact_energy = physical["bending_stiffness_J"] * (L / R) ** 2  # ½(L/R)²·|ω|, |ω| = 2
