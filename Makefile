@@ -7,7 +7,7 @@ NP     ?= 2
 DEMO   ?= $(firstword $(wildcard demos/box_folding.py demos/vertical_load.py demos/biharmonic.py))
 PYTEST_FLAGS ?= -q
 
-.PHONY: setup demo test test-fast test-serial test-mpi lint format check-debian bench bench-large bench-tau docs docs-check clean
+.PHONY: setup demo test test-fast test-serial test-mpi lint format check-debian bench bench-large bench-tau bench-paper docs docs-check clean
 
 setup:
 	@bash .ci/setup-venv.sh
@@ -85,6 +85,13 @@ bench-tau: setup
 	  --json $(BENCH_OUT)/adaptive_tau_cylinder32x16_newton_np1.json
 	$(PY) benchmarks/box_relaxation.py --json $(BENCH_OUT)/box_relaxation_np1.json
 	$(PY) benchmarks/report.py --results $(BENCH_OUT)
+
+# The published sizes (about 90 min on 2 cores): the box's problem file and the demos with
+# --paper on 2 ranks (the box, the I-shape), then the roll-ups through ¼, ½ and 1 turn; JSON in
+# benchmarks/results and the tables of docs/performance.md and docs/box.md.
+bench-paper: setup
+	$(PY) benchmarks/paper_sizes.py --ranks 2 --json $(BENCH_OUT)/paper_sizes.json
+	$(PY) benchmarks/rollup.py --cells 96 8 --json $(BENCH_OUT)/rollup.json
 
 # The documentation site in docs/_build/html (entry page index.html), warnings as errors.
 docs: setup

@@ -104,6 +104,10 @@ def main(argv: list[str]) -> None:
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     texts = [
+        # the path between the holds as published: fixed τ and one projection per step (the
+        # box's settings before the thermal model took the accurate flow)
+        "flow.method='bnn'",
+        "flow.projection_steps=1",
         "flow.stop='stationarity'",
         f"flow.tol={args.tol}",
         "flow.checkpoint_every=0",

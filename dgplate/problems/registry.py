@@ -85,7 +85,7 @@ MODELS: dict[str, ModelEntry] = {
     "kirchhoff": ModelEntry(KirchhoffSpec, build_kirchhoff, flow_defaults=flow.ACCURATE),
     "bilayer": ModelEntry(BilayerSpec, build_bilayer, flow_defaults=flow.ACCURATE),
     "foundation": ModelEntry(FoundationSpec, build_foundation, flow_defaults=flow.ACCURATE),
-    "thermal": ModelEntry(ThermalSpec, build_thermal),
+    "thermal": ModelEntry(ThermalSpec, build_thermal, flow_defaults=flow.ACCURATE),
     "lce": ModelEntry(LCESpec, build_lce, flow_defaults=flow.ACCURATE),
     "rod": ModelEntry(
         RodSpec, build_rod, ignores=ROD_IGNORES, mesh=rod_mesh, flow_defaults=rod_flow.DEFAULTS

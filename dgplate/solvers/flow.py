@@ -358,11 +358,14 @@ class GradientFlow(EnergyFlow):
         }
 
     # -- the loop ---------------------------------------------------------------------------
-    def run(self, max_steps: int | None = None) -> FlowResult:
+    def run(self, max_steps: int | None = None, test_last: bool = True) -> FlowResult:
         """Step until the stopping rule holds or the step budget is spent.
 
         Args:
             max_steps: the budget of this run; None: what is left of ``flow.max_steps``.
+            test_last: False: the step that spends the budget ends the run untested (the
+                stopping test's solve costs about as much as a step: a caller that tracks a
+                path with a step or two per load increment does not need it).
 
         Returns:
             How the run ended, with its records.
@@ -383,7 +386,7 @@ class GradientFlow(EnergyFlow):
             f"step budget of {total} steps spent before {test} < {self.settings.tol:g}",
         )
         signum = 0
-        for _ in range(budget):
+        for k in range(budget):
             try:
                 info = self.control.step()
             except SolverError as exc:
@@ -394,7 +397,9 @@ class GradientFlow(EnergyFlow):
                 reason = f"diverged at step {info.step}: the energy became {info.energy}; the last finite state is kept"
                 break
             self.counts.fallbacks += info.fallbacks
-            stop = self.measure.stop_reason(info)  # first: it fills the record's stationarity
+            tested = test_last or k < budget - 1
+            # first: it fills the record's stationarity
+            stop = self.measure.stop_reason(info) if tested else ""
             self.record_step(info, history, increases)
             if stop:
                 converged, reason = True, stop

@@ -114,7 +114,7 @@ def test_the_schema_of_every_model_is_a_problem_file_of_its_defaults(model, caps
     assert (driver_section in data) if driver_section else set(data) <= set(SECTIONS)
 
 
-@pytest.mark.parametrize("model", ["kirchhoff", "bilayer", "foundation", "lce", "rod"])
+@pytest.mark.parametrize("model", ["kirchhoff", "bilayer", "foundation", "lce", "thermal", "rod"])
 def test_the_accurate_method_is_the_default_and_bnn_the_published_one(model):
     """A plate or rod flows to a discrete minimiser unless ``flow.method = "bnn"``; a key
     given in [flow] wins over either method."""
@@ -128,9 +128,3 @@ def test_the_accurate_method_is_the_default_and_bnn_the_published_one(model):
     assert given.adaptive_tau and given.stop == "rate"
     with pytest.raises(InputError, match=r"flow\.method must be one of"):
         problem_from_dict({**data, "flow": {"method": "fast"}}, "p")
-
-
-def test_the_thermal_schedule_keeps_fixed_tau_steps():
-    """The heat schedule counts fixed-τ flow steps per heat step: no model defaults."""
-    flow = problem_from_dict({"model": {"name": "thermal"}}, "p").flow
-    assert not flow.adaptive_tau and flow.stop == "rate"

@@ -178,6 +178,25 @@ def test_heating_folds_and_cooling_unfolds():
     driver.destroy()
 
 
+def test_a_heat_steps_last_flow_step_is_not_tested_a_holds_is():
+    """One SQP step per heat step tracks the path: the stopping test (a solve as costly as the
+    step) is skipped after a heat step's last step; a hold's steps are all tested. The record
+    splits the heat step's seconds from the relaxation's."""
+    flow = FlowSpec(**{**STRIP_FLOW, "adaptive_tau": True, "stop": "stationarity"})
+    model = build_thermal(strip_spec(flow_steps=1, end_time=2.0, holds=[2.0]), hinge_strip(
+        MPI.COMM_SELF, W, 2, 2))  # fmt: skip
+    driver = model.driver(flow, [], None)
+    heat = driver.advance()
+    (step,) = driver.last_result.history
+    assert math.isnan(step.stationarity) and not heat.flow_converged and heat.flow_steps == 1
+    assert 0 < heat.heat_seconds < heat.seconds
+    driver.advance()
+    hold = driver.hold(max_steps=50)
+    assert all(math.isfinite(s.stationarity) for s in driver.last_result.history)
+    assert hold.flow_converged and hold.heat_seconds == 0.0
+    driver.destroy()
+
+
 class Recorder:
     """An observer that keeps what it is told."""
 

@@ -6,6 +6,7 @@ The model is described in the docstring of :mod:`dgplate.models.thermal`.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -77,6 +78,7 @@ def calibrate_alpha(
     then are the model's, compiled once), ``penalty_length`` to its facets (the model's h_e).
     Returns α and the figures of the calibration.
     """
+    t0 = time.perf_counter()
     alpha_cw = target / (width * theta)
     tagged = hinge_strip(comm, width, n, m, like)
     facets = facet_sets(tagged, penalty_length=penalty_length)
@@ -107,6 +109,7 @@ def calibrate_alpha(
         "strip_flow_steps": result.steps,
         "strip_converged": result.converged,
         "factor": float(target / phi),
+        "seconds": time.perf_counter() - t0,
     }
     return alpha_cw * target / phi, info
 

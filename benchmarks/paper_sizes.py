@@ -1,0 +1,209 @@
+"""Time to solution at the published sizes: the demos run with ``--paper``, timed and checked.
+
+Each case runs a literate demo with ``--paper`` (the published resolution) on ``--ranks``
+ranks, as a user runs it (``mpirun -n 2 python demos/box_folding.py
+--paper``), in a temporary folder, and reads its ``summary.json`` and ``history.csv``. The demo
+asserts its own figures (hinge angles at the switch and after cooling, energies); this
+records them with the wall time and where it went:
+
+- the box: the heat solves, the flow steps (relaxations and holds) and the rest (start-up,
+  mesh, calibration, output, checkpoints), from the per-step seconds of ``history.csv``;
+- the bilayers: the flow's steps and step solves.
+
+    python benchmarks/paper_sizes.py [--ranks 2] [--cases box_file box_paper i_shape_paper]
+    python benchmarks/paper_sizes.py --table-only [--json …] [--page docs/performance.md]
+
+The tables of docs/performance.md (between ``<!-- paper_sizes:begin -->`` and
+``<!-- paper_sizes:end -->``) and docs/box.md (``<!-- box_runs:… -->``) are generated from the
+JSON (``--table-only``: no runs). The box also runs its problem file (4 × 4 cells per face,
+``dgplate run``) for docs/box.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+from pages import add_page_options, publish
+
+from dgplate.io.output import print0
+
+ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "benchmarks" / "results"
+BEGIN, END = "<!-- paper_sizes:begin -->", "<!-- paper_sizes:end -->"
+BOX_BEGIN, BOX_END = "<!-- box_runs:begin -->", "<!-- box_runs:end -->"
+DEMOS, PROBLEMS = ROOT / "demos", ROOT / "demos" / "problems"
+#: case → the command's arguments after ``python`` (each takes ``--out``)
+CASES = {
+    "box_file": ["-m", "dgplate", "run", str(PROBLEMS / "box_folding.toml")],
+    "box_paper": [str(DEMOS / "box_folding.py"), "--paper"],
+    "i_shape_paper": [str(DEMOS / "bilayer_i_shape.py"), "--paper"],
+}
+
+
+def run_case(ranks: int, case: str) -> tuple[dict[str, Any], list[dict[str, str]], float]:
+    """Run a case on ``ranks`` ranks in a temporary folder, removed afterwards.
+
+    Args:
+        ranks: the MPI ranks of the run (``mpirun -n ranks``; 1: no mpirun).
+        case: a key of :data:`CASES`.
+
+    Returns:
+        The run's summary, its history rows and the wall time in seconds (start-up included).
+
+    Raises:
+        SystemExit: the run failed (its exit code and the last lines of its output).
+    """
+    folder = Path(tempfile.mkdtemp(prefix="paper_"))
+    command = [sys.executable, *CASES[case], "--out", str(folder / "run")]
+    if ranks > 1:
+        command = [shutil.which("mpirun") or "mpirun", "-n", str(ranks), *command]
+    try:
+        t0 = time.perf_counter()
+        done = subprocess.run(command, capture_output=True, text=True, env=os.environ.copy())
+        wall = time.perf_counter() - t0
+        if done.returncode != 0:
+            tail = "\n".join((done.stdout + done.stderr).splitlines()[-15:])
+            raise SystemExit(f"{case} exited with {done.returncode}:\n{tail}")
+        summary = json.loads((folder / "run" / "summary.json").read_text())
+        with open(folder / "run" / "history.csv", newline="") as f:
+            rows = list(csv.DictReader(f))
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    return summary, rows, wall
+
+
+def box_record(summary: dict[str, Any], rows: list[dict[str, str]], wall: float) -> dict:
+    """The box's figures and the split of its wall time."""
+    heat = sum(float(r["heat_seconds"]) for r in rows)
+    steps = sum(float(r["seconds"]) for r in rows)
+    return {
+        "cells": summary["cells"],
+        "dofs": summary["dofs"],
+        "heat_step": summary["input"]["schedule"]["heat_step"],
+        "ranks": summary["ranks"],
+        "heat_steps": summary["heat_steps"],
+        "flow_steps": summary["flow_steps"],
+        "wall_s": wall,
+        "heat_s": heat,
+        "flow_s": steps - heat,
+        "other_s": wall - steps,
+        "calibration_s": summary["calibration"].get("seconds", 0.0),
+        "angles_at_switch": summary["hinge_angles_deg_at_switch"],
+        "angles_final": summary["hinge_angles_deg_final"],
+        "closure_gap_at_switch": summary["closure_gap_at_switch"],
+        "energy_at_switch": summary["energy_at_switch"],
+        "isometry_defect": summary["isometry_defect"],
+        "alpha": summary["alpha"]["hinge_north"],
+    }
+
+
+def bilayer_record(summary: dict[str, Any], rows: list[dict[str, str]], wall: float) -> dict:
+    """A bilayer's figures: steps, solves, energy, defect, fitted cylinder."""
+    cylinder = summary.get("cylinder", {})
+    return {
+        "dofs": summary["dofs"],
+        "ranks": summary["ranks"],
+        "steps": summary["steps"],
+        "step_solves": summary.get("step_solves"),
+        "wall_s": wall,
+        "energy": summary["energy"],
+        "isometry_defect": summary["isometry_defect"],
+        "radius": cylinder.get("radius"),
+        "axis": cylinder.get("axis"),
+        "method": summary["input"].get("flow", {}).get("method", "accurate"),
+    }
+
+
+def box_table(record: dict[str, Any]) -> str:
+    """docs/box.md's table: the box's runs, the hinge angles at the switch and after cooling."""
+    rows = []
+    for case, label in (("box_file", "problem file"), ("box_paper", "`--paper`")):
+        box = record["cases"].get(case)
+        if box is None:
+            continue
+        switch = " | ".join(f"{a:.2f}" for a in box["angles_at_switch"].values())
+        final = max(abs(a) for a in box["angles_final"].values())
+        rows.append(
+            f"| {label} | {box['cells']} | {box['dofs']} | {box['heat_step']:g} "
+            f"| {box['heat_steps']} | {box['flow_steps']} | {box['alpha']:.4f} | {switch} "
+            f"| {box['closure_gap_at_switch']:.4f} | {final:.2f} | {box['energy_at_switch']:.3f} "
+            f"| {box['wall_s']:.0f} |"
+        )
+    return "\n".join(
+        [
+            f"Hinge angles (°) at the switch, relaxed (the closed box), the largest |angle| after "
+            f"cooling, the closure gap and the energy at the switch; wall time on "
+            f"{record['ranks']} rank(s), start-up included (`benchmarks/paper_sizes.py`, "
+            "`benchmarks/results/paper_sizes.json`).",
+            "",
+            "| run | cells | dofs | Δt | heat steps | flow steps | α | north | south | east "
+            "| west | lid | closure gap | after cooling | E_h at the switch | wall s |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+            *rows,
+        ]
+    )
+
+
+def table(record: dict[str, Any]) -> str:
+    """docs/performance.md's table: wall time at the published sizes and where it went."""
+    rows = []
+    for case, r in record["cases"].items():
+        if case.startswith("box"):
+            split = f"heat {r['heat_s']:.0f}, flow {r['flow_s']:.0f}, other {r['other_s']:.0f}"
+            steps = f"{r['heat_steps']} heat steps, {r['flow_steps']} flow steps"
+        else:
+            split = f"{r['method']} flow, {r['step_solves']} step solves"
+            steps = f"{r['steps']} steps"
+        rows.append(f"| {case} | {r['dofs']} | {steps} | {r['wall_s']:.0f} | {split} |")
+    return "\n".join(
+        [
+            f"Wall time on {record['ranks']} rank(s), start-up included; the box's split: the "
+            "heat solves, the flow steps (relaxations and holds) and the rest (mesh, α's "
+            "calibration, output, checkpoints) (`benchmarks/paper_sizes.py`, "
+            "`benchmarks/results/paper_sizes.json`).",
+            "",
+            "| case | dofs | steps | wall s | split (s) |",
+            "|---|---|---|---|---|",
+            *rows,
+        ]
+    )
+
+
+def main(argv: list[str]) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--cases", nargs="+", choices=sorted(CASES), default=sorted(CASES))
+    parser.add_argument("--ranks", type=int, default=2, help="ranks of each demo run")
+    add_page_options(parser, RESULTS / "paper_sizes.json", ROOT / "docs" / "performance.md")
+    parser.add_argument("--box-page", type=Path, default=ROOT / "docs" / "box.md")
+    args = parser.parse_args(argv)
+    comm = MPI.COMM_WORLD
+    if comm.size > 1:
+        raise SystemExit("run this benchmark on one rank: it starts each demo with --ranks")
+    record: dict[str, Any] | None = None
+    if not args.table_only:
+        cases: dict[str, Any] = {}
+        for case in args.cases:
+            summary, rows, wall = run_case(args.ranks, case)
+            make = box_record if case.startswith("box") else bilayer_record
+            cases[case] = make(summary, rows, wall)
+            print0(comm, json.dumps({case: cases[case]}))
+        record = {"ranks": args.ranks, "cases": cases}
+    publish(comm, args, record, (BEGIN, END), table)
+    box_page = argparse.Namespace(json=args.json, page=args.box_page)
+    publish(comm, box_page, None, (BOX_BEGIN, BOX_END), box_table)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
