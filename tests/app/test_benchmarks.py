@@ -375,3 +375,25 @@ def test_timoshenko_page_is_generated(tmp_path):
         errors = [abs(level["radius_error"]) for level in levels]
         assert errors == sorted(errors, reverse=True) and errors[-1] <= 5e-3, name
         assert all(level["converged"] for level in levels)
+
+
+def test_paper_sizes_pages_are_generated(tmp_path):
+    """docs/performance.md's and docs/box.md's tables of the published sizes are what
+    --table-only writes from paper_sizes.json, whose box at --paper is the published run: 564
+    heat steps of Δt = 0.1 on 8 × 8 cells per face, closed at the switch (every hinge within
+    5° of 90°) and open again after cooling (within 5° of 0)."""
+    performance, box = (BENCH.parent / "docs" / name for name in ("performance.md", "box.md"))
+    copies = [tmp_path / "performance.md", tmp_path / "box.md"]
+    for page, copy in zip((performance, box), copies, strict=True):
+        shutil.copy(page, copy)
+    load_benchmark("paper_sizes").main(
+        ["--table-only", "--page", str(copies[0]), "--box-page", str(copies[1])]
+    )
+    assert copies[0].read_text() == performance.read_text()
+    assert copies[1].read_text() == box.read_text()
+    record = json.loads((BENCH / "results" / "paper_sizes.json").read_text())
+    paper = record["cases"]["box_paper"]
+    assert (paper["heat_steps"], paper["heat_step"], paper["cells"]) == (564, 0.1, 704)
+    assert all(abs(a - 90.0) < 5.0 for a in paper["angles_at_switch"].values())
+    assert all(abs(a) < 5.0 for a in paper["angles_final"].values())
+    assert paper["heat_s"] + paper["flow_s"] + paper["other_s"] == pytest.approx(paper["wall_s"])
