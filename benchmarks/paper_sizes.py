@@ -43,6 +43,7 @@ ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
 BEGIN, END = "<!-- paper_sizes:begin -->", "<!-- paper_sizes:end -->"
 BOX_BEGIN, BOX_END = "<!-- box_runs:begin -->", "<!-- box_runs:end -->"
+CAPSULE_BEGIN, CAPSULE_END = "<!-- microcapsule_runs:begin -->", "<!-- microcapsule_runs:end -->"
 DEMOS, PROBLEMS = ROOT / "demos", ROOT / "demos" / "problems"
 #: case → the command's arguments after ``python`` (each takes ``--out``)
 I_SHAPE = str(PROBLEMS / "bilayer_i_shape.toml")
@@ -50,6 +51,7 @@ I_SHAPE_PAPER = "mesh.parameters={W=4.0,H=4.0,t=1.0,w=1.5,h=0.125}"
 CASES = {
     "box_file": ["-m", "dgplate", "run", str(PROBLEMS / "box_folding.toml")],
     "box_paper": [str(DEMOS / "box_folding.py"), "--paper"],
+    "microcapsule_file": ["-m", "dgplate", "run", str(PROBLEMS / "microcapsule.toml")],
     # the demo's --paper: the published flow (its problem file's flow.method = "bnn")
     "i_shape_paper": [str(DEMOS / "bilayer_i_shape.py"), "--paper"],
     # the same mesh with the accurate flow (the file's τ as the first τ)
@@ -163,15 +165,62 @@ def box_table(record: dict[str, Any]) -> str:
     )
 
 
+def capsule_record(summary: dict[str, Any], rows: list[dict[str, str]], wall: float) -> dict:
+    """The microcapsule's figures: how far the flaps curled, and whether the hold converged."""
+    curvatures = summary["principal_curvatures"]
+    return {
+        "cells": summary["cells"],
+        "dofs": summary["dofs"],
+        "ranks": summary["ranks"],
+        "heat_steps": summary["heat_steps"],
+        "flow_steps": summary["flow_steps"],
+        "converged": summary["converged"],
+        "wall_s": wall,
+        "energy": summary["energy"],
+        "isometry_defect": summary["isometry_defect"],
+        "kappa1_mean": curvatures["kappa1_mean"],
+        "kappa2_mean": curvatures["kappa2_mean"],
+        "tips_height": summary["tips_height_final"],
+        "tips_distance": summary["tips_distance_final"],
+    }
+
+
+def capsule_table(record: dict[str, Any]) -> str:
+    """docs/box.md's microcapsule table: the problem file's run."""
+    r = record["cases"].get("microcapsule_file")
+    if r is None:
+        return "(not run)"
+    return "\n".join(
+        [
+            f"The problem file's run on {r['ranks']} rank(s), start-up included "
+            "(`benchmarks/paper_sizes.py`, `benchmarks/results/paper_sizes.json`).",
+            "",
+            "| cells | dofs | heat steps | flow steps | final hold converged | κ₁ mean | κ₂ mean "
+            "| tips above the centre | tips from its midpoint | E_h | D_h | wall s |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|",
+            f"| {r['cells']} | {r['dofs']} | {r['heat_steps']} | {r['flow_steps']} "
+            f"| {'yes' if r['converged'] else 'no'} | {r['kappa1_mean']:.2f} "
+            f"| {r['kappa2_mean']:.2f} | {r['tips_height']:.3f} | {r['tips_distance']:.3f} "
+            f"| {r['energy']:.3f} | {r['isometry_defect']:.1e} | {r['wall_s']:.0f} |",
+        ]
+    )
+
+
 def table(record: dict[str, Any]) -> str:
     """docs/performance.md's table: wall time at the published sizes and where it went."""
     rows = []
     for case, r in record["cases"].items():
-        if case.startswith("box"):
+        if case == "microcapsule_file":
+            split = "the final hold " + ("converged" if r["converged"] else "did not converge")
+            steps = f"{r['heat_steps']} heat steps, {r['flow_steps']} flow steps"
+        elif case.startswith("box"):
             split = f"heat {r['heat_s']:.1f}, flow {r['flow_s']:.0f}, other {r['other_s']:.0f}"
             steps = f"{r['heat_steps']} heat steps, {r['flow_steps']} flow steps"
         else:
-            split = f"{r['method']} flow, {r['step_solves']} step solves"
+            split = (
+                f"{r['method']} flow, {r['step_solves']} step solves; E_h {r['energy']:.4f}, "
+                f"D_h {r['isometry_defect']:.1e}, fitted radius {r['radius']:.3f}"
+            )
             steps = f"{r['steps']} steps"
         rows.append(f"| {case} | {r['dofs']} | {steps} | {r['wall_s']:.0f} | {split} |")
     return "\n".join(
@@ -181,11 +230,15 @@ def table(record: dict[str, Any]) -> str:
             "calibration, output, checkpoints) (`benchmarks/paper_sizes.py`, "
             "`benchmarks/results/paper_sizes.json`).",
             "",
-            "| case | dofs | steps | wall s | split (s) |",
+            "| case | dofs | steps | wall s | split (s), or the run's figures |",
             "|---|---|---|---|---|",
             *rows,
         ]
     )
+
+
+#: a case's record, by the first word of its name (bilayer_record otherwise)
+RECORDS = {"box": box_record, "microcapsule": capsule_record}
 
 
 def main(argv: list[str]) -> None:
@@ -205,13 +258,14 @@ def main(argv: list[str]) -> None:
         cases: dict[str, Any] = kept.get("cases", {}) if kept.get("ranks") == args.ranks else {}
         for case in args.cases:
             summary, rows, wall = run_case(args.ranks, case)
-            make = box_record if case.startswith("box") else bilayer_record
+            make = RECORDS.get(case.split("_")[0], bilayer_record)
             cases[case] = make(summary, rows, wall)
             print0(comm, json.dumps({case: cases[case]}))
         record = {"ranks": args.ranks, "cases": cases}
     publish(comm, args, record, (BEGIN, END), table)
     box_page = argparse.Namespace(json=args.json, page=args.box_page)
     publish(comm, box_page, None, (BOX_BEGIN, BOX_END), box_table)
+    publish(comm, box_page, None, (CAPSULE_BEGIN, CAPSULE_END), capsule_table)
 
 
 if __name__ == "__main__":

@@ -225,9 +225,8 @@ class ThermalBilayer(Driver):
     def advance(self, max_steps: int | None = None) -> HeatStepRecord:
         """One heat step, then relax the plate; returns (and stores) the record.
 
-        The step that spends the budget is not tested for convergence (the holds are): a
-        heat step's relaxation only has to follow the equilibrium path, and the test's solve
-        costs about as much as a step.
+        Its last flow step is not tested for convergence (a solve as costly as a step: a
+        heat step's relaxation only follows the path; the holds are tested).
         """
         t0 = time.perf_counter()
         self.heat.step()

@@ -381,7 +381,7 @@ def test_paper_sizes_pages_are_generated(tmp_path):
     """docs/performance.md's and docs/box.md's tables of the published sizes are what
     --table-only writes from paper_sizes.json, whose box at --paper is the published run: 564
     heat steps of Δt = 0.1 on 8 × 8 cells per face, closed at the switch (every hinge within
-    5° of 90°) and open again after cooling (within 5° of 0)."""
+    5° of 90°) and open again after cooling (within 5° of 0); the microcapsule converged."""
     performance, box = (BENCH.parent / "docs" / name for name in ("performance.md", "box.md"))
     copies = [tmp_path / "performance.md", tmp_path / "box.md"]
     for page, copy in zip((performance, box), copies, strict=True):
@@ -397,3 +397,6 @@ def test_paper_sizes_pages_are_generated(tmp_path):
     assert all(abs(a - 90.0) < 5.0 for a in paper["angles_at_switch"].values())
     assert all(abs(a) < 5.0 for a in paper["angles_final"].values())
     assert paper["heat_s"] + paper["flow_s"] + paper["other_s"] == pytest.approx(paper["wall_s"])
+    capsule = record["cases"]["microcapsule_file"]  # its final hold meets the tolerance
+    assert capsule["converged"] and capsule["isometry_defect"] < 1e-10
+    assert capsule["tips_height"] > 0 and capsule["tips_distance"] < 1.0  # curled up and in

@@ -60,12 +60,10 @@ SMALLER: dict[str, tuple[str, ...]] = {
 }
 
 #: Files whose budgets are documented to end unconverged (the test fails if one converges:
-#: then remove it here). microcapsule: the final hold does not
-#: meet the flow's tolerance in its 300 steps (demos/microcapsule.py; run at the demo's small
-#: size, which does not converge either).
-UNCONVERGED = {
-    "microcapsule": "demos/microcapsule.py: the final hold spends its budget",
-}
+#: then remove it here). None since the thermal model takes the accurate flow (the
+#: microcapsule's final hold converges).
+UNCONVERGED: dict[str, str] = {}
+
 
 FILES = sorted(path.stem for path in PROBLEMS.glob("*.toml"))
 

@@ -488,10 +488,10 @@ KILL_AT_STEP = textwrap.dedent(
     driver, at = os.environ["DGPLATE_TEST_KILL_AT"].split(":")
     at = int(at)
     step, load_step = flow.GradientFlow.step, newton.LoadPath.step
-    def step_then_die(self):
+    def step_then_die(self, *args, **kwargs):
         if self.step_count == at and driver == "flow":
             os.kill(os.getpid(), signal.SIGKILL)  # no clean-up at all, as kill -9
-        return step(self)
+        return step(self, *args, **kwargs)
     def load_step_then_die(self):
         if self.step_count == at and driver == "fvk":
             os.kill(os.getpid(), signal.SIGKILL)
@@ -635,10 +635,10 @@ ONE_RANK_FAILS = textwrap.dedent(
     from dgplate.cli import main
 
     step = flow.GradientFlow.step
-    def step_or_fail(self):
+    def step_or_fail(self, *args, **kwargs):
         if self.step_count == 2 and MPI.COMM_WORLD.rank == 1:
             raise RuntimeError("a failure on rank 1 only")
-        return step(self)
+        return step(self, *args, **kwargs)
     flow.GradientFlow.step = step_or_fail
     sys.exit(main(sys.argv[1:]))
     """
