@@ -1,7 +1,7 @@
 """Time to solution at the published sizes: the demos run with ``--paper``, timed and checked.
 
-Each case runs a literate demo with ``--paper`` (the published resolution) on ``--ranks``
-ranks, as a user runs it (``mpirun -n 2 python demos/box_folding.py
+Each case runs a literate demo with ``--paper`` (the published resolution) or a problem file
+(``dgplate run``) on ``--ranks`` ranks, as a user runs it (``mpirun -n 2 python demos/box_folding.py
 --paper``), in a temporary folder, and reads its ``summary.json`` and ``history.csv``. The demo
 asserts its own figures (hinge angles at the switch and after cooling, energies); this
 records them with the wall time and where it went:
@@ -75,8 +75,10 @@ def run_case(ranks: int, case: str) -> tuple[dict[str, Any], list[dict[str, str]
     """
     folder = Path(tempfile.mkdtemp(prefix="paper_"))
     command = [sys.executable, *CASES[case], "--out", str(folder / "run")]
-    if ranks > 1:
-        command = [shutil.which("mpirun") or "mpirun", "-n", str(ranks), *command]
+    if ranks > 1:  # the MPI of this Python (its venv's mpirun), as the Makefile's MPIRUN
+        beside = Path(sys.executable).parent / "mpirun"
+        mpirun = str(beside) if beside.is_file() else shutil.which("mpirun") or "mpirun"
+        command = [mpirun, "-n", str(ranks), *command]
     try:
         t0 = time.perf_counter()
         done = subprocess.run(command, capture_output=True, text=True, env=os.environ.copy())
@@ -92,8 +94,17 @@ def run_case(ranks: int, case: str) -> tuple[dict[str, Any], list[dict[str, str]
     return summary, rows, wall
 
 
-def box_record(summary: dict[str, Any], rows: list[dict[str, str]], wall: float) -> dict:
-    """The box's figures and the split of its wall time."""
+def box_record(summary: dict[str, Any], rows: list[dict[str, str]], wall: float) -> dict[str, Any]:
+    """The box's figures and the split of its wall time.
+
+    Args:
+        summary: the run's summary.json.
+        rows: the rows of its history.csv.
+        wall: its wall time in seconds.
+
+    Returns:
+        The case's record.
+    """
     heat = sum(float(r["heat_seconds"]) for r in rows)
     steps = sum(float(r["seconds"]) for r in rows)
     return {
@@ -117,8 +128,10 @@ def box_record(summary: dict[str, Any], rows: list[dict[str, str]], wall: float)
     }
 
 
-def bilayer_record(summary: dict[str, Any], rows: list[dict[str, str]], wall: float) -> dict:
-    """A bilayer's figures: steps, solves, energy, defect, fitted cylinder."""
+def bilayer_record(
+    summary: dict[str, Any], rows: list[dict[str, str]], wall: float
+) -> dict[str, Any]:
+    """A bilayer's figures: steps, solves, energy, defect, fitted cylinder (as box_record)."""
     cylinder = summary.get("cylinder_fit", {})
     return {
         "dofs": summary["dofs"],
@@ -165,8 +178,11 @@ def box_table(record: dict[str, Any]) -> str:
     )
 
 
-def capsule_record(summary: dict[str, Any], rows: list[dict[str, str]], wall: float) -> dict:
-    """The microcapsule's figures: how far the flaps curled, and whether the hold converged."""
+def capsule_record(
+    summary: dict[str, Any], rows: list[dict[str, str]], wall: float
+) -> dict[str, Any]:
+    """The microcapsule's figures: how far the flaps curled, whether the hold converged (as
+    box_record)."""
     curvatures = summary["principal_curvatures"]
     return {
         "cells": summary["cells"],
@@ -219,7 +235,8 @@ def table(record: dict[str, Any]) -> str:
         else:
             split = (
                 f"{r['method']} flow, {r['step_solves']} step solves; E_h {r['energy']:.4f}, "
-                f"D_h {r['isometry_defect']:.1e}, fitted radius {r['radius']:.3f}"
+                f"D_h {r['isometry_defect']:.1e}, fitted radius "
+                + (f"{r['radius']:.3f}" if r["radius"] is not None else "none")
             )
             steps = f"{r['steps']} steps"
         rows.append(f"| {case} | {r['dofs']} | {steps} | {r['wall_s']:.0f} | {split} |")
@@ -253,15 +270,22 @@ def main(argv: list[str]) -> None:
         raise SystemExit("run this benchmark on one rank: it starts each demo with --ranks")
     record: dict[str, Any] | None = None
     if not args.table_only:
-        # the cases not run now keep their records (a study run case by case)
+        # the cases not run now keep their records (a study run case by case), each written
+        # as soon as it is done
         kept = json.loads(args.json.read_text()) if args.json.is_file() else {}
-        cases: dict[str, Any] = kept.get("cases", {}) if kept.get("ranks") == args.ranks else {}
+        if kept and kept.get("ranks") != args.ranks:
+            raise SystemExit(
+                f"{args.json} holds runs on {kept.get('ranks')} rank(s), not --ranks "
+                f"{args.ranks}: give another --json"
+            )
+        cases: dict[str, Any] = kept.get("cases", {})
         for case in args.cases:
             summary, rows, wall = run_case(args.ranks, case)
             make = RECORDS.get(case.split("_")[0], bilayer_record)
             cases[case] = make(summary, rows, wall)
             print0(comm, json.dumps({case: cases[case]}))
-        record = {"ranks": args.ranks, "cases": cases}
+            record = {"ranks": args.ranks, "cases": cases}
+            args.json.write_text(json.dumps(record, indent=2) + "\n")
     publish(comm, args, record, (BEGIN, END), table)
     box_page = argparse.Namespace(json=args.json, page=args.box_page)
     publish(comm, box_page, None, (BOX_BEGIN, BOX_END), box_table)

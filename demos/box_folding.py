@@ -124,8 +124,8 @@ if result.get("interrupted"):  # SIGINT/SIGTERM: outputs and a checkpoint were k
 # hinge, farthest from the heater and coolest, folds least) and the lid's edge lies within a
 # few hundredths of its place in the ideal box: the box is closed. After cooling the net is
 # flat again (angles within about a degree of 0). `history.csv` holds the angles
-# at every heat step: they follow the temperature a few degrees behind on the way up and on
-# the way down.
+# at every heat step: they follow the hinges' temperature, which lags the heater's on the way
+# up and on the way down.
 
 # %%
 calibration = result["calibration"]
@@ -154,8 +154,8 @@ say(
 # of the single-hinge test; measured 87.3°–89.0° at the small default), the closure gap below
 # 0.1 (0.078 at the small default, 0.017 with the problem file's 4 × 4 cells per panel: it
 # shrinks with the mesh), the net flat again after cooling (every angle within 2° of 0;
-# measured at most 1.01°), both holds converged, no flow step raised the energy, the
-# isometry constraint kept (D_h measured 3e−14), and the closed box drawn.
+# measured at most 1.00°), both holds converged, no flow step raised the energy, the
+# isometry constraint kept (D_h measured 3e−15), and the closed box drawn.
 
 # %%
 demo.check("both holds converged and no flow step raised the energy",

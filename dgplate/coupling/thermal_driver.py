@@ -4,10 +4,11 @@ The coupling is quasi-static and one-way (docs/design.md §1, "Thermal bilayer")
 temperature θ solves the heat equation of :mod:`dgplate.coupling.heat` on the flat reference
 domain, and after each heat step the plate is relaxed by the constrained H² gradient flow of
 :mod:`dgplate.solvers.flow`, warm-started from the previous shape, until the flow's stopping
-rule ((E_h[yⁿ⁻¹] − E_h[yⁿ])/τ < ``tol``) holds or the budget :attr:`Schedule.flow_steps` is
-spent. The energy is built once from ``energy(y, θ)`` and references the temperature Function,
-so a heat step changes the spontaneous curvature without recompiling anything; the flow's
-constant matrix does not depend on θ and is only reassembled when a hold changes τ.
+rule (``flow.stop``: by default ‖P DE_h‖ < ``tol``) holds or the budget
+:attr:`Schedule.flow_steps` is spent (the step that spends it is not tested). The energy is
+built once from ``energy(y, θ)`` and references the temperature Function, so a heat step
+changes the spontaneous curvature without recompiling anything; the flow's constant matrix
+does not depend on θ, only on τ.
 
 A *hold* relaxes the plate at a fixed temperature, without a heat step, with its own budget and
 optionally another τ (:attr:`Schedule.holds`): the self-folding box is held at the peak

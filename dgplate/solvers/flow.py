@@ -383,7 +383,8 @@ class GradientFlow(EnergyFlow):
         total = max_steps or self.settings.max_steps
         converged, reason = (
             False,
-            f"step budget of {total} steps spent before {test} < {self.settings.tol:g}",
+            f"step budget of {total} steps spent before {test} < {self.settings.tol:g}"
+            + ("" if test_last else " (the last step not tested)"),
         )
         signum = 0
         for k in range(budget):

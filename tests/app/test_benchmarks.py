@@ -396,7 +396,7 @@ def test_paper_sizes_pages_are_generated(tmp_path):
     assert (paper["heat_steps"], paper["heat_step"], paper["cells"]) == (564, 0.1, 704)
     assert all(abs(a - 90.0) < 5.0 for a in paper["angles_at_switch"].values())
     assert all(abs(a) < 5.0 for a in paper["angles_final"].values())
-    assert paper["heat_s"] + paper["flow_s"] + paper["other_s"] == pytest.approx(paper["wall_s"])
+    assert 0 < paper["heat_s"] < paper["flow_s"] < paper["wall_s"] and paper["other_s"] > 0
     capsule = record["cases"]["microcapsule_file"]  # its final hold meets the tolerance
     assert capsule["converged"] and capsule["isometry_defect"] < 1e-10
     assert capsule["tips_height"] > 0 and capsule["tips_distance"] < 1.0  # curled up and in

@@ -40,7 +40,9 @@ class ScheduleSpec:
         each=Check(ge=0),
     )
     hold_steps: int = option(300, "flow step budget of a hold", ge=1)
-    hold_tau: float = option(0.0, "τ of the holds (0: the flow's τ)", ge=0)
+    hold_tau: float = option(
+        0.0, "τ of the holds, their first τ with adaptive τ (0: the flow's τ)", ge=0
+    )
 
     def __post_init__(self) -> None:
         """The holds increase and end by end_time."""
