@@ -226,16 +226,13 @@ class ThermalBilayer(Driver):
     def advance(self, max_steps: int | None = None) -> HeatStepRecord:
         """One heat step, then relax the plate; returns (and stores) the record.
 
-        Its last flow step is not tested for convergence (a solve as costly as a step: a
-        heat step's relaxation only follows the path; the holds are tested).
+        Its last flow step is not tested (a solve as costly as a step; the holds are tested).
         """
         t0 = time.perf_counter()
         self.heat.step()
         heat_seconds = time.perf_counter() - t0
         result = self.relax(max_steps, test_last=False)
-        record = self._record(result, time.perf_counter() - t0)
-        record.heat_seconds = heat_seconds
-        return record
+        return self._record(result, time.perf_counter() - t0, heat_seconds=heat_seconds)
 
     def hold(self, max_steps: int | None = None, tau: float | None = None) -> HeatStepRecord:
         """Relax at the current temperature without a heat step.
@@ -256,7 +253,9 @@ class ThermalBilayer(Driver):
                 self.flow.tau = previous
         return self._record(result, time.perf_counter() - t0, hold=True)
 
-    def _record(self, result: FlowResult, seconds: float, hold: bool = False) -> HeatStepRecord:
+    def _record(
+        self, result: FlowResult, seconds: float, hold: bool = False, heat_seconds: float = 0.0
+    ) -> HeatStepRecord:
         lo, hi = self.heat.min_max()
         figures = _safety(result)
         for measure in self.measures:
@@ -276,6 +275,7 @@ class ThermalBilayer(Driver):
             defect=result.defect,
             seconds=seconds,
             hold=hold,
+            heat_seconds=heat_seconds,
             figures=figures,
         )
         self.records.append(record)
