@@ -170,9 +170,9 @@ if (($# > 0)); then
 else
   # Every test but the demos on two workers; the tests that launch mpirun themselves; and a
   # demo of each driver and model family on 2 ranks (Open MPI), two at a time. `make test`
-  # runs every demo serially and a set on 2 ranks with the wheel; here each demo pays its cold
-  # JIT (gcc compiles every form, most of the time under DOLFINx 0.9), and all of them would
-  # take CI past its 90 minutes.
+  # runs every demo serially and a set on 2 ranks with the wheel; here, on a cold JIT cache,
+  # each demo pays for gcc compiling its forms (most of the time under DOLFINx 0.9), and all of
+  # them would take CI past its 90 minutes.
   demos=(box_folding straight_fold fvk_buckling buckling_strip rod_circle self_avoiding_strip
     lce_strip obstacle_bnn)
   log "python3 -m pytest -q -n 2 -m 'not mpi and not spawns_mpirun' (no demos)"
