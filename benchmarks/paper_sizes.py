@@ -15,7 +15,9 @@ records them with the wall time and where it went:
 
 The tables of docs/performance.md (between ``<!-- paper_sizes:begin -->`` and
 ``<!-- paper_sizes:end -->``) and docs/box.md (``<!-- box_runs:… -->``) are generated from the
-JSON (``--table-only``: no runs). The box also runs its problem file (4 × 4 cells per face,
+JSON (``--table-only``: no runs). The docs' pictures of these runs (:data:`PICTURES`: the box's
+angles, closed box and folding sequence, the microcapsule, the I-shape) are copied from the
+runs into ``--pictures`` (default docs/img; ``--pictures ''``: none). The box also runs its problem file (4 × 4 cells per face,
 ``dgplate run``) for docs/box.md.
 """
 
@@ -60,12 +62,70 @@ CASES = {
 }  # fmt: skip
 
 
-def run_case(ranks: int, case: str) -> tuple[dict[str, Any], list[dict[str, str]], float]:
+#: Times of the folding sequence's panels (the frames nearest to them are shown): three while
+#: heating, the closing, one while cooling and the end.
+FOLDING_TIMES = (7.0, 16.0, 26.0, 28.2, 45.0, 56.4)
+
+
+def folding_sequence(run: Path, path: Path) -> None:
+    """The box's folding sequence: six of the run's frames, heating, closing, cooling, open.
+
+    Args:
+        run: the box run's folder (``frames/frame_<step>.png`` and ``history.csv``).
+        path: the picture to write (two rows of three panels).
+    """
+    from dgplate.io.montage import montage
+
+    with open(run / "history.csv", newline="") as f:
+        rows = {int(r["step"]): r for r in csv.DictReader(f)}
+    frames = {int(p.stem.removeprefix("frame_")): p for p in (run / "frames").glob("frame_*.png")}
+    frames = {step: p for step, p in frames.items() if step in rows}
+    if not frames:
+        raise SystemExit(f"{run}: no frames to show (output.frames_every)")
+    time = {step: float(rows[step]["time"]) for step in frames}
+    shown = [min(frames, key=lambda step: abs(time[step] - t)) for t in FOLDING_TIMES]
+    heating = {step: float(rows[step]["source"]) > 0 for step in shown}
+    captions = [f"t = {time[s]:.1f}, {'heating' if heating[s] else 'cooling'}" for s in shown]
+    panels = [frames[s] for s in shown]
+    # the frames' titles (the step, t and E_h) and colour bars are left out
+    crop = (0.16, 0.82, 0.05, 0.95)
+    montage([panels[:3], panels[3:]], path, captions=[captions[:3], captions[3:]], crop=crop)
+
+
+#: case → {picture in --pictures: its file in the run folder, or a function (run, path)
+#: drawing it}
+PICTURES: dict[str, dict[str, Any]] = {
+    "box_paper": {
+        "box_angles.png": "angles.png",
+        "box_closed.png": "at_switch.png",
+        "box_folding.png": folding_sequence,
+    },
+    "microcapsule_file": {"microcapsule.png": "final.png"},
+    "i_shape_paper": {"bilayer_i_shape.png": "final.png"},
+}
+
+
+def keep_pictures(case: str, run: Path, pictures: Path | None) -> None:
+    """Copy (or draw) the docs' pictures of ``case`` from its run folder into ``pictures``."""
+    if pictures is None:
+        return
+    for name, source in PICTURES.get(case, {}).items():
+        if callable(source):
+            source(run, pictures / name)
+        else:
+            shutil.copyfile(run / source, pictures / name)
+        print0(MPI.COMM_WORLD, f"{case}: {pictures / name}")
+
+
+def run_case(
+    ranks: int, case: str, pictures: Path | None = None
+) -> tuple[dict[str, Any], list[dict[str, str]], float]:
     """Run a case on ``ranks`` ranks in a temporary folder, removed afterwards.
 
     Args:
         ranks: the MPI ranks of the run (``mpirun -n ranks``; 1: no mpirun).
         case: a key of :data:`CASES`.
+        pictures: where to copy the case's pictures of the docs (:data:`PICTURES`; None: none).
 
     Returns:
         The run's summary, its history rows and the wall time in seconds (start-up included).
@@ -89,6 +149,7 @@ def run_case(ranks: int, case: str) -> tuple[dict[str, Any], list[dict[str, str]
         summary = json.loads((folder / "run" / "summary.json").read_text())
         with open(folder / "run" / "history.csv", newline="") as f:
             rows = list(csv.DictReader(f))
+        keep_pictures(case, folder / "run", pictures)
     finally:
         shutil.rmtree(folder, ignore_errors=True)
     return summary, rows, wall
@@ -264,6 +325,9 @@ def main(argv: list[str]) -> None:
     parser.add_argument("--ranks", type=int, default=2, help="ranks of each demo run")
     add_page_options(parser, RESULTS / "paper_sizes.json", ROOT / "docs" / "performance.md")
     parser.add_argument("--box-page", type=Path, default=ROOT / "docs" / "box.md")
+    parser.add_argument(
+        "--pictures", default=str(ROOT / "docs" / "img"), help="the docs' pictures ('': none)"
+    )
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     if comm.size > 1:
@@ -280,7 +344,8 @@ def main(argv: list[str]) -> None:
             )
         cases: dict[str, Any] = kept.get("cases", {})
         for case in args.cases:
-            summary, rows, wall = run_case(args.ranks, case)
+            pictures = Path(args.pictures) if args.pictures else None
+            summary, rows, wall = run_case(args.ranks, case, pictures)
             make = RECORDS.get(case.split("_")[0], bilayer_record)
             cases[case] = make(summary, rows, wall)
             print0(comm, json.dumps({case: cases[case]}))

@@ -48,6 +48,7 @@ def write_outputs(
     advice.warn(comm, advice.after_run(problem, driver, summary, report.area(tagged)))
     write_history(comm, out.path / "history.csv", checkpoints.history)
     if problem.output.png:
+        from dgplate.io.angle_chart import plot_angles
         from dgplate.io.branch_chart import plot_branch
         from dgplate.io.history_chart import plot_history  # pyvista: 1 s to import
 
@@ -57,6 +58,7 @@ def write_outputs(
             tol, column = stopping_column(problem.flow)
             plot_history(checkpoints.history, out.path / "history.png", problem.name, tol, column)
             plot_branch(checkpoints.history, out.path / "branch.png", problem.name)
+            plot_angles(checkpoints.history, out.path / "angles.png", problem.name)
     summary["wall_time_s"] = checkpoints.wall_time()
     if prepared.start is not None:
         summary["wall_time_since_resume_s"] = time.perf_counter() - checkpoints.wall0
