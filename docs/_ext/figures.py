@@ -1,0 +1,169 @@
+"""Every picture of docs/img and the command that draws it from a run.
+
+    python docs/_ext/figures.py --list            # each picture, its command, its minutes
+    python docs/_ext/figures.py NAME [NAME ...]   # run their commands, copy the pictures
+
+The pictures of docs/img/demos are the demos' own, redrawn by ``demo_images.py``. Every
+other picture is a key of :data:`FIGURES` (drawn by a run of a demo, a problem file or a
+study, whose output is copied into docs/img) or of :data:`KEPT` (an older picture kept with the
+reason it has no command yet): ``tests/app/test_docs_figures.py`` fails on a picture in neither,
+so no picture is added by hand. A command writes into ``{out}``, a scratch folder; ``copy``
+names the files of ``{out}`` that become pictures (a command that writes the picture itself
+gets ``{img}``, the docs/img folder, instead).
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+IMG = ROOT / "docs" / "img"
+
+
+@dataclass(frozen=True)
+class Figure:
+    """How pictures of docs/img are drawn.
+
+    Args:
+        command: the arguments after ``python`` (``{out}``: a scratch folder, ``{img}``:
+            docs/img), run from the repository's root.
+        copy: picture of docs/img → the file of ``{out}`` copied to it (none: the command
+            writes into ``{img}`` itself).
+        minutes: about how long the command takes on two cores.
+    """
+
+    command: tuple[str, ...]
+    copy: dict[str, str] = field(default_factory=dict)
+    minutes: float = 1.0
+
+
+def _words(line: str) -> tuple[str, ...]:
+    """The arguments of a command line (no quoting: none of them has spaces)."""
+    return tuple(line.split())
+
+
+def _run(problem: str, *sets: str) -> tuple[str, ...]:
+    """``dgplate run demos/problems/<problem>.toml --out {out}`` with ``--set`` overrides."""
+    overrides = [arg for value in sets for arg in ("--set", value)]
+    return ("-m", "dgplate", "run", f"demos/problems/{problem}.toml", "--out", "{out}", *overrides)
+
+
+def _paper_sizes(case: str) -> tuple[str, ...]:
+    """``benchmarks/paper_sizes.py --cases <case>``, which copies its pictures into docs/img."""
+    return ("benchmarks/paper_sizes.py", "--cases", case, "--pictures", "{img}")
+
+
+#: name → how it is drawn; a command drawing several pictures is one entry (its first picture)
+FIGURES: dict[str, Figure] = {
+    "box_angles.png": Figure(_paper_sizes("box_paper"), minutes=7),
+    "microcapsule.png": Figure(_paper_sizes("microcapsule_file"), minutes=2),
+    "bilayer_i_shape.png": Figure(_paper_sizes("i_shape_paper"), minutes=3),
+    "bilayer_i_shape_coarse.png": Figure(
+        _run("bilayer_i_shape"), {"bilayer_i_shape_coarse.png": "final.png"}, 1
+    ),
+    "bilayer_hole.png": Figure(_run("bilayer_hole"), {"bilayer_hole.png": "final.png"}, 2),
+    "bilayer_partial_clamp.png": Figure(
+        _run("bilayer_partial_clamp"), {"bilayer_partial_clamp.png": "final.png"}, 3
+    ),
+    "bilayer_corner_clamp.png": Figure(
+        _run("bilayer_corner_clamp"), {"bilayer_corner_clamp.png": "final.png"}, 1
+    ),
+    "bilayer_anisotropic_Z1.png": Figure(
+        _run("bilayer_anisotropic"), {"bilayer_anisotropic_Z1.png": "final.png"}, 2
+    ),
+    "bilayer_anisotropic_Z2.png": Figure(
+        _run("bilayer_anisotropic", "model.Z=[[-3, 2], [2, -3]]"),
+        {"bilayer_anisotropic_Z2.png": "final.png"},
+        2,
+    ),
+    "bilayer_aspect_ratios.png": Figure(
+        _words(
+            "demos/bilayer_aspect_ratios.py --ratios 0.5 1 1.75 2.5 --curvatures 1 2 5 "
+            "--out {out} --figure {img}/bilayer_aspect_ratios.png"
+        ),
+        minutes=4,
+    ),
+    "converge_bilayer_cylinder.png": Figure(
+        _words("-m dgplate converge demos/problems/bilayer_cylinder.toml --levels 4 --out {out}"),
+        {"converge_bilayer_cylinder.png": "converge.png"},
+        6,
+    ),
+}
+
+#: Pictures drawn together with another one (the key of FIGURES whose command draws them).
+ALSO_DRAWN = {"box_closed.png": "box_angles.png", "box_folding.png": "box_angles.png"}
+
+_SETTINGS = "a run's picture whose settings are not recorded"
+#: name → why it is an older picture without a command yet (each is to get one)
+KEPT: dict[str, str] = {
+    "buckling_strip.png": _SETTINGS,
+    "twist_strip.png": _SETTINGS,
+    "creases_straight_fold.png": _SETTINGS,
+    "creases_curved_fold.png": _SETTINGS,
+    "creases_bilayer_cones.png": _SETTINGS,
+    "creases_bilayer_chords.png": _SETTINGS,
+    "creases_annulus.png": _SETTINGS,
+    "fvk_load_deflection.png": _SETTINGS,
+    "fvk_cone_before.png": "put together from fvk_cone.py runs by hand",
+    "fvk_cone_before_after_h0.07.png": "put together from fvk_cone.py runs by hand",
+    "fvk_cone_before_after_h0.15.png": "put together from fvk_cone.py runs by hand",
+    "fvk_cone_facet_normal_h0.07.png": "put together from fvk_cone.py runs by hand",
+    "lce_strip.png": "the demo's three pictures put together by hand",
+    "lce_perversion.png": _SETTINGS,
+    "obstacle_contact_zone.png": _SETTINGS,
+    "rod_trefoil.png": _SETTINGS,
+    "rod_trefoil_stages.gif": "the stages' pictures put together by hand",
+    "rod_twisted_circle.png": "rod_twisted_circle.py's run, its last frame",
+    "rod_twisted_circle.gif": "rod_twisted_circle.py --gif (about an hour)",
+    "rod_twisted_circle_start.png": _SETTINGS,
+    "rod_sphere_study": "rod_sphere_study.py --pictures (hours; docs/rods.md gives each run)",
+    "self_avoiding_compressed_strip.png": _SETTINGS,
+    "self_avoiding_compressed_strip_rho0.png": _SETTINGS,
+    "self_avoiding_trefoil_ribbon.png": _SETTINGS,
+    "self_avoiding_min_distance.png": "tangent_point.py --plot from the histories of three runs",
+}
+
+
+def pictures() -> list[str]:
+    """The pictures of docs/img outside demos/: file names, and folders of pictures by name."""
+    found = sorted(p.name for p in IMG.iterdir() if p.name != "demos")
+    return found
+
+
+def run(name: str) -> None:
+    """Run the command of the picture ``name`` and copy what it drew into docs/img."""
+    figure = FIGURES[name]
+    with tempfile.TemporaryDirectory() as scratch:
+        out = Path(scratch) / "out"
+        command = [a.format(out=out, img=IMG) for a in figure.command]
+        print(f"{name}: python {' '.join(command)}", flush=True)
+        subprocess.run([sys.executable, *command], cwd=ROOT, check=True)
+        for picture, source in figure.copy.items():
+            shutil.copyfile(out / source, IMG / picture)
+            print(f"  {source} → docs/img/{picture}", flush=True)
+
+
+def main(argv: list[str]) -> int:
+    """``--list`` the pictures, or draw those named."""
+    if not argv or argv == ["--list"]:
+        for name, figure in FIGURES.items():
+            print(f"{name} ({figure.minutes:g} min): python {' '.join(figure.command)}")
+        for name, reason in KEPT.items():
+            print(f"{name}: kept ({reason})")
+        return 0
+    unknown = [name for name in argv if name not in FIGURES]
+    if unknown:
+        print(f"figures.py: no command draws {', '.join(unknown)} (see --list)", file=sys.stderr)
+        return 2
+    for name in argv:
+        run(name)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
