@@ -91,6 +91,15 @@ if [[ $(cat "$ROOT/.dgplate-ready" 2>/dev/null) != "$want" ]]; then
   wget -q -T 20 -t 2 -O /dev/null "$mirror/dists/$SUITE/InRelease" ||
     skip "cannot reach $mirror/dists/$SUITE"
   log "building the $SUITE root in $ROOT from $mirror (log: $LOG)"
+  # A run killed where no private mount namespace was available can leave its mounts (the
+  # JIT cache's bind mount among them) in the root: undo them, and never delete through one.
+  while read -r _ target _; do
+    if [[ $target == "$ROOT"/* ]]; then umount -l "$target" 2>/dev/null || true; fi
+  done </proc/mounts
+  if grep -q " $ROOT/" /proc/mounts; then
+    log "FAILED: mounts left under $ROOT; unmount them first"
+    exit 1
+  fi
   [[ ! -e $ROOT ]] || rm -rf --one-file-system "$ROOT"   # never crosses into a mount
   net_run debootstrap --variant=minbase "$SUITE" "$ROOT" "$mirror"
   printf 'deb %s %s main\ndeb %s %s-updates main\n' "$mirror" "$SUITE" "$mirror" "$SUITE" \
@@ -116,11 +125,14 @@ log "root ready after ${SECONDS}s"
 # the wheel: under DOLFINx 0.9 gcc compiling the forms is most of the tests' time (a problem file
 # that runs in 1 s with its forms cached takes 150 s without), and a fresh clone builds a fresh
 # root. One folder per set of installed package versions, so forms compiled by other versions
-# are never loaded (override: DGPLATE_DEBIAN_JIT_CACHE). Without a usable HOME the cache stays
-# inside the root, as before.
+# are never loaded (override: DGPLATE_DEBIAN_JIT_CACHE; `rm -rf ~/.cache/dgplate` clears them).
+# Without XDG_CACHE_HOME or a HOME folder (other than /) the cache stays inside the root.
 packages_key=$(chroot "$ROOT" dpkg-query -W -f '${Package}=${Version}\n' | sha256sum | cut -c1-16)
-host_cache=${DGPLATE_DEBIAN_JIT_CACHE:-${XDG_CACHE_HOME:-${HOME:-/nonexistent}/.cache}/dgplate/debian-$SUITE-$packages_key}
-if mkdir -p "$host_cache" "$ROOT/root/.cache" 2>/dev/null && mount_in --bind "$host_cache" "$ROOT/root/.cache" 2>/dev/null; then
+cache_home=${XDG_CACHE_HOME:-}
+if [[ -z $cache_home && -n ${HOME:-} && $HOME != / && -d $HOME ]]; then cache_home=$HOME/.cache; fi
+host_cache=${DGPLATE_DEBIAN_JIT_CACHE:-${cache_home:+$cache_home/dgplate/debian-$SUITE-$packages_key}}
+if [[ -n $host_cache ]] && mkdir -p "$host_cache" "$ROOT/root/.cache" 2>/dev/null &&
+  mount_in --bind "$host_cache" "$ROOT/root/.cache" 2>/dev/null; then
   log "JIT cache: $host_cache ($(du -sh "$host_cache" 2>/dev/null | cut -f1))"
 fi
 

@@ -62,9 +62,10 @@ CASES = {
 }  # fmt: skip
 
 
-#: Times of the folding sequence's panels (the frames nearest to them are shown): three while
-#: heating, the closing, one while cooling and the end.
-FOLDING_TIMES = (7.0, 16.0, 26.0, 28.2, 45.0, 56.4)
+#: Times of the folding sequence's panels, on the frames of ``--paper`` (every 20 steps): three
+#: while heating, the last frame before the switch (t = 28.2), one while cooling and the end
+#: (the frame nearest to each time is shown, the earlier one of two as near).
+FOLDING_TIMES = (8.0, 16.0, 26.0, 28.0, 45.9, 56.4)
 
 
 def folding_sequence(run: Path, path: Path) -> None:
@@ -78,10 +79,12 @@ def folding_sequence(run: Path, path: Path) -> None:
 
     with open(run / "history.csv", newline="") as f:
         rows = {int(r["step"]): r for r in csv.DictReader(f)}
-    frames = {int(p.stem.removeprefix("frame_")): p for p in (run / "frames").glob("frame_*.png")}
+    found = sorted((run / "frames").glob("frame_*.png"))
+    frames = {int(p.stem.removeprefix("frame_")): p for p in found}
     frames = {step: p for step, p in frames.items() if step in rows}
     if not frames:
-        raise SystemExit(f"{run}: no frames to show (output.frames_every)")
+        print0(MPI.COMM_WORLD, f"{run}: no frames to show (output.frames_every): {path} not drawn")
+        return
     time = {step: float(rows[step]["time"]) for step in frames}
     shown = [min(frames, key=lambda step: abs(time[step] - t)) for t in FOLDING_TIMES]
     heating = {step: float(rows[step]["source"]) > 0 for step in shown}
@@ -106,14 +109,26 @@ PICTURES: dict[str, dict[str, Any]] = {
 
 
 def keep_pictures(case: str, run: Path, pictures: Path | None) -> None:
-    """Copy (or draw) the docs' pictures of ``case`` from its run folder into ``pictures``."""
+    """Copy (or draw) the docs' pictures of ``case`` from its run folder.
+
+    A picture the run did not write is skipped with a line: the run's record is kept.
+
+    Args:
+        case: a key of :data:`CASES`.
+        run: the run's output folder.
+        pictures: the folder of the copies (made if missing); None: none.
+    """
     if pictures is None:
         return
+    pictures.mkdir(parents=True, exist_ok=True)
     for name, source in PICTURES.get(case, {}).items():
         if callable(source):
             source(run, pictures / name)
-        else:
+        elif (run / source).is_file():
             shutil.copyfile(run / source, pictures / name)
+        else:
+            print0(MPI.COMM_WORLD, f"{case}: the run wrote no {source}: {pictures / name} kept")
+            continue
         print0(MPI.COMM_WORLD, f"{case}: {pictures / name}")
 
 

@@ -107,9 +107,10 @@ say = demo.say
 # The runner meshes `meshes/box_net.geo`, calibrates α, steps the heat equation to the switch,
 # holds, cools to t = 56.4 and holds again. It writes the deformation as a VTX series
 # (`deformation.bp`, one frame per heat step and hold), `history.csv` (one row per heat step
-# and hold, with the five hinge angles and the closure gap), `summary.json` and two pictures:
-# `at_switch.png`, the closed box (relaxed at the peak temperature, the end of the heating
-# hold), and `final.png`, the net flat again after cooling.
+# and hold, with the five hinge angles and the closure gap), `summary.json`, `angles.png` (the
+# hinge angles against time) and two pictures of the shape: `at_switch.png`, the closed box
+# (relaxed at the peak temperature, the end of the heating hold), and `final.png`, the net flat
+# again after cooling.
 
 # %%
 problem = dgplate.load_problem(PROBLEM, overrides=PAPER if args.paper else SMALL)
@@ -169,5 +170,6 @@ for name, angle in opened.items():
     demo.check_close(f"{name} after cooling (°)", angle, 0.0, abs=2.0, source="flat again")
 demo.check_between("D_h", result["isometry_defect"], high=1e-6)
 demo.check("the closed box is drawn (at_switch.png)", Path(args.out, "at_switch.png").is_file())
+demo.check("the hinge angles are drawn (angles.png)", Path(args.out, "angles.png").is_file())
 demo.check("E_h is finite", math.isfinite(result["energy"]))
 say(f"box closed and opened again → {args.out}")

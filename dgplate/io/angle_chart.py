@@ -1,37 +1,43 @@
 """angles.png: a run's fold angles over time, from the rows of history.csv.
 
-One line per ``angle_<fold>`` column (the fold angles in degrees of a thermal run's
-``model.fold_angles``, e.g. the box's five hinges) against ``time`` (else the step), a dashed
-line at 90° and a dotted one where the heat source changes sign (the box's switch from heating
-to cooling). Written by the runner beside history.png when the rows hold fold angles.
+One line per ``angle_<hinge>`` column (the fold angles in degrees of a thermal run's
+``model.hinges``, e.g. the box's five) against ``time`` (else the step), a dashed line at 90°
+and a dotted one where the heat source changes sign (the box's switch from heating to
+cooling). Written by the runner beside history.png when the rows hold fold angles.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
-from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
+from dgplate.io.history_chart import finite
 from dgplate.io.images import save_figure
 
 PREFIX = "angle_"
 
 
-def _number(value: Any) -> float | None:
-    """``value`` as a finite float, else None."""
-    if isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value):
-        return float(value)
-    return None
-
-
 def switch_time(rows: Sequence[Mapping[str, Any]], axis: str) -> float | None:
-    """The first ``axis`` value at which the heat source changes sign (None: it never does)."""
-    for a, b in pairwise(rows):
-        before, after = _number(a.get("source")), _number(b.get("source"))
-        if before is not None and after is not None and before * after < 0:
-            return _number(a.get(axis))
+    """Where the heat source changes sign: heating to cooling, say.
+
+    Args:
+        rows: the rows of ``history.csv`` (``source``, and ``axis``).
+        axis: the column to return: ``time`` or ``step``.
+
+    Returns:
+        The ``axis`` value of the last row with a non-zero source before the first row whose
+        source has the other sign (rows with a zero or no source are passed over); None if the
+        sign never changes.
+    """
+    last: tuple[float, Mapping[str, Any]] | None = None
+    for row in rows:
+        source = finite(row.get("source"))
+        if source is None or source == 0.0:
+            continue
+        if last is not None and last[0] * source < 0:
+            return finite(last[1].get(axis))
+        last = (source, row)
     return None
 
 
@@ -50,7 +56,7 @@ def plot_angles(rows: Sequence[Mapping[str, Any]], path: str | Path, title: str 
     folds = sorted({key for row in rows for key in row if key.startswith(PREFIX)})
     if not folds:
         return False
-    axis = "time" if all(_number(row.get("time")) is not None for row in rows) else "step"
+    axis = "time" if all(finite(row.get("time")) is not None for row in rows) else "step"
     import matplotlib
 
     matplotlib.use("Agg")
@@ -58,7 +64,7 @@ def plot_angles(rows: Sequence[Mapping[str, Any]], path: str | Path, title: str 
 
     fig, ax = plt.subplots(figsize=(6.4, 3.8))
     for fold in folds:
-        points = [(_number(r.get(axis)), _number(r.get(fold))) for r in rows]
+        points = [(finite(r.get(axis)), finite(r.get(fold))) for r in rows]
         kept = [(x, y) for x, y in points if x is not None and y is not None]
         ax.plot([x for x, _ in kept], [y for _, y in kept], label=fold.removeprefix(PREFIX))
     ax.axhline(90.0, color="grey", ls="--", lw=0.8)

@@ -21,14 +21,21 @@ STOPPING = {"rate": "|ΔE/τ|", "stationarity": "stationarity", "residual": "New
 PATH = {"alpha": "α", "load_factor": "load factor"}
 
 
+def finite(value: Any) -> float | None:
+    """``value`` as a float if it is a finite number (not a bool), else None."""
+    if isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value):
+        return float(value)
+    return None
+
+
 def _column(rows: Sequence[Mapping[str, Any]], key: str) -> tuple[list[float], list[float]]:
     """(steps, values) of the rows whose ``key`` is a finite number."""
     steps, values = [], []
     for row in rows:
-        value = row.get(key)
-        if isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value):
+        value = finite(row.get(key))
+        if value is not None:
             steps.append(float(row["step"]))
-            values.append(float(value))
+            values.append(value)
     return steps, values
 
 

@@ -18,9 +18,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 IMAGES = ROOT / "docs" / "img" / "demos"
-#: Demos whose page shows a picture of docs/img instead: the box's page shows the kept
-#: picture of the closed box coloured by temperature (docs/box.md); the demo draws the box
-#: closed at the switch as at_switch.png and the net open again after cooling as final.png.
+#: Demos whose page shows a picture of docs/img instead: the box's page shows the closed box
+#: of its --paper run (at_switch.png, docs/_ext/figures.py); the demo's final.png is the net
+#: open again after cooling.
 CURATED = {"box_folding": "box_closed.png"}
 
 

@@ -14,6 +14,8 @@ gets ``{img}``, the docs/img folder, instead).
 
 from __future__ import annotations
 
+import os
+import shlex
 import shutil
 import subprocess
 import sys
@@ -59,7 +61,11 @@ def _demo(name: str, picture: str, *options: str) -> tuple[str, ...]:
 
 
 def _paper_sizes(case: str) -> tuple[str, ...]:
-    """``benchmarks/paper_sizes.py --cases <case>``, which copies its pictures into docs/img."""
+    """``benchmarks/paper_sizes.py --cases <case>``, which copies its pictures into docs/img.
+
+    It also records the run in benchmarks/results/paper_sizes.json and rewrites the tables of
+    docs/performance.md and docs/box.md from it.
+    """
     return ("benchmarks/paper_sizes.py", "--cases", case, "--pictures", "{img}")
 
 
@@ -161,12 +167,15 @@ def pictures() -> list[str]:
 
 def run(name: str) -> None:
     """Run the command of the picture ``name`` and copy what it drew into docs/img."""
-    figure = FIGURES[name]
+    figure = FIGURES[ALSO_DRAWN.get(name, name)]
+    # the scripts import this checkout's dgplate, not an installed one
+    path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p)
     with tempfile.TemporaryDirectory() as scratch:
         out = Path(scratch) / "out"
         command = [a.format(out=out, img=IMG) for a in figure.command]
-        print(f"{name}: python {' '.join(command)}", flush=True)
-        subprocess.run([sys.executable, *command], cwd=ROOT, check=True)
+        print(f"{name}: python {shlex.join(command)}", flush=True)
+        env = dict(os.environ, PYTHONPATH=path)
+        subprocess.run([sys.executable, *command], cwd=ROOT, env=env, check=True)
         for picture, source in figure.copy.items():
             shutil.copyfile(out / source, IMG / picture)
             print(f"  {source} → docs/img/{picture}", flush=True)
@@ -176,11 +185,13 @@ def main(argv: list[str]) -> int:
     """``--list`` the pictures, or draw those named."""
     if not argv or argv == ["--list"]:
         for name, figure in FIGURES.items():
-            print(f"{name} ({figure.minutes:g} min): python {' '.join(figure.command)}")
+            print(f"{name} ({figure.minutes:g} min): python {shlex.join(figure.command)}")
+        for name, drawn_by in ALSO_DRAWN.items():
+            print(f"{name}: drawn by the command of {drawn_by}")
         for name, reason in KEPT.items():
             print(f"{name}: kept ({reason})")
         return 0
-    unknown = [name for name in argv if name not in FIGURES]
+    unknown = [name for name in argv if name not in FIGURES and name not in ALSO_DRAWN]
     if unknown:
         print(f"figures.py: no command draws {', '.join(unknown)} (see --list)", file=sys.stderr)
         return 2

@@ -24,6 +24,9 @@ def test_switch_is_the_last_time_before_the_source_changes_sign():
     assert switch_time(rows, "step") == 4
     assert switch_time([{"time": 1.0, "source": 5.0}, {"time": 2.0, "source": 5.0}], "time") is None
     assert switch_time([{"time": 1.0}, {"time": 2.0}], "time") is None
+    through_zero = [{"time": 1.0, "source": 5.0}, {"time": 2.0, "source": 0.0},
+                    {"time": 3.0, "source": -5.0}]  # fmt: skip
+    assert switch_time(through_zero, "time") == 1.0
 
 
 def test_angles_are_drawn_only_for_rows_with_fold_angles(tmp_path):
