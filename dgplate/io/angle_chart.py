@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from dgplate.io.history_chart import finite
-from dgplate.io.images import save_figure
+from dgplate.io.images import save_chart
 
 PREFIX = "angle_"
 
@@ -73,12 +73,5 @@ def plot_angles(rows: Sequence[Mapping[str, Any]], path: str | Path, title: str 
         ax.axvline(switch, color="grey", ls=":", lw=0.8)
         switched = f"heat switched at {'t =' if axis == 'time' else 'step'} {switch:g}"
         title = f"{title}: {switched}" if title else switched
-    ax.set_xlabel("time t" if axis == "time" else "step")
-    ax.set_ylabel("fold angle [°]")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
-    if title:
-        ax.set_title(title, fontsize=10)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=100)
+    save_chart(fig, ax, path, ("time t" if axis == "time" else "step", "fold angle [°]"), title)
     return True

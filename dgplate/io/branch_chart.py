@@ -13,7 +13,7 @@ from itertools import groupby, pairwise
 from pathlib import Path
 from typing import Any
 
-from dgplate.io.images import save_figure
+from dgplate.io.images import save_chart
 
 #: Markers of the special points.
 MARKERS = {"fold": "^", "bifurcation": "s"}
@@ -49,14 +49,7 @@ def plot_branch(rows: Sequence[Mapping[str, Any]], path: str | Path, title: str 
             ax.plot(x, y, marker, color="k", ms=7, ls="none", label=kind)
     ax.plot([], [], "-", color="grey", label="stable (index 0)")
     ax.plot([], [], "--", color="grey", label="unstable (index ≥ 1)")
-    ax.set_xlabel("w_center")
-    ax.set_ylabel("load factor λ")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
-    if title:
-        ax.set_title(title, fontsize=10)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=100)
+    save_chart(fig, ax, path, ("w_center", "load factor λ"), title)
     return True
 
 

@@ -77,6 +77,26 @@ def _publish(tmp: str, path: Path) -> None:
     os.replace(tmp, path)
 
 
+def save_chart(fig: Any, ax: Any, path: str | Path, labels: tuple[str, str], title: str) -> None:
+    """Finish a one-panel chart (axis labels, grid, legend, title) and save it at 100 dpi.
+
+    Args:
+        fig: the matplotlib figure.
+        ax: its one axes.
+        path: the picture's file (written atomically, :func:`save_figure`).
+        labels: the x and y axis labels.
+        title: the title ('' for none).
+    """
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel(labels[1])
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=100)
+
+
 def save_figure(fig: Any, path: str | Path, dpi: int = 110) -> None:
     """Write a matplotlib figure to the PNG ``path`` atomically, then close it."""
     import matplotlib.pyplot as plt
