@@ -37,11 +37,15 @@ class Figure:
         copy: picture of docs/img → the file of ``{out}`` copied to it (none: the command
             writes into ``{img}`` itself).
         minutes: about how long the command takes on two cores.
+        section: (page, marker, file of ``{out}``): the file's text also replaces the page's
+            section between ``<!-- marker:begin -->`` and ``<!-- marker:end -->`` (the tables
+            drawn with the picture).
     """
 
     command: tuple[str, ...]
     copy: dict[str, str] = field(default_factory=dict)
     minutes: float = 1.0
+    section: tuple[str, str, str] | None = None
 
 
 def _words(line: str) -> tuple[str, ...]:
@@ -99,6 +103,15 @@ FIGURES: dict[str, Figure] = {
         ),
         minutes=4,
     ),
+    "converge_bilayer_cylinder.png": Figure(
+        _words(
+            "-m dgplate converge demos/problems/bilayer_cylinder.toml --levels 4 "
+            "--set mesh.cells=[8,4] --out {out}"
+        ),
+        {"converge_bilayer_cylinder.png": "converge.png"},
+        3,
+        section=("docs/converge.md", "converge_cylinder", "converge.md"),
+    ),
     "twist_strip.png": Figure(_demo("twist_strip", "twist_strip.png", "--paper")),
     "buckling_strip.png": Figure(
         _demo("buckling_strip", "buckling_strip.png", *_words("--cells 32 4 --rate 1e-3")),
@@ -143,9 +156,6 @@ KEPT: dict[str, str] = {
     "fvk_cone_before_after_h0.15.png": "put together from fvk_cone.py runs by hand",
     "fvk_cone_facet_normal_h0.07.png": "put together from fvk_cone.py runs by hand",
     "lce_strip.png": "the demo's three pictures put together by hand",
-    "converge_bilayer_cylinder.png": "drawn with docs/converge.md's tables by one run of `dgplate "
-    "converge demos/problems/bilayer_cylinder.toml --levels 4 --set mesh.cells=[8,4]`: the "
-    "tables and the chart are to be redrawn together",
     "lce_perversion.png": "the run of docs/lce.md's table (98 steps, E_h 0.4095); the file now "
     "converges in 19 steps at E_h 0.4248, so the table and the picture are to be redone together",
     "obstacle_contact_zone.png": _SETTINGS,
@@ -165,6 +175,22 @@ def pictures() -> list[str]:
     return found
 
 
+def markers(name: str) -> tuple[str, str]:
+    """The opening and closing markers of a page's section ``name``."""
+    return f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
+
+
+def write_section(out: Path, page: str, name: str, source: str) -> None:
+    """Put the text of ``out/source`` between the markers of the section ``name`` of ``page``."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from pages import write_between  # benchmarks/pages.py
+
+    begin, end = markers(name)
+    text = (out / source).read_text().strip()
+    write_between(ROOT / page, begin, end, f"{begin}\n{text}\n{end}")
+    print(f"  {source} → {page} ({name})", flush=True)
+
+
 def run(name: str) -> None:
     """Run the command of the picture ``name`` and copy what it drew into docs/img."""
     figure = FIGURES[ALSO_DRAWN.get(name, name)]
@@ -179,6 +205,8 @@ def run(name: str) -> None:
         for picture, source in figure.copy.items():
             shutil.copyfile(out / source, IMG / picture)
             print(f"  {source} → docs/img/{picture}", flush=True)
+        if figure.section is not None:
+            write_section(out, *figure.section)
 
 
 def main(argv: list[str]) -> int:

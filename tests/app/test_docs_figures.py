@@ -53,6 +53,11 @@ def test_commands_name_existing_scripts_and_problem_files():
         written = {a.removeprefix("{img}/") for a in command if a.startswith("{img}/")}
         assert written <= {name}, name
         assert figure.copy == {} or name in figure.copy, name
+        if figure.section is not None:
+            page, section, _ = figure.section
+            begin, end = figures.markers(section)
+            text = (ROOT / page).read_text()
+            assert text.count(begin) == 1 and text.count(end) == 1, f"{name}: {page}"
 
 
 def test_paper_sizes_copies_the_pictures_figures_py_names():
