@@ -43,8 +43,8 @@
 # bilayer cylinder (docs/bilayer.md) would otherwise lower the twist energy by 3 % at 12 × 4.
 #
 # Run: `python demos/lce_strip.py` (12 × 4 cells, about a minute), `--paper` for 24 × 8.
-# Output: `out/lce_strip/{splay,twist_e1,twist_e2}/` (VTX, final.png, summary.json);
-# `--figure PATH` copies the pictures to PATH_splay.png, ....
+# Output: `out/lce_strip/{splay,twist_e1,twist_e2}/` (VTX, final.png, summary.json) and
+# `strips.png`, the three final pictures side by side (`--figure PATH` copies it).
 
 # %%
 from pathlib import Path
@@ -53,6 +53,7 @@ import numpy as np
 
 import dgplate
 from dgplate import demo
+from dgplate.io.montage import montage
 
 PROBLEM = Path(__file__).parent / "problems" / "lce_strip.toml"
 GAMMA, AREA = 1.0, 3.0
@@ -83,9 +84,17 @@ for name, (overrides, initial) in CASES.items():
     problem = dgplate.load_problem(PROBLEM, overrides={"mesh.cells": cells, **overrides})
     problem.name = f"lce {name.replace('_', ' from ')}"
     summaries[name] = demo.run(problem, args, name, initial=initial)
-    if args.figure:
-        figure = Path(args.figure)
-        demo.copy_figure(Path(args.out, name), figure.with_stem(f"{figure.stem}_{name}"))
+
+finals = [Path(args.out, name, "final.png") for name in CASES]
+exact = {"splay": "exact 0", "twist_e1": "exact 1.5", "twist_e2": "exact 1.5"}
+montage(
+    [finals],
+    Path(args.out, "strips.png"),
+    captions=[[f"{name.replace('_', ' from ')}: E_h = {summaries[name]['energy']:.4f} "
+               f"({exact[name]})" for name in CASES]],
+    title=f"LCE strip (0, 3) × (0, 1), free, γ = 1, {cells[0]} × {cells[1]} Q2",
+)  # fmt: skip
+demo.copy_figure(args.out, args.figure, name="strips.png")
 
 # %% [markdown]
 # ## Energies and shapes, measured
