@@ -116,6 +116,17 @@ FIGURES: dict[str, Figure] = {
     "obstacle_contact_zone.png": Figure(
         _demo("obstacle_contact_zone", "obstacle_contact_zone.png"), minutes=2
     ),
+    "self_avoiding_compressed_strip.png": Figure(
+        _demo("self_avoiding_compressed_strip", "self_avoiding_compressed_strip.png")
+    ),
+    "self_avoiding_compressed_strip_rho0.png": Figure(
+        _run(
+            "self_avoiding_compressed_strip",
+            "model.self_avoidance.rho=0.0",
+            "model.self_avoidance.max_redo=0",
+        ),
+        {"self_avoiding_compressed_strip_rho0.png": "final.png"},
+    ),
     "twist_strip.png": Figure(_demo("twist_strip", "twist_strip.png", "--paper")),
     "buckling_strip.png": Figure(
         _demo("buckling_strip", "buckling_strip.png", *_words("--cells 32 4 --rate 1e-3")),
@@ -165,8 +176,6 @@ KEPT: dict[str, str] = {
     "rod_twisted_circle.gif": "rod_twisted_circle.py --gif (about an hour)",
     "rod_twisted_circle_start.png": _SETTINGS,
     "rod_sphere_study": "rod_sphere_study.py --pictures (hours; docs/rods.md gives each run)",
-    "self_avoiding_compressed_strip.png": _SETTINGS,
-    "self_avoiding_compressed_strip_rho0.png": _SETTINGS,
     "self_avoiding_min_distance.png": "tangent_point.py --plot from the histories of three runs",
 }
 

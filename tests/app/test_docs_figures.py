@@ -49,6 +49,7 @@ def test_commands_name_existing_scripts_and_problem_files():
         for arg in command:
             if arg.endswith(".toml"):
                 assert (ROOT / arg).is_file(), f"{name}: {arg}"
+        assert [a.format(out="OUT", img="IMG") for a in command], name  # no stray braces
         # a picture the command writes itself is named after the picture it is listed for
         written = {a.removeprefix("{img}/") for a in command if a.startswith("{img}/")}
         assert written <= {name}, name
