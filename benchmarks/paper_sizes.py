@@ -17,8 +17,8 @@ The tables of docs/performance.md (between ``<!-- paper_sizes:begin -->`` and
 ``<!-- paper_sizes:end -->``) and docs/box.md (``<!-- box_runs:… -->``) are generated from the
 JSON (``--table-only``: no runs). The docs' pictures of these runs (:data:`PICTURES`: the box's
 angles, closed box and folding sequence, the microcapsule, the I-shape) are copied from the
-runs into ``--pictures`` (default docs/img; ``--pictures ''``: none). The box also runs its problem file (4 × 4 cells per face,
-``dgplate run``) for docs/box.md.
+runs into ``--pictures`` (default docs/img; ``--pictures ''``: none). The box also runs its
+problem file (4 × 4 cells per face, ``dgplate run``) for docs/box.md.
 """
 
 from __future__ import annotations
@@ -358,8 +358,8 @@ def main(argv: list[str]) -> None:
                 f"{args.ranks}: give another --json"
             )
         cases: dict[str, Any] = kept.get("cases", {})
+        pictures = Path(args.pictures) if args.pictures else None
         for case in args.cases:
-            pictures = Path(args.pictures) if args.pictures else None
             summary, rows, wall = run_case(args.ranks, case, pictures)
             make = RECORDS.get(case.split("_")[0], bilayer_record)
             cases[case] = make(summary, rows, wall)
