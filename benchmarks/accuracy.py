@@ -97,6 +97,15 @@ VARIANTS: dict[str, dict[str, Any]] = {
         **MINIMISER,
         "model.penalty": {"gamma0": 5000.0, "gamma1": 10.0, "gradient_power": 3},
     },
+    # the gradient jumps weighted by γ₁h⁻ᵖ with the powers between the standard and the file's
+    **{
+        f"p{power:g}_g{gamma:g}": {
+            **TUNED,
+            **MINIMISER,
+            "model.penalty": {"gamma0": 5000.0, "gamma1": gamma, "gradient_power": power},
+        }
+        for power, gamma in ((1.5, 600.0), (2.0, 300.0))
+    },
     # the standard penalty power with the file's constraint
     "p1": {**TUNED, **MINIMISER, "model.penalty": STANDARD_PENALTY},
     # the standard penalty with ten times γ₀
