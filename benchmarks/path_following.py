@@ -1,6 +1,6 @@
 """Path following of FvK plates (docs/path_following.md): bifurcations, folds, post-buckling.
 
-Three studies over mesh levels, each against a closed form:
+Four studies over mesh levels, each against a closed form:
 
 - **Euler**: the perfect simply supported square plate of demos/fvk_buckling.py (t = 0.01,
   ν = 0.3, one unloaded edge held straight, the other free) shortened by λΔ_cr, n × n Q2 cells,
@@ -14,10 +14,15 @@ Three studies over mesh levels, each against a closed form:
   for the plate of the Euler study (no closed form).
 - **Arch**: the fold of the shallow sinusoidal strip on n × 2 cells against the exact limit
   load λ = 1 (:func:`dgplate.reference.fvk.sinusoidal_strip_folds`), and w_c there over a*.
+- **Turned**: the buckled clamped–clamped strip of demos/problems/fvk_turned_strip.toml on
+  n × 1 cells, its clamps turned by ±λα (``path.parameter = "clamp_slope"``): the bifurcation
+  and the fold of its inverted state against the closed forms of
+  :func:`dgplate.reference.fvk.clamped_strip_thresholds`.
 
 Orders are log₂ of the ratio of successive errors (the cells halve). Wall times are per run.
 
     python benchmarks/path_following.py [--json …] [--page docs/path_following.md]
+    python benchmarks/path_following.py --studies turned   # one study, the others kept
     python benchmarks/path_following.py --table-only [--json …] [--page …]
 
 The tables between ``<!-- path_following_<study>:begin -->`` and ``…:end -->`` of the page are
@@ -47,7 +52,9 @@ from dgplate.io.output import print0
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk.model import build_fvk
 from dgplate.models.fvk.spec import FvKSpec, NewtonSpec, PathSpec
+from dgplate.problems.specs import load_problem
 from dgplate.reference.fvk import (
+    clamped_strip_thresholds,
     held_square_plate_postbuckling,
     sinusoidal_strip_folds,
     square_plate_critical_shortening,
@@ -215,6 +222,44 @@ def arch_level(comm: MPI.Comm, n: int) -> dict[str, Any]:
     }
 
 
+TURNED = ROOT / "demos" / "problems" / "fvk_turned_strip.toml"
+#: The turned strip's end shortening, thickness and full clamp slope (its problem file's).
+TURNED_DELTA, TURNED_T, TURNED_ALPHA = 0.01, 0.005, 0.25
+#: Its bifurcation and fold in load factor: the closed forms over the full clamp slope.
+TURNED_EXACT = tuple(a / TURNED_ALPHA for a in clamped_strip_thresholds(TURNED_DELTA, TURNED_T))
+
+
+def turned_spec(steps: int = 16) -> FvKSpec:
+    """The turned strip's [model] with its [path] (demos/problems/fvk_turned_strip.toml)."""
+    spec = load_problem(TURNED, {"path.steps": steps}).model
+    assert isinstance(spec, FvKSpec)
+    return spec
+
+
+def turned_start(x: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """Near the strip buckled down by its end shortening (the file's ``model.start``)."""
+    return np.array([x[0], x[1], -0.0317 * (1 - np.cos(2 * np.pi * x[0]))])
+
+
+def turned_level(comm: MPI.Comm, n: int) -> dict[str, Any]:
+    """The bifurcation and the fold of the turned strip on n × 1 cells."""
+    t0 = time.perf_counter()
+    points, summary = follow(comm, turned_spec(), [n, 1], [[0, 0], [1, 0.05]], turned_start)
+    wall = time.perf_counter() - t0
+    (bifurcation,) = (p for p in points if p["kind"] == "bifurcation")
+    (fold,) = (p for p in points if p["kind"] == "fold")
+    found = (bifurcation["load_factor"], fold["load_factor"])
+    return {
+        "n": n,
+        "dofs": summary["dofs"],
+        "bifurcation": found[0],
+        "fold": found[1],
+        "errors": [f / e - 1 for f, e in zip(found, TURNED_EXACT, strict=True)],
+        "indices": runs(summary["stability_indices"]),
+        "wall_s": wall,
+    }
+
+
 def orders(errors: Sequence[float | None]) -> list[float | None]:
     """log₂ of successive error ratios (None at the first level or a missing error)."""
     out: list[float | None] = [None]
@@ -223,8 +268,21 @@ def orders(errors: Sequence[float | None]) -> list[float | None]:
     return out
 
 
+def measure_turned(comm: MPI.Comm, levels: list[int]) -> dict[str, Any]:
+    """The turned strip's study at its levels (collective): its part of the record."""
+    turned = [turned_level(comm, n) for n in levels]
+    for k in range(2):
+        for lv, order in zip(turned, orders([lv["errors"][k] for lv in turned]), strict=True):
+            lv.setdefault("orders", []).append(order)
+    return {
+        "turned_exact": list(TURNED_EXACT),
+        "turned_setting": {"delta": TURNED_DELTA, "thickness": TURNED_T, "alpha": TURNED_ALPHA},
+        "turned": turned,
+    }
+
+
 def measure(comm: MPI.Comm, levels: dict[str, list[int]]) -> dict[str, Any]:
-    """All three studies at their levels (collective); the record of the JSON."""
+    """All four studies at their levels (collective); the record of the JSON."""
     euler = [euler_level(comm, n) for n in levels["euler"]]
     for k in range(2):
         errors = [lv["errors"][k] if len(lv["errors"]) > k else None for lv in euler]
@@ -246,6 +304,7 @@ def measure(comm: MPI.Comm, levels: dict[str, list[int]]) -> dict[str, Any]:
         "slope_held": held,
         "slope_mixed": [slope_level(comm, n, False) for n in levels["slope"]],
         "arch": arch,
+        **measure_turned(comm, levels["turned"]),
     }
 
 
@@ -338,8 +397,37 @@ def arch_table(record: dict[str, Any]) -> str:
     )
 
 
-TABLES = {"euler": euler_table, "slope": slope_table, "arch": arch_table}
-LEVELS = {"euler": [4, 8, 16], "slope": [4, 8, 16, 32], "arch": [8, 16, 32, 64]}
+def turned_table(record: dict[str, Any]) -> str:
+    """The Markdown table of the turned strip's bifurcation and fold."""
+    rows = [
+        f"| {lv['n']} × 1 | {lv['dofs']} | {lv['bifurcation']:.6f} | {lv['errors'][0]:+.3%} "
+        f"| {_order(lv['orders'][0])} | {lv['fold']:.6f} | {lv['errors'][1]:+.3%} "
+        f"| {_order(lv['orders'][1])} | {_sequence(lv['indices'])} | {lv['wall_s']:.1f} |"
+        for lv in record["turned"]
+    ]
+    bifurcation, fold = record["turned_exact"]
+    return "\n".join(
+        [
+            f"Exact: λ = {bifurcation:.6f} (bifurcation) and {fold:.6f} (fold); order: log₂ of "
+            "successive error ratios; indices: along the path "
+            f"({record['ranks']} rank(s), `benchmarks/path_following.py`, "
+            "`benchmarks/results/path_following.json`).",
+            "",
+            "| cells | dofs | bifurcation λ | error | order | fold λ | error | order | indices "
+            "| wall s |",
+            "|---|---|---|---|---|---|---|---|---|---|",
+            *rows,
+        ]
+    )
+
+
+TABLES = {"euler": euler_table, "slope": slope_table, "arch": arch_table, "turned": turned_table}
+LEVELS = {
+    "euler": [4, 8, 16],
+    "slope": [4, 8, 16, 32],
+    "arch": [8, 16, 32, 64],
+    "turned": [16, 32, 64, 128],
+}
 
 
 def write_tables(record: dict[str, Any], page: Path) -> None:
@@ -353,11 +441,18 @@ def main(argv: list[str]) -> dict[str, Any]:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     for name, default in LEVELS.items():
         parser.add_argument(f"--{name}", type=int, nargs="+", default=default, help="cells")
+    parser.add_argument(
+        "--studies", nargs="+", choices=["turned"], help="run these only; keep the JSON's others"
+    )
     add_page_options(parser, RESULTS / "path_following.json", ROOT / "docs" / "path_following.md")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     if args.table_only:
         record = json.loads(args.json.read_text())
+    elif args.studies:
+        record = {**json.loads(args.json.read_text()), **measure_turned(comm, args.turned)}
+        if comm.rank == 0:
+            args.json.write_text(json.dumps(record, indent=2) + "\n")
     else:
         record = measure(comm, {name: getattr(args, name) for name in LEVELS})
         print0(comm, json.dumps(record))

@@ -97,7 +97,7 @@ def path_only(problem: Problem) -> list[str]:
     if path is None:
         return []
     if path.method != "arclength":
-        given = [key for key in problem.raw.get("path") or {} if key != "method"]
+        given = [key for key in problem.raw.get("path") or {} if key not in ("method", "parameter")]
         return [f"path.{key} has no effect without path.method = 'arclength'" for key in given]
     given = [key for key in problem.raw.get("newton") or {} if key != "snes"]
     return [

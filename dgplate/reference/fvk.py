@@ -16,6 +16,10 @@
   and immovable ends, natural shape e sin(πx/L), pressure q sin(πx/L); the one-mode solution is
   exact and derived there, as in the classical analysis of low arches (Timoshenko, J. Appl.
   Mech. 2, 1935; Fung & Kaplan, NACA TN 2840, 1952) but with the bending measured from flat.
+- Snap-through of a clamped–clamped strip whose clamps are turned against its buckled shape
+  (:func:`clamped_strip_thresholds`): ν = 0, ends pushed together by Δ, then turned by ±α; the
+  inverted state meets the antisymmetric mode and folds at thresholds in closed form, derived
+  there from the shallow (FvK) beam equations.
 - Euler buckling of a simply supported square plate under uniaxial end shortening:
   N_cr = 4π²D/a² (Timoshenko & Gere, §9.2, k = 4), :func:`square_plate_critical_shortening`;
   with the unloaded edges held straight and immovable, the buckling shortening and Koiter's
@@ -218,3 +222,95 @@ def held_square_plate_postbuckling(t: float, a: float, nu: float) -> tuple[float
         (Δ_c, b): the buckling shortening and the slope b = d(Δ/Δ_c)/d((f/t)²) at f = 0.
     """
     return math.pi**2 * t * t / (3 * (1 + nu) * a), 3 * (3 - nu) * (1 + nu) / 8
+
+
+def turned_strip_slope_factor(tau: float) -> float:
+    """μ(τ) = 2|sin(τ/2)|/√(1 − sin τ/τ): α/√(½∫w′²) on the symmetric branch of compression τ.
+
+    The shallow strip 0 < ξ < 1 clamped with w(0) = w(1) = 0, w′(0) = −w′(1) = α under the
+    compression N = −Dτ² (w′′′′ + τ²w′′ = 0) has one symmetric deflection for τ ≠ 2πk, a
+    combination of 1, ξ, cos τξ and sin τξ, whose ½∫w′² integrates to α²/μ(τ)² (derived here;
+    checked against quadrature in tests/reference).
+
+    Args:
+        tau: the compression τ = L√(−N/D), away from the zeros of sin(τ/2).
+
+    Returns:
+        μ(τ).
+    """
+    return 2 * abs(math.sin(tau / 2)) / math.sqrt(1 - math.sin(tau) / tau)
+
+
+def _bisect(f: Callable[[float], float], a: float, b: float) -> float:
+    """The root of f in [a, b] (f(a), f(b) of opposite signs) to round-off, by bisection."""
+    fa = f(a)
+    for _ in range(200):
+        m = 0.5 * (a + b)
+        if m in (a, b):
+            break
+        if (f(m) > 0) == (fa > 0):
+            a, fa = m, f(m)
+        else:
+            b = m
+    return 0.5 * (a + b)
+
+
+def _argmax(f: Callable[[float], float], a: float, b: float) -> float:
+    """The maximiser of a unimodal f on [a, b], by golden-section search to round-off."""
+    ratio = (math.sqrt(5) - 1) / 2
+    c, d = b - ratio * (b - a), a + ratio * (b - a)
+    while b - a > 1e-12 * max(1.0, abs(b)):
+        if f(c) > f(d):
+            b, d = d, c
+            c = b - ratio * (b - a)
+        else:
+            a, c = c, d
+            d = a + ratio * (b - a)
+    return 0.5 * (a + b)
+
+
+#: The first compression above 2π at which an antisymmetric clamped mode exists:
+#: tan(τ/2) = τ/2, τ = 8.98682 (the second Euler load of the clamped–clamped strip).
+TAU_ANTISYMMETRIC = 2 * _bisect(lambda z: math.tan(z) - z, math.pi + 0.1, 1.5 * math.pi - 1e-9)
+
+
+def clamped_strip_thresholds(delta: float, t: float, L: float = 1.0) -> tuple[float, float]:
+    """The clamp angles at which the inverted state of a turned clamped–clamped strip ends.
+
+    A strip of span L and thickness t (FvK, ν = 0: a beam) is clamped at both ends, its ends
+    pushed together by Δ, so it buckles (down: the inverted state); then both clamps are turned
+    by α against it, w′(0) = −w′(L) = α. The inverted state is the symmetric solution of
+    w′′′′ + τ²w′′ = 0 with τ ∈ (2π, 4π), and the end shortening fixes τ through
+
+        ½∫w′² dx = Δ − τ²t²/(12L)   (N L/(E t): the strip's own shortening),
+
+    so α(τ) = μ(τ)√(Δ/L − τ²t²/(12L²)) (:func:`turned_strip_slope_factor`). Derived here:
+
+    - at τ = τ_a = 8.98682 (tan(τ/2) = τ/2) the antisymmetric clamped mode becomes neutral: a
+      simple bifurcation (the stability index goes from 0 to 1) at α_b = μ(τ_a)√(…), where
+      μ(τ_a) = 2 exactly (there 1 − sin τ/τ = sin²(τ/2));
+    - the symmetric branch turns (a fold, the index from 1 to 2) where α(τ) is largest:
+      α_f/√(Δ/L) = 2.0119 at τ = 9.2032 in the inextensible limit t²/Δ → 0.
+
+    In units of √(Δ/L), the thresholds tend to μ = α/√(Δ/L) = 2 and 2.0119 in the shallow,
+    inextensible limit (to compare with the elastica at finite Δ/L).
+
+    Args:
+        delta: the end shortening Δ.
+        t: the thickness.
+        L: the span.
+
+    Returns:
+        (α_b, α_f): the clamp angles (slopes) at the bifurcation and at the fold.
+    """
+    shortening, stretch = delta / L, t * t / (12 * L * L)
+
+    def slope(tau: float) -> float:
+        return turned_strip_slope_factor(tau) * math.sqrt(shortening - tau * tau * stretch)
+
+    if shortening <= 16 * math.pi**2 * stretch:
+        raise ValueError(
+            f"the shortening Δ = {delta:g} is too small for t = {t:g}: Δ/L > (4π)²t²/(12L²)"
+        )
+    fold = _argmax(slope, TAU_ANTISYMMETRIC - 0.5, 4 * math.pi - 0.5)
+    return slope(TAU_ANTISYMMETRIC), slope(fold)

@@ -8,6 +8,7 @@ bifurcation along the critical eigenvector.
 
 from __future__ import annotations
 
+import math
 from typing import cast
 
 import numpy as np
@@ -22,6 +23,10 @@ from dgplate.solvers.arclength import ArcLength, Point, StepLength, petsc_failur
 #: constant of a backward error of size O(ε‖K‖). Small enough to keep the sign of every
 #: eigenvalue the secant needs on the plates of benchmarks/path_following.py (≥ 45 ε‖K‖_∞).
 ROUNDOFF = 10.0
+#: A special point is located when its corrector fails closer to it than this: a point
+#: corrected before, whose |τ| or eigenvalue is below NEAR_ROOT times its values at the ends
+#: of the step, is taken as the special point.
+NEAR_ROOT = 2e-3
 
 
 class SpecialPoints:
@@ -66,20 +71,32 @@ class SpecialPoints:
             The located point, the state at it; a SolverError when a corrector fails.
         """
         direction = (base.t, base.tau)
+        best = [math.inf, 0.0]  # the smallest |f| corrected so far, and its step
 
         def corrected(s: float) -> float:
             result = self.engine.correct(base, s, direction)
             if result is None:
                 raise SolverError(f"the corrector failed while locating a {kind}")
             if kind == "fold":
-                return self.engine.tangent(result[0], direction)[1]
-            return self._crossing_eigenvalue(max(base.index, new.index))
+                value = self.engine.tangent(result[0], direction)[1]
+            else:
+                value = self._crossing_eigenvalue(max(base.index, new.index))
+            if abs(value) < best[0]:
+                best[:] = [abs(value), s]
+            return value
 
         if kind == "fold":
             ends = base.tau, new.tau
         else:
             ends = corrected(0.0), corrected(ds)
-        secant_root(corrected, 0.0, ends[0], ds, ends[1], xtol=1e-6 * ds)
+        try:
+            secant_root(corrected, 0.0, ends[0], ds, ends[1], xtol=1e-6 * ds)
+        except SolverError:
+            # at a simple bifurcation the bordered Jacobian is singular as well, so correctors
+            # very near it can fail: a point already found close to it stands for it
+            if best[0] > NEAR_ROOT * min(abs(ends[0]), abs(ends[1])):
+                raise
+            corrected(best[1])
         special = self.engine.point(self.engine.load.value, direction, 0)
         # the Hessian is singular there: its zero eigenvalue is not negative, and the inertia
         # of the factorisation would count it either way

@@ -3,8 +3,10 @@
 References: the buckling shortening of a simply supported square plate, Δ_cr = π²t²/(3(1 − ν²)a)
 (Timoshenko & Gere, §9.2, k = 4), Koiter's initial post-buckling slope of the plate with held
 unloaded edges (:func:`dgplate.reference.fvk.held_square_plate_postbuckling`), and the exact limit
-point of a shallow sinusoidal strip (:func:`dgplate.reference.fvk.sinusoidal_strip_folds`). The
-cases are those of benchmarks/path_following.py.
+point of a shallow sinusoidal strip (:func:`dgplate.reference.fvk.sinusoidal_strip_folds`), and
+the bifurcation and fold of a buckled strip whose clamps are turned
+(:func:`dgplate.reference.fvk.clamped_strip_thresholds`). The cases are those of
+benchmarks/path_following.py.
 """
 
 import dataclasses
@@ -27,7 +29,12 @@ from dgplate.errors import SolverError
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk.model import build_fvk
 from dgplate.models.fvk.spec import FvKSpec, PathSpec
-from dgplate.reference.fvk import held_square_plate_postbuckling
+from dgplate.reference.fvk import (
+    TAU_ANTISYMMETRIC,
+    clamped_strip_thresholds,
+    held_square_plate_postbuckling,
+    turned_strip_slope_factor,
+)
 from dgplate.solvers.continuation import BranchPath
 from dgplate.solvers.snes import NewtonSolver
 from dgplate.solvers.special_points import SpecialPoints
@@ -36,6 +43,7 @@ PATHS = load_benchmark("path_following")  # the cases, shared with the benchmark
 E, NU, T = PATHS.E, PATHS.NU, PATHS.T
 A_FOLD = PATHS.A_FOLD
 ARCH = ROOT / "demos" / "problems" / "fvk_arch.toml"
+TURNED = ROOT / "demos" / "problems" / "fvk_turned_strip.toml"
 follow, attempt = PATHS.follow, PATHS.attempt
 
 
@@ -328,3 +336,88 @@ def test_follow_refuses_a_model_without_paths_and_names_a_bad_setting(tmp_path):
     with pytest.raises(dgplate.InputError, match=r"path\.method: dgplate\.follow always follows"):
         dgplate.follow(arch, out=tmp_path / "arch", method="load_steps")
     assert not (tmp_path / "plate").exists() and not (tmp_path / "arch").exists()
+
+
+def turned(comm, n):
+    """The buckled strip of demos/problems/fvk_turned_strip.toml, its clamps turned by ±λα."""
+    return follow(comm, PATHS.turned_spec(), [n, 1], [[0, 0], [1, 0.05]], PATHS.turned_start)
+
+
+def test_turned_strip_slope_factor_and_thresholds():
+    """μ(τ) = α/√(½∫w′²) against quadrature; the thresholds' thin limits μ = 2 and 2.0119."""
+    for tau in (6.5, 8.0, 9.2, 11.0):
+        M = np.array(
+            [
+                [1, 0, 1, 0],
+                [1, 1, np.cos(tau), np.sin(tau)],
+                [0, 1, 0, tau],
+                [0, 1, -tau * np.sin(tau), tau * np.cos(tau)],
+            ]
+        )
+        _, b, c, d = np.linalg.solve(M, [0, 0, 1, -1])  # w′(0) = 1 = −w′(1)
+        x = np.linspace(0, 1, 200001)
+        slope = b - c * tau * np.sin(tau * x) + d * tau * np.cos(tau * x)
+        half = 0.5 * np.sum((slope[1:] ** 2 + slope[:-1] ** 2) / 2 * np.diff(x))
+        assert turned_strip_slope_factor(tau) == pytest.approx(1 / math.sqrt(half), rel=1e-9)
+    assert math.tan(TAU_ANTISYMMETRIC / 2) == pytest.approx(TAU_ANTISYMMETRIC / 2, rel=1e-12)
+    assert turned_strip_slope_factor(TAU_ANTISYMMETRIC) == pytest.approx(2.0, rel=1e-12)
+    thin = [a / math.sqrt(0.01) for a in clamped_strip_thresholds(0.01, 1e-8)]
+    assert thin == pytest.approx([2.0, 2.011905], abs=1e-6)
+    with pytest.raises(ValueError, match="too small"):
+        clamped_strip_thresholds(1e-4, 0.01)
+
+
+def test_turned_strip_bifurcates_then_folds_at_the_closed_forms():
+    """32 × 1 cells: the bifurcation (index 0 → 1) and the fold (1 → 2) within 0.8 %."""
+    points, summary = turned(MPI.COMM_WORLD, 32)
+    kinds = [p["kind"] for p in points]
+    assert [k for k in kinds if k != "regular"] == ["bifurcation", "fold"]
+    bifurcation, fold = summary["bifurcations"][0], summary["folds"][0]
+    assert bifurcation == pytest.approx(0.798735, abs=2e-5)  # +0.69 %
+    assert fold == pytest.approx(0.803353, abs=2e-5)  # +0.72 %
+    exact = PATHS.TURNED_EXACT
+    assert exact == pytest.approx((0.793241, 0.797636), abs=1e-6)
+    assert bifurcation == pytest.approx(exact[0], rel=8e-3)
+    assert fold == pytest.approx(exact[1], rel=8e-3)
+    b, f = kinds.index("bifurcation"), kinds.index("fold")
+    indices = [p["stability_index"] for p in points]
+    assert (
+        set(indices[:b]) == {0} and set(indices[b + 1 : f]) == {1} and set(indices[f + 1 :]) == {2}
+    )
+    assert points[0]["load_factor"] == 0 and points[0]["w_center"] < 0  # the inverted state
+
+
+def test_turned_strip_errors_fall_at_second_order():
+    """16, 32, 64 cells: both thresholds' errors fall at an observed order ≥ 2."""
+    levels = [PATHS.turned_level(MPI.COMM_WORLD, n) for n in (16, 32, 64)]
+    for k in range(2):
+        errors = [lv["errors"][k] for lv in levels]
+        assert errors[0] > errors[1] > errors[2] > 0
+        assert all(order >= 2.0 for order in PATHS.orders(errors)[1:])
+        assert errors[2] < 2e-3
+
+
+def test_a_parameter_holds_the_other_data_at_their_full_values(tmp_path):
+    """path.parameter = "clamp_slope": at λ = 0 the end shortening is already applied; a bad
+    parameter or a slope without clamps is one line naming the key."""
+    points, _ = turned(MPI.COMM_SELF, 16)
+    assert points[0]["w_center"] == pytest.approx(-0.06333, rel=1e-3)  # buckled by Δ at λ = 0
+    with pytest.raises(dgplate.InputError, match=r"path\.parameter"):
+        dgplate.load_problem(TURNED, {"path.parameter": "angle"})
+    with pytest.raises(dgplate.InputError, match=r"model\.clamp_slope needs model\.clamped"):
+        dgplate.load_problem(TURNED, {"model.clamped": [], "model.membrane": {"left": "fixed"}})
+
+
+@pytest.mark.mpi
+def test_same_turned_path_on_any_number_of_ranks():
+    """The turned strip's path (16 cells) on 1 and 2 ranks: its regular points agree to 1e-8,
+    the located special points to 2e-4 (the secant's tolerance near the singular bifurcation)."""
+    parallel, _ = turned(MPI.COMM_WORLD, 16)
+    serial, _ = turned(MPI.COMM_SELF, 16)
+    assert [p["kind"] for p in parallel] == [p["kind"] for p in serial]
+    assert [p["stability_index"] for p in parallel] == [p["stability_index"] for p in serial]
+    for key in ("load_factor", "w_center", "energy"):
+        scale = max(abs(p[key]) for p in serial)
+        for a, b in zip(parallel, serial, strict=True):
+            rel = 1e-8 if b["kind"] == "regular" else 2e-4
+            assert a[key] == pytest.approx(b[key], rel=rel, abs=1e-12 * scale), (key, b["kind"])

@@ -5,6 +5,7 @@ The terms are derived in the docstring of :mod:`dgplate.models.fvk`.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, TypeAlias
 
 from mpi4py import MPI
@@ -64,14 +65,23 @@ def _cofactor(A: Any) -> Any:
 
 
 def fvk_bending_energy(
-    w: Any, faces: FacetSets, penalty: Penalty, D: Any, nu: Any, simply_supported: bool
+    w: Any,
+    faces: FacetSets,
+    penalty: Penalty,
+    D: Any,
+    nu: Any,
+    simply_supported: bool,
+    slope: Any = None,
 ) -> ufl.Form:
-    """½a_h(w, w) with the Poisson part and simply supported facets (:mod:`dgplate.models.fvk`)."""
+    """½a_h(w, w) with the Poisson part and simply supported facets (:mod:`dgplate.models.fvk`).
+
+    ``slope`` is the ∇w prescribed on the clamped facets (a UFL vector; None: 0).
+    """
     n, h = faces.n, faces.h_boundary
     gamma0, gamma1 = penalty.constants(faces.mesh)
     H = hessian(w)
-    zero = ufl.as_vector((0.0, 0.0))
-    energy: ufl.Form = bending_energy(w, faces, penalty, mu=D, g=0.0, Phi=zero)
+    Phi = ufl.as_vector((0.0, 0.0)) if slope is None else slope
+    energy: ufl.Form = bending_energy(w, faces, penalty, mu=D, g=0.0, Phi=Phi)
     energy += nu * D * ufl.det(H) * faces.dx
     energy -= (
         nu
@@ -80,7 +90,8 @@ def fvk_bending_energy(
         * faces.dS_smooth()
     )
     if faces.has_clamped:
-        energy -= nu * D * ufl.inner(ufl.dot(_cofactor(H), n), ufl.grad(w)) * faces.ds_clamped()
+        jump_out = ufl.grad(w) - Phi  # [∇w] on a clamped facet
+        energy -= nu * D * ufl.inner(ufl.dot(_cofactor(H), n), jump_out) * faces.ds_clamped()
     if simply_supported:
         tgrad = ufl.dot(ufl.Identity(2) - ufl.outer(n, n), ufl.grad(w))
         moment_n = ufl.dot(plane_stress(H, D, nu), n)
@@ -91,6 +102,30 @@ def fvk_bending_energy(
             + 0.5 * gamma0 * D / h**3 * w * w
         ) * faces.ds(SIMPLY_SUPPORTED)
     return energy
+
+
+def scaling(parameter: str, load_factor: Any) -> Callable[[str], Any]:
+    """The factor of each datum: λ for the one ``parameter`` names (every one for "load"), else 1.
+
+    Args:
+        parameter: ``path.parameter``.
+        load_factor: the Constant λ.
+
+    Returns:
+        datum name ↦ its factor (λ or 1.0).
+    """
+    return lambda datum: load_factor if parameter in ("load", datum) else 1.0
+
+
+def clamp_slope(spec: FvKSpec, mesh: dolfinx.mesh.Mesh[np.float64]) -> Any:
+    """The ∇w of ``model.clamp_slope`` at full load as a UFL vector; None when it is 0."""
+    if all(component in (0, 0.0) for component in spec.clamp_slope):
+        return None
+    parts = [
+        expressions.parse(c, mesh, f"model.clamp_slope[{i}]")
+        for i, c in enumerate(spec.clamp_slope)
+    ]
+    return ufl.as_vector([values.constant(mesh, p) if isinstance(p, float) else p for p in parts])
 
 
 def fvk_energy(
@@ -105,8 +140,11 @@ def fvk_energy(
     E, ν, t, p and ε₀ enter as Constants (:mod:`dgplate.values`). ``tip`` is the cell measure
     of the indenter's cell group (``model.indenter``), where the penalty
     ½ k E t ∫(w − w₀ + λδ)² pushes the plate down rigidly by λδ from its natural shape.
+    The load factor scales the data that ``path.parameter`` names (all with "load"); the
+    others enter at their full values.
     """
     mesh = faces.mesh
+    scale = scaling(spec.path.parameter, load_factor)
     E, nu, t, prestrain = (
         values.constant(mesh, v) for v in (spec.E, spec.nu, spec.thickness, spec.prestrain)
     )
@@ -117,17 +155,20 @@ def fvk_energy(
     A = E * t / (1 - nu**2)
     w, u = ufl.split(state)
     natural = natural_shape(spec, mesh)
-    eps = membrane_strain(u, w, load_factor * prestrain, natural)
+    eps = membrane_strain(u, w, scale("prestrain") * prestrain, natural)
     energy: ufl.Form = 0.5 * ufl.inner(plane_stress(eps, A, nu), eps) * faces.dx
     simply_supported = bool(spec.simply_supported)
-    energy += fvk_bending_energy(w, faces, spec.penalty, D, nu, simply_supported)
-    energy -= load_factor * pressure * w * faces.dx
+    slope = clamp_slope(spec, mesh)
+    if slope is not None:
+        slope = scale("clamp_slope") * slope
+    energy += fvk_bending_energy(w, faces, spec.penalty, D, nu, simply_supported, slope)
+    energy -= scale("pressure") * pressure * w * faces.dx
     if spec.indenter is not None and tip is not None:
         depth, stiffness = (
             values.constant(mesh, v) for v in (spec.indentation, spec.indenter_stiffness)
         )
         w0 = natural if natural is not None else 0.0
-        gap = w - w0 + load_factor * depth
+        gap = w - w0 + scale("indentation") * depth
         energy += 0.5 * stiffness * E * t * tip * gap * gap * faces.dx
     return energy
 

@@ -118,6 +118,7 @@ class FvKModel(Model):
             start_from(state, initial)
         load_factor = values.constant(self.facets.mesh, 0.0)
         energy = fvk_energy(state, self.facets, self.spec, load_factor, self.tip)
+        bc_values = self.scaled_bc_values()
         newton = self.spec.newton
         if self.spec.path.method == "arclength":
             return BranchPath(
@@ -128,7 +129,7 @@ class FvKModel(Model):
                 self.spec.path.settings(),
                 PREFIX,
                 newton.snes,
-                bc_values=self.bc_values,
+                bc_values=bc_values,
                 shape=Deformation(state, self.spec.degree),
                 probes=DeflectionProbes(state, self.probe),
                 observers=observers,
@@ -141,7 +142,7 @@ class FvKModel(Model):
             newton.load_factors,
             PREFIX,
             newton.snes,
-            bc_values=self.bc_values,
+            bc_values=bc_values,
             observers=observers,
             shape=Deformation(state, self.spec.degree),
             probes=DeflectionProbes(state, self.probe),
@@ -149,6 +150,19 @@ class FvKModel(Model):
             stability=newton.stability_options,
             relaxation=Relaxation(tau=newton.relaxation_tau) if newton.relaxation else None,
         )
+
+    def scaled_bc_values(self) -> BCValues:
+        """The edge displacements the load factor scales; the others are set to their full values.
+
+        Returns:
+            The (datum, value at full load) pairs of the driver: all of them when
+            ``path.parameter`` is "load" or "membrane", none otherwise.
+        """
+        if self.spec.path.parameter in ("load", "membrane"):
+            return self.bc_values
+        for datum, value in self.bc_values:
+            datum.value = np.asarray(value, dtype=float)
+        return []
 
     def figures(self, driver: LoadPath | BranchPath) -> dict[str, Any]:
         """The FvK numbers of the last converged load step (None before the first)."""

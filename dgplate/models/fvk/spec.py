@@ -14,6 +14,7 @@ from typing import ClassVar, Literal
 from dgplate import expressions
 from dgplate.dg.forms import PENALTY_LENGTH_HELP, PENALTY_LENGTHS, Penalty
 from dgplate.errors import InputError
+from dgplate.models import starts
 from dgplate.schema import Check, option, section
 from dgplate.solvers import eigen
 from dgplate.solvers.arclength import StepLength
@@ -23,6 +24,9 @@ from dgplate.solvers.newton import Leave, Relaxation, Stability
 
 #: Default penalties, used for the results in docs/fvk.md (Q2 and P3 cells).
 PENALTY = Penalty(gamma0=100.0, gamma1=100.0)
+
+#: What the load factor λ can scale (``path.parameter``): every datum, or one of them.
+PARAMETERS = ("load", "pressure", "prestrain", "membrane", "clamp_slope", "indentation")
 
 
 @dataclass
@@ -136,6 +140,13 @@ class PathSpec:
     switch: bool = option(
         False, "leave the first simple bifurcation along the critical eigenvector"
     )
+    parameter: str = option(
+        "load",
+        "what the load factor λ scales: 'load' (every datum below), or one of 'pressure', "
+        "'prestrain', 'membrane' (the prescribed edge displacements), 'clamp_slope', "
+        "'indentation', the others held at their full values",
+        choices=PARAMETERS,
+    )
 
     def __post_init__(self) -> None:
         """The step bounds are ordered: ds_min ≤ ds ≤ ds_max."""
@@ -177,7 +188,13 @@ class FvKSpec:
     natural_shape: float | str = option(
         0.0, "natural shape w₀(x, y), a number or formula: strain ½(∇w⊗∇w − ∇w₀⊗∇w₀) + sym∇u"
     )
-    clamped: list[str] = option([], "facet groups with w = 0 and ∇w = 0")
+    clamped: list[str] = option([], "facet groups with w = 0 and ∇w = 0 (or model.clamp_slope)")
+    clamp_slope: list[float | str] = option(
+        [0.0, 0.0],
+        "∇w = [∂w/∂x, ∂w/∂y] prescribed on every clamped facet at full load (numbers or "
+        "formulas in x, y): clamps turned by these slopes",
+        length=2,
+    )
     simply_supported: list[str] = option([], "facet groups with w = 0, rotation free")
     crease: list[str] = option([], "interior facet groups where ∇w may jump (hinges)")
     membrane: dict[str, Literal["fixed", "normal", "free"] | list[float | str]] = option(
@@ -200,6 +217,7 @@ class FvKSpec:
     indenter_stiffness: float = option(
         1e4, "penalty k of the indenter: ½ k E t ∫_indenter (w − w₀ + λδ)²", gt=0
     )
+    start: str | dict[str, object] = option("flat", starts.HELP)
     newton: NewtonSpec = section(NewtonSpec, "newton")
     path: PathSpec = section(PathSpec, "path")
 
@@ -207,6 +225,11 @@ class FvKSpec:
         """What spans keys, and the formulas: one-line InputErrors naming ``model.<key>``."""
         expressions.check(self.pressure, "model.pressure")
         expressions.check(self.natural_shape, "model.natural_shape")
+        for i, component in enumerate(self.clamp_slope):
+            expressions.check(component, f"model.clamp_slope[{i}]")
+        if not self.clamped and any(c not in (0, 0.0) for c in self.clamp_slope):
+            raise InputError("model.clamp_slope needs model.clamped (the facets it turns)")
+        self._start = starts.Start.from_table(self.start)
         both = sorted(set(self.clamped) & set(self.simply_supported))
         if both:
             raise InputError(f"model.clamped and model.simply_supported both list {both[0]!r}")
@@ -218,6 +241,11 @@ class FvKSpec:
                     expressions.check(component, f"model.membrane.{group}[{i}]")
         if self.indentation and self.indenter is None:
             raise InputError("model.indentation needs model.indenter (the cell group pushed)")
+
+    @property
+    def start_params(self) -> starts.Start:
+        """The validated ``start`` (the first iterate of Newton at λ = 0)."""
+        return self._start
 
     @property
     def D(self) -> float:
