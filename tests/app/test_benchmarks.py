@@ -306,13 +306,16 @@ def test_path_following_benchmark_smoke(tmp_path):
     out, page = tmp_path / "path_following.json", tmp_path / "path_following.md"
     page.write_text(
         "".join(f"<!-- path_following_{k}:begin -->\nSTALE\n<!-- path_following_{k}:end -->\n"
-                for k in ("euler", "slope", "arch"))
+                for k in ("euler", "slope", "arch", "turned"))
     )  # fmt: skip
-    args = ["--euler", "4", "--slope", "4", "--arch", "8", "--json", str(out), "--page", str(page)]
+    args = ["--euler", "4", "--slope", "4", "--arch", "8", "--turned", "16"]
+    args += ["--json", str(out), "--page", str(page)]
     record = load_benchmark("path_following").main(args)
-    (euler,), (held,), (mixed,), (arch,) = (
-        record[k] for k in ("euler", "slope_held", "slope_mixed", "arch")
+    (euler,), (held,), (mixed,), (arch,), (turned,) = (
+        record[k] for k in ("euler", "slope_held", "slope_mixed", "arch", "turned")
     )
+    assert turned["errors"] == [pytest.approx(0.03327, abs=5e-5), pytest.approx(0.03359, abs=5e-5)]
+    assert turned["indices"] == [0, 1, 2] and turned["orders"] == [None, None]
     assert euler["bifurcations"] == [pytest.approx(0.98755, abs=2e-5)]
     assert euler["indices"] == [0, 1] and euler["orders"] == [None, None]
     assert held["error"] == pytest.approx(0.0442, abs=5e-4) and held["order"] is None
@@ -325,6 +328,9 @@ def test_path_following_benchmark_smoke(tmp_path):
         assert "| 4 × 4 | 306 | 0.98755 | -1.24% |  | (beyond `lambda_max`) |" in text
         assert "| 4 × 4 | 306 | 1.00392 | 1.00392 | 1.37438 | +4.42% |  |" in text
         assert "| 8 | 314 | 0.990547 | -0.945% |  | 0.9936 | 0 → 1 |" in text
+        assert (
+            "| 16 × 1 | 342 | 0.819629 | +3.327% |  | 0.824432 | +3.359% |  | 0 → 1 → 2 |" in text
+        )
 
 
 def test_path_following_page_is_generated(tmp_path):
@@ -338,6 +344,10 @@ def test_path_following_page_is_generated(tmp_path):
     assert held == sorted(held, reverse=True) and held[-1] < 1e-3  # toward Koiter's slope
     arch = [abs(level["error"]) for level in record["arch"]]
     assert arch == sorted(arch, reverse=True)  # the fold converges to the exact limit load
+    assert [level["n"] for level in record["turned"]] == [16, 32, 64, 128]
+    for k in range(2):  # both thresholds converge to the closed forms
+        errors = [abs(level["errors"][k]) for level in record["turned"]]
+        assert errors == sorted(errors, reverse=True) and errors[-1] < 5e-4
 
 
 def test_lce_cone_page_is_generated(tmp_path):
