@@ -69,10 +69,11 @@ demo.copy_figure(Path(args.out), args.figure, "branch.png")
 # %% [markdown]
 # ## The thresholds against the closed forms
 #
-# Both converge at second order in h: on 16, 32, 64 cells the bifurcation is off by +3.3,
-# +0.69, +0.15 % and the fold by +3.4, +0.72, +0.17 % (docs/path_following.md). The demo
-# asserts both within 0.8 % on 32 cells and 0.05 % on 128, and the indices: 0 before the
-# bifurcation, 1 between it and the fold, 2 after the fold.
+# Both converge at second order in h: on 16, 32, 64, 128 and 256 cells the bifurcation is
+# off by +3.4, +0.71, +0.17, +0.043 and +0.009 %, the fold by +3.4, +0.72, +0.17, +0.043 and
+# +0.011 % (docs/path_following.md). The demo asserts both within 0.8 % on 32 cells and
+# 0.05 % on 128, and the indices: 0 before the bifurcation, 1 between it and the fold, 2 after
+# the fold.
 
 # %%
 exact = [a / ALPHA for a in clamped_strip_thresholds(DELTA, T)]
