@@ -139,6 +139,9 @@ FIGURES: dict[str, Figure] = {
         _demo("fvk_square", "fvk_load_deflection.png", "--paper"), minutes=3
     ),
     "creases_straight_fold.png": Figure(_demo("straight_fold", "creases_straight_fold.png")),
+    "fvk_turned_strip_branch.png": Figure(
+        _demo("fvk_turned_strip", "fvk_turned_strip_branch.png", "--paper")
+    ),
     "creases_bilayer_cones.png": Figure(
         _words("demos/bilayer_crease.py --out {out}"),
         {
