@@ -50,6 +50,7 @@ from pages import add_page_options, write_between
 
 from dgplate.io.output import print0
 from dgplate.mesh.tagged import rectangle
+from dgplate.models import starts
 from dgplate.models.fvk.model import build_fvk
 from dgplate.models.fvk.spec import FvKSpec, NewtonSpec, PathSpec
 from dgplate.problems.specs import load_problem
@@ -122,8 +123,9 @@ def attempt(
     comm: MPI.Comm, spec: FvKSpec, cells: Sequence[int], corners: Any, initial: Initial = None
 ) -> tuple[RunResult, list[dict[str, Any]], dict[str, Any]]:
     """The outcome of the path of ``spec`` on a rectangle, its points (dicts) and its summary."""
-    model = build_fvk(spec, rectangle(comm, corners, list(cells)))
-    driver = model.driver(None, [], initial)
+    tagged = rectangle(comm, corners, list(cells))
+    model = build_fvk(spec, tagged)
+    driver = model.driver(None, [], starts.resolve(spec, initial, tagged.mesh))
     assert isinstance(driver, BranchPath)  # a spec with path.method = "arclength"
     try:
         outcome = driver.run()
@@ -236,15 +238,10 @@ def turned_spec(steps: int = 16) -> FvKSpec:
     return spec
 
 
-def turned_start(x: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    """Near the strip buckled down by its end shortening (the file's ``model.start``)."""
-    return np.array([x[0], x[1], -0.0317 * (1 - np.cos(2 * np.pi * x[0]))])
-
-
 def turned_level(comm: MPI.Comm, n: int) -> dict[str, Any]:
     """The bifurcation and the fold of the turned strip on n × 1 cells."""
     t0 = time.perf_counter()
-    points, summary = follow(comm, turned_spec(), [n, 1], [[0, 0], [1, 0.05]], turned_start)
+    points, summary = follow(comm, turned_spec(), [n, 1], [[0, 0], [1, 0.05]])  # model.start
     wall = time.perf_counter() - t0
     (bifurcation,) = (p for p in points if p["kind"] == "bifurcation")
     (fold,) = (p for p in points if p["kind"] == "fold")
@@ -275,6 +272,7 @@ def measure_turned(comm: MPI.Comm, levels: list[int]) -> dict[str, Any]:
         for lv, order in zip(turned, orders([lv["errors"][k] for lv in turned]), strict=True):
             lv.setdefault("orders", []).append(order)
     return {
+        "turned_ranks": comm.size,
         "turned_exact": list(TURNED_EXACT),
         "turned_setting": {"delta": TURNED_DELTA, "thickness": TURNED_T, "alpha": TURNED_ALPHA},
         "turned": turned,
@@ -410,7 +408,7 @@ def turned_table(record: dict[str, Any]) -> str:
         [
             f"Exact: λ = {bifurcation:.6f} (bifurcation) and {fold:.6f} (fold); order: log₂ of "
             "successive error ratios; indices: along the path "
-            f"({record['ranks']} rank(s), `benchmarks/path_following.py`, "
+            f"({record['turned_ranks']} rank(s), `benchmarks/path_following.py`, "
             "`benchmarks/results/path_following.json`).",
             "",
             "| cells | dofs | bifurcation λ | error | order | fold λ | error | order | indices "
@@ -450,6 +448,8 @@ def main(argv: list[str]) -> dict[str, Any]:
     if args.table_only:
         record = json.loads(args.json.read_text())
     elif args.studies:
+        if not args.json.exists():
+            parser.error(f"--studies keeps the other studies of {args.json}, which does not exist")
         record = {**json.loads(args.json.read_text()), **measure_turned(comm, args.turned)}
         if comm.rank == 0:
             args.json.write_text(json.dumps(record, indent=2) + "\n")

@@ -301,7 +301,8 @@ def clamped_strip_thresholds(delta: float, t: float, L: float = 1.0) -> tuple[fl
         L: the span.
 
     Returns:
-        (α_b, α_f): the clamp angles (slopes) at the bifurcation and at the fold.
+        (α_b, α_f): the clamp angles (slopes) at the bifurcation and at the fold; a ValueError
+        when the strip is too thick for Δ to bifurcate before it folds (t²/(12ΔL) ≳ 0.004).
     """
     shortening, stretch = delta / L, t * t / (12 * L * L)
 
@@ -313,4 +314,9 @@ def clamped_strip_thresholds(delta: float, t: float, L: float = 1.0) -> tuple[fl
             f"the shortening Δ = {delta:g} is too small for t = {t:g}: Δ/L > (4π)²t²/(12L²)"
         )
     fold = _argmax(slope, TAU_ANTISYMMETRIC - 0.5, 4 * math.pi - 0.5)
+    if fold <= TAU_ANTISYMMETRIC:
+        raise ValueError(
+            f"t = {t:g} is too thick for Δ = {delta:g}: the inverted state folds (τ = {fold:.4f}) "
+            "before it meets the antisymmetric mode"
+        )
     return slope(TAU_ANTISYMMETRIC), slope(fold)

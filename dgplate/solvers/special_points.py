@@ -29,6 +29,10 @@ ROUNDOFF = 10.0
 NEAR_ROOT = 2e-3
 
 
+class CorrectorFailed(SolverError):
+    """The corrector did not converge at a step tried while locating a special point."""
+
+
 class SpecialPoints:
     """Folds and simple bifurcations between two points of a path, and the switch at one.
 
@@ -76,7 +80,7 @@ class SpecialPoints:
         def corrected(s: float) -> float:
             result = self.engine.correct(base, s, direction)
             if result is None:
-                raise SolverError(f"the corrector failed while locating a {kind}")
+                raise CorrectorFailed(f"the corrector failed while locating a {kind}")
             if kind == "fold":
                 value = self.engine.tangent(result[0], direction)[1]
             else:
@@ -91,10 +95,11 @@ class SpecialPoints:
             ends = corrected(0.0), corrected(ds)
         try:
             secant_root(corrected, 0.0, ends[0], ds, ends[1], xtol=1e-6 * ds)
-        except SolverError:
+        except CorrectorFailed:
             # at a simple bifurcation the bordered Jacobian is singular as well, so correctors
             # very near it can fail: a point already found close to it stands for it
-            if best[0] > NEAR_ROOT * min(abs(ends[0]), abs(ends[1])):
+            near = best[0] <= NEAR_ROOT * min(abs(ends[0]), abs(ends[1]))
+            if kind != "bifurcation" or not near:
                 raise
             corrected(best[1])
         special = self.engine.point(self.engine.load.value, direction, 0)

@@ -13,7 +13,9 @@ import dataclasses
 import itertools
 import json
 import math
+import re
 import signal
+import types
 
 from mpi4py import MPI
 
@@ -23,7 +25,7 @@ from helpers import ROOT, load_benchmark
 from petsc4py import PETSc
 
 import dgplate
-from dgplate import interrupt
+from dgplate import expressions, interrupt
 from dgplate.cli import main
 from dgplate.errors import SolverError
 from dgplate.mesh.tagged import rectangle
@@ -37,7 +39,7 @@ from dgplate.reference.fvk import (
 )
 from dgplate.solvers.continuation import BranchPath
 from dgplate.solvers.snes import NewtonSolver
-from dgplate.solvers.special_points import SpecialPoints
+from dgplate.solvers.special_points import NEAR_ROOT, SpecialPoints
 
 PATHS = load_benchmark("path_following")  # the cases, shared with the benchmark
 E, NU, T = PATHS.E, PATHS.NU, PATHS.T
@@ -340,7 +342,7 @@ def test_follow_refuses_a_model_without_paths_and_names_a_bad_setting(tmp_path):
 
 def turned(comm, n):
     """The buckled strip of demos/problems/fvk_turned_strip.toml, its clamps turned by ±λα."""
-    return follow(comm, PATHS.turned_spec(), [n, 1], [[0, 0], [1, 0.05]], PATHS.turned_start)
+    return follow(comm, PATHS.turned_spec(), [n, 1], [[0, 0], [1, 0.05]])
 
 
 def test_turned_strip_slope_factor_and_thresholds():
@@ -406,6 +408,64 @@ def test_a_parameter_holds_the_other_data_at_their_full_values(tmp_path):
         dgplate.load_problem(TURNED, {"path.parameter": "angle"})
     with pytest.raises(dgplate.InputError, match=r"model\.clamp_slope needs model\.clamped"):
         dgplate.load_problem(TURNED, {"model.clamped": [], "model.membrane": {"left": "fixed"}})
+    for name, what in (("pressure", "model.pressure is not set"),
+                       ("indentation", "model.indentation is not set"),
+                       ("prestrain", "model.prestrain is not set")):  # fmt: skip
+        message = f"path.parameter = '{name}' scales nothing: {what}"
+        with pytest.raises(dgplate.InputError, match=re.escape(message)):
+            dgplate.load_problem(TURNED, {"path.parameter": name})
+    with pytest.raises(dgplate.InputError, match=r"model\.membrane has no prescribed displacement"):
+        dgplate.load_problem(ARCH, {"path.parameter": "membrane"})
+    with pytest.raises(dgplate.InputError, match=r"model\.clamp_slope is not set"):
+        dgplate.load_problem(TURNED, {"path.parameter": "clamp_slope", "model.clamp_slope": [0, 0]})
+    spec = PATHS.turned_spec()  # the benchmark's constants are the problem file's
+    assert (spec.thickness, -spec.membrane["right"][0]) == (PATHS.TURNED_T, PATHS.TURNED_DELTA)
+    slope = expressions.evaluate(spec.clamp_slope[0], np.array([[0.0, 0.0], [1.0, 0.0]]), "s")
+    assert list(slope) == [PATHS.TURNED_ALPHA, -PATHS.TURNED_ALPHA]
+    with pytest.raises(ValueError, match="too thick"):
+        clamped_strip_thresholds(0.01, 0.0242)  # t²/(12Δ) = 0.0049: folds first
+
+
+def test_a_pressure_parameter_follows_the_arch_as_the_load_does():
+    """The arch scales only its pressure: path.parameter = "pressure" gives the same path."""
+    load = follow(MPI.COMM_SELF, PATHS.arch_spec(6), [8, 2], [[0, 0], [1, 0.1]], PATHS.arch_start)
+    spec = dataclasses.replace(
+        PATHS.arch_spec(6), path=dataclasses.replace(PATHS.arch_spec(6).path, parameter="pressure")
+    )
+    pressure = follow(MPI.COMM_SELF, spec, [8, 2], [[0, 0], [1, 0.1]], PATHS.arch_start)
+    assert [p["load_factor"] for p in pressure[0]] == [p["load_factor"] for p in load[0]]
+    assert [p["energy"] for p in pressure[0]] == [p["energy"] for p in load[0]]
+
+
+def test_a_bifurcation_is_taken_at_the_nearest_point_when_correctors_fail_beside_it():
+    """Correctors failing within 10⁻⁶ of the root: the secant's best point stands for it (its
+    eigenvalue within NEAR_ROOT of the ends'); farther off, the failure stands."""
+
+    class Engine:
+        def __init__(self, gap):
+            self.gap, self.load, self.s = gap, types.SimpleNamespace(value=0.0), None
+
+        def correct(self, base, s, direction):
+            if abs(s - 0.3) < self.gap:
+                return None
+            self.s, self.load.value = s, s
+            return s, 1
+
+        def point(self, lam, direction, iterations):
+            return types.SimpleNamespace(lam=lam, index=None)
+
+    def eigenvalue(self, k):
+        return (0.3 - self.engine.s) * (1 + 2 * self.engine.s)  # the root at s = 0.3
+
+    base = types.SimpleNamespace(t=None, tau=1.0, index=0)
+    new = types.SimpleNamespace(t=None, tau=1.0, index=1)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(SpecialPoints, "_crossing_eigenvalue", eigenvalue)
+        near = SpecialPoints(Engine(1e-6), None).locate("bifurcation", base, new, 1.0)
+        assert abs(near.lam - 0.3) < 1e-4 and near.lam != 0.3 and near.index == 0
+        assert abs(0.3 - near.lam) * 1.6 <= NEAR_ROOT * 0.3  # its eigenvalue, against the ends
+        with pytest.raises(SolverError, match="locating a bifurcation"):
+            SpecialPoints(Engine(0.2), None).locate("bifurcation", base, new, 1.0)
 
 
 @pytest.mark.mpi

@@ -8,7 +8,8 @@ Model (docs/design.md §1). In-plane displacement u: ω → ℝ², deflection w:
 Residual and Jacobian are ``ufl.derivative`` of Π; nothing else is written by hand.
 
 Bending. ½a_h(w, w) is :func:`dgplate.dg.forms.bending_energy` on the scalar w with μ = D (clamped
-faces: Nitsche data w = 0, ∇w = 0; crease faces: no gradient-jump terms), plus the Poisson part
+faces: Nitsche data w = 0, ∇w = 0 or ``clamp_slope``; crease faces: no gradient-jump terms),
+plus the Poisson part
 νD[∫det D²w − Σ_e∫{cof(D²w) n}·[∇w]], cof(H) = tr(H) I − H. Together the cell terms are ½∫M:κ,
 and the face terms are the consistent symmetric IP terms of the moment M: div cof(D²w) = 0, so
 the shear terms of dg.py stay as they are. ν matters for free edges (the Kirchhoff free-edge
@@ -42,8 +43,9 @@ Indenter (docs/fvk_experiments.md). ``indenter`` (a cell group) is pushed down r
 (``indentation``) from the natural shape by the penalty ½ k E t ∫_indenter (w − w₀ + λδ)²
 (k = ``indenter_stiffness``): a flat punch glued to the tip of a cone w₀ = α(R − r). Clamped and simply supported groups default to "fixed", all other edges are free.
 
-Load schedule. Pressure p, prestrain ε₀ (thermal expansion: ε₀ > 0 compresses a held plate)
-and prescribed edge displacements are multiplied by a load factor. ``load_steps = n`` means
+Load schedule. Pressure p, prestrain ε₀ (thermal expansion: ε₀ > 0 compresses a held plate),
+prescribed edge displacements, clamp slopes and the indentation are multiplied by a load factor
+(``path.parameter``: all of them, or one, the others at their full values). ``load_steps = n`` means
 the load factors 1/n, 2/n, …, 1; a list gives the factors (increasing, in (0, 1]). The
 schedule is solved by the generic driver :class:`dgplate.solvers.newton.LoadPath` (secant
 predictor, SNES newtonls with the NLEQ-ERR line search, MUMPS LU; ``newton.snes`` overrides any

@@ -29,7 +29,7 @@ from dgplate.dg.forms import (
 )
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
-from dgplate.models.fvk.spec import FvKSpec
+from dgplate.models.fvk.spec import PARAMETERS, FvKSpec
 from dgplate.mpi import allreduce_array
 
 #: Facet-set id of simply supported boundary facets (beside dg.SMOOTH … dg.FREE = 1 … 4).
@@ -114,11 +114,24 @@ def scaling(parameter: str, load_factor: Any) -> Callable[[str], Any]:
     Returns:
         datum name ↦ its factor (λ or 1.0).
     """
-    return lambda datum: load_factor if parameter in ("load", datum) else 1.0
+
+    def factor(datum: str) -> Any:
+        assert datum in PARAMETERS, datum
+        return load_factor if parameter in ("load", datum) else 1.0
+
+    return factor
 
 
 def clamp_slope(spec: FvKSpec, mesh: dolfinx.mesh.Mesh[np.float64]) -> Any:
-    """The ∇w of ``model.clamp_slope`` at full load as a UFL vector; None when it is 0."""
+    """The ∇w of ``model.clamp_slope`` at full load.
+
+    Args:
+        spec: the [model] section.
+        mesh: the plate's mesh (formulas are parsed on it).
+
+    Returns:
+        The slope as a UFL vector; None when it is 0.
+    """
     if all(component in (0, 0.0) for component in spec.clamp_slope):
         return None
     parts = [

@@ -169,8 +169,9 @@ class FvKModel(Model):
         spec = self.spec
         last = asdict(driver.history[-1]) if driver.history else {}
         w_center = last.get("w_center")
+        scaled = spec.path.parameter in ("load", "pressure")
         return {
-            "load": last["load_factor"] * spec.pressure
+            "load": (last["load_factor"] if scaled else 1.0) * spec.pressure
             if last and not isinstance(spec.pressure, str)
             else None,
             "pressure": spec.pressure,

@@ -192,7 +192,8 @@ class FvKSpec:
     clamp_slope: list[float | str] = option(
         [0.0, 0.0],
         "∇w = [∂w/∂x, ∂w/∂y] prescribed on every clamped facet at full load (numbers or "
-        "formulas in x, y): clamps turned by these slopes",
+        "formulas in x, y): clamps turned by these slopes (w = 0 there, so only the slope "
+        "normal to each clamp can be nonzero)",
         length=2,
     )
     simply_supported: list[str] = option([], "facet groups with w = 0, rotation free")
@@ -217,7 +218,11 @@ class FvKSpec:
     indenter_stiffness: float = option(
         1e4, "penalty k of the indenter: ½ k E t ∫_indenter (w − w₀ + λδ)²", gt=0
     )
-    start: str | dict[str, object] = option("flat", starts.HELP)
+    start: str | dict[str, object] = option(
+        "flat",
+        "Newton's first iterate (at λ = 0 for a path): "
+        + starts.HELP.removeprefix("the flow's start: "),
+    )
     newton: NewtonSpec = section(NewtonSpec, "newton")
     path: PathSpec = section(PathSpec, "path")
 
@@ -230,6 +235,7 @@ class FvKSpec:
         if not self.clamped and any(c not in (0, 0.0) for c in self.clamp_slope):
             raise InputError("model.clamp_slope needs model.clamped (the facets it turns)")
         self._start = starts.Start.from_table(self.start)
+        self._check_parameter()
         both = sorted(set(self.clamped) & set(self.simply_supported))
         if both:
             raise InputError(f"model.clamped and model.simply_supported both list {both[0]!r}")
@@ -242,9 +248,30 @@ class FvKSpec:
         if self.indentation and self.indenter is None:
             raise InputError("model.indentation needs model.indenter (the cell group pushed)")
 
+    def _check_parameter(self) -> None:
+        """``path.parameter`` names a datum that is given: a path in it would change nothing."""
+        name = self.path.parameter
+        given = {
+            "pressure": self.pressure not in (0, 0.0),
+            "prestrain": self.prestrain != 0,
+            "clamp_slope": any(c not in (0, 0.0) for c in self.clamp_slope),
+            "indentation": self.indenter is not None and self.indentation > 0,
+            "membrane": any(
+                not isinstance(condition, str) and any(c not in (0, 0.0, "free") for c in condition)
+                for condition in self.membrane.values()
+            ),
+        }
+        if name != "load" and not given[name]:
+            what = (
+                "model.membrane has no prescribed displacement"
+                if name == "membrane"
+                else (f"model.{name} is not set")
+            )
+            raise InputError(f"path.parameter = {name!r} scales nothing: {what}")
+
     @property
     def start_params(self) -> starts.Start:
-        """The validated ``start`` (the first iterate of Newton at λ = 0)."""
+        """The validated ``start``: Newton's first iterate (at λ = 0 on a path)."""
         return self._start
 
     @property
