@@ -1,7 +1,7 @@
 """Seed 001's closed-form rows: the bilayer aspect-ratio grid, each case through ``converge``.
 
     python benchmarks/seeds.py [--cases r1_a1 r1.75_a2 …] [--levels 4] [--cells 4]
-        [--settings minimiser] [--budget-minutes 60] [--out out/seeds]
+        [--settings minimiser] [--budget-minutes 60] [--jobs 1] [--out out/seeds]
         [--json benchmarks/results/seeds.json] [--page docs/verification.md]
     python benchmarks/seeds.py --table-only   # the page's table from the JSON, no runs
 
@@ -15,6 +15,11 @@ interrupted one. The cases run one after the other; when ``--budget-minutes`` ha
 running level stops at its next step (as on SIGTERM), the cases left are listed and the exit
 status is 3; a rerun goes on from there. A rerun with fewer ``--levels`` keeps a case's record
 of more levels.
+
+``--jobs N`` runs the cases in N processes of this script at once (one case each at a time,
+serial: N = 2 uses the two cores of a laptop), the cases shared out by their expected time
+(the kept record's, else ∝ length·W·a²), each process with its own JSON beside ``--json``
+(``<stem>.job<k>.json``), merged into ``--json`` when they end; a signal is passed on to them.
 
 ``--json`` keeps, per case and settings, every level's DoFs, steps, wall time, E_h and fitted
 radius with their errors against the closed forms, and converge's orders, extrapolated values
@@ -30,6 +35,7 @@ import argparse
 import json
 import os
 import signal
+import subprocess
 import sys
 import threading
 import time
@@ -275,6 +281,66 @@ def run_cases(args: argparse.Namespace, record: dict[str, Any]) -> list[str]:
     return []
 
 
+def expected_seconds(case: str, settings: str, record: dict[str, Any]) -> float:
+    """A case's expected time: its finished record's, else 60 s · length · W · a²."""
+    kept = record["studies"].get(f"{case}:{settings}")
+    if kept is not None and not kept["interrupted"]:
+        return float(kept["wall_s"])
+    ratio, a, width = CASES[case]
+    return 60.0 * ratio * width**2 * a**2
+
+
+def share_out(cases: list[str], jobs: int, cost: dict[str, float]) -> list[list[str]]:
+    """The cases in ``jobs`` groups of about equal cost: the longest first to the least loaded."""
+    groups: list[list[str]] = [[] for _ in range(jobs)]
+    loads = [0.0] * jobs
+    for case in sorted(cases, key=lambda c: -cost[c]):
+        k = loads.index(min(loads))
+        groups[k].append(case)
+        loads[k] += cost[case]
+    return [group for group in groups if group]
+
+
+def run_jobs(args: argparse.Namespace, record: dict[str, Any]) -> list[str]:
+    """The cases in ``args.jobs`` processes of this script; their records merged; cases left."""
+    cost = {case: expected_seconds(case, args.settings, record) for case in args.cases}
+    common = ["--levels", str(args.levels), "--cells", str(args.cells)]
+    common += ["--settings", args.settings, "--budget-minutes", str(args.budget_minutes)]
+    common += ["--out", str(args.out), "--no-page"]
+    parts, children = [], []
+    for k, group in enumerate(share_out(args.cases, args.jobs, cost)):
+        part = args.json.with_name(f"{args.json.stem}.job{k}.json")
+        part.write_text(json.dumps(record, indent=2) + "\n")
+        command = [sys.executable, __file__, "--cases", *group, "--json", str(part), *common]
+        parts.append(part)
+        children.append(subprocess.Popen(command))
+        print(f"job {k}: {' '.join(group)} (about {sum(cost[c] for c in group) / 60:.0f} min)")
+
+    def forward(signum: int, frame: object) -> None:
+        for child in children:
+            child.send_signal(signum)
+
+    previous = {sig: signal.signal(sig, forward) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        for child in children:
+            child.wait()
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    for part in parts:
+        for key, one in json.loads(part.read_text())["studies"].items():
+            if supersedes(record["studies"].get(key), one):
+                record["studies"][key] = one
+        part.unlink()
+    args.json.write_text(json.dumps(record, indent=2) + "\n")
+    studies = record["studies"]
+    return [
+        case
+        for case in args.cases
+        if (kept := studies.get(f"{case}:{args.settings}")) is None or kept["interrupted"]
+    ]
+
+
 def supersedes(kept: dict[str, Any] | None, new: dict[str, Any]) -> bool:
     """Whether ``new`` replaces the case's ``kept`` record: it is not a study of fewer levels.
 
@@ -321,22 +387,26 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser.add_argument("--cells", type=int, default=4, help="level 1's cells per unit length")
     parser.add_argument("--settings", choices=list(SETTINGS), default="minimiser")
     parser.add_argument("--budget-minutes", type=float, default=60.0)
+    parser.add_argument("--jobs", type=int, default=1, help="processes running cases at once")
+    parser.add_argument("--no-page", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--out", type=Path, default=Path("out/seeds"))
     parser.add_argument("--json", type=Path, default=ROOT / "benchmarks/results/seeds.json")
     parser.add_argument("--page", type=Path, default=ROOT / "docs/verification.md")
     parser.add_argument("--table-only", action="store_true", help="the page from the JSON")
     args = parser.parse_args(argv)
-    if args.levels < 2 or args.cells < 1 or args.budget_minutes <= 0:
-        parser.error("--levels must be ≥ 2, --cells ≥ 1 and --budget-minutes > 0")
+    if args.levels < 2 or args.cells < 1 or args.budget_minutes <= 0 or args.jobs < 1:
+        parser.error("--levels must be ≥ 2, --cells ≥ 1, --budget-minutes > 0 and --jobs ≥ 1")
     comm = MPI.COMM_WORLD
+    if args.jobs > 1 and comm.size > 1:
+        parser.error("--jobs runs serial processes: not under mpirun")
     record = json.loads(args.json.read_text()) if args.json.exists() else {"studies": {}}
     left: list[str] = []
     if not args.table_only:
         record["problem"] = PROBLEM.name
-        left = run_cases(args, record)
+        left = run_jobs(args, record) if args.jobs > 1 else run_cases(args, record)
         if left:
             print0(comm, f"stopped: {', '.join(left)} left (the same command continues)")
-    if comm.rank == 0:
+    if comm.rank == 0 and not args.no_page:
         write_between(args.page, BEGIN, END, table(record))
     return {**record, "left": left}
 

@@ -411,3 +411,34 @@ def test_paper_sizes_pages_are_generated(tmp_path):
     capsule = record["cases"]["microcapsule_file"]  # its final hold meets the tolerance
     assert capsule["converged"] and capsule["isometry_defect"] < 1e-10
     assert capsule["tips_height"] > 0 and capsule["tips_distance"] < 1.0  # curled up and in
+
+
+def test_seeds_jobs_share_the_cases_out_by_their_expected_time():
+    """--jobs: the longest case first to the least loaded process; every case once."""
+    seeds = load_benchmark("seeds")
+    cost = {"a": 100.0, "b": 60.0, "c": 50.0, "d": 40.0, "e": 5.0}
+    groups = seeds.share_out(list(cost), 2, cost)
+    assert groups == [["a", "d"], ["b", "c", "e"]]
+    assert seeds.share_out(["a"], 3, cost) == [["a"]]
+    record = {"studies": {"r1_a1:minimiser": {"interrupted": None, "wall_s": 66.0}}}
+    assert seeds.expected_seconds("r1_a1", "minimiser", record) == 66.0
+    assert seeds.expected_seconds("r2.5_a5", "minimiser", record) == 60.0 * 2.5 * 25
+
+
+def test_seeds_jobs_two_cases_in_two_processes(tmp_path):
+    """Two one-cell cases on 2 levels in 2 processes: both records merged, the parts removed."""
+    seeds = load_benchmark("seeds")
+    out, page = tmp_path / "seeds.json", tmp_path / "page.md"
+    page.write_text("<!-- seeds:begin -->\nold\n<!-- seeds:end -->\n")
+    args = ["--cases", "r1_a1", "r1_a2", "--levels", "2", "--cells", "1", "--jobs", "2"]
+    args += ["--settings", "file", "--out", str(tmp_path / "runs")]
+    if MPI.COMM_WORLD.size > 1:
+        with pytest.raises(SystemExit):
+            seeds.main([*args, "--json", str(out), "--page", str(page)])
+        return
+    record = seeds.main([*args, "--json", str(out), "--page", str(page)])
+    assert record["left"] == [] and sorted(record["studies"]) == ["r1_a1:file", "r1_a2:file"]
+    assert [len(s["levels"]) for s in record["studies"].values()] == [2, 2]
+    assert json.loads(out.read_text())["studies"] == record["studies"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["page.md", "runs", "seeds.json"]
+    assert "| 1 | 1 | 2 | file | 2 (2×2)" in page.read_text()
