@@ -324,6 +324,12 @@ def _bifurcation(level: dict[str, Any], k: int) -> str:
     return f"{level['bifurcations'][k]:.5f} | {level['errors'][k]:+.2%} | {order}"
 
 
+def markdown_table(caption: str, header: str, rows: list[str]) -> str:
+    """A caption line, then a Markdown table of ``header`` (``| a | b |``) and ``rows``."""
+    rule = "|" + "---|" * (header.count("|") - 1)
+    return "\n".join([caption, "", header, rule, *rows])
+
+
 def euler_table(record: dict[str, Any]) -> str:
     """The Markdown table of the Euler study."""
     rows = [
@@ -331,18 +337,18 @@ def euler_table(record: dict[str, Any]) -> str:
         f"| {_sequence(lv['indices'])} | {lv['wall_s']:.1f} |"
         for lv in record["euler"]
     ]
-    return "\n".join(
-        [
+    return markdown_table(
+        (
             "Exact: Δ/Δ_cr = 1 and 1.5625; order: log₂ of successive error ratios; indices: the "
             "stability index along the path; wall: seconds for the path "
             f"({record['ranks']} rank(s), `benchmarks/path_following.py`, "
-            "`benchmarks/results/path_following.json`).",
-            "",
+            "`benchmarks/results/path_following.json`)."
+        ),
+        (
             "| cells | dofs | 1st bifurcation λ | error | order | 2nd bifurcation λ | error "
-            "| order | indices | wall s |",
-            "|---|---|---|---|---|---|---|---|---|---|",
-            *rows,
-        ]
+            "| order | indices | wall s |"
+        ),
+        rows,
     )
 
 
@@ -356,21 +362,21 @@ def slope_table(record: dict[str, Any]) -> str:
         for h, m in zip(record["slope_held"], record["slope_mixed"], strict=True)
     ]
     fitted = max(lv["w_max"] for lv in record["slope_held"] + record["slope_mixed"])
-    return "\n".join(
-        [
+    return markdown_table(
+        (
             f"b: the coefficient of (w_c/t)² in λ = λ₀ + b (w_c/t)² + c (w_c/t)⁴ fitted by least "
             f"squares to the points of the buckled branch (w_c ≤ {fitted:.2f} t); λ_c: the "
             "located bifurcation the branch leaves; held edges: "
             f"Koiter's exact slope {record['slope_exact']:.5f} = (3/8)(3 − ν)(1 + ν), λ in units "
             "of that plate's Δ_c; mixed (the plate above): no closed form "
             f"({record['ranks']} rank(s), `benchmarks/path_following.py`, "
-            "`benchmarks/results/path_following.json`).",
-            "",
+            "`benchmarks/results/path_following.json`)."
+        ),
+        (
             "| cells | dofs | held: λ_c | held: λ₀ | held: b | error | order | mixed: λ_c "
-            "| mixed: λ₀ | mixed: b | wall s (held + mixed) |",
-            "|---|---|---|---|---|---|---|---|---|---|---|",
-            *rows,
-        ]
+            "| mixed: λ₀ | mixed: b | wall s (held + mixed) |"
+        ),
+        rows,
     )
 
 
@@ -382,16 +388,14 @@ def arch_table(record: dict[str, Any]) -> str:
         f"| {lv['wall_s']:.1f} |"
         for lv in record["arch"]
     ]
-    return "\n".join(
-        [
+    return markdown_table(
+        (
             "Exact: λ = 1 at w_c = a*; order: log₂ of successive error ratios; indices: along "
             f"the path ({record['ranks']} rank(s), `benchmarks/path_following.py`, "
-            "`benchmarks/results/path_following.json`).",
-            "",
-            "| n | dofs | fold λ | error | order | w_c at the fold / a* | indices | wall s |",
-            "|---|---|---|---|---|---|---|---|",
-            *rows,
-        ]
+            "`benchmarks/results/path_following.json`)."
+        ),
+        ("| n | dofs | fold λ | error | order | w_c at the fold / a* | indices | wall s |"),
+        rows,
     )
 
 
@@ -404,18 +408,18 @@ def turned_table(record: dict[str, Any]) -> str:
         for lv in record["turned"]
     ]
     bifurcation, fold = record["turned_exact"]
-    return "\n".join(
-        [
+    return markdown_table(
+        (
             f"Exact: λ = {bifurcation:.6f} (bifurcation) and {fold:.6f} (fold); order: log₂ of "
             "successive error ratios; indices: along the path "
             f"({record['turned_ranks']} rank(s), `benchmarks/path_following.py`, "
-            "`benchmarks/results/path_following.json`).",
-            "",
+            "`benchmarks/results/path_following.json`)."
+        ),
+        (
             "| cells | dofs | bifurcation λ | error | order | fold λ | error | order | indices "
-            "| wall s |",
-            "|---|---|---|---|---|---|---|---|---|---|",
-            *rows,
-        ]
+            "| wall s |"
+        ),
+        rows,
     )
 
 
