@@ -330,7 +330,7 @@ def test_path_following_benchmark_smoke(tmp_path):
         assert "| 8 | 314 | 0.990547 | -0.945% |  | 0.9936 | 0 → 1 |" in text
         # the bifurcation is located to about 10⁻⁵ (DOLFINx 0.9 and 0.11 differ there): its
         # first digits only
-        assert "| 16 × 1 | 342 | 0.8199" in text
+        assert "| 16 × 1 | 342 | 0.819" in text
         assert "| 0.824600 | +3.380% |  | 0 → 1 → 2 |" in text
 
 
