@@ -87,9 +87,7 @@ demo.copy_figure(Path(args.out), args.figure, "branch.png")
 
 # %%
 _, a_fold = sinusoidal_strip_folds(1.0, T, 1.0, T)
-load = np.array(result["load_factors"])
-indices = np.array(result["stability_indices"])
-kinds = [point["kind"] for point in result["special_points"]]
+load, indices, kinds = demo.branch(result)
 demo.say(f"{cells} × 2 Q2 cells, {result['dofs']} dofs, {len(load)} points")
 for lam, index in zip(load, indices):
     demo.say(f"  λ = {lam:+.6f}   stability index {index}")

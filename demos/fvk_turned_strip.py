@@ -77,9 +77,7 @@ demo.copy_figure(Path(args.out), args.figure, "branch.png")
 
 # %%
 exact = [a / ALPHA for a in clamped_strip_thresholds(DELTA, T)]
-load = np.array(result["load_factors"])
-indices = np.array(result["stability_indices"])
-kinds = [point["kind"] for point in result["special_points"]]
+load, indices, kinds = demo.branch(result)
 demo.say(f"{cells} × 1 Q2 cells, {result['dofs']} dofs, {len(load)} points")
 for lam, index in zip(load, indices):
     demo.say(f"  λ = {lam:+.6f}   α/√Δ = {lam * ALPHA / np.sqrt(DELTA):.5f}   index {index}")

@@ -90,6 +90,7 @@ def _install_error_hook() -> None:
 __all__ = [
     "arguments",
     "axis_angle",
+    "branch",
     "check",
     "check_between",
     "check_close",
@@ -217,6 +218,20 @@ def say(*text: Any, comm: MPI.Comm = MPI.COMM_WORLD) -> None:
     """``print`` on rank 0 only, flushed."""
     if comm.rank == 0:
         print(*text, flush=True)
+
+
+def branch(result: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """A followed path's load factor and stability index at each point, and its special points.
+
+    Args:
+        result: the summary of a run with ``path.method = "arclength"``.
+
+    Returns:
+        (load factors, stability indices, the kinds of the special points in order).
+    """
+    load = np.array(result["load_factors"])
+    indices = np.array(result["stability_indices"])
+    return load, indices, [point["kind"] for point in result["special_points"]]
 
 
 def report(
