@@ -41,7 +41,7 @@ SMALLER: dict[str, tuple[str, ...]] = {
     "fvk_square": ("mesh.cells=[4,4]",),
     "lce_perversion": ("mesh.cells=[16,2]",),
     "lce_strip": ("mesh.cells=[6,2]",),
-    "microcapsule": ("mesh.parameters.n=4", "schedule.heat_step=0.25", "schedule.hold_steps=100"),
+    "microcapsule": ("mesh.parameters.n=4", "schedule.heat_step=0.5", "schedule.hold_steps=100"),
     # the published ε = 3e-4 needs ~12000 steps at any size (docs/obstacle.md): the demo's
     # small run instead, ε = 3e-3 and τ = 0.02 on 6×6 cells (about 380 steps)
     "obstacle_bnn": (

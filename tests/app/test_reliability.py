@@ -632,7 +632,10 @@ ONE_RANK_FAILS = textwrap.dedent(
     import sys
     from mpi4py import MPI
     from dgplate.solvers import flow
+    from dgplate import cli
     from dgplate.cli import main
+
+    cli.AGREE_SECONDS = 1.0  # the agreement's wait, shortened: the mechanism is under test
 
     step = flow.GradientFlow.step
     def step_or_fail(self, *args, **kwargs):
