@@ -17,7 +17,9 @@ Four studies over mesh levels, each against a closed form:
 - **Turned**: the buckled clamped–clamped strip of demos/problems/fvk_turned_strip.toml on
   n × 1 cells, its clamps turned by ±λα (``path.parameter = "clamp_slope"``): the bifurcation
   and the fold of its inverted state against the closed forms of
-  :func:`dgplate.reference.fvk.clamped_strip_thresholds`.
+  :func:`dgplate.reference.fvk.clamped_strip_thresholds`; and, switched at that bifurcation,
+  the antisymmetric branch round to the mirrored inverted state, its energy against the
+  closed-form parabola of :func:`dgplate.reference.fvk.clamped_strip_antisymmetric_energy`.
 
 Orders are log₂ of the ratio of successive errors (the cells halve). Wall times are per run.
 
@@ -55,6 +57,7 @@ from dgplate.models.fvk.model import build_fvk
 from dgplate.models.fvk.spec import FvKSpec, NewtonSpec, PathSpec
 from dgplate.problems.specs import load_problem
 from dgplate.reference.fvk import (
+    clamped_strip_antisymmetric_energy,
     clamped_strip_thresholds,
     held_square_plate_postbuckling,
     sinusoidal_strip_folds,
@@ -225,15 +228,15 @@ def arch_level(comm: MPI.Comm, n: int) -> dict[str, Any]:
 
 
 TURNED = ROOT / "demos" / "problems" / "fvk_turned_strip.toml"
-#: The turned strip's end shortening, thickness and full clamp slope (its problem file's).
-TURNED_DELTA, TURNED_T, TURNED_ALPHA = 0.01, 0.005, 0.25
+#: The turned strip's end shortening, thickness, full clamp slope and width (its problem file's).
+TURNED_DELTA, TURNED_T, TURNED_ALPHA, TURNED_WIDTH = 0.01, 0.005, 0.25, 0.05
 #: Its bifurcation and fold in load factor: the closed forms over the full clamp slope.
 TURNED_EXACT = tuple(a / TURNED_ALPHA for a in clamped_strip_thresholds(TURNED_DELTA, TURNED_T))
 
 
-def turned_spec(steps: int = 16) -> FvKSpec:
+def turned_spec(steps: int = 16, switch: bool = False) -> FvKSpec:
     """The turned strip's [model] with its [path] (demos/problems/fvk_turned_strip.toml)."""
-    spec = load_problem(TURNED, {"path.steps": steps}).model
+    spec = load_problem(TURNED, {"path.steps": steps, "path.switch": switch}).model
     assert isinstance(spec, FvKSpec)
     return spec
 
@@ -257,6 +260,53 @@ def turned_level(comm: MPI.Comm, n: int) -> dict[str, Any]:
     }
 
 
+def switched_branch(points: list[dict[str, Any]]) -> dict[str, Any]:
+    """The antisymmetric branch after the switch, against its closed-form parabola in λ.
+
+    Π = Π₀ + k λ² is fitted by least squares over the branch's regular points
+    (:func:`dgplate.reference.fvk.clamped_strip_antisymmetric_energy` with α = λα₀).
+
+    Args:
+        points: the path's points, a ``switch`` among them.
+
+    Returns:
+        ``energy0`` and ``curvature`` (Π₀, k) with their ``errors`` against the closed form,
+        ``fit`` (the largest residual over Π₀), ``lowest`` (the least λ of the branch) and
+        ``indices`` (the stability indices on it).
+    """
+    at = [p["kind"] for p in points].index("switch")
+    branch = [p for p in points[at:] if p["kind"] in ("switch", "regular")]
+    load = np.array([p["load_factor"] for p in branch])
+    energy = np.array([p["energy"] for p in branch])
+    basis = np.column_stack([np.ones_like(load), load**2])
+    energy0, curvature = np.linalg.lstsq(basis, energy, rcond=None)[0]
+    exact0 = clamped_strip_antisymmetric_energy(0.0, TURNED_DELTA, TURNED_T, width=TURNED_WIDTH)
+    exact_k = (
+        clamped_strip_antisymmetric_energy(TURNED_ALPHA, TURNED_DELTA, TURNED_T, width=TURNED_WIDTH)
+        - exact0
+    )
+    return {
+        "energy0": float(energy0),
+        "curvature": float(curvature),
+        "errors": [float(energy0 / exact0 - 1), float(curvature / exact_k - 1)],
+        "fit": float(np.abs(basis @ [energy0, curvature] - energy).max() / energy0),
+        "lowest": float(load.min()),
+        "indices": sorted({p["stability_index"] for p in points[at:]}),
+    }
+
+
+def switched_level(comm: MPI.Comm, n: int) -> dict[str, Any]:
+    """The turned strip on n × 1 cells switched at its bifurcation, round its branch."""
+    t0 = time.perf_counter()
+    points, summary = follow(comm, turned_spec(30, switch=True), [n, 1], [[0, 0], [1, 0.05]])
+    return {
+        "n": n,
+        "bifurcation": summary["bifurcations"][0],
+        **switched_branch(points),
+        "wall_s": time.perf_counter() - t0,
+    }
+
+
 def orders(errors: Sequence[float | None]) -> list[float | None]:
     """log₂ of successive error ratios (None at the first level or a missing error)."""
     out: list[float | None] = [None]
@@ -268,14 +318,30 @@ def orders(errors: Sequence[float | None]) -> list[float | None]:
 def measure_turned(comm: MPI.Comm, levels: list[int]) -> dict[str, Any]:
     """The turned strip's study at its levels (collective): its part of the record."""
     turned = [turned_level(comm, n) for n in levels]
-    for k in range(2):
-        for lv, order in zip(turned, orders([lv["errors"][k] for lv in turned]), strict=True):
-            lv.setdefault("orders", []).append(order)
+    switched = [switched_level(comm, n) for n in levels]
+    for study in (turned, switched):
+        for k in range(2):
+            for lv, order in zip(study, orders([lv["errors"][k] for lv in study]), strict=True):
+                lv.setdefault("orders", []).append(order)
+    exact0 = clamped_strip_antisymmetric_energy(0.0, TURNED_DELTA, TURNED_T, width=TURNED_WIDTH)
     return {
         "turned_ranks": comm.size,
         "turned_exact": list(TURNED_EXACT),
-        "turned_setting": {"delta": TURNED_DELTA, "thickness": TURNED_T, "alpha": TURNED_ALPHA},
+        "turned_setting": {
+            "delta": TURNED_DELTA,
+            "thickness": TURNED_T,
+            "alpha": TURNED_ALPHA,
+            "width": TURNED_WIDTH,
+        },
         "turned": turned,
+        "switched_exact": [
+            exact0,
+            clamped_strip_antisymmetric_energy(
+                TURNED_ALPHA, TURNED_DELTA, TURNED_T, width=TURNED_WIDTH
+            )
+            - exact0,
+        ],
+        "switched": switched,
     }
 
 
@@ -423,7 +489,39 @@ def turned_table(record: dict[str, Any]) -> str:
     )
 
 
-TABLES = {"euler": euler_table, "slope": slope_table, "arch": arch_table, "turned": turned_table}
+def switched_table(record: dict[str, Any]) -> str:
+    """The Markdown table of the turned strip's antisymmetric branch, after the switch."""
+    rows = [
+        f"| {lv['n']} × 1 | {lv['energy0']:.6e} | {lv['errors'][0]:+.3%} "
+        f"| {_order(lv['orders'][0])} | {lv['curvature']:.6e} | {lv['errors'][1]:+.3%} "
+        f"| {_order(lv['orders'][1])} | {lv['fit']:.1e} | {lv['lowest'] / lv['bifurcation']:.4f} "
+        f"| {_sequence(lv['indices'])} | {lv['wall_s']:.1f} |"
+        for lv in record["switched"]
+    ]
+    energy0, curvature = record["switched_exact"]
+    return markdown_table(
+        (
+            f"Exact: Π₀ = {energy0:.6e}, k = {curvature:.6e}; fit: the largest residual of "
+            "Π = Π₀ + kλ² over Π₀; least λ: the branch's least load factor over the "
+            "bifurcation's; indices: on the branch "
+            f"({record['turned_ranks']} rank(s), `benchmarks/path_following.py`, "
+            "`benchmarks/results/path_following.json`)."
+        ),
+        (
+            "| cells | Π₀ | error | order | k | error | order | fit | least λ / λ_b | indices "
+            "| wall s |"
+        ),
+        rows,
+    )
+
+
+TABLES = {
+    "euler": euler_table,
+    "slope": slope_table,
+    "arch": arch_table,
+    "turned": turned_table,
+    "switched": switched_table,
+}
 LEVELS = {
     "euler": [4, 8, 16],
     "slope": [4, 8, 16, 32],

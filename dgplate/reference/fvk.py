@@ -320,3 +320,38 @@ def clamped_strip_thresholds(delta: float, t: float, L: float = 1.0) -> tuple[fl
             "before it meets the antisymmetric mode"
         )
     return slope(TAU_ANTISYMMETRIC), slope(fold)
+
+
+def clamped_strip_antisymmetric_energy(
+    alpha: float, delta: float, t: float, L: float = 1.0, E: float = 1.0, width: float = 1.0
+) -> float:
+    """The energy on the antisymmetric branch of the turned strip of :func:`clamped_strip_thresholds`.
+
+    On that branch (the one that leaves the inverted state at its bifurcation α_b), τ stays at
+    τ_a (tan(τ_a/2) = τ_a/2), so the axial force N = Dτ_a²/L² is constant, and
+    w = α W_s + A W_a: W_s the symmetric solution with W_s′(0) = −W_s′(L) = 1,
+    W_s′′(0) = −(τ_a/L) cot(τ_a/2) = −2/L, and W_a the antisymmetric clamped mode. The two are
+    orthogonal in ½∫w′², so the shortening ½∫w′² = Δ − τ_a²t²/(12L) fixes A² + cα² and the
+    branch is a closed curve from α_b through α = 0 to −α_b, where it meets the mirrored
+    inverted state. Integrating w′′(w′′′′ + τ²w′′) = 0 by parts, with w′′′ + τ²w′ constant,
+    gives ∫w′′² = τ_a²/L² ∫w′² + 4α²/L: derived here, with ν = 0 (a beam),
+
+        Π = width · [D τ_a²/L² (Δ − τ_a²t²/(12L)) + 2Dα²/L + ½ E t L (τ_a²t²/(12L²))²],
+
+    D = Et³/12: a parabola in α whose vertex is the clamped strip's second Euler mode.
+
+    Args:
+        alpha: the clamp angle (slope), |α| ≤ α_b.
+        delta: the end shortening Δ.
+        t: the thickness.
+        L: the span.
+        E: Young's modulus.
+        width: the strip's width.
+
+    Returns:
+        The energy Π (bending and membrane) of the state at α on that branch.
+    """
+    D = E * t**3 / 12
+    strain = TAU_ANTISYMMETRIC**2 * t * t / (12 * L * L)
+    bending = D * TAU_ANTISYMMETRIC**2 / L**2 * (delta - strain * L) + 2 * D * alpha**2 / L
+    return width * (bending + 0.5 * E * t * L * strain**2)

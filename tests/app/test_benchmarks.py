@@ -306,16 +306,21 @@ def test_path_following_benchmark_smoke(tmp_path):
     out, page = tmp_path / "path_following.json", tmp_path / "path_following.md"
     page.write_text(
         "".join(f"<!-- path_following_{k}:begin -->\nSTALE\n<!-- path_following_{k}:end -->\n"
-                for k in ("euler", "slope", "arch", "turned"))
+                for k in ("euler", "slope", "arch", "turned", "switched"))
     )  # fmt: skip
     args = ["--euler", "4", "--slope", "4", "--arch", "8", "--turned", "16"]
     args += ["--json", str(out), "--page", str(page)]
     record = load_benchmark("path_following").main(args)
-    (euler,), (held,), (mixed,), (arch,), (turned,) = (
-        record[k] for k in ("euler", "slope_held", "slope_mixed", "arch", "turned")
+    (euler,), (held,), (mixed,), (arch,), (turned,), (switched,) = (
+        record[k] for k in ("euler", "slope_held", "slope_mixed", "arch", "turned", "switched")
     )
     assert turned["errors"] == [pytest.approx(0.03361, abs=5e-5), pytest.approx(0.03380, abs=5e-5)]
     assert turned["indices"] == [0, 1, 2] and turned["orders"] == [None, None]
+    assert switched["errors"] == [
+        pytest.approx(0.05465, abs=5e-5),
+        pytest.approx(0.00799, abs=5e-5),
+    ]
+    assert switched["indices"] == [1] and switched["fit"] < 1e-3
     assert euler["bifurcations"] == [pytest.approx(0.98755, abs=2e-5)]
     assert euler["indices"] == [0, 1] and euler["orders"] == [None, None]
     assert held["error"] == pytest.approx(0.0442, abs=5e-4) and held["order"] is None
@@ -332,6 +337,7 @@ def test_path_following_benchmark_smoke(tmp_path):
         # first digits only
         assert "| 16 × 1 | 342 | 0.819" in text
         assert "| 0.824600 | +3.380% |  | 0 → 1 → 2 |" in text
+        assert "| 16 × 1 | 4.39" in text and "| +0.799% |  | 4.8e-04 |" in text
 
 
 def test_path_following_page_is_generated(tmp_path):

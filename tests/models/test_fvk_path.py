@@ -399,6 +399,33 @@ def test_turned_strip_errors_fall_at_second_order():
         assert errors[2] < 2e-3
 
 
+def test_switched_turned_strip_goes_round_the_closed_form_branch():
+    """32 × 1 cells, switched at the bifurcation: the antisymmetric branch, index 1 at every
+    point, round through λ = 0 to −λ_b and back; its energy the closed-form parabola Π₀ + kλ²
+    (:func:`dgplate.reference.fvk.clamped_strip_antisymmetric_energy`): residual 2.6·10⁻⁵ of
+    Π₀, Π₀ +0.87 % and k −0.39 % (second order over the levels of docs/path_following.md)."""
+    points, summary = follow(
+        MPI.COMM_WORLD, PATHS.turned_spec(30, switch=True), [32, 1], [[0, 0], [1, 0.05]]
+    )
+    kinds = [p["kind"] for p in points]
+    at = kinds.index("switch")
+    assert kinds[at - 1] == "bifurcation" and [p["branch"] for p in points[at:]] == [1] * (
+        len(points) - at
+    )
+    branch = PATHS.switched_branch(points)
+    assert branch["indices"] == [1]
+    assert branch["fit"] < 1e-4
+    assert abs(branch["errors"][0]) < 1e-2 and abs(branch["errors"][1]) < 5e-3
+    # round to the mirrored bifurcation −λ_b (the points are 0.2 apart along the branch) ...
+    bifurcation = summary["bifurcations"][0]
+    assert -bifurcation <= branch["lowest"] < -0.99 * bifurcation
+    # ... where λ turns (a fold and a crossing at once: reported, not located), and back
+    (turn,) = (i for i, kind in enumerate(kinds) if kind.startswith("fold"))
+    assert points[turn]["load_factor"] < -0.99 * bifurcation
+    after = points[turn:]
+    assert all(p["tangent_load"] > 0 for p in after) and after[-1]["load_factor"] > -0.9
+
+
 def test_a_parameter_holds_the_other_data_at_their_full_values(tmp_path):
     """path.parameter = "clamp_slope": at λ = 0 the end shortening is already applied; a bad
     parameter or a slope without clamps is one line naming the key."""
