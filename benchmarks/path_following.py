@@ -12,8 +12,10 @@ Four studies over mesh levels, each against a closed form:
   for the plate with both unloaded edges held straight and immovable
   (:func:`dgplate.reference.fvk.held_square_plate_postbuckling`, λ = Δ/Δ_c), and measured
   for the plate of the Euler study (no closed form).
-- **Arch**: the fold of the shallow sinusoidal strip on n × 2 cells against the exact limit
-  load λ = 1 (:func:`dgplate.reference.fvk.sinusoidal_strip_folds`), and w_c there over a*.
+- **Arch**: the shallow sinusoidal strip on n × 2 cells followed round both folds onto the
+  snapped arch: the folds against the exact limit loads λ = ±1
+  (:func:`dgplate.reference.fvk.sinusoidal_strip_folds`), w_c at the first over a*, and every
+  point against the exact equilibrium curve (:func:`dgplate.reference.fvk.sinusoidal_strip_load`).
 - **Turned**: the buckled clamped–clamped strip of demos/problems/fvk_turned_strip.toml on
   n × 1 cells, its clamps turned by ±λα (``path.parameter = "clamp_slope"``): the bifurcation
   and the fold of its inverted state against the closed forms of
@@ -24,7 +26,7 @@ Four studies over mesh levels, each against a closed form:
 Orders are log₂ of the ratio of successive errors (the cells halve). Wall times are per run.
 
     python benchmarks/path_following.py [--json …] [--page docs/path_following.md]
-    python benchmarks/path_following.py --studies turned   # one study, the others kept
+    python benchmarks/path_following.py --studies arch turned   # these, the others kept
     python benchmarks/path_following.py --table-only [--json …] [--page …]
 
 The tables between ``<!-- path_following_<study>:begin -->`` and ``…:end -->`` of the page are
@@ -61,6 +63,7 @@ from dgplate.reference.fvk import (
     clamped_strip_thresholds,
     held_square_plate_postbuckling,
     sinusoidal_strip_folds,
+    sinusoidal_strip_load,
     square_plate_critical_shortening,
 )
 from dgplate.solvers.continuation import BranchPath
@@ -112,6 +115,7 @@ def arch_spec(steps: int) -> FvKSpec:
         natural_shape=f"{T}*sin(pi*x)",
         pressure=f"-{Q_FOLD!r}*sin(pi*x)",
         simply_supported=["left", "right"],
+        penalty_length="facet_normal",
         newton=NewtonSpec(stability=False),
         path=PathSpec(method="arclength", ds=0.2, ds_max=0.4, steps=steps, lambda_max=1.5),
     )
@@ -210,18 +214,41 @@ def slope_level(comm: MPI.Comm, n: int, held: bool) -> dict[str, Any]:
     }
 
 
+#: Points of the arch's path: round both folds and onto the snapped arch past λ = 1.
+ARCH_STEPS = 40
+
+
+def arch_path_error(points: list[dict[str, Any]]) -> float:
+    """The largest |λ − λ(w_c)| over a path of the arch: λ(a) the exact equilibrium curve.
+
+    Every equilibrium of the strip is w = a sin(πx) at λ(a) = q(a)/q*
+    (:func:`dgplate.reference.fvk.sinusoidal_strip_load`), with a = w_c.
+
+    Args:
+        points: the path's points.
+
+    Returns:
+        The largest difference between a point's load factor and the exact one at its w_c.
+    """
+    exact = [sinusoidal_strip_load(p["w_center"], E, T, 1.0, T) / Q_FOLD for p in points]
+    return max(abs(p["load_factor"] - lam) for p, lam in zip(points, exact, strict=True))
+
+
 def arch_level(comm: MPI.Comm, n: int) -> dict[str, Any]:
-    """The fold of the strip on n × 2 cells."""
+    """The strip on n × 2 cells: round both folds onto the snapped arch."""
     t0 = time.perf_counter()
-    points, summary = follow(comm, arch_spec(9), [n, 2], [[0, 0], [1, 0.1]], arch_start)
+    points, summary = follow(comm, arch_spec(ARCH_STEPS), [n, 2], [[0, 0], [1, 0.1]], arch_start)
     wall = time.perf_counter() - t0
-    (fold,) = (p for p in points if p["kind"] == "fold")
+    fold, second = (p for p in points if p["kind"] == "fold")
     return {
         "n": n,
         "dofs": summary["dofs"],
         "fold": fold["load_factor"],
         "error": fold["load_factor"] - 1.0,
         "w_ratio": fold["w_center"] / A_FOLD,
+        "second_fold": second["load_factor"],
+        "path_error": arch_path_error(points),
+        "last": points[-1]["load_factor"],
         "indices": runs(summary["stability_indices"]),
         "wall_s": wall,
     }
@@ -355,9 +382,6 @@ def measure(comm: MPI.Comm, levels: dict[str, list[int]]) -> dict[str, Any]:
     held = [slope_level(comm, n, True) for n in levels["slope"]]
     for lv, order in zip(held, orders([lv["error"] for lv in held]), strict=True):
         lv["order"] = order
-    arch = [arch_level(comm, n) for n in levels["arch"]]
-    for lv, order in zip(arch, orders([lv["error"] for lv in arch]), strict=True):
-        lv["order"] = order
     return {
         "ranks": comm.size,
         "thickness": T,
@@ -367,9 +391,22 @@ def measure(comm: MPI.Comm, levels: dict[str, list[int]]) -> dict[str, Any]:
         "euler": euler,
         "slope_held": held,
         "slope_mixed": [slope_level(comm, n, False) for n in levels["slope"]],
-        "arch": arch,
+        **measure_arch(comm, levels["arch"]),
         **measure_turned(comm, levels["turned"]),
     }
+
+
+def measure_arch(comm: MPI.Comm, levels: list[int]) -> dict[str, Any]:
+    """The arch's study at its levels (collective): its part of the record."""
+    arch = [arch_level(comm, n) for n in levels]
+    for key, name in (("error", "order"), ("path_error", "path_order")):
+        for lv, order in zip(arch, orders([lv[key] for lv in arch]), strict=True):
+            lv[name] = order
+    return {"arch": arch}
+
+
+#: The studies ``--studies`` reruns alone, the JSON's others kept.
+STUDIES = {"arch": measure_arch, "turned": measure_turned}
 
 
 def _order(order: float | None) -> str:
@@ -447,20 +484,25 @@ def slope_table(record: dict[str, Any]) -> str:
 
 
 def arch_table(record: dict[str, Any]) -> str:
-    """The Markdown table of the arch's fold."""
+    """The Markdown table of the arch's folds and of its whole path."""
     rows = [
         f"| {lv['n']} | {lv['dofs']} | {lv['fold']:.6f} | {lv['error']:+.3%} "
-        f"| {_order(lv['order'])} | {lv['w_ratio']:.4f} | {_sequence(lv['indices'])} "
+        f"| {_order(lv['order'])} | {lv['w_ratio']:.4f} | {lv['second_fold']:.6f} "
+        f"| {lv['path_error']:.1e} | {_order(lv['path_order'])} | {_sequence(lv['indices'])} "
         f"| {lv['wall_s']:.1f} |"
         for lv in record["arch"]
     ]
     return markdown_table(
         (
-            "Exact: λ = 1 at w_c = a*; order: log₂ of successive error ratios; indices: along "
-            f"the path ({record['ranks']} rank(s), `benchmarks/path_following.py`, "
-            "`benchmarks/results/path_following.json`)."
+            "Exact: the folds at λ = ±1, w_c = ±a*; path: the largest |λ − λ(w_c)| over the "
+            "path's points, λ(a) the exact equilibrium curve; order: log₂ of successive error "
+            f"ratios; indices: along the path ({record['ranks']} rank(s), "
+            "`benchmarks/path_following.py`, `benchmarks/results/path_following.json`)."
         ),
-        ("| n | dofs | fold λ | error | order | w_c at the fold / a* | indices | wall s |"),
+        (
+            "| n | dofs | fold λ | error | order | w_c at the fold / a* | second fold λ | path "
+            "| order | indices | wall s |"
+        ),
         rows,
     )
 
@@ -542,7 +584,7 @@ def main(argv: list[str]) -> dict[str, Any]:
     for name, default in LEVELS.items():
         parser.add_argument(f"--{name}", type=int, nargs="+", default=default, help="cells")
     parser.add_argument(
-        "--studies", nargs="+", choices=["turned"], help="run these only; keep the JSON's others"
+        "--studies", nargs="+", choices=list(STUDIES), help="run these only; keep the JSON's others"
     )
     add_page_options(parser, RESULTS / "path_following.json", ROOT / "docs" / "path_following.md")
     args = parser.parse_args(argv)
@@ -552,7 +594,9 @@ def main(argv: list[str]) -> dict[str, Any]:
     elif args.studies:
         if not args.json.exists():
             parser.error(f"--studies keeps the other studies of {args.json}, which does not exist")
-        record = {**json.loads(args.json.read_text()), **measure_turned(comm, args.turned)}
+        record = json.loads(args.json.read_text())
+        for study in args.studies:
+            record.update(STUDIES[study](comm, getattr(args, study)))
         if comm.rank == 0:
             args.json.write_text(json.dumps(record, indent=2) + "\n")
     else:

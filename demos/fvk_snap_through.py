@@ -33,21 +33,27 @@
 # snap-through. Newton over a load schedule cannot pass the fold (there is no equilibrium near
 # the arch beyond λ = 1). Pseudo-arclength continuation (`path.method = "arclength"`,
 # docs/path_following.md) follows the equilibrium curve by its arclength instead: λ rises, turns
-# at the fold (the λ-component of the tangent changes sign) and falls. On the way it counts the
-# negative eigenvalues of the Hessian (the stability index): 0 on the rising, stable arch, 1
-# on the falling, unstable branch behind the fold.
+# at the fold (the λ-component of the tangent changes sign) and falls, through the flat strip,
+# to the second fold at λ = −1 (a = −a*), where it turns again and rises on the inverted arch:
+# the snapped state. Under λ = 1 that state has a = −2a* (the cubic λ(a) − 1 has the double
+# root a* and its roots sum to 0): the shape the arch jumps to. On the way the path counts the
+# negative eigenvalues of the Hessian (the stability index): 0 on the stable arch, 1 on the
+# unstable branch between the folds, 0 again on the snapped arch.
 #
 # Run: `python demos/fvk_snap_through.py [--paper] [--out DIR]` (also under mpirun): 16 × 2 Q2
 # cells (seconds); `--paper` 64 × 2, the finest mesh of docs/path_following.md.
 
 # %%
+import csv
 from pathlib import Path
+
+from mpi4py import MPI
 
 import numpy as np
 
 import dgplate
 from dgplate import demo
-from dgplate.reference.fvk import sinusoidal_strip_folds
+from dgplate.reference.fvk import sinusoidal_strip_folds, sinusoidal_strip_load
 
 PROBLEM = Path(__file__).parent / "problems" / "fvk_arch.toml"
 T = 0.01  # thickness and rise of the natural shape, as in the problem file
@@ -62,10 +68,10 @@ cells = 64 if args.paper else 16
 # The problem file `demos/problems/fvk_arch.toml` follows the path from the flat strip (on the
 # unstable middle branch); here it starts near the unloaded arch instead, where Newton at λ = 0
 # finds the arch a₀ (`initial=`, a shape x ↦ y(x)). The steps grow from ds = 0.2 to at most 0.4
-# (in load factor), and the path ends after 14 points.
+# (in load factor), and the path ends on the snapped arch after 40 points, past λ = 1.
 
 # %%
-overrides = {"mesh.cells": [cells, 2], "path.steps": 14}
+overrides = {"mesh.cells": [cells, 2], "path.steps": 40}
 problem = dgplate.load_problem(PROBLEM, overrides)
 
 
@@ -75,28 +81,70 @@ def arch(x: np.ndarray) -> np.ndarray:
 
 
 result = demo.run(problem, args, initial=arch)
-demo.copy_figure(Path(args.out), args.figure, "branch.png")
 
 # %% [markdown]
-# ## The limit point against the closed form
+# ## The folds and the whole path against the closed form
 #
 # The fold's load factor converges at second order in h to the exact 1: −0.95, −0.24, −0.060
-# and −0.015 % on 8, 16, 32 and 64 cells (docs/path_following.md). The demo asserts the fold
-# within 0.3 % on 16 cells and 0.02 % on 64, the centre deflection at the fold within 0.5 % of a*,
-# and the stability indices: 0 at every point before the fold, 1 at every point after it.
+# and −0.015 % on 8, 16, 32 and 64 cells (docs/path_following.md), and the second fold is at
+# −λ of the first within 10⁻⁷ (the strip is symmetric under w → −w, λ → −λ). Every point of the
+# path lies on the exact curve: the largest |λ − λ(w_c)| over the path is 2.1·10⁻², 4.2·10⁻³,
+# 1.1·10⁻³ and 2.7·10⁻⁴ on those meshes. The demo asserts the fold within 0.3 % on 16 cells and
+# 0.02 % on 64, the centre deflection there within 0.5 % of a*, the path within 5·10⁻³ (16) or
+# 3·10⁻⁴ (64) of the curve, the stability indices 0, 1, 0 between the folds, and that the path
+# ends on the snapped arch beyond λ = 1.
 
 # %%
 _, a_fold = sinusoidal_strip_folds(1.0, T, 1.0, T)
+q_fold = sinusoidal_strip_load(a_fold, 1.0, T, 1.0, T)
 load, indices, kinds = demo.branch(result)
+with open(Path(args.out) / "history.csv", newline="") as rows:
+    rise = np.array([float(row["w_center"]) for row in csv.DictReader(rows)])
+exact = np.array([sinusoidal_strip_load(a, 1.0, T, 1.0, T) for a in rise]) / q_fold
 demo.say(f"{cells} × 2 Q2 cells, {result['dofs']} dofs, {len(load)} points")
-for lam, index in zip(load, indices):
-    demo.say(f"  λ = {lam:+.6f}   stability index {index}")
-demo.check("one special point, a fold", kinds == ["fold"])
-fold = result["folds"][0]
-at = int(np.flatnonzero(load == fold)[0])
+if MPI.COMM_WORLD.rank == 0:  # the path on the exact curve: snap_through.png
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    a = np.linspace(rise.min(), rise.max(), 400)
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    ax.plot(a / a_fold, [sinusoidal_strip_load(v, 1.0, T, 1.0, T) / q_fold for v in a], "-",
+            color="0.65", lw=3, label="exact: w = a sin(πx), λ(a) = q(a)/q*")  # fmt: skip
+    for index, marker in ((0, "o"), (1, "s")):
+        on = indices == index
+        ax.plot(rise[on] / a_fold, load[on], marker, ms=4, ls="none",
+                label=f"path, stability index {index}")  # fmt: skip
+    folds = [p for p in result["special_points"] if p["kind"] == "fold"]
+    ax.plot([p["w_center"] / a_fold for p in folds], [p["load_factor"] for p in folds], "k^",
+            ms=8, label="folds (located)")  # fmt: skip
+    ax.axhline(1.0, color="0.8", lw=0.8, zorder=0)
+    ax.annotate("snapped arch\nunder λ = 1: a = −2a*", (-2, 1), (-1.6, 1.35),
+                arrowprops={"arrowstyle": "->"})  # fmt: skip
+    ax.set_xlabel("centre deflection w_c / a*")
+    ax.set_ylabel("load factor λ")
+    ax.set_title(f"the shallow arch on {cells} × 2 Q2 cells, round both folds")
+    ax.legend(fontsize=8, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(Path(args.out) / "snap_through.png", dpi=150)
+    plt.close(fig)
+demo.copy_figure(Path(args.out), args.figure, "snap_through.png")
+for lam, a, index in zip(load, rise, indices):
+    demo.say(f"  λ = {lam:+.6f}   w_c/a* = {a / a_fold:+.4f}   stability index {index}")
+demo.check("two special points, both folds", kinds == ["fold", "fold"])
+fold, second = result["folds"]
+first, last = (int(np.flatnonzero(load == f)[0]) for f in (fold, second))
 demo.check_close("fold λ", fold, 1.0, rel=2e-4 if args.paper else 3e-3,
                  source="exact one-mode limit load")  # fmt: skip
 demo.check_close("w_c at the fold / a*", result["special_points"][0]["w_center"] / a_fold, 1.0,
                  rel=5e-3, source="exact one-mode limit point")  # fmt: skip
-demo.check("stability index 0 at every point before the fold", set(indices[:at]) == {0})
-demo.check("stability index 1 at every point after it", set(indices[at + 1 :]) == {1})
+demo.check_close("second fold λ", second, -fold, rel=1e-6, source="the symmetry w → −w, λ → −λ")
+demo.check_between("largest |λ − λ(w_c)| over the path", np.abs(load - exact).max(),
+                   high=3e-4 if args.paper else 5e-3, source="the exact equilibrium curve")  # fmt: skip
+demo.check("stability index 0 before the fold", set(indices[:first]) == {0})
+demo.check("stability index 1 between the folds", set(indices[first + 1 : last]) == {1})
+demo.check("stability index 0 on the snapped arch", set(indices[last + 1 :]) == {0})
+demo.check(
+    "the path ends on the snapped arch beyond λ = 1", load[-1] > 1 and rise[-1] < -2 * a_fold
+)

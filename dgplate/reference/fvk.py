@@ -164,9 +164,31 @@ def sinusoidal_strip_folds(E: float, t: float, L: float, e: float) -> tuple[floa
     """
     if not t * t / 3 < e * e < 11 * t * t / 6:
         raise ValueError(f"the rise e = {e:g} must satisfy t²/3 < e² < 11t²/6 (t = {t:g})")
-    k4, D = (math.pi / L) ** 4, E * t**3 / 12
     a = math.sqrt((e * e - t * t / 3) / 3)
-    return -k4 * a * (D + E * t * (a * a - e * e) / 4), a
+    return sinusoidal_strip_load(a, E, t, L, e), a
+
+
+def sinusoidal_strip_load(a: float, E: float, t: float, L: float, e: float) -> float:
+    """The downward pressure amplitude q at which w = a sin(πx/L) is an equilibrium.
+
+    The strip of :func:`sinusoidal_strip_folds`: q = −(π/L)⁴ a [D + E t (a² − e²)/4] for the
+    pressure −q sin(πx/L), D = E t³/12. Every equilibrium of the strip is one of these, so this
+    is the whole equilibrium curve: from the arch a₀ through the fold a* and the flat strip to
+    the fold −a* and the snapped arch. The cubic is odd in a, and q − q* has the double root a*,
+    so the snapped arch under q* has a = −2a*.
+
+    Args:
+        a: the rise (the centre deflection).
+        E: Young's modulus.
+        t: thickness.
+        L: span.
+        e: rise of the natural shape.
+
+    Returns:
+        q (positive: downward).
+    """
+    k4, D = (math.pi / L) ** 4, E * t**3 / 12
+    return -k4 * a * (D + E * t * (a * a - e * e) / 4)
 
 
 def square_plate_critical_shortening(t: float, a: float, nu: float) -> float:

@@ -142,6 +142,7 @@ FIGURES: dict[str, Figure] = {
     "fvk_turned_strip_branch.png": Figure(
         _demo("fvk_turned_strip", "fvk_turned_strip_branch.png", "--paper")
     ),
+    "fvk_snap_through.png": Figure(_demo("fvk_snap_through", "fvk_snap_through.png", "--paper")),
     "creases_bilayer_cones.png": Figure(
         _words("demos/bilayer_crease.py --out {out}"),
         {

@@ -325,14 +325,19 @@ def test_path_following_benchmark_smoke(tmp_path):
     assert euler["indices"] == [0, 1] and euler["orders"] == [None, None]
     assert held["error"] == pytest.approx(0.0442, abs=5e-4) and held["order"] is None
     assert mixed["error"] is None and held["buckled_indices"] == mixed["buckled_indices"] == [0]
-    assert arch["error"] == pytest.approx(-9.45e-3, rel=0.03) and arch["indices"] == [0, 1]
+    assert arch["error"] == pytest.approx(-9.45e-3, rel=0.03) and arch["indices"] == [0, 1, 0]
+    assert arch["second_fold"] == pytest.approx(-1 - arch["error"], rel=1e-6)
+    assert arch["path_error"] == pytest.approx(2.08e-2, rel=0.01) and arch["last"] > 1
     if MPI.COMM_WORLD.rank == 0:
         assert json.loads(out.read_text()) == record
         text = page.read_text()
         assert "STALE" not in text
         assert "| 4 × 4 | 306 | 0.98755 | -1.24% |  | (beyond `lambda_max`) |" in text
         assert "| 4 × 4 | 306 | 1.00392 | 1.00392 | 1.37438 | +4.42% |  |" in text
-        assert "| 8 | 314 | 0.990547 | -0.945% |  | 0.9936 | 0 → 1 |" in text
+        assert (
+            "| 8 | 314 | 0.990544 | -0.946% |  | 0.9965 | -0.990544 | 2.1e-02 |  | 0 → 1 → 0 |"
+            in text
+        )
         # the bifurcation is located to about 10⁻⁵ (DOLFINx 0.9 and 0.11 differ there): its
         # first digits only
         assert "| 16 × 1 | 342 | 0.819" in text
@@ -351,6 +356,8 @@ def test_path_following_page_is_generated(tmp_path):
     assert held == sorted(held, reverse=True) and held[-1] < 1e-3  # toward Koiter's slope
     arch = [abs(level["error"]) for level in record["arch"]]
     assert arch == sorted(arch, reverse=True)  # the fold converges to the exact limit load
+    for level in record["arch"][1:]:  # every point of the path to the exact curve, O(h²)
+        assert level["path_order"] > 1.9 and level["indices"] == [0, 1, 0]
     assert [level["n"] for level in record["turned"]] == [16, 32, 64, 128, 256]
     for k in range(2):  # both thresholds converge to the closed forms at second order
         errors = [abs(level["errors"][k]) for level in record["turned"]]

@@ -135,24 +135,30 @@ def test_the_coarsest_plate_bifurcates_below_the_euler_load():
     assert summary["bifurcations"] == [pytest.approx(0.98755, abs=2e-5)]
 
 
-def test_arch_snaps_through_its_limit_point():
-    """λ rises, turns at the fold (τ changes sign) and falls; index 0 before, 1 after."""
-    points, summary = arch(MPI.COMM_WORLD, 16)
+def test_arch_snaps_through_its_limit_point_onto_the_snapped_arch():
+    """16 × 2 cells, from the unloaded arch: λ rises, turns at the fold, falls through the flat
+    strip to the second fold at −λ_f, turns and rises on the snapped arch past λ = 1; the index
+    is 0, then 1 between the folds, then 0. Every point lies on the exact curve λ(w_c)
+    (:func:`dgplate.reference.fvk.sinusoidal_strip_load`) within 4.2·10⁻³."""
+    points, summary = arch(MPI.COMM_WORLD, 16, steps=PATHS.ARCH_STEPS)
     kinds = [p["kind"] for p in points]
-    assert kinds.count("fold") == 1 and "bifurcation" not in kinds
-    at = kinds.index("fold")
-    fold = points[at]
-    assert summary["folds"] == [fold["load_factor"]]
+    assert kinds.count("fold") == 2 and "bifurcation" not in kinds
+    first, second = (i for i, kind in enumerate(kinds) if kind == "fold")
+    fold = points[first]
+    assert summary["folds"] == [fold["load_factor"], points[second]["load_factor"]]
     assert fold["load_factor"] == pytest.approx(0.99760, abs=2e-5)  # exact: 1 (−0.24 %)
-    assert fold["w_center"] == pytest.approx(A_FOLD, rel=0.005)
+    assert points[second]["load_factor"] == pytest.approx(-fold["load_factor"], rel=1e-6)
+    assert fold["w_center"] == pytest.approx(A_FOLD, rel=0.002)
+    assert points[second]["w_center"] == pytest.approx(-fold["w_center"], rel=1e-4)
     assert abs(fold["tangent_load"]) < 1e-6
-    before, after = points[:at], points[at + 1 :]
-    assert all(p["tangent_load"] > 0 for p in before) and all(p["tangent_load"] < 0 for p in after)
-    assert np.all(np.diff([p["load_factor"] for p in before]) > 0)
-    assert np.all(np.diff([p["load_factor"] for p in after]) < 0)
-    assert [p["stability_index"] for p in before] == [0] * len(before)
-    assert [p["stability_index"] for p in after] == [1] * len(after)
+    segments = points[:first], points[first + 1 : second], points[second + 1 :]
+    for segment, rising, index in zip(segments, (True, False, True), (0, 1, 0), strict=True):
+        assert all((p["tangent_load"] > 0) == rising for p in segment)
+        assert np.all((np.diff([p["load_factor"] for p in segment]) > 0) == rising)
+        assert [p["stability_index"] for p in segment] == [index] * len(segment)
     assert points[0]["w_center"] == pytest.approx(math.sqrt(2 / 3) * T, rel=0.002)  # a₀
+    assert points[-1]["load_factor"] > 1 and points[-1]["w_center"] < -2 * A_FOLD  # snapped
+    assert PATHS.arch_path_error(points) == pytest.approx(4.2e-3, abs=1e-4)
 
 
 def test_an_unlocated_fold_is_not_listed_as_a_fold(monkeypatch):
@@ -306,14 +312,14 @@ def test_an_interrupted_path_resumes_to_the_same_points(stop_at, crash, tmp_path
     monkeypatch.setattr(interrupt, "_received", 0)
     resumed = dgplate.run(problem, out=tmp_path / "resumed", comm=MPI.COMM_SELF, resume=True)
     assert resumed["converged"]
-    assert resumed["folds"] == pytest.approx(straight["folds"], rel=1e-10)
+    assert resumed["folds"] == pytest.approx(straight["folds"], rel=1e-9)
     rows, expected = resumed.history, straight.history
     assert [r["step"] for r in rows] == list(range(1, len(expected) + 1))
     for key in ("stability_index", "kind", "branch", "iterations"):
         assert [r[key] for r in rows] == [r[key] for r in expected], key
     for key in ("load_factor", "energy", "ds", "w_center"):
         got, want = np.array([[r[key] for r in rows] for rows in (rows, expected)])
-        assert np.allclose(got, want, rtol=1e-10, atol=1e-10 * np.abs(want).max()), key
+        assert np.allclose(got, want, rtol=1e-9, atol=1e-9 * np.abs(want).max()), key
 
 
 def test_follow_traces_the_arch_through_its_fold(tmp_path):
