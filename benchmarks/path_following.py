@@ -60,6 +60,7 @@ from dgplate.models.fvk.spec import FvKSpec, NewtonSpec, PathSpec
 from dgplate.problems.specs import load_problem
 from dgplate.reference.fvk import (
     clamped_strip_antisymmetric_energy,
+    clamped_strip_natural_rise,
     clamped_strip_thresholds,
     held_square_plate_postbuckling,
     sinusoidal_strip_folds,
@@ -261,9 +262,19 @@ TURNED_DELTA, TURNED_T, TURNED_ALPHA, TURNED_WIDTH = 0.01, 0.005, 0.25, 0.05
 TURNED_EXACT = tuple(a / TURNED_ALPHA for a in clamped_strip_thresholds(TURNED_DELTA, TURNED_T))
 
 
-def turned_spec(steps: int = 16, switch: bool = False) -> FvKSpec:
-    """The turned strip's [model] with its [path] (demos/problems/fvk_turned_strip.toml)."""
-    spec = load_problem(TURNED, {"path.steps": steps, "path.switch": switch}).model
+#: The natural state's start: buckled up, the way the clamps turn (the file's is down).
+NATURAL_START = {"type": "formula", "g": ["x", "y", "0.0317*(1 - cos(2*pi*x))"]}
+
+
+def turned_spec(steps: int = 16, switch: bool = False, natural: bool = False) -> FvKSpec:
+    """The turned strip's [model] with its [path] (demos/problems/fvk_turned_strip.toml).
+
+    ``natural``: from the natural state (buckled up) instead of the inverted one.
+    """
+    overrides: dict[str, Any] = {"path.steps": steps, "path.switch": switch}
+    if natural:
+        overrides["model.start"] = NATURAL_START
+    spec = load_problem(TURNED, overrides).model
     assert isinstance(spec, FvKSpec)
     return spec
 
@@ -334,6 +345,35 @@ def switched_level(comm: MPI.Comm, n: int) -> dict[str, Any]:
     }
 
 
+def natural_level(comm: MPI.Comm, n: int) -> dict[str, Any]:
+    """The turned strip on n × 1 cells from its natural state: w_c against the closed form.
+
+    The closed form (:func:`dgplate.reference.fvk.clamped_strip_natural_rise`) holds while the
+    strip is compressed, α < √(6Δ); the points up to 95 % of that are compared.
+    """
+    t0 = time.perf_counter()
+    points, summary = follow(comm, turned_spec(7, natural=True), [n, 1], [[0, 0], [1, 0.05]])
+    compressed = [
+        p
+        for p in points
+        if 0 < p["load_factor"] * TURNED_ALPHA < 0.95 * math.sqrt(6 * TURNED_DELTA)
+    ]
+    errors = [
+        p["w_center"]
+        / clamped_strip_natural_rise(p["load_factor"] * TURNED_ALPHA, TURNED_DELTA, TURNED_T)
+        - 1
+        for p in compressed
+    ]
+    return {
+        "n": n,
+        "error": max(errors, key=abs),
+        "compared": len(compressed),
+        "last": points[-1]["load_factor"],
+        "indices": runs(summary["stability_indices"]),
+        "wall_s": time.perf_counter() - t0,
+    }
+
+
 def orders(errors: Sequence[float | None]) -> list[float | None]:
     """log₂ of successive error ratios (None at the first level or a missing error)."""
     out: list[float | None] = [None]
@@ -346,6 +386,9 @@ def measure_turned(comm: MPI.Comm, levels: list[int]) -> dict[str, Any]:
     """The turned strip's study at its levels (collective): its part of the record."""
     turned = [turned_level(comm, n) for n in levels]
     switched = [switched_level(comm, n) for n in levels]
+    natural = [natural_level(comm, n) for n in levels]
+    for lv, order in zip(natural, orders([lv["error"] for lv in natural]), strict=True):
+        lv["order"] = order
     for study in (turned, switched):
         for k in range(2):
             for lv, order in zip(study, orders([lv["errors"][k] for lv in study]), strict=True):
@@ -369,6 +412,7 @@ def measure_turned(comm: MPI.Comm, levels: list[int]) -> dict[str, Any]:
             - exact0,
         ],
         "switched": switched,
+        "natural": natural,
     }
 
 
@@ -557,12 +601,34 @@ def switched_table(record: dict[str, Any]) -> str:
     )
 
 
+def natural_table(record: dict[str, Any]) -> str:
+    """The Markdown table of the turned strip's natural state."""
+    rows = [
+        f"| {lv['n']} × 1 | {lv['compared']} | {lv['error']:+.2e} | {_order(lv['order'])} "
+        f"| {lv['last']:.4f} | {_sequence(lv['indices'])} | {lv['wall_s']:.1f} |"
+        for lv in record["natural"]
+    ]
+    return markdown_table(
+        (
+            "Error: the largest relative difference of w_c from the closed form over the path's "
+            "points with α < 0.95 √(6Δ); last λ: where the path ends, past the bifurcation "
+            f"λ_b = {record['turned_exact'][0]:.6f} of the inverted state; order: log₂ of "
+            "successive error ratios; indices: along the path "
+            f"({record['turned_ranks']} rank(s), `benchmarks/path_following.py`, "
+            "`benchmarks/results/path_following.json`)."
+        ),
+        "| cells | points compared | error | order | last λ | indices | wall s |",
+        rows,
+    )
+
+
 TABLES = {
     "euler": euler_table,
     "slope": slope_table,
     "arch": arch_table,
     "turned": turned_table,
     "switched": switched_table,
+    "natural": natural_table,
 }
 LEVELS = {
     "euler": [4, 8, 16],

@@ -344,6 +344,36 @@ def clamped_strip_thresholds(delta: float, t: float, L: float = 1.0) -> tuple[fl
     return slope(TAU_ANTISYMMETRIC), slope(fold)
 
 
+def clamped_strip_natural_rise(alpha: float, delta: float, t: float, L: float = 1.0) -> float:
+    """The centre deflection of the natural state of the turned strip of :func:`clamped_strip_thresholds`.
+
+    The natural state is the symmetric solution buckled the way the clamps turn, with τ in
+    (0, 2π): w = c (cos τ(x/L − ½) − cos(τ/2)), c = αL/(τ sin(τ/2)) from w′(0) = α, and τ
+    fixed by the shortening, α = μ(τ)√(Δ/L − τ²t²/(12L²)) (:func:`turned_strip_slope_factor`).
+    α falls from √6 √(Δ/L) (τ → 0) to 0 (τ → 2π, the first Euler mode). It is stable, and it is
+    where the inverted state snaps to at its bifurcation α_b. Derived here, ν = 0 (a beam).
+
+    Args:
+        alpha: the clamp angle (slope), 0 < α < μ(τ)√(Δ/L − τ²t²/(12L²)) as τ → 0.
+        delta: the end shortening Δ.
+        t: the thickness.
+        L: the span.
+
+    Returns:
+        w_c = c (1 − cos(τ/2)) > 0.
+    """
+    shortening, stretch = delta / L, t * t / (12 * L * L)
+
+    def slope(tau: float) -> float:
+        return turned_strip_slope_factor(tau) * math.sqrt(shortening - tau * tau * stretch) - alpha
+
+    low, high = 1e-6, 2 * math.pi - 1e-9
+    if not alpha > 0 or slope(low) <= 0:
+        raise ValueError(f"no natural state at α = {alpha:g} for Δ = {delta:g}, t = {t:g}")
+    tau = _bisect(slope, low, high)
+    return alpha * L * (1 - math.cos(tau / 2)) / (tau * math.sin(tau / 2))
+
+
 def clamped_strip_antisymmetric_energy(
     alpha: float, delta: float, t: float, L: float = 1.0, E: float = 1.0, width: float = 1.0
 ) -> float:

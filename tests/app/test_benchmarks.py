@@ -306,7 +306,7 @@ def test_path_following_benchmark_smoke(tmp_path):
     out, page = tmp_path / "path_following.json", tmp_path / "path_following.md"
     page.write_text(
         "".join(f"<!-- path_following_{k}:begin -->\nSTALE\n<!-- path_following_{k}:end -->\n"
-                for k in ("euler", "slope", "arch", "turned", "switched"))
+                for k in ("euler", "slope", "arch", "turned", "switched", "natural"))
     )  # fmt: skip
     args = ["--euler", "4", "--slope", "4", "--arch", "8", "--turned", "16"]
     args += ["--json", str(out), "--page", str(page)]
@@ -321,6 +321,9 @@ def test_path_following_benchmark_smoke(tmp_path):
         pytest.approx(0.00799, abs=5e-5),
     ]
     assert switched["indices"] == [1] and switched["fit"] < 1e-3
+    (natural,) = record["natural"]
+    assert natural["indices"] == [0] and natural["last"] > turned["bifurcation"]
+    assert natural["error"] == pytest.approx(-9.6e-4, rel=0.02)
     assert euler["bifurcations"] == [pytest.approx(0.98755, abs=2e-5)]
     assert euler["indices"] == [0, 1] and euler["orders"] == [None, None]
     assert held["error"] == pytest.approx(0.0442, abs=5e-4) and held["order"] is None

@@ -33,6 +33,7 @@ from dgplate.models.fvk.model import build_fvk
 from dgplate.models.fvk.spec import FvKSpec, PathSpec
 from dgplate.reference.fvk import (
     TAU_ANTISYMMETRIC,
+    clamped_strip_natural_rise,
     clamped_strip_thresholds,
     held_square_plate_postbuckling,
     turned_strip_slope_factor,
@@ -430,6 +431,21 @@ def test_switched_turned_strip_goes_round_the_closed_form_branch():
     assert points[turn]["load_factor"] < -0.99 * bifurcation
     after = points[turn:]
     assert all(p["tangent_load"] > 0 for p in after) and after[-1]["load_factor"] > -0.9
+
+
+def test_turned_strip_natural_state_is_the_closed_form_one():
+    """32 × 1 cells from the natural state (buckled up): stable (index 0) at every point, up
+    to and past the inverted state's bifurcation λ_b, where that state snaps to it; w_c within
+    1.1·10⁻⁴ of :func:`dgplate.reference.fvk.clamped_strip_natural_rise` while compressed."""
+    level = PATHS.natural_level(MPI.COMM_WORLD, 32)
+    assert level["indices"] == [0] and level["compared"] >= 4
+    assert level["last"] > PATHS.TURNED_EXACT[0]
+    assert level["error"] == pytest.approx(-1.08e-4, abs=1e-5)
+    assert clamped_strip_natural_rise(1e-9, 0.01, 0.005) == pytest.approx(
+        2 * math.sqrt(0.01 - (2 * math.pi * 0.005) ** 2 / 12) / math.pi, rel=1e-6
+    )  # α → 0: the first clamped Euler mode, w_c = 2A
+    with pytest.raises(ValueError, match="no natural state"):
+        clamped_strip_natural_rise(0.25, 0.01, 0.005)  # beyond √(6Δ): in tension
 
 
 def test_a_parameter_holds_the_other_data_at_their_full_values(tmp_path):
