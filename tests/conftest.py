@@ -1,4 +1,5 @@
-"""Shared fixtures and hooks. Tests marked ``mpi`` run serially and again under ``mpirun -n 2``.
+"""Shared fixtures and hooks. Tests marked ``mpi`` run serially and again under ``mpirun -n 2``;
+those also marked ``parity`` (one rank against all ranks) run only under mpirun.
 
 Shared helpers that are not fixtures (paths, factories, checks) are in ``helpers.py``.
 """
@@ -37,10 +38,14 @@ def slow_test_ids() -> set[str]:
 
 
 def pytest_collection_modifyitems(config, items):
-    """Mark ``slow`` what ``make test-fast`` leaves out (see slow_tests.txt)."""
+    """Mark ``slow`` what ``make test-fast`` leaves out (see slow_tests.txt); skip the ``parity``
+    tests on one rank, where the run on all ranks is the one-rank run again."""
     slow = slow_test_ids()
     tests = Path(__file__).parent
+    one_rank = pytest.mark.skip(reason="rank parity: run under mpirun")
     for item in items:
+        if MPI.COMM_WORLD.size == 1 and item.get_closest_marker("parity"):
+            item.add_marker(one_rank)
         where = Path(item.fspath).relative_to(tests).as_posix()
         node = f"tests/{where}::{item.nodeid.split('::', 1)[1]}" if "::" in item.nodeid else ""
         if where.startswith(SLOW_MODULES) or node in slow:

@@ -142,6 +142,7 @@ def test_non_symmetric_Z_is_refused(value, tmp_path, capsys):
 
 
 @pytest.mark.mpi
+@pytest.mark.parity
 @pytest.mark.parametrize(
     "edge_constraint,gamma1,gradient_power", [(False, 1100.0, 1.0), (True, 86.0, 3.0)]
 )

@@ -239,6 +239,7 @@ def _parity_run(comm):
 
 
 @pytest.mark.mpi
+@pytest.mark.parity
 def test_same_deflection_on_any_number_of_ranks():
     parallel, serial = _parity_run(MPI.COMM_WORLD), _parity_run(MPI.COMM_SELF)
     assert parallel["ranks"] == MPI.COMM_WORLD.size

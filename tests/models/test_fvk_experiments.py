@@ -147,6 +147,7 @@ def test_cone_is_axisymmetric_before_onset_and_its_lowest_eigenvalue_decreases()
 
 
 @pytest.mark.mpi
+@pytest.mark.parity
 def test_cone_same_path_on_any_number_of_ranks():
     """Two steps of the indented cone (h = 0.3): energies and tip deflections on the world
     communicator equal those on one rank."""

@@ -240,6 +240,7 @@ def test_arch_fold_converges_to_the_exact_limit_load():
 
 
 @pytest.mark.mpi
+@pytest.mark.parity
 def test_same_path_on_any_number_of_ranks():
     """Load factors, indices, kinds and deflections agree between 1 and 2 ranks."""
     parallel, _ = arch(MPI.COMM_WORLD, 16, steps=10)
@@ -252,6 +253,7 @@ def test_same_path_on_any_number_of_ranks():
 
 
 @pytest.mark.mpi
+@pytest.mark.parity
 def test_same_switch_on_any_number_of_ranks():
     """The buckled branch after the switch (the critical mode's sign) agrees on 1 and 2 ranks."""
     parallel, _ = plate(MPI.COMM_WORLD, 8, switch=True, steps=8)
@@ -518,6 +520,7 @@ def test_a_bifurcation_is_taken_at_the_nearest_point_when_correctors_fail_beside
 
 
 @pytest.mark.mpi
+@pytest.mark.parity
 def test_same_turned_path_on_any_number_of_ranks():
     """The turned strip's path (16 cells) on 1 and 2 ranks: its regular points agree to 1e-8,
     the located special points to 2e-4 (the secant's tolerance near the singular bifurcation)."""

@@ -94,6 +94,7 @@ def test_relaxation_decreases_the_energy_at_every_step(relaxed):
 
 
 @pytest.mark.mpi
+@pytest.mark.parity
 def test_relaxation_same_state_on_any_number_of_ranks():
     """The relaxed state on the world communicator equals the one-rank state."""
     parallel = _buckle(MPI.COMM_WORLD, relaxation=True)

@@ -84,6 +84,7 @@ def test_free_plate_balanced_load():
     # and D_h, a small difference of large terms, then agrees to ~1e-8 rather than round-off
     [("direct", PARITY_RTOL, PARITY_RTOL), ("lagged", 1e-7, 1e-6)],
 )
+@pytest.mark.parity
 def test_same_result_on_any_number_of_ranks(solver, rtol_energy, rtol_defect):
     serial = vertical_load_flow(MPI.COMM_SELF, 16, linear_solver=solver).run()
     parallel = vertical_load_flow(MPI.COMM_WORLD, 16, linear_solver=solver).run()

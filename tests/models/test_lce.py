@@ -90,6 +90,7 @@ def test_bad_input_is_one_line_with_exit_2(tmp_path, capsys, setting, message):
 
 
 @pytest.mark.mpi
+@pytest.mark.parity
 def test_lce_same_on_any_number_of_ranks(tmp_path):
     overrides = {
         "mesh.cells": [6, 2],

@@ -166,6 +166,7 @@ def test_uniform_stretch_on_a_twisted_lce_strip(tmp_path):
 
 
 @pytest.mark.mpi
+@pytest.mark.parity
 def test_stretched_bilayer_same_on_any_number_of_ranks():
     """G = s²I on 4 × 2 cells: the run on MPI.COMM_WORLD is the serial one."""
     serial, _, _ = roll(MPI.COMM_SELF, 2, 1.0, stretch=S, tau=0.1)
