@@ -71,6 +71,7 @@ def before_run(
     messages += adaptive_only(problem)
     messages += path_only(problem)
     messages.append(metric_jump(problem, tagged))
+    messages.append(long_cells(problem))
     if problem.flow.tau != "h":
         messages.append(tau_scale(float(problem.flow.tau), max_cell_diameter(tagged.mesh)))
     return [m for m in messages if m]
@@ -105,6 +106,36 @@ def path_only(problem: Problem) -> list[str]:
         "continuation reads newton.snes only)"
         for key in given
     ]
+
+
+#: Rectangle cells this many times longer than wide: with the cell diameter as the length of
+#: the penalties, the jumps across their long facets are penalised as if the cells were as wide
+#: as long (a strip meshed n × 1: the arch's w stopped converging from aspect 1.6 on,
+#: docs/path_following.md).
+LONG_CELLS = 3.0
+
+
+def long_cells(problem: Problem) -> str | None:
+    """A warning when the penalties take the cell diameter on a rectangle of long, thin cells.
+
+    ``penalty_length = "facet_normal"`` (the cell's height normal to each facet) restores
+    second order there. Meshes from gmsh are left alone: their cells vary, and the diameter is
+    the published methods' length.
+    """
+    mesh = problem.mesh
+    if getattr(problem.model, "penalty_length", None) != "diameter" or mesh.type != "rectangle":
+        return None
+    (x0, y0), (x1, y1) = mesh.corners
+    width, height = (x1 - x0) / mesh.cells[0], (y1 - y0) / mesh.cells[1]
+    aspect = max(width / height, height / width)
+    if aspect < LONG_CELLS:
+        return None
+    return (
+        f"model.penalty_length = 'diameter' on cells {aspect:.3g} times longer than wide "
+        f"(mesh.cells = {list(mesh.cells)}): the jumps across their long sides are penalised "
+        "too weakly and the result may not converge under refinement; penalty_length = "
+        "'facet_normal' takes each facet's normal length instead (docs/path_following.md)"
+    )
 
 
 #: A jump of G's entries between cell groups above this is a jump, not round-off.

@@ -737,6 +737,23 @@ def test_warning_isometry_defect_of_order_one(tmp_path, capsys):
     assert "smaller flow.tau (now 0.5)" in warnings[0]
 
 
+@pytest.mark.mpi
+@pytest.mark.parametrize("length", ["diameter", "facet_normal"])
+def test_warning_long_cells_with_the_diameter_penalty(tmp_path, capsys, length):
+    """Cells 8 times longer than wide (a 4 × 4 plate on 4 × 32 cells) warn with the diameter
+    as the penalties' length, not with the facet-normal one; 2 times (4 × 8) do not."""
+    sets = ("mesh.cells=[4,32]", f"model.penalty_length='{length}'", "flow.max_steps=1")
+    code, warnings = run_warned(tmp_path, capsys, VERTICAL, *sets)
+    assert code == 1  # the step budget
+    if MPI.COMM_WORLD.rank == 0 and length == "diameter":
+        (warning,) = warnings
+        assert "model.penalty_length = 'diameter' on cells 8 times longer than wide" in warning
+        assert "(mesh.cells = [4, 32])" in warning and "penalty_length = 'facet_normal'" in warning
+    else:
+        assert warnings == []
+    assert advice.long_cells(load_problem(VERTICAL, {"mesh.cells": [4, 8]})) is None
+
+
 def test_warning_adaptive_key_without_adaptive_tau(tmp_path, capsys):
     code, warnings = run_warned(tmp_path, capsys, VERTICAL, "flow.tau_growth=3.0")
     assert code == 0
