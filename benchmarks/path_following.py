@@ -19,9 +19,11 @@ Four studies over mesh levels, each against a closed form:
 - **Turned**: the buckled clamped–clamped strip of demos/problems/fvk_turned_strip.toml on
   n × 1 cells, its clamps turned by ±λα (``path.parameter = "clamp_slope"``): the bifurcation
   and the fold of its inverted state against the closed forms of
-  :func:`dgplate.reference.fvk.clamped_strip_thresholds`; and, switched at that bifurcation,
-  the antisymmetric branch round to the mirrored inverted state, its energy against the
-  closed-form parabola of :func:`dgplate.reference.fvk.clamped_strip_antisymmetric_energy`.
+  :func:`dgplate.reference.fvk.clamped_strip_thresholds`; switched at that bifurcation, the
+  antisymmetric branch round to the mirrored inverted state, its energy against the
+  closed-form parabola of :func:`dgplate.reference.fvk.clamped_strip_antisymmetric_energy`;
+  and the natural state, where the inverted one snaps to, its w_c against
+  :func:`dgplate.reference.fvk.clamped_strip_natural_rise`.
 
 Orders are log₂ of the ratio of successive errors (the cells halve). Wall times are per run.
 
@@ -236,7 +238,16 @@ def arch_path_error(points: list[dict[str, Any]]) -> float:
 
 
 def arch_level(comm: MPI.Comm, n: int) -> dict[str, Any]:
-    """The strip on n × 2 cells: round both folds onto the snapped arch."""
+    """The strip on n × 2 cells: round both folds onto the snapped arch.
+
+    Args:
+        comm: the communicator (collective).
+        n: the cells along the strip.
+
+    Returns:
+        The folds, the first's error and w_c over a*, :func:`arch_path_error`, the last load
+        factor, the stability indices along the path and the wall time.
+    """
     t0 = time.perf_counter()
     points, summary = follow(comm, arch_spec(ARCH_STEPS), [n, 2], [[0, 0], [1, 0.1]], arch_start)
     wall = time.perf_counter() - t0
@@ -298,6 +309,15 @@ def turned_level(comm: MPI.Comm, n: int) -> dict[str, Any]:
     }
 
 
+def switched_exact() -> tuple[float, float]:
+    """(Π₀, k) of the antisymmetric branch's closed-form energy Π₀ + kλ² (α = λα₀)."""
+    exact0 = clamped_strip_antisymmetric_energy(0.0, TURNED_DELTA, TURNED_T, width=TURNED_WIDTH)
+    full = clamped_strip_antisymmetric_energy(
+        TURNED_ALPHA, TURNED_DELTA, TURNED_T, width=TURNED_WIDTH
+    )
+    return exact0, full - exact0
+
+
 def switched_branch(points: list[dict[str, Any]]) -> dict[str, Any]:
     """The antisymmetric branch after the switch, against its closed-form parabola in λ.
 
@@ -318,11 +338,7 @@ def switched_branch(points: list[dict[str, Any]]) -> dict[str, Any]:
     energy = np.array([p["energy"] for p in branch])
     basis = np.column_stack([np.ones_like(load), load**2])
     energy0, curvature = np.linalg.lstsq(basis, energy, rcond=None)[0]
-    exact0 = clamped_strip_antisymmetric_energy(0.0, TURNED_DELTA, TURNED_T, width=TURNED_WIDTH)
-    exact_k = (
-        clamped_strip_antisymmetric_energy(TURNED_ALPHA, TURNED_DELTA, TURNED_T, width=TURNED_WIDTH)
-        - exact0
-    )
+    exact0, exact_k = switched_exact()
     return {
         "energy0": float(energy0),
         "curvature": float(curvature),
@@ -334,7 +350,15 @@ def switched_branch(points: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def switched_level(comm: MPI.Comm, n: int) -> dict[str, Any]:
-    """The turned strip on n × 1 cells switched at its bifurcation, round its branch."""
+    """The turned strip on n × 1 cells switched at its bifurcation, round its branch.
+
+    Args:
+        comm: the communicator (collective).
+        n: the cells along the strip.
+
+    Returns:
+        n, the located bifurcation, :func:`switched_branch`'s figures and the wall time.
+    """
     t0 = time.perf_counter()
     points, summary = follow(comm, turned_spec(30, switch=True), [n, 1], [[0, 0], [1, 0.05]])
     return {
@@ -350,6 +374,14 @@ def natural_level(comm: MPI.Comm, n: int) -> dict[str, Any]:
 
     The closed form (:func:`dgplate.reference.fvk.clamped_strip_natural_rise`) holds while the
     strip is compressed, α < √(6Δ); the points up to 95 % of that are compared.
+
+    Args:
+        comm: the communicator (collective).
+        n: the cells along the strip.
+
+    Returns:
+        n, the largest relative ``error`` of w_c over the ``compared`` points, the ``last``
+        load factor, the stability indices along the path and the wall time.
     """
     t0 = time.perf_counter()
     points, summary = follow(comm, turned_spec(7, natural=True), [n, 1], [[0, 0], [1, 0.05]])
@@ -393,7 +425,6 @@ def measure_turned(comm: MPI.Comm, levels: list[int]) -> dict[str, Any]:
         for k in range(2):
             for lv, order in zip(study, orders([lv["errors"][k] for lv in study]), strict=True):
                 lv.setdefault("orders", []).append(order)
-    exact0 = clamped_strip_antisymmetric_energy(0.0, TURNED_DELTA, TURNED_T, width=TURNED_WIDTH)
     return {
         "turned_ranks": comm.size,
         "turned_exact": list(TURNED_EXACT),
@@ -404,13 +435,7 @@ def measure_turned(comm: MPI.Comm, levels: list[int]) -> dict[str, Any]:
             "width": TURNED_WIDTH,
         },
         "turned": turned,
-        "switched_exact": [
-            exact0,
-            clamped_strip_antisymmetric_energy(
-                TURNED_ALPHA, TURNED_DELTA, TURNED_T, width=TURNED_WIDTH
-            )
-            - exact0,
-        ],
+        "switched_exact": list(switched_exact()),
         "switched": switched,
         "natural": natural,
     }
@@ -441,12 +466,20 @@ def measure(comm: MPI.Comm, levels: dict[str, list[int]]) -> dict[str, Any]:
 
 
 def measure_arch(comm: MPI.Comm, levels: list[int]) -> dict[str, Any]:
-    """The arch's study at its levels (collective): its part of the record."""
+    """The arch's study at its levels: its part of the record.
+
+    Args:
+        comm: the communicator (collective).
+        levels: the cells along the strip, one path each.
+
+    Returns:
+        ``arch_ranks`` and ``arch``: each level's :func:`arch_level` with its orders.
+    """
     arch = [arch_level(comm, n) for n in levels]
     for key, name in (("error", "order"), ("path_error", "path_order")):
         for lv, order in zip(arch, orders([lv[key] for lv in arch]), strict=True):
             lv[name] = order
-    return {"arch": arch}
+    return {"arch_ranks": comm.size, "arch": arch}
 
 
 #: The studies ``--studies`` reruns alone, the JSON's others kept.
@@ -540,7 +573,7 @@ def arch_table(record: dict[str, Any]) -> str:
         (
             "Exact: the folds at λ = ±1, w_c = ±a*; path: the largest |λ − λ(w_c)| over the "
             "path's points, λ(a) the exact equilibrium curve; order: log₂ of successive error "
-            f"ratios; indices: along the path ({record['ranks']} rank(s), "
+            f"ratios; indices: along the path ({record['arch_ranks']} rank(s), "
             "`benchmarks/path_following.py`, `benchmarks/results/path_following.json`)."
         ),
         (

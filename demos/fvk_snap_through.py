@@ -44,7 +44,6 @@
 # cells (seconds); `--paper` 64 × 2, the finest mesh of docs/path_following.md.
 
 # %%
-import csv
 from pathlib import Path
 
 from mpi4py import MPI
@@ -68,7 +67,8 @@ cells = 64 if args.paper else 16
 # The problem file `demos/problems/fvk_arch.toml` follows the path from the flat strip (on the
 # unstable middle branch); here it starts near the unloaded arch instead, where Newton at λ = 0
 # finds the arch a₀ (`initial=`, a shape x ↦ y(x)). The steps grow from ds = 0.2 to at most 0.4
-# (in load factor), and the path ends on the snapped arch after 40 points, past λ = 1.
+# (in load factor), and the path ends on the snapped arch once λ passes `lambda_max` = 1.5 (at
+# most 40 points).
 
 # %%
 overrides = {"mesh.cells": [cells, 2], "path.steps": 40}
@@ -98,8 +98,7 @@ result = demo.run(problem, args, initial=arch)
 _, a_fold = sinusoidal_strip_folds(1.0, T, 1.0, T)
 q_fold = sinusoidal_strip_load(a_fold, 1.0, T, 1.0, T)
 load, indices, kinds = demo.branch(result)
-with open(Path(args.out) / "history.csv", newline="") as rows:
-    rise = np.array([float(row["w_center"]) for row in csv.DictReader(rows)])
+rise = np.array([row["w_center"] for row in result.history])
 exact = np.array([sinusoidal_strip_load(a, 1.0, T, 1.0, T) for a in rise]) / q_fold
 demo.say(f"{cells} × 2 Q2 cells, {result['dofs']} dofs, {len(load)} points")
 if MPI.COMM_WORLD.rank == 0:  # the path on the exact curve: snap_through.png

@@ -172,10 +172,12 @@ def sinusoidal_strip_load(a: float, E: float, t: float, L: float, e: float) -> f
     """The downward pressure amplitude q at which w = a sin(πx/L) is an equilibrium.
 
     The strip of :func:`sinusoidal_strip_folds`: q = −(π/L)⁴ a [D + E t (a² − e²)/4] for the
-    pressure −q sin(πx/L), D = E t³/12. Every equilibrium of the strip is one of these, so this
-    is the whole equilibrium curve: from the arch a₀ through the fold a* and the flat strip to
-    the fold −a* and the snapped arch. The cubic is odd in a, and q − q* has the double root a*,
-    so the snapped arch under q* has a = −2a*.
+    pressure −q sin(πx/L), D = E t³/12. For e² < 4t²/3 (e = t in the demos) every equilibrium
+    of the strip is one of these, so this is the whole equilibrium curve: from the arch a₀
+    through the fold a* and the flat strip to the fold −a* and the snapped arch (for larger e
+    antisymmetric equilibria, N = −4π²D/L², branch off the middle segment at a² = e² − 4t²/3).
+    The cubic is odd in a, and q − q* has the double root a*, so the snapped arch under q* has
+    a = −2a*.
 
     Args:
         a: the rise (the centre deflection).
@@ -354,24 +356,27 @@ def clamped_strip_natural_rise(alpha: float, delta: float, t: float, L: float = 
     where the inverted state snaps to at its bifurcation α_b. Derived here, ν = 0 (a beam).
 
     Args:
-        alpha: the clamp angle (slope), 0 < α < μ(τ)√(Δ/L − τ²t²/(12L²)) as τ → 0.
+        alpha: the clamp angle (slope), 0 < α < √(6Δ/L) (about; beyond it the strip is
+            stretched).
         delta: the end shortening Δ.
         t: the thickness.
         L: the span.
 
     Returns:
-        w_c = c (1 − cos(τ/2)) > 0.
+        w_c = c (1 − cos(τ/2)) = αL tan(τ/4)/τ > 0.
     """
     shortening, stretch = delta / L, t * t / (12 * L * L)
 
     def slope(tau: float) -> float:
         return turned_strip_slope_factor(tau) * math.sqrt(shortening - tau * tau * stretch) - alpha
 
-    low, high = 1e-6, 2 * math.pi - 1e-9
+    # τ above 10⁻³ keeps 1 − sin τ/τ ≈ τ²/6 clear of round-off; τ² stretch stays below the
+    # shortening (the strip is compressed), and τ below 2π
+    low, high = 1e-3, min(2 * math.pi, math.sqrt(shortening / stretch)) * (1 - 1e-12)
     if not alpha > 0 or slope(low) <= 0:
         raise ValueError(f"no natural state at α = {alpha:g} for Δ = {delta:g}, t = {t:g}")
     tau = _bisect(slope, low, high)
-    return alpha * L * (1 - math.cos(tau / 2)) / (tau * math.sin(tau / 2))
+    return alpha * L * math.tan(tau / 4) / tau
 
 
 def clamped_strip_antisymmetric_energy(
@@ -380,13 +385,14 @@ def clamped_strip_antisymmetric_energy(
     """The energy on the antisymmetric branch of the turned strip of :func:`clamped_strip_thresholds`.
 
     On that branch (the one that leaves the inverted state at its bifurcation α_b), τ stays at
-    τ_a (tan(τ_a/2) = τ_a/2), so the axial force N = Dτ_a²/L² is constant, and
+    τ_a (tan(τ_a/2) = τ_a/2), so the compression −N = Dτ_a²/L² is constant, and
     w = α W_s + A W_a: W_s the symmetric solution with W_s′(0) = −W_s′(L) = 1,
     W_s′′(0) = −(τ_a/L) cot(τ_a/2) = −2/L, and W_a the antisymmetric clamped mode. The two are
-    orthogonal in ½∫w′², so the shortening ½∫w′² = Δ − τ_a²t²/(12L) fixes A² + cα² and the
-    branch is a closed curve from α_b through α = 0 to −α_b, where it meets the mirrored
-    inverted state. Integrating w′′(w′′′′ + τ²w′′) = 0 by parts, with w′′′ + τ²w′ constant,
-    gives ∫w′′² = τ_a²/L² ∫w′² + 4α²/L: derived here, with ν = 0 (a beam),
+    orthogonal in ½∫w′², so the shortening ½∫w′² = Δ − τ_a²t²/(12L) fixes A²∫W_a′² + α²∫W_s′²
+    and the branch is a closed curve from α_b through α = 0 to −α_b, where it meets the
+    mirrored inverted state. Integrating ∫w′′² by parts, with w′′′ + (τ_a/L)²w′ constant and
+    w(0) = w(L) = 0, gives ∫w′′² = (τ_a/L)² ∫w′² − 2αW_s′′(0)α = (τ_a/L)² ∫w′² + 4α²/L (the
+    antisymmetric part cancels at the two ends): derived here, with ν = 0 (a beam),
 
         Π = width · [D τ_a²/L² (Δ − τ_a²t²/(12L)) + 2Dα²/L + ½ E t L (τ_a²t²/(12L²))²],
 
