@@ -330,7 +330,7 @@ def switched_branch(points: list[dict[str, Any]]) -> dict[str, Any]:
     Returns:
         ``energy0`` and ``curvature`` (Π₀, k) with their ``errors`` against the closed form,
         ``fit`` (the largest residual over Π₀), ``lowest`` (the least λ of the branch) and
-        ``indices`` (the stability indices on it).
+        ``indices`` (the stability indices along it, repeats merged).
     """
     at = [p["kind"] for p in points].index("switch")
     branch = [p for p in points[at:] if p["kind"] in ("switch", "regular")]
@@ -345,7 +345,7 @@ def switched_branch(points: list[dict[str, Any]]) -> dict[str, Any]:
         "errors": [float(energy0 / exact0 - 1), float(curvature / exact_k - 1)],
         "fit": float(np.abs(basis @ [energy0, curvature] - energy).max() / energy0),
         "lowest": float(load.min()),
-        "indices": sorted({p["stability_index"] for p in points[at:]}),
+        "indices": runs([p["stability_index"] for p in points[at:]]),
     }
 
 

@@ -44,8 +44,11 @@ def pytest_collection_modifyitems(config, items):
     tests = Path(__file__).parent
     one_rank = pytest.mark.skip(reason="rank parity: run under mpirun")
     for item in items:
-        if MPI.COMM_WORLD.size == 1 and item.get_closest_marker("parity"):
-            item.add_marker(one_rank)
+        if item.get_closest_marker("parity"):
+            if not item.get_closest_marker("mpi"):  # it would run nowhere
+                raise pytest.UsageError(f"{item.nodeid} is marked parity but not mpi")
+            if MPI.COMM_WORLD.size == 1:
+                item.add_marker(one_rank)
         where = Path(item.fspath).relative_to(tests).as_posix()
         node = f"tests/{where}::{item.nodeid.split('::', 1)[1]}" if "::" in item.nodeid else ""
         if where.startswith(SLOW_MODULES) or node in slow:
