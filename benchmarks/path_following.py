@@ -69,6 +69,7 @@ from dgplate.reference.fvk import (
     sinusoidal_strip_load,
     square_plate_critical_shortening,
 )
+from dgplate.reference.turned_elastica import turned_strip_elastica_thresholds
 from dgplate.solvers.continuation import BranchPath
 from dgplate.solvers.driver import RunResult
 
@@ -462,6 +463,7 @@ def measure(comm: MPI.Comm, levels: dict[str, list[int]]) -> dict[str, Any]:
         "slope_mixed": [slope_level(comm, n, False) for n in levels["slope"]],
         **measure_arch(comm, levels["arch"]),
         **measure_turned(comm, levels["turned"]),
+        **measure_elastica(comm),
     }
 
 
@@ -482,8 +484,33 @@ def measure_arch(comm: MPI.Comm, levels: list[int]) -> dict[str, Any]:
     return {"arch_ranks": comm.size, "arch": arch}
 
 
+#: The shortenings Δ/L (t = 0) at which the turned strip's elastica is set against its shallow
+#: thresholds, then the case of the problem file.
+ELASTICA_CASES = [(1e-4, 0.0), (1e-3, 0.0), (1e-2, 0.0), (3e-2, 0.0), (1e-1, 0.0)]
+#: Runge–Kutta steps on the half strip: the angles to about 3·10⁻⁹.
+ELASTICA_STEPS = 200
+
+
+def measure_elastica(comm: MPI.Comm, levels: Sequence[int] = ()) -> dict[str, Any]:
+    """The turned strip's thresholds as an elastica at finite Δ, against the shallow ones.
+
+    Args:
+        comm: the communicator (unused: a reference computation, the same on every rank).
+        levels: unused (no mesh).
+
+    Returns:
+        ``elastica``: per case Δ, t, the shallow angles (α_b, α_f) and the elastica's.
+    """
+    rows = []
+    for delta, t in [*ELASTICA_CASES, (TURNED_DELTA, TURNED_T)]:
+        elastica = turned_strip_elastica_thresholds(delta, t, steps=ELASTICA_STEPS)
+        shallow = clamped_strip_thresholds(delta, t)
+        rows.append({"delta": delta, "thickness": t, "shallow": list(shallow), **elastica})
+    return {"elastica": rows}
+
+
 #: The studies ``--studies`` reruns alone, the JSON's others kept.
-STUDIES = {"arch": measure_arch, "turned": measure_turned}
+STUDIES = {"arch": measure_arch, "turned": measure_turned, "elastica": measure_elastica}
 
 
 def _order(order: float | None) -> str:
@@ -655,6 +682,42 @@ def natural_table(record: dict[str, Any]) -> str:
     )
 
 
+def elastica_table(record: dict[str, Any]) -> str:
+    """The Markdown table of the turned strip's thresholds, shallow and as an elastica."""
+    rows = []
+    for row in record["elastica"]:
+        root = math.sqrt(row["delta"])
+        cells = [f"| {row['delta']:g} | {row['thickness']:g} "]
+        for k, name in enumerate(("bifurcation", "fold")):
+            shallow, angle = row["shallow"][k], row[name]
+            cells.append(
+                f"| {shallow / root:.5f} | {angle / root:.5f} | {angle / shallow - 1:+.3%} "
+                f"| {math.tan(angle) / root:.5f} "
+            )
+        rows.append("".join(cells) + "|")
+    finest = record["turned"][-1]
+    case = record["elastica"][-1]
+    fvk = [
+        finest[name] * TURNED_ALPHA / math.sqrt(TURNED_DELTA) for name in ("bifurcation", "fold")
+    ]
+    return markdown_table(
+        (
+            "μ = α/√Δ: the clamp angle in units of √Δ (L = 1); shallow: the closed forms above; "
+            "elastica: `dgplate.reference.turned_elastica.turned_strip_elastica_thresholds`; "
+            "difference: of the elastica's angle from the shallow one; tan α: the elastica's "
+            "clamp slope. The FvK path on "
+            f"{finest['n']} × 1 cells (Δ = {case['delta']:g}, t = {case['thickness']:g}) gives "
+            f"μ = {fvk[0]:.5f} and {fvk[1]:.5f} "
+            "(`benchmarks/path_following.py`, `benchmarks/results/path_following.json`)."
+        ),
+        (
+            "| Δ/L | t/L | shallow μ_b | elastica μ_b | difference | tan α_b/√Δ | shallow μ_f "
+            "| elastica μ_f | difference | tan α_f/√Δ |"
+        ),
+        rows,
+    )
+
+
 TABLES = {
     "euler": euler_table,
     "slope": slope_table,
@@ -662,6 +725,7 @@ TABLES = {
     "turned": turned_table,
     "switched": switched_table,
     "natural": natural_table,
+    "elastica": elastica_table,
 }
 LEVELS = {
     "euler": [4, 8, 16],
@@ -695,7 +759,7 @@ def main(argv: list[str]) -> dict[str, Any]:
             parser.error(f"--studies keeps the other studies of {args.json}, which does not exist")
         record = json.loads(args.json.read_text())
         for study in args.studies:
-            record.update(STUDIES[study](comm, getattr(args, study)))
+            record.update(STUDIES[study](comm, getattr(args, study, [])))
         if comm.rank == 0:
             args.json.write_text(json.dumps(record, indent=2) + "\n")
     else:

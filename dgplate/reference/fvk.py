@@ -254,7 +254,7 @@ def turned_strip_slope_factor(tau: float) -> float:
     The shallow strip 0 < ξ < 1 clamped with w(0) = w(1) = 0, w′(0) = −w′(1) = α under the
     compression N = −Dτ² (w′′′′ + τ²w′′ = 0) has one symmetric deflection for τ ≠ 2πk, a
     combination of 1, ξ, cos τξ and sin τξ, whose ½∫w′² integrates to α²/μ(τ)² (derived here;
-    checked against quadrature in tests/reference).
+    checked against quadrature in tests/models/test_fvk_path.py).
 
     Args:
         tau: the compression τ = L√(−N/D), away from the zeros of sin(τ/2).
@@ -328,22 +328,38 @@ def clamped_strip_thresholds(delta: float, t: float, L: float = 1.0) -> tuple[fl
         (α_b, α_f): the clamp angles (slopes) at the bifurcation and at the fold; a ValueError
         when the strip is too thick for Δ to bifurcate before it folds (t²/(12ΔL) ≳ 0.004).
     """
-    shortening, stretch = delta / L, t * t / (12 * L * L)
-
-    def slope(tau: float) -> float:
-        return turned_strip_slope_factor(tau) * math.sqrt(shortening - tau * tau * stretch)
-
-    if shortening <= 16 * math.pi**2 * stretch:
-        raise ValueError(
-            f"the shortening Δ = {delta:g} is too small for t = {t:g}: Δ/L > (4π)²t²/(12L²)"
-        )
-    fold = _argmax(slope, TAU_ANTISYMMETRIC - 0.5, 4 * math.pi - 0.5)
+    fold = turned_strip_fold_tau(delta, t, L)
     if fold <= TAU_ANTISYMMETRIC:
         raise ValueError(
             f"t = {t:g} is too thick for Δ = {delta:g}: the inverted state folds (τ = {fold:.4f}) "
             "before it meets the antisymmetric mode"
         )
-    return slope(TAU_ANTISYMMETRIC), slope(fold)
+    return _inverted_slope(TAU_ANTISYMMETRIC, delta, t, L), _inverted_slope(fold, delta, t, L)
+
+
+def _inverted_slope(tau: float, delta: float, t: float, L: float) -> float:
+    """α(τ) = μ(τ)√(Δ/L − τ²t²/(12L²)) on the symmetric branch of the turned strip."""
+    return turned_strip_slope_factor(tau) * math.sqrt(delta / L - (tau * t / L) ** 2 / 12)
+
+
+def turned_strip_fold_tau(delta: float, t: float, L: float = 1.0) -> float:
+    """The compression τ at the fold of :func:`clamped_strip_thresholds`: α(τ) largest.
+
+    Args:
+        delta: the end shortening Δ.
+        t: the thickness.
+        L: the span.
+
+    Returns:
+        τ_f (9.2032 in the inextensible limit); a ValueError when Δ/L ≤ (4π)²t²/(12L²).
+    """
+    if delta / L <= 16 * math.pi**2 * t * t / (12 * L * L):
+        raise ValueError(
+            f"the shortening Δ = {delta:g} is too small for t = {t:g}: Δ/L > (4π)²t²/(12L²)"
+        )
+    return _argmax(
+        lambda tau: _inverted_slope(tau, delta, t, L), TAU_ANTISYMMETRIC - 0.5, 4 * math.pi - 0.5
+    )
 
 
 def clamped_strip_natural_rise(alpha: float, delta: float, t: float, L: float = 1.0) -> float:

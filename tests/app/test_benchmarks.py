@@ -302,11 +302,11 @@ def test_hyperbolic_waves_page_is_generated(tmp_path):
 
 
 def test_path_following_benchmark_smoke(tmp_path):
-    """The coarsest level of each study: the record and the three tables of a page."""
+    """The coarsest level of each study and the elastica: the record and the page's tables."""
     out, page = tmp_path / "path_following.json", tmp_path / "path_following.md"
     page.write_text(
         "".join(f"<!-- path_following_{k}:begin -->\nSTALE\n<!-- path_following_{k}:end -->\n"
-                for k in ("euler", "slope", "arch", "turned", "switched", "natural"))
+                for k in ("euler", "slope", "arch", "turned", "switched", "natural", "elastica"))
     )  # fmt: skip
     args = ["--euler", "4", "--slope", "4", "--arch", "8", "--turned", "16"]
     args += ["--json", str(out), "--page", str(page)]
@@ -346,6 +346,8 @@ def test_path_following_benchmark_smoke(tmp_path):
         assert "| 16 × 1 | 342 | 0.819" in text
         assert "| 0.824600 | +3.380% |  | 0 → 1 → 2 |" in text
         assert "| 16 × 1 | 4.39" in text and "| +0.799% |  | 4.8e-04 |" in text
+        # the elastica at the problem file's Δ, t: its angles 0.11 % above the shallow ones
+        assert "| 0.01 | 0.005 | 1.98310 | 1.98521 | +0.106% | 2.01170 |" in text
 
 
 def test_path_following_page_is_generated(tmp_path):

@@ -31,6 +31,7 @@ from dgplate.errors import SolverError
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk.model import build_fvk
 from dgplate.models.fvk.spec import FvKSpec, PathSpec
+from dgplate.reference.elastica import clamped_elastica
 from dgplate.reference.fvk import (
     TAU_ANTISYMMETRIC,
     clamped_strip_natural_rise,
@@ -38,6 +39,7 @@ from dgplate.reference.fvk import (
     held_square_plate_postbuckling,
     turned_strip_slope_factor,
 )
+from dgplate.reference.turned_elastica import _HalfRod, turned_strip_elastica_thresholds
 from dgplate.solvers.continuation import BranchPath
 from dgplate.solvers.snes import NewtonSolver
 from dgplate.solvers.special_points import NEAR_ROOT, SpecialPoints
@@ -376,6 +378,29 @@ def test_turned_strip_slope_factor_and_thresholds():
     assert thin == pytest.approx([2.0, 2.011905], abs=1e-6)
     with pytest.raises(ValueError, match="too small"):
         clamped_strip_thresholds(1e-4, 0.01)
+
+
+def test_turned_elastica_tends_to_the_shallow_thresholds_at_first_order_in_the_shortening():
+    """The elastica's thresholds differ from the shallow closed forms by O(Δ/L).
+
+    At t²/(12Δ) = the problem file's, Δ = 10⁻⁴ and 10⁻³: the relative differences about 10⁻⁵
+    and ten times that; and the unturned inverted state is the clamped elastica's Euler mode.
+    """
+    differences = []
+    for delta in (1e-4, 1e-3):
+        t = 0.005 * math.sqrt(delta / 0.01)
+        elastica = turned_strip_elastica_thresholds(delta, t, steps=100)
+        shallow = clamped_strip_thresholds(delta, t)
+        differences.append([elastica[k] / s - 1 for k, s in zip(("bifurcation", "fold"), shallow)])
+        assert elastica["tau_bifurcation"] == pytest.approx(TAU_ANTISYMMETRIC, rel=10 * delta)
+    assert 0 < differences[0][0] < 2e-5 and 0 < differences[0][1] < 2e-5
+    for small, large in zip(*differences, strict=True):
+        assert large / small == pytest.approx(10, rel=0.05)
+    # α = 0, Δ = 0.1: the inverted state at P = λ² of the clamped elastica has θ(0) = 0
+    shape = clamped_elastica(1.0, 0.1)
+    height = -shape["height"]  # buckled down
+    state = _HalfRod(0.1, 0.0, 200).inverted(shape["lambda"] ** 2, (0.01, 2 * math.pi**2 * height))
+    assert abs(state[0]) < 1e-8
 
 
 def test_turned_strip_bifurcates_then_folds_at_the_closed_forms():
