@@ -2,14 +2,16 @@
 
 The special points of :mod:`dgplate.solvers.arclength`: a fold where the tangent's λ-component
 changes sign, a simple bifurcation where the stability index changes and it does not, both
-located by the secant method on the step from the earlier point; the switch leaves a
-bifurcation along the critical eigenvector.
+located by the secant method on the step from the earlier point and interpolated between the
+nearest corrected points on the two sides of the root; the switch leaves a bifurcation along
+the critical eigenvector.
 """
 
 from __future__ import annotations
 
 import math
-from typing import cast
+from collections.abc import Callable
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 from petsc4py import PETSc
@@ -19,18 +21,97 @@ from dgplate.errors import SolverError
 from dgplate.solvers import eigen
 from dgplate.solvers.arclength import ArcLength, Point, StepLength, petsc_failure, secant_root
 
+if TYPE_CHECKING:
+    from dolfinx.fem import Function
+
 #: Hessian eigenvalues within ROUNDOFF · ε · ‖K‖_∞ of 0 count as zero (round-off): the
 #: constant of a backward error of size O(ε‖K‖). Small enough to keep the sign of every
 #: eigenvalue the secant needs on the plates of benchmarks/path_following.py (≥ 45 ε‖K‖_∞).
 ROUNDOFF = 10.0
-#: A special point is located when its corrector fails closer to it than this: a point
-#: corrected before, whose |τ| or eigenvalue is below NEAR_ROOT times its values at the ends
-#: of the step, is taken as the special point.
+#: A special point is located when its corrector fails closer to it than this: when a point
+#: corrected before has its |τ| or eigenvalue below NEAR_ROOT times its values at the ends of
+#: the step, the bracket found stands for the special point.
 NEAR_ROOT = 2e-3
 
 
 class CorrectorFailed(SolverError):
     """The corrector did not converge at a step tried while locating a special point."""
+
+
+def _balance(bracket: _Bracket, corrected: Callable[[float], float], ds: float) -> None:
+    """Correct a point across the root from the bracket's nearer side, as near it, if one fails.
+
+    The secant may close in on the root from one side while its other end stays far; the
+    interpolation is then only as good as the far end. A point as far beyond the root as the
+    nearer side is (twice, four times as far while the corrector fails there) evens it.
+    """
+    for factor in (1.0, 2.0, 4.0):
+        lopsided = bracket.lopsided()
+        if lopsided is None:
+            return
+        root, near, far_step = lopsided
+        try:
+            corrected(root + math.copysign(factor * max(near, 1e-9 * ds), far_step - root))
+        except CorrectorFailed:
+            continue
+
+
+class _Bracket:
+    """The corrected points nearest a root on each side of it: step, value, state and λ."""
+
+    def __init__(self) -> None:
+        self.sides: dict[bool, tuple[float, float, PETSc.Vec, float]] = {}
+
+    def record(self, s: float, value: float, x: PETSc.Vec, lam: float) -> None:
+        """Keep (s, value, a copy of x, λ) as the nearest point on the side of value's sign.
+
+        The secant's iterates lie inside the bracket, so each is nearer the root than the
+        earlier ones of its sign.
+        """
+        side = value > 0
+        if side in self.sides:
+            x.copy(self.sides[side][2])
+            self.sides[side] = (s, value, self.sides[side][2], lam)
+        else:
+            self.sides[side] = (s, value, x.copy(), lam)
+
+    def root(self) -> tuple[float, float]:
+        """The step at the interpolated root and the weight θ of the positive side there."""
+        (s0, f0, _, _), (s1, f1, _, _) = self.sides[False], self.sides[True]
+        theta = f0 / (f0 - f1)  # f0 ≤ 0 < f1
+        return s0 + theta * (s1 - s0), theta
+
+    def lopsided(self) -> tuple[float, float, float] | None:
+        """The root, its distance to the nearer side and the farther side's step.
+
+        Returns:
+            Those three when the farther side is more than twice as far as the nearer, else None.
+        """
+        root = self.root()[0]
+        (near, _), (far, far_step) = sorted(
+            (abs(side[0] - root), side[0]) for side in self.sides.values()
+        )
+        return (root, near, far_step) if far > 2 * near else None
+
+    def interpolate(self, state: Function[np.float64]) -> float:
+        """Set ``state`` to the linear interpolant at the root between the two sides.
+
+        Returns:
+            λ there.
+        """
+        (_, _, x0, lam0), (_, _, x1, lam1) = self.sides[False], self.sides[True]
+        theta = self.root()[1]
+        vec = state.x.petsc_vec
+        x0.copy(vec)
+        vec.axpy(theta, x1)
+        vec.axpy(-theta, x0)
+        state.x.scatter_forward()
+        return lam0 + theta * (lam1 - lam0)
+
+    def destroy(self) -> None:
+        """Free the copies."""
+        for side in self.sides.values():
+            side[2].destroy()
 
 
 class SpecialPoints:
@@ -75,7 +156,8 @@ class SpecialPoints:
             The located point, the state at it; a SolverError when a corrector fails.
         """
         direction = (base.t, base.tau)
-        best = [math.inf, 0.0]  # the smallest |f| corrected so far, and its step
+        best = [math.inf]  # the smallest |f| corrected so far
+        bracket = _Bracket()
 
         def corrected(s: float) -> float:
             result = self.engine.correct(base, s, direction)
@@ -85,23 +167,32 @@ class SpecialPoints:
                 value = self.engine.tangent(result[0], direction)[1]
             else:
                 value = self._crossing_eigenvalue(max(base.index, new.index))
-            if abs(value) < best[0]:
-                best[:] = [abs(value), s]
+            bracket.record(s, value, self.engine.state.x.petsc_vec, result[0])
+            best[0] = min(best[0], abs(value))
             return value
 
-        if kind == "fold":
-            ends = base.tau, new.tau
-        else:
-            ends = corrected(0.0), corrected(ds)
         try:
-            secant_root(corrected, 0.0, ends[0], ds, ends[1], xtol=1e-6 * ds)
-        except CorrectorFailed:
-            # at a simple bifurcation the bordered Jacobian is singular as well, so correctors
-            # very near it can fail: a point already found close to it stands for it
-            near = best[0] <= NEAR_ROOT * min(abs(ends[0]), abs(ends[1]))
-            if kind != "bifurcation" or not near:
-                raise
-            corrected(best[1])
+            if kind == "fold":
+                bracket.record(0.0, base.tau, base.x, base.lam)
+                bracket.record(ds, new.tau, new.x, new.lam)
+                ends = base.tau, new.tau
+            else:
+                ends = corrected(0.0), corrected(ds)
+            try:
+                secant_root(corrected, 0.0, ends[0], ds, ends[1], xtol=1e-6 * ds)
+            except CorrectorFailed:
+                # the Hessian is singular at a fold and at a simple bifurcation, and the bordered
+                # Jacobian at a bifurcation as well, so correctors very near the root can fail:
+                # the bracket already found close to it stands for it
+                if best[0] > NEAR_ROOT * min(abs(ends[0]), abs(ends[1])):
+                    raise
+                _balance(bracket, corrected, ds)
+            # the root by linear interpolation between the nearest corrected points on its two
+            # sides: within O(h²) of it for a bracket h wide, where the last secant iterate (or
+            # the nearest point) is within O(h)
+            self.engine.load.set(bracket.interpolate(self.engine.state))
+        finally:
+            bracket.destroy()
         special = self.engine.point(self.engine.load.value, direction, 0)
         # the Hessian is singular there: its zero eigenvalue is not negative, and the inertia
         # of the factorisation would count it either way
