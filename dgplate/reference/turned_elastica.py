@@ -39,6 +39,7 @@ import numpy.typing as npt
 
 from dgplate.reference.fvk import (
     TAU_ANTISYMMETRIC,
+    clamped_strip_thresholds,
     turned_strip_fold_tau,
     turned_strip_slope_factor,
 )
@@ -112,12 +113,18 @@ class _HalfRod:
         """The inverted state at the force P: (α, m(0), P, 0), by Newton from ``guess``."""
         base = np.array([guess[0], guess[1], P, 0.0])
         target = np.array([0.0, 0.5 * (1 - self.shortening)])
+        previous = math.inf
         for _ in range(50):
             end, J = self.jacobian(base, (0, 1))
-            residual = end[[0, 2]] - target
-            if np.max(np.abs(residual)) < 1e-13 * _angle_scale(base):
+            update = np.linalg.solve(J[[0, 2]], end[[0, 2]] - target)
+            base[:2] -= update
+            scale = _angle_scale(base)
+            size = max(abs(update[0]) / scale, abs(update[1]) / (scale * math.sqrt(P)))
+            # the update, not the residual (x(½) ≈ ½ holds to round-off only): small, or no
+            # longer falling fourfold once small (round-off, the smaller Δ the larger)
+            if size <= 1e-13 or (size <= 1e-9 and size > previous / 4):
                 return base
-            base[:2] -= np.linalg.solve(J[[0, 2]], residual)
+            previous = size
         raise ArithmeticError(f"the inverted state at P = {P:g} did not converge")
 
     def inverted_at(self, tau: float) -> Array:
@@ -179,7 +186,8 @@ def turned_strip_elastica_thresholds(
     """
     if not 0 < delta / L < 0.5:
         raise ValueError(f"the end shortening must lie in (0, L/2), got Δ/L = {delta / L:g}")
-    shallow_fold = turned_strip_fold_tau(delta, t, L)  # a ValueError for too thick a strip
+    clamped_strip_thresholds(delta, t, L)  # a ValueError for too thick a strip, or too short Δ
+    shallow_fold = turned_strip_fold_tau(delta, t, L)
     rod = _HalfRod(delta / L, t * t / (12 * L * L), steps)
     tau_b = _secant(
         lambda tau: rod.bifurcation_measure(rod.inverted_at(tau)),

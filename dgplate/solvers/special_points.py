@@ -49,9 +49,12 @@ def _balance(bracket: _Bracket, corrected: Callable[[float], float], ds: float) 
         lopsided = bracket.lopsided()
         if lopsided is None:
             return
-        root, near, far_step = lopsided
+        root, near, far, far_step = lopsided
+        distance = factor * max(near, 1e-9 * ds)
+        if distance >= far:  # it would widen the bracket
+            return
         try:
-            corrected(root + math.copysign(factor * max(near, 1e-9 * ds), far_step - root))
+            corrected(root + math.copysign(distance, far_step - root))
         except CorrectorFailed:
             continue
 
@@ -81,27 +84,43 @@ class _Bracket:
         theta = f0 / (f0 - f1)  # f0 ≤ 0 < f1
         return s0 + theta * (s1 - s0), theta
 
-    def lopsided(self) -> tuple[float, float, float] | None:
-        """The root, its distance to the nearer side and the farther side's step.
+    def exact(self) -> tuple[float, float, PETSc.Vec, float] | None:
+        """A recorded point whose value is exactly 0 (an eigenvalue within round-off), if any."""
+        return next((side for side in self.sides.values() if side[1] == 0.0), None)
+
+    def lopsided(self) -> tuple[float, float, float, float] | None:
+        """The root, its distances to the nearer and the farther side, and that side's step.
 
         Returns:
-            Those three when the farther side is more than twice as far as the nearer, else None.
+            Those four when the farther side is more than twice as far as the nearer, else None
+            (also with no bracket, or a root found exactly).
         """
+        if len(self.sides) < 2 or self.exact() is not None:
+            return None
         root = self.root()[0]
         (near, _), (far, far_step) = sorted(
             (abs(side[0] - root), side[0]) for side in self.sides.values()
         )
-        return (root, near, far_step) if far > 2 * near else None
+        return (root, near, far, far_step) if far > 2 * near else None
 
     def interpolate(self, state: Function[np.float64]) -> float:
         """Set ``state`` to the linear interpolant at the root between the two sides.
 
+        A point whose value is exactly 0 is the root itself.
+
         Returns:
-            λ there.
+            λ there; a SolverError when one side has no point.
         """
+        vec = state.x.petsc_vec
+        exact = self.exact()
+        if exact is not None:
+            exact[2].copy(vec)
+            state.x.scatter_forward()
+            return exact[3]
+        if len(self.sides) < 2:
+            raise SolverError("the special point's root has no corrected point on one side")
         (_, _, x0, lam0), (_, _, x1, lam1) = self.sides[False], self.sides[True]
         theta = self.root()[1]
-        vec = state.x.petsc_vec
         x0.copy(vec)
         vec.axpy(theta, x1)
         vec.axpy(-theta, x0)

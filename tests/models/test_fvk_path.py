@@ -540,19 +540,32 @@ def test_a_bifurcation_is_interpolated_between_its_bracket_when_correctors_fail_
         def point(self, lam, direction, iterations):
             return types.SimpleNamespace(lam=lam, x=self.state.x.petsc_vec.getValue(0), index=None)
 
+        def tangent(self, lam, direction):
+            return None, (0.3 - self.s) * (1 + 2 * self.s)  # τ: a fold at s = 0.3
+
     def eigenvalue(self, k):
         return (0.3 - self.engine.s) * (1 + 2 * self.engine.s)  # the root at s = 0.3
 
-    base = types.SimpleNamespace(t=None, tau=1.0, index=0)
-    new = types.SimpleNamespace(t=None, tau=1.0, index=1)
+    def vector(value):
+        return PETSc.Vec().createWithArray([value], comm=MPI.COMM_SELF)
+
+    base = types.SimpleNamespace(t=None, tau=0.3, index=0, lam=0.0, x=vector(0.0))
+    new = types.SimpleNamespace(t=None, tau=-2.1, index=1, lam=1.0, x=vector(2.0))
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(SpecialPoints, "_crossing_eigenvalue", eigenvalue)
-        engine = Engine(1e-6)
-        near = SpecialPoints(engine, None).locate("bifurcation", base, new, 1.0)
-        assert near.lam != engine.s and near.index == 0  # not the last corrected point
-        assert abs(near.lam - 0.3) < 1e-8 and near.x == pytest.approx(2 * near.lam, rel=1e-14)
-        with pytest.raises(SolverError, match="locating a bifurcation"):
-            SpecialPoints(Engine(0.2), None).locate("bifurcation", base, new, 1.0)
+        for kind in ("bifurcation", "fold"):
+            engine = Engine(1e-6)
+            near = SpecialPoints(engine, None).locate(kind, base, new, 1.0)
+            assert near.lam != engine.s and near.index == 0  # not the last corrected point
+            assert abs(near.lam - 0.3) < 1e-8 and near.x == pytest.approx(2 * near.lam, rel=1e-14)
+            with pytest.raises(SolverError, match=f"locating a {kind}"):
+                SpecialPoints(Engine(0.2), None).locate(kind, base, new, 1.0)
+        # an eigenvalue within round-off of 0 (exactly 0) at the step's end: the root is there
+        patch.setattr(
+            SpecialPoints, "_crossing_eigenvalue", lambda self, k: min(self.engine.s - 1, 0.0)
+        )
+        at_end = SpecialPoints(Engine(0.0), None).locate("bifurcation", new, base, 1.0)
+        assert at_end.lam == 1.0 and at_end.x == 2.0
 
 
 @pytest.mark.mpi
