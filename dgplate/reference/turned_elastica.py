@@ -189,23 +189,16 @@ def turned_strip_elastica_thresholds(
     clamped_strip_thresholds(delta, t, L)  # a ValueError for too thick a strip, or too short Δ
     shallow_fold = turned_strip_fold_tau(delta, t, L)
     rod = _HalfRod(delta / L, t * t / (12 * L * L), steps)
-    tau_b = _secant(
-        lambda tau: rod.bifurcation_measure(rod.inverted_at(tau)),
-        TAU_ANTISYMMETRIC,
-        TAU_ANTISYMMETRIC * 1.001,
-        "bifurcation",
-    )
-    alpha_b = float(rod.inverted_at(tau_b)[0])
-    tau_f = _secant(
-        lambda tau: rod.fold_measure(rod.inverted_at(tau)),
-        shallow_fold,
-        shallow_fold * 1.001,
-        "fold",
-    )
-    alpha_f = float(rod.inverted_at(tau_f)[0])
-    return {
-        "bifurcation": alpha_b,
-        "fold": alpha_f,
-        "tau_bifurcation": tau_b,
-        "tau_fold": tau_f,
-    }
+
+    def root(measure: Callable[[Array], float], start: float, name: str) -> float:
+        return _secant(lambda x: measure(rod.inverted_at(x)), start, start * 1.001, name)
+
+    thresholds: dict[str, float] = {}
+    for name, measure, start in (
+        ("bifurcation", rod.bifurcation_measure, TAU_ANTISYMMETRIC),
+        ("fold", rod.fold_measure, shallow_fold),
+    ):
+        tau = root(measure, start, name)
+        thresholds[name] = float(rod.inverted_at(tau)[0])
+        thresholds[f"tau_{name}"] = tau
+    return thresholds
