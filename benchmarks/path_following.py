@@ -1,6 +1,7 @@
 """Path following of FvK plates (docs/path_following.md): bifurcations, folds, post-buckling.
 
-Four studies over mesh levels, each against a closed form:
+Four studies over mesh levels, each against a closed form, and one of the turned strip's
+thresholds beyond the shallow model:
 
 - **Euler**: the perfect simply supported square plate of demos/fvk_buckling.py (t = 0.01,
   ν = 0.3, one unloaded edge held straight, the other free) shortened by λΔ_cr, n × n Q2 cells,
@@ -24,11 +25,15 @@ Four studies over mesh levels, each against a closed form:
   closed-form parabola of :func:`dgplate.reference.fvk.clamped_strip_antisymmetric_energy`;
   and the natural state, where the inverted one snaps to, its w_c against
   :func:`dgplate.reference.fvk.clamped_strip_natural_rise`.
+- **Elastica** (no mesh): the turned strip's bifurcation and fold as an extensible elastica at
+  finite Δ (:func:`dgplate.reference.turned_elastica.turned_strip_elastica_thresholds`) beside
+  the shallow closed forms, for the Δ and t of ``ELASTICA_CASES``: the shallow model's O(Δ)
+  error.
 
 Orders are log₂ of the ratio of successive errors (the cells halve). Wall times are per run.
 
     python benchmarks/path_following.py [--json …] [--page docs/path_following.md]
-    python benchmarks/path_following.py --studies arch turned   # these, the others kept
+    python benchmarks/path_following.py --studies arch elastica   # these, the others kept
     python benchmarks/path_following.py --table-only [--json …] [--page …]
 
 The tables between ``<!-- path_following_<study>:begin -->`` and ``…:end -->`` of the page are
@@ -600,7 +605,7 @@ def arch_table(record: dict[str, Any]) -> str:
         (
             "Exact: the folds at λ = ±1, w_c = ±a*; path: the largest |λ − λ(w_c)| over the "
             "path's points, λ(a) the exact equilibrium curve; order: log₂ of successive error "
-            f"ratios; indices: along the path ({record['arch_ranks']} rank(s), "
+            f"ratios; indices: along the path ({record.get('arch_ranks', record['ranks'])} rank(s), "
             "`benchmarks/path_following.py`, `benchmarks/results/path_following.json`)."
         ),
         (

@@ -58,14 +58,16 @@ MESH_FILE_HASH = "mesh_file_sha256"
 def identity(data: Mapping[str, Any]) -> dict[str, Any]:
     """The part of a problem's validated input that decides its states step by step.
 
-    Everything but [output] and the step budget keys: a resumed run may change where and how
-    often it writes, or extend its budget, nothing else.
+    Everything but [output] and the step budget keys (``flow.max_steps``, ``path.steps``): a
+    resumed run may change where and how often it writes, or extend its budget, nothing else.
     """
     relevant = {k: v for k, v in data.items() if k != "output"}
     flow = dict(relevant.get("flow", {}))
     for key in ("max_steps", "checkpoint_every"):
         flow.pop(key, None)
     relevant["flow"] = flow
+    if isinstance(relevant.get("path"), Mapping):
+        relevant["path"] = {k: v for k, v in relevant["path"].items() if k != "steps"}
     return relevant
 
 
@@ -220,7 +222,7 @@ def load(
         which = f": {'; '.join(changed[:3])}" if changed else ""
         raise InputError(
             f"{purpose}: the checkpoint in {directory} belongs to another problem{which} "
-            "(only [output], flow.max_steps and flow.checkpoint_every may change)"
+            "(only [output], flow.max_steps, flow.checkpoint_every and path.steps may change)"
         )
     return data
 
@@ -228,12 +230,16 @@ def load(
 def _same_problem(state: Mapping[str, Any], expected: Mapping[str, Any]) -> bool:
     """Whether the checkpoint's fingerprint is that of ``expected``.
 
-    A checkpoint of an older dgplate (no ``input`` in its state) hashed no mesh file: it is
-    compared without the file's hash, so that it still resumes.
+    The input a checkpoint holds is fingerprinted again, so that a key :func:`identity` has
+    come to leave out (``path.steps``) does not refuse it. A checkpoint of an older dgplate
+    (no ``input`` in its state) hashed no mesh file: it is compared without the file's hash,
+    so that it still resumes.
     """
     found = state.get("fingerprint")
     if found == fingerprint(expected):
         return True
+    if isinstance(state.get("input"), Mapping):
+        return fingerprint(state["input"]) == fingerprint(expected)
     older = {k: v for k, v in identity(expected).items() if k != MESH_FILE_HASH}
     return "input" not in state and found == fingerprint(older)
 

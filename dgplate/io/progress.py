@@ -29,9 +29,11 @@ class ProgressPrinter:
 
     ``every``: ``"auto"`` prints the first step's line, then one when at least
     :data:`AUTO_SECONDS` and :data:`AUTO_STEPS` steps have passed since the last, and the last
-    step's line; an integer n ≥ 1 every n-th step's line; 0 none. The final line (converged
-    or not, after how many steps) is always printed. Only rank 0 prints, so only rank 0
-    decides, from its own clock: no collective, nothing for the ranks to agree on.
+    step's line; an integer n ≥ 1 every n-th step's line; 0 none. A record that is
+    ``notable`` (a path's fold or bifurcation) is printed whenever ``every`` is not 0. The
+    final line (converged or not, after how many steps) is always printed. Only rank 0
+    prints, so only rank 0 decides, from its own clock: no collective, nothing for the ranks
+    to agree on.
 
     The time left: a driver with a path of known length (a continuation in α, a heating
     schedule, load steps) has ``path_progress() -> (fraction done, name of the end)``; the
@@ -66,7 +68,8 @@ class ProgressPrinter:
             return
         now = self.clock()
         left = self._path_left(driver, now) or self._decay_left(driver, record, now)
-        if self._due(record.step, now):
+        notable = self.every != 0 and getattr(record, "notable", False)
+        if notable or self._due(record.step, now):
             self._print(f"{record.line()}  ({duration(now - self.start)}{left})")
             self._last = (record.step, now)
 

@@ -272,13 +272,29 @@ def details(summary: dict[str, Any]) -> str:
     lines = [head, f"  {ending}" + (f": {reason}" if reason else "")]
     skip = {"folder", "status", "reason", "problem", "model", "cells", "dofs", "ranks", "steps"}
     skip |= {"input", "converged", "interrupted", "wall_time_s", "stale", "summary_steps"}
-    scalars = {
-        key: value
-        for key, value in summary.items()
-        if key not in skip and (value is None or isinstance(value, str | int | float))
-    }
-    width = max((len(key) for key in scalars), default=0)
-    for key, value in scalars.items():
-        shown = f"{value:.10g}" if isinstance(value, float) else str(value)
-        lines.append(f"  {key.ljust(width)}  {shown}")
+    shown = {key: _figure(value) for key, value in summary.items() if key not in skip}
+    figures = {key: text for key, text in shown.items() if text is not None}
+    width = max((len(key) for key in figures), default=0)
+    lines += [f"  {key.ljust(width)}  {text}" for key, text in figures.items()]
     return "\n".join(lines)
+
+
+#: Lists of numbers up to this long are shown whole by :func:`details` (a path's folds,
+#: bifurcations); longer ones (every point's load factor) are left to the files.
+SHORT_LIST = 8
+
+
+def _figure(value: Any) -> str | None:
+    """A summary value as :func:`details` shows it: a number, a word, a short list of numbers.
+
+    Returns:
+        The text, or None for what is not shown (tables, long lists).
+    """
+    if isinstance(value, float):
+        return f"{value:.10g}"
+    if value is None or isinstance(value, str | int):
+        return str(value)
+    numbers = isinstance(value, list) and all(isinstance(v, int | float) for v in value)
+    if numbers and len(value) <= SHORT_LIST:
+        return "[" + ", ".join(f"{v:.10g}" for v in value) + "]"
+    return None

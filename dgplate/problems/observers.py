@@ -182,8 +182,18 @@ class Checkpoints:
     def finish(self, driver: Driver, result: Any) -> None:
         """Nothing: the runner saves the final checkpoint once the outcome is known."""
 
-    def save(self, driver: Driver, finished: bool = False, reason: str = "") -> None:
-        """Write the checkpoint now (collective); ``finished``: the run converged (``reason``)."""
+    def save(
+        self, driver: Driver, finished: bool = False, reason: str = "", extendable: bool = False
+    ) -> None:
+        """Write the checkpoint now (collective).
+
+        Args:
+            driver: the run's driver.
+            finished: the run converged.
+            reason: why the run ended, in words.
+            extendable: it ended only because its budget was spent (:meth:`Driver.extendable`):
+                a resume with a larger budget goes on.
+        """
         state = {
             "fingerprint": self.fingerprint,
             "input": self.problem,
@@ -191,6 +201,7 @@ class Checkpoints:
             "driver": driver.checkpoint_state(),
             "history": self.history,
             "finished": finished,
+            "extendable": extendable,
             "reason": reason,
             "wall_time_s": self.wall_time(),
             "label": self.label,

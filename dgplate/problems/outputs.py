@@ -41,7 +41,7 @@ def write_outputs(
     checkpoints = observers.checkpoints
     if observers.frames is not None:
         observers.frames.gif(out.path / f"{problem.name}.gif")
-    checkpoints.save(driver, finished=result.converged, reason=result.reason)
+    checkpoints.save(driver, result.converged, result.reason, driver.extendable())
     summary = report.summary(
         problem, tagged, prepared.model, driver, result, len(checkpoints.history)
     )

@@ -132,15 +132,18 @@ def _resume_point(problem: Problem, target: Path, comm: MPI.Comm) -> checkpoint.
     """The checkpoint to continue from; refuses another problem's or a finished run's.
 
     A run that converged but was stopped before its outputs were in place (no summary.json
-    yet) is resumed: it takes no step and writes its outputs.
+    yet) is resumed: it takes no step and writes its outputs. A path that ended only because
+    its points were spent (``extendable``) goes on, if its budget was raised (:func:`restore`).
     """
     found = checkpoint.load(target / CHECKPOINT, comm, problem.identity())
     written = comm.bcast(summary_is_current(target) if comm.rank == 0 else None)
     if found.state.get("finished") and written:
-        raise InputError(
-            f"--resume: the run in {target} converged at step {found.state['step']}; "
-            "nothing to resume"
-        )
+        if not found.state.get("extendable"):
+            raise InputError(
+                f"--resume: the run in {target} converged at step {found.state['step']}; "
+                "nothing to resume"
+            )
+        found.state["finished"] = False  # it goes on from its last point
     return found
 
 
@@ -148,7 +151,7 @@ def restore(driver: Driver, prepared: Prepared) -> None:
     """Put ``driver`` back at the checkpoint's state (nothing for a new run; collective).
 
     A resumed run whose step budget is spent (and which had not converged) is an
-    ``InputError`` naming ``flow.max_steps``.
+    ``InputError`` naming the budget's key (``flow.max_steps``, a path's ``path.steps``).
     """
     start = prepared.start
     if start is None:
@@ -159,5 +162,5 @@ def restore(driver: Driver, prepared: Prepared) -> None:
         driver.destroy()  # collective, and safe: every rank restored the same state
         raise InputError(
             f"--resume: the run in {prepared.target} spent its step budget already "
-            f"({driver.step_count} steps); raise flow.max_steps to continue it"
+            f"({driver.step_count} steps); raise {driver.budget_key} to continue it"
         )

@@ -338,7 +338,7 @@ def clamped_strip_thresholds(delta: float, t: float, L: float = 1.0) -> tuple[fl
 
 
 def _inverted_slope(tau: float, delta: float, t: float, L: float) -> float:
-    """α(τ) = μ(τ)√(Δ/L − τ²t²/(12L²)) on the symmetric branch of the turned strip."""
+    """α(τ) = μ(τ)√(Δ/L − τ²t²/(12L²)) on the symmetric branches of the turned strip."""
     return turned_strip_slope_factor(tau) * math.sqrt(delta / L - (tau * t / L) ** 2 / 12)
 
 
@@ -384,12 +384,14 @@ def clamped_strip_natural_rise(alpha: float, delta: float, t: float, L: float = 
     shortening, stretch = delta / L, t * t / (12 * L * L)
 
     def slope(tau: float) -> float:
-        return turned_strip_slope_factor(tau) * math.sqrt(shortening - tau * tau * stretch) - alpha
+        return _inverted_slope(tau, delta, t, L) - alpha
 
     # τ above 10⁻³ keeps 1 − sin τ/τ ≈ τ²/6 clear of round-off; τ² stretch stays below the
-    # shortening (the strip is compressed), and τ below 2π
-    low, high = 1e-3, min(2 * math.pi, math.sqrt(shortening / stretch)) * (1 - 1e-12)
-    if not alpha > 0 or slope(low) <= 0:
+    # shortening (the strip is compressed; t = 0: inextensible), and τ below 2π
+    low = 1e-3
+    compressed = math.sqrt(shortening / stretch) if stretch > 0 else math.inf
+    high = min(2 * math.pi, compressed) * (1 - 1e-12)
+    if not alpha > 0 or high <= low or slope(low) <= 0:
         raise ValueError(f"no natural state at α = {alpha:g} for Δ = {delta:g}, t = {t:g}")
     tau = _bisect(slope, low, high)
     return alpha * L * math.tan(tau / 4) / tau

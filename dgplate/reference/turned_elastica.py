@@ -174,7 +174,8 @@ def turned_strip_elastica_thresholds(
     the fold of the inverted state, at the finite end shortening Δ.
 
     Args:
-        delta: the end shortening Δ, 0 < Δ/L ≲ 0.2 (from the shallow state's neighbourhood).
+        delta: the end shortening Δ, 0 < Δ/L < ½ (Newton starts from the shallow state, so
+            the larger Δ/L beyond about 0.2, the likelier it fails).
         t: the thickness (t = 0: inextensible).
         L: the length of the rod.
         steps: Runge–Kutta steps over the half rod (400: the angles to about 2·10⁻¹⁰; the
@@ -201,4 +202,11 @@ def turned_strip_elastica_thresholds(
         tau = root(measure, start, name)
         thresholds[name] = float(rod.inverted_at(tau)[0])
         thresholds[f"tau_{name}"] = tau
+    if not 0 < thresholds["bifurcation"] < thresholds["fold"]:
+        raise ArithmeticError(f"the turned elastica left its inverted state: {thresholds}")
+    if not thresholds["tau_bifurcation"] < thresholds["tau_fold"]:
+        raise ValueError(
+            f"t = {t:g} is too thick for Δ = {delta:g}: the inverted elastica folds "
+            f"(τ = {thresholds['tau_fold']:.4f}) before it meets the antisymmetric mode"
+        )
     return thresholds

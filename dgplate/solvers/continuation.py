@@ -68,6 +68,11 @@ class BranchPoint:
     kind: str  # :data:`dgplate.solvers.arclength.KINDS`
     seconds: float
 
+    @property
+    def notable(self) -> bool:
+        """Whether the progress output shows this point whenever it comes: a special point."""
+        return self.kind != "regular"
+
     def line(self) -> str:
         """One line of progress output."""
         probes = probe_text(self, BranchPoint)
@@ -94,6 +99,8 @@ class BranchPath(Driver):
         probes: numbers of the state added to every record.
         observers: told of every point and of the end of :meth:`run`.
     """
+
+    budget_key = "path.steps"
 
     def __init__(
         self,
@@ -256,7 +263,9 @@ class BranchPath(Driver):
             if self.current is not None:
                 self.engine.set_state(self.current)
         converged = not failure and not signum
-        reason = failure or (interrupt.reason(signum) if signum else self._end())
+        reason = failure or (
+            interrupt.reason(signum) if signum else self._end() + self._special_list()
+        )
         result = RunOutcome(converged, reason, len(records), records, interrupted=signum)
         for observer in self.observers:
             observer.finish(self, result)
@@ -282,10 +291,39 @@ class BranchPath(Driver):
             return False
         return abs(point.lam) <= self.settings.lambda_max
 
+    def _special_list(self) -> str:
+        """``"; bifurcation at 0.8199 (index 0 → 1), fold at 0.8246 (index 1 → 2)"``, or ``""``.
+
+        The special points of the whole path (a resumed one's too), with the stability indices
+        of the points before and after each (the path's last point has none after it).
+        """
+        named = []
+        for i, point in enumerate(self.history):
+            if point.kind in ("fold", "bifurcation"):
+                after = self.history[i + 1 : i + 2]
+                indices = f"index {self.history[i - 1].stability_index} → " + (
+                    str(after[0].stability_index) if after else "?"
+                )
+                named.append(f"{point.kind} at {point.load_factor:.6g} ({indices})")
+            elif point.kind.endswith("_unlocated"):
+                named.append(f"{point.kind.replace('_', ' ')} before {point.load_factor:.6g}")
+        return f"; {', '.join(named)}" if named else ""
+
     def _end(self) -> str:
         if self.current is not None and not self._inside(self.current):
             return f"the load factor left its range at {self.current.lam:g}"
+        if self.extendable():
+            assert self.current is not None
+            return (
+                f"path.steps = {self.settings.steps} points spent at load factor "
+                f"{self.current.lam:g}, within ±{self.settings.lambda_max:g} (--resume --set "
+                f"path.steps={2 * self.settings.steps} goes on)"
+            )
         return f"{self.step_count} points of the path"
+
+    def extendable(self) -> bool:
+        """Whether the path ended only because its points were spent, inside its range."""
+        return self.remaining_steps() <= 0 and self._inside(self.current)
 
     def _advance(self) -> list[BranchPoint]:
         """One arclength step, and the special point before it, if any: their records.

@@ -174,6 +174,17 @@ class Driver(Protocol):
         ...
 
     # -- optional capabilities, with their defaults --------------------------------------------
+    #: the problem-file key of the step budget, named when a resumed run has none left
+    budget_key: str = "flow.max_steps"
+
+    def extendable(self) -> bool:
+        """Whether the run ended only because its step budget was spent, though it could go on.
+
+        A path that ran out of points inside its range of load factors: its checkpoint can be
+        resumed with a larger budget (:attr:`budget_key`). Default: no.
+        """
+        return False
+
     def path_progress(self) -> tuple[float, str] | None:
         """The part of a path of known length done and the name of its end; None: no path.
 

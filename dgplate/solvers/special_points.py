@@ -32,6 +32,11 @@ ROUNDOFF = 10.0
 #: corrected before has its |τ| or eigenvalue below NEAR_ROOT times its values at the ends of
 #: the step, the bracket found stands for the special point.
 NEAR_ROOT = 2e-3
+#: The secant stops when its bracket is SECANT_WIDTH of the step wide (or after 12 values).
+SECANT_WIDTH = 1e-6
+#: A bracket still wider than this part of the step after the secant and the balancing point
+#: locates nothing: the interpolated root would be off by about the bracket's width squared.
+LOCATED_WIDTH = 1e-3
 
 
 class CorrectorFailed(SolverError):
@@ -43,7 +48,8 @@ def _balance(bracket: _Bracket, corrected: Callable[[float], float], ds: float) 
 
     The secant may close in on the root from one side while its other end stays far; the
     interpolation is then only as good as the far end. A point as far beyond the root as the
-    nearer side is (twice, four times as far while the corrector fails there) evens it.
+    nearer side is evens it; while the corrector fails there, or the bracket is still lopsided
+    about the root it gives, a point twice, then four times as far is tried.
     """
     for factor in (1.0, 2.0, 4.0):
         lopsided = bracket.lopsided()
@@ -83,6 +89,12 @@ class _Bracket:
         (s0, f0, _, _), (s1, f1, _, _) = self.sides[False], self.sides[True]
         theta = f0 / (f0 - f1)  # f0 ≤ 0 < f1
         return s0 + theta * (s1 - s0), theta
+
+    def width(self) -> float:
+        """The distance between the two sides (infinite while one has no point)."""
+        if len(self.sides) < 2:
+            return math.inf
+        return abs(self.sides[True][0] - self.sides[False][0])
 
     def exact(self) -> tuple[float, float, PETSc.Vec, float] | None:
         """A recorded point whose value is exactly 0 (an eigenvalue within round-off), if any."""
@@ -198,7 +210,7 @@ class SpecialPoints:
             else:
                 ends = corrected(0.0), corrected(ds)
             try:
-                secant_root(corrected, 0.0, ends[0], ds, ends[1], xtol=1e-6 * ds)
+                secant_root(corrected, 0.0, ends[0], ds, ends[1], xtol=SECANT_WIDTH * ds)
             except CorrectorFailed:
                 # the Hessian is singular at a fold and at a simple bifurcation, and the bordered
                 # Jacobian at a bifurcation as well, so correctors very near the root can fail:
@@ -206,6 +218,8 @@ class SpecialPoints:
                 if best[0] > NEAR_ROOT * min(abs(ends[0]), abs(ends[1])):
                     raise
                 _balance(bracket, corrected, ds)
+            else:
+                self._close_in(bracket, corrected, ds)
             # the root by linear interpolation between the nearest corrected points on its two
             # sides: within O(h²) of it for a bracket h wide, where the last secant iterate (or
             # the nearest point) is within O(h)
@@ -217,6 +231,22 @@ class SpecialPoints:
         # of the factorisation would count it either way
         special.index = min(base.index, new.index)
         return special
+
+    @staticmethod
+    def _close_in(bracket: _Bracket, corrected: Callable[[float], float], ds: float) -> None:
+        """After a secant that spent its values with its bracket still wide: even it, or fail.
+
+        Raises:
+            SolverError: the bracket is still wider than :data:`LOCATED_WIDTH` of the step.
+        """
+        if bracket.exact() is not None or bracket.width() <= 2 * SECANT_WIDTH * abs(ds):
+            return
+        _balance(bracket, corrected, ds)
+        if bracket.width() > LOCATED_WIDTH * abs(ds):
+            raise SolverError(
+                f"the secant left the special point's bracket {bracket.width():.2g} wide "
+                f"(the step: {ds:.3g})"
+            )
 
     def _crossing_eigenvalue(self, k: int) -> float:
         """The k-th lowest Hessian eigenvalue (free unknowns), for an index that changes k−1 ↔ k.
