@@ -44,6 +44,7 @@
 # cells (seconds); `--paper` 64 × 2, the finest mesh of docs/path_following.md.
 
 # %%
+import dataclasses
 from pathlib import Path
 
 from mpi4py import MPI
@@ -57,7 +58,9 @@ from dgplate.reference.fvk import sinusoidal_strip_folds, sinusoidal_strip_load
 PROBLEM = Path(__file__).parent / "problems" / "fvk_arch.toml"
 T = 0.01  # thickness and rise of the natural shape, as in the problem file
 
-parser = demo.parser("fvk_snap_through", "FvK: snap-through of a shallow arch", "64 × 2 cells")
+parser = demo.parser(
+    "fvk_snap_through", "FvK: snap-through of a shallow arch", "64 × 2 cells", "16 × 2 cells"
+)
 args = demo.parse(parser)
 cells = 64 if args.paper else 16
 
@@ -72,7 +75,8 @@ cells = 64 if args.paper else 16
 
 # %%
 overrides = {"mesh.cells": [cells, 2], "path.steps": 40}
-problem = dgplate.load_problem(PROBLEM, overrides)
+# named after the demo, so that its folder is not taken for the problem file's run
+problem = dataclasses.replace(dgplate.load_problem(PROBLEM, overrides), name="fvk_snap_through")
 
 
 def arch(x: np.ndarray) -> np.ndarray:

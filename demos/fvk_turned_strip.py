@@ -51,7 +51,12 @@ from dgplate.reference.turned_elastica import turned_strip_elastica_thresholds
 PROBLEM = Path(__file__).parent / "problems" / "fvk_turned_strip.toml"
 DELTA, T, ALPHA = 0.01, 0.005, 0.25  # as in the problem file
 
-parser = demo.parser("fvk_turned_strip", "FvK: a strip snapped by its clamps", "128 × 1 cells")
+parser = demo.parser(
+    "fvk_turned_strip",
+    "FvK: a strip turned by its clamps up to its snap",
+    "128 × 1 cells",
+    "32 × 1 cells",
+)
 args = demo.parse(parser)
 cells = 128 if args.paper else 32
 

@@ -107,7 +107,10 @@ __all__ = [
 
 
 def parser(
-    name: str, description: str | None = None, paper: str = "the published resolution"
+    name: str,
+    description: str | None = None,
+    paper: str = "the published resolution",
+    small: str | None = None,
 ) -> argparse.ArgumentParser:
     """The demos' common options; add a demo's own with ``add_argument`` and :func:`parse`.
 
@@ -115,6 +118,7 @@ def parser(
         name: The demo's name; the default output directory is ``out/<name>``.
         description: One line for ``--help``.
         paper: What ``--paper`` runs instead of the small default (its help text).
+        small: What runs without ``--paper`` (``--help`` names it when given).
 
     Returns:
         A parser with ``--paper``, ``--out``, ``--force``, ``--resume``, ``--figure`` and
@@ -122,7 +126,8 @@ def parser(
     """
     out = f"out/{name}"
     parser = argparse.ArgumentParser(prog=f"{name}.py", description=description)
-    parser.add_argument("--paper", action="store_true", help=f"{paper} (slower)")
+    default = f"; the default: {small}" if small else ""
+    parser.add_argument("--paper", action="store_true", help=f"{paper} (slower{default})")
     parser.add_argument("--out", default=out, help=f"output directory (default {out})")
     parser.add_argument(
         "--force",

@@ -254,7 +254,13 @@ def problem_from_dict(data: dict[str, Any], name: str, overrides: Overrides = ()
     known = [*SECTIONS, *(name for name, _ in driver_sections(type(model)))]
     for section in data:
         if section not in known:
-            raise InputError(f"unknown section [{section}] (known: {', '.join(known)})")
+            owners = [
+                repr(m)
+                for m, entry in MODELS.items()
+                if section in (s for s, _ in driver_sections(entry.spec))
+            ]
+            whose = f"; [{section}] is for model.name = {' or '.join(owners)}" if owners else ""
+            raise InputError(f"unknown section [{section}] (known: {', '.join(known)}){whose}")
     MODELS[model.name].reject_ignored(data, model.name)
     mesh = from_dict(MeshSpec, data.get("mesh"), "mesh")
     flow = from_dict(FlowSpec, MODELS[model.name].flow_table(data.get("flow")), "flow")

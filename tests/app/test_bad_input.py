@@ -154,6 +154,14 @@ BAD_INPUT = {
         "path.ds must lie in [path.ds_min, path.ds_max] = [1e-06, 0.5], got 2",
         FVK,
     ),
+    "path step bounds reversed": Case(
+        ("path.ds_min=1.0",), "path.ds_min = 1 exceeds path.ds_max = 0.5", FVK
+    ),
+    "path without fvk": Case(
+        ("path.ds=0.1",),
+        "unknown section [path] (known: mesh, model, flow, output, material); "
+        "[path] is for model.name = 'fvk'",
+    ),
     "path unknown method": Case(("path.method='crisfield'",), "path.method must be one of", FVK),
     "fvk unknown indenter": Case(
         ("model.indenter='tip'",), "error: model.indenter: unknown cell group 'tip'", FVK

@@ -150,6 +150,11 @@ class PathSpec:
 
     def __post_init__(self) -> None:
         """The step bounds are ordered: ds_min ≤ ds ≤ ds_max."""
+        if self.ds_min > self.ds_max:
+            raise InputError(
+                f"path.ds_min = {self.ds_min:g} exceeds path.ds_max = {self.ds_max:g}: the "
+                "least step must not be longer than the greatest"
+            )
         if not self.ds_min <= self.ds <= self.ds_max:
             raise InputError(
                 f"path.ds must lie in [path.ds_min, path.ds_max] = [{self.ds_min:g}, "
