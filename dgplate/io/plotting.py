@@ -11,6 +11,7 @@ Functions taking a DOLFINx function are collective; only rank 0 renders and writ
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -232,6 +233,7 @@ def plot_deformation(
     lines: Sequence[np.ndarray] | None = None,
     length_mm: float | None = None,
     metric: Expr | None = None,
+    exaggerate: bool = False,
     **options: Any,
 ) -> None:
     """Picture of the deformed plate, coloured or plain.
@@ -242,7 +244,9 @@ def plot_deformation(
 
     ``length_mm``: the length of a mesh unit in mm (a [material]'s); the colours are then in
     physical units, a curvature in 1/mm and K in 1/mm². ``metric``: the target metric G of a
-    prestrained plate (``model.metric``), the "defect" is then |∇yᵀ∇y − G|. ``options`` go to ``render_png``
+    prestrained plate (``model.metric``), the "defect" is then |∇yᵀ∇y − G|. ``exaggerate``:
+    a nearly flat shape is drawn with its heights multiplied by :func:`height_factor`, said in
+    the title (the colours stay those of the true shape). ``options`` go to ``render_png``
     (reference, window_size, cmap).
     """
     if color_by not in (None, *COLOR_LABELS):
@@ -267,7 +271,41 @@ def plot_deformation(
             scalars += " (1/mm)" if power == 1 else f" (1/mm^{power})"
         values = {scalars: densities[color_by](u) / (length_mm or 1.0) ** power}
     grid = surface_grid(u, cell_values=values)
+    if grid is not None and exaggerate:
+        factor = height_factor(grid.points)
+        if factor > 1:
+            grid.points[:, 2] *= factor
+            lines = [line * np.array([1.0, 1.0, factor]) for line in lines or []]
+            title += f"  (heights × {factor:g})"
     render_png(grid, path, scalars, title, camera, clim, show_edges, lines, **options)
+
+
+#: A shape lower than this part of its span is drawn with its heights exaggerated
+#: (:func:`height_factor`), to about :data:`DRAWN_HEIGHT` of the span.
+FLAT, DRAWN_HEIGHT = 0.05, 0.15
+
+
+def height_factor(points: Array) -> float:
+    """The factor by which a nearly flat shape's heights (x₃) are drawn: 1, or 2, 5, 10, 20 ….
+
+    A plate whose out-of-plane extent is below :data:`FLAT` of its in-plane span (an FvK arch
+    whose rise is a hundredth of its span) would look flat at true scale; its heights are
+    multiplied by the largest of 1, 2, 5 × 10ᵏ that keeps them within :data:`DRAWN_HEIGHT` of
+    the span.
+
+    Args:
+        points: the shape's points, (n, 3).
+
+    Returns:
+        The factor (1 for a shape that is not nearly flat, or exactly flat).
+    """
+    span = float(np.ptp(points[:, :2], axis=0).max(initial=0.0))
+    height = float(np.ptp(points[:, 2])) if len(points) else 0.0
+    if height <= 0 or span <= 0 or height >= FLAT * span:
+        return 1.0
+    wanted = DRAWN_HEIGHT * span / height
+    decade = 10.0 ** math.floor(math.log10(wanted))
+    return max(m * decade for m in (1.0, 2.0, 5.0) if m * decade <= wanted)
 
 
 def plot_curve(u: dolfinx.fem.Function[np.float64], path: str | Path, title: str = "") -> None:

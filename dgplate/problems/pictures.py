@@ -41,8 +41,12 @@ def frames(problem: Problem, model: Model) -> FrameWriter | None:
 def picture(
     problem: Problem, model: Model, driver: Driver, summary: dict[str, Any], path: Path
 ) -> None:
-    """final.png of the final shape (collective: the lines are gathered)."""
-    _draw(problem, model, driver, path, picture_title(problem.name, summary))
+    """final.png of the final shape (collective: the lines are gathered).
+
+    A nearly flat shape (an FvK plate's small deflection) has its heights exaggerated, as the
+    title says (:func:`dgplate.io.plotting.height_factor`); the frames keep the true scale.
+    """
+    _draw(problem, model, driver, path, picture_title(problem.name, summary), exaggerate=True)
 
 
 def picture_title(name: str, summary: dict[str, Any]) -> str:

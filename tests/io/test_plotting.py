@@ -21,6 +21,7 @@ from dgplate.io.montage import montage
 from dgplate.io.plotting import (
     COLOR_LABELS,
     REFERENCE,
+    height_factor,
     plot_deformation,
     render_png,
     surface_grid,
@@ -176,6 +177,30 @@ def test_plot_deformation_and_gif(comm, shared_dir):
         assert gif.format == "GIF" and gif.n_frames == 4 and gif.size == SMALL
     with pytest.raises(ValueError, match="color_by"):
         plot_deformation(y, shared_dir / "bad.png", color_by="energy")
+
+
+@pytest.mark.mpi
+def test_a_nearly_flat_shape_is_drawn_with_its_heights_exaggerated(comm, monkeypatch, tmp_path):
+    """An arch a two-hundredth of its span high: final.png multiplies its heights by 20 (to at
+    most 0.15 of the span) and says so; a rolled plate and the frames (no ``exaggerate``) keep
+    the true scale."""
+    import dgplate.io.plotting as plotting
+
+    assert height_factor(np.array([[0, 0, 0], [1, 0.1, 0.01], [0.5, 0, -0.002]])) == 10
+    assert height_factor(np.array([[0, 0, 0], [4, 0, 0.003]])) == 200  # 0.6 / 0.003
+    assert height_factor(np.array([[0, 0, 0], [1, 0, 0.3]])) == height_factor(np.zeros((2, 3))) == 1
+    drawn = []
+    monkeypatch.setattr(plotting, "render_png", lambda grid, path, scalars, title, *a, **k: drawn.append(
+        (title, np.ptp(grid.points[:, 2]) if grid is not None else None)))  # fmt: skip
+    y = rolled(comm, "quadrilateral")
+    flat = dolfinx.fem.Function(y.function_space)
+    flat.interpolate(lambda x: np.array([x[0], x[1], 0.01 * np.sin(np.pi * x[0] / 2)]))
+    for shape, exaggerate in ((flat, True), (flat, False), (y, True)):
+        plotting.plot_deformation(shape, tmp_path / "a.png", "t", exaggerate=exaggerate)
+    if comm.rank == 0:
+        (arch, high), (true, low), (plate, _) = drawn
+        assert arch == "t  (heights × 20)" and high == pytest.approx(20 * low, rel=1e-12)
+        assert true == plate == "t" and low == pytest.approx(0.01, rel=1e-3)
 
 
 @pytest.mark.parametrize(("color_by", "label", "factor"), [
