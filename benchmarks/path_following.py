@@ -468,7 +468,7 @@ def measure(comm: MPI.Comm, levels: dict[str, list[int]]) -> dict[str, Any]:
         "slope_mixed": [slope_level(comm, n, False) for n in levels["slope"]],
         **measure_arch(comm, levels["arch"]),
         **measure_turned(comm, levels["turned"]),
-        **measure_elastica(comm),
+        **measure_elastica(comm, levels["elastica"]),
     }
 
 
@@ -496,19 +496,21 @@ ELASTICA_CASES = [(1e-4, 0.0), (1e-3, 0.0), (1e-2, 0.0), (3e-2, 0.0), (1e-1, 0.0
 ELASTICA_STEPS = 200
 
 
-def measure_elastica(comm: MPI.Comm, levels: Sequence[int] = ()) -> dict[str, Any]:
+def measure_elastica(comm: MPI.Comm, levels: Sequence[int] = (ELASTICA_STEPS,)) -> dict[str, Any]:
     """The turned strip's thresholds as an elastica at finite Δ, against the shallow ones.
 
     Args:
         comm: the communicator (unused: a reference computation, the same on every rank).
-        levels: unused (no mesh).
+        levels: the Runge–Kutta steps on the half strip, one number (no mesh: the study's
+            "level" is its integration's).
 
     Returns:
         ``elastica``: per case Δ, t, the shallow angles (α_b, α_f) and the elastica's.
     """
+    (steps,) = levels
     rows = []
     for delta, t in [*ELASTICA_CASES, (TURNED_DELTA, TURNED_T)]:
-        elastica = turned_strip_elastica_thresholds(delta, t, steps=ELASTICA_STEPS)
+        elastica = turned_strip_elastica_thresholds(delta, t, steps=steps)
         shallow = clamped_strip_thresholds(delta, t)
         rows.append({"delta": delta, "thickness": t, "shallow": list(shallow), **elastica})
     return {"elastica": rows}
@@ -737,6 +739,7 @@ LEVELS = {
     "slope": [4, 8, 16, 32],
     "arch": [8, 16, 32, 64],
     "turned": [16, 32, 64, 128, 256],
+    "elastica": [ELASTICA_STEPS],
 }
 
 
@@ -750,7 +753,8 @@ def write_tables(record: dict[str, Any], page: Path) -> None:
 def main(argv: list[str]) -> dict[str, Any]:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     for name, default in LEVELS.items():
-        parser.add_argument(f"--{name}", type=int, nargs="+", default=default, help="cells")
+        what = "Runge–Kutta steps on the half strip" if name == "elastica" else "cells"
+        parser.add_argument(f"--{name}", type=int, nargs="+", default=default, help=what)
     parser.add_argument(
         "--studies", nargs="+", choices=list(STUDIES), help="run these only; keep the JSON's others"
     )

@@ -308,7 +308,7 @@ def test_path_following_benchmark_smoke(tmp_path):
         "".join(f"<!-- path_following_{k}:begin -->\nSTALE\n<!-- path_following_{k}:end -->\n"
                 for k in ("euler", "slope", "arch", "turned", "switched", "natural", "elastica"))
     )  # fmt: skip
-    args = ["--euler", "4", "--slope", "4", "--arch", "8", "--turned", "16"]
+    args = ["--euler", "4", "--slope", "4", "--arch", "8", "--turned", "16", "--elastica", "50"]
     args += ["--json", str(out), "--page", str(page)]
     record = load_benchmark("path_following").main(args)
     (euler,), (held,), (mixed,), (arch,), (turned,), (switched,) = (

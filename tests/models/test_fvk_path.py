@@ -41,9 +41,9 @@ from dgplate.reference.fvk import (
     turned_strip_slope_factor,
 )
 from dgplate.reference.turned_elastica import _HalfRod, turned_strip_elastica_thresholds
+from dgplate.solvers import special_points
 from dgplate.solvers.continuation import BranchPath
 from dgplate.solvers.snes import NewtonSolver
-from dgplate.solvers import special_points
 from dgplate.solvers.special_points import SpecialPoints
 
 PATHS = load_benchmark("path_following")  # the cases, shared with the benchmark
@@ -345,7 +345,7 @@ def test_a_path_that_spent_its_points_goes_on_when_resumed_with_more(tmp_path, c
     first = dgplate.run(short, out=tmp_path / "path", comm=MPI.COMM_SELF)
     assert first["converged"] and first["points"] == 6 and not first["folds"]
     assert "path.steps = 6 points spent at load factor" in first["reason"]
-    with pytest.raises(dgplate.InputError, match="raise path.steps to continue it"):
+    with pytest.raises(dgplate.InputError, match=r"raise path\.steps to continue it"):
         dgplate.run(short, out=tmp_path / "path", comm=MPI.COMM_SELF, resume=True)
     capsys.readouterr()
     longer = dgplate.load_problem(ARCH, {**sets, "path.steps": 10})
@@ -550,74 +550,92 @@ def test_a_pressure_parameter_follows_the_arch_as_the_load_does():
     assert [p["energy"] for p in pressure[0]] == [p["energy"] for p in load[0]]
 
 
-def test_a_bifurcation_is_interpolated_between_its_bracket_when_correctors_fail_beside_it():
-    """Correctors failing within 10⁻⁶ of the root (the smallest eigenvalue found within
-    NEAR_ROOT of the ends'): the root of the eigenvalue interpolated between corrected points
-    on its two sides, as near on both (a point corrected across it), stands for it, to 10⁻⁸;
-    the state is interpolated alike. Farther off, the failure stands."""
+class StandInEngine:
+    """A path λ = s along the step s, the state 2s, τ and the crossing eigenvalue
+    (0.3 − s)(1 + 2s): a special point at s = 0.3; correctors fail within ``gap`` of it."""
 
-    class Engine:
-        def __init__(self, gap):
-            self.gap, self.s = gap, None
-            self.load = types.SimpleNamespace(value=0.0)
-            self.load.set = lambda value: setattr(self.load, "value", value)
-            vec = PETSc.Vec().createSeq(1, comm=MPI.COMM_SELF)
-            self.state = types.SimpleNamespace(
-                x=types.SimpleNamespace(petsc_vec=vec, scatter_forward=lambda: None)
-            )
+    def __init__(self, gap):
+        self.gap, self.s = gap, None
+        self.load = types.SimpleNamespace(value=0.0)
+        self.load.set = lambda value: setattr(self.load, "value", value)
+        vec = PETSc.Vec().createSeq(1, comm=MPI.COMM_SELF)
+        self.state = types.SimpleNamespace(
+            x=types.SimpleNamespace(petsc_vec=vec, scatter_forward=lambda: None)
+        )
 
-        def correct(self, base, s, direction):
-            if abs(s - 0.3) < self.gap:
-                return None
-            self.s, self.load.value = s, s
-            self.state.x.petsc_vec.set(2 * s)  # the state along the path: 2s
-            return s, 1
+    def correct(self, base, s, direction):
+        if abs(s - 0.3) < self.gap:
+            return None
+        self.s, self.load.value = s, s
+        self.state.x.petsc_vec.set(2 * s)  # the state along the path: 2s
+        return s, 1
 
-        def point(self, lam, direction, iterations):
-            return types.SimpleNamespace(lam=lam, x=self.state.x.petsc_vec.getValue(0), index=None)
+    def point(self, lam, direction, iterations):
+        return types.SimpleNamespace(lam=lam, x=self.state.x.petsc_vec.getValue(0), index=None)
 
-        def tangent(self, lam, direction):
-            return None, (0.3 - self.s) * (1 + 2 * self.s)  # τ: a fold at s = 0.3
+    def tangent(self, lam, direction):
+        return None, (0.3 - self.s) * (1 + 2 * self.s)  # τ: a fold at s = 0.3
 
-    def eigenvalue(self, k):
-        return (0.3 - self.engine.s) * (1 + 2 * self.engine.s)  # the root at s = 0.3
+
+def stand_in_eigenvalue(self, k):
+    return (0.3 - self.engine.s) * (1 + 2 * self.engine.s)  # the root at s = 0.3
+
+
+def stand_in_points():
+    """The points at s = 0 and 1 of :class:`StandInEngine`'s path: (base, new)."""
 
     def vector(value):
         return PETSc.Vec().createWithArray([value], comm=MPI.COMM_SELF)
 
     base = types.SimpleNamespace(t=None, tau=0.3, index=0, lam=0.0, x=vector(0.0))
     new = types.SimpleNamespace(t=None, tau=-2.1, index=1, lam=1.0, x=vector(2.0))
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(SpecialPoints, "_crossing_eigenvalue", eigenvalue)
-        for kind in ("bifurcation", "fold"):
-            engine = Engine(1e-6)
-            near = SpecialPoints(engine, None).locate(kind, base, new, 1.0)
-            assert near.lam != engine.s and near.index == 0  # not the last corrected point
-            assert abs(near.lam - 0.3) < 1e-8 and near.x == pytest.approx(2 * near.lam, rel=1e-14)
-            with pytest.raises(SolverError, match=f"locating a {kind}"):
-                SpecialPoints(Engine(0.2), None).locate(kind, base, new, 1.0)
-        # an eigenvalue within round-off of 0 (exactly 0) at the step's end: the root is there
-        patch.setattr(
-            SpecialPoints, "_crossing_eigenvalue", lambda self, k: min(self.engine.s - 1, 0.0)
-        )
-        at_end = SpecialPoints(Engine(0.0), None).locate("bifurcation", new, base, 1.0)
-        assert at_end.lam == 1.0 and at_end.x == 2.0
-        # a secant that spends its values with its bracket wide: evened by a point across the
-        # root when one side is near it; still wide, nothing is located
-        patch.setattr(SpecialPoints, "_crossing_eigenvalue", eigenvalue)
-        for tried, located in (([0.2999], True), ([], False)):
+    return base, new
 
-            def secant(f, a, fa, b, fb, xtol, tried=tried):
-                return [f(s) for s in tried][-1:] or b
 
-            patch.setattr(special_points, "secant_root", secant)
-            for kind in ("bifurcation", "fold"):
-                locate = SpecialPoints(Engine(0.0), None).locate
-                if located:
-                    assert abs(locate(kind, base, new, 1.0).lam - 0.3) < 1e-7
-                else:
-                    with pytest.raises(SolverError, match="bracket .* wide"):
-                        locate(kind, base, new, 1.0)
+def test_a_bifurcation_is_interpolated_between_its_bracket_when_correctors_fail_beside_it(
+    monkeypatch,
+):
+    """Correctors failing within 10⁻⁶ of the root (the smallest eigenvalue found within
+    NEAR_ROOT of the ends'): the root of the eigenvalue interpolated between corrected points
+    on its two sides, as near on both (a point corrected across it), stands for it, to 10⁻⁸;
+    the state is interpolated alike. Farther off, the failure stands."""
+    base, new = stand_in_points()
+    monkeypatch.setattr(SpecialPoints, "_crossing_eigenvalue", stand_in_eigenvalue)
+    for kind in ("bifurcation", "fold"):
+        engine = StandInEngine(1e-6)
+        near = SpecialPoints(engine, None).locate(kind, base, new, 1.0)
+        assert near.lam != engine.s and near.index == 0  # not the last corrected point
+        assert abs(near.lam - 0.3) < 1e-8 and near.x == pytest.approx(2 * near.lam, rel=1e-14)
+        with pytest.raises(SolverError, match=f"locating a {kind}"):
+            SpecialPoints(StandInEngine(0.2), None).locate(kind, base, new, 1.0)
+    # an eigenvalue within round-off of 0 (exactly 0) at the step's end: the root is there
+    monkeypatch.setattr(
+        SpecialPoints, "_crossing_eigenvalue", lambda self, k: min(self.engine.s - 1, 0.0)
+    )
+    at_end = SpecialPoints(StandInEngine(0.0), None).locate("bifurcation", new, base, 1.0)
+    assert at_end.lam == 1.0 and at_end.x == 2.0
+
+
+@pytest.mark.parametrize(("tried", "located"), [([0.2999], True), ([], False)])
+@pytest.mark.parametrize("kind", ["bifurcation", "fold"])
+def test_a_secant_that_spends_its_values_leaves_its_bracket_evened_or_nothing(
+    tried, located, kind, monkeypatch
+):
+    """The secant stops with its bracket wide (here at once): one side near the root (s =
+    0.2999 against 1), a point corrected across it evens the bracket, and the root is found to
+    10⁻⁷ (taken from the lopsided bracket it would be 5·10⁻⁵ off); both sides far, nothing is
+    located."""
+    base, new = stand_in_points()
+    monkeypatch.setattr(SpecialPoints, "_crossing_eigenvalue", stand_in_eigenvalue)
+    monkeypatch.setattr(
+        special_points, "secant_root", lambda f, a, fa, b, fb, xtol: [f(s) for s in tried]
+    )
+    locate = SpecialPoints(StandInEngine(0.0), None).locate
+    if located:
+        assert abs(locate(kind, base, new, 1.0).lam - 0.3) < 1e-7
+    else:
+        with pytest.raises(SolverError, match=r"bracket .* wide"):
+            locate(kind, base, new, 1.0)
 
 
 @pytest.mark.mpi
