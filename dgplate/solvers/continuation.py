@@ -200,21 +200,11 @@ class BranchPath(Driver):
 
     def summary(self) -> dict[str, Any]:
         """The points, the special points and the last load factor."""
-        special = [
-            asdict(r)
-            for r in self.history
-            if r.kind != "regular" and not r.kind.endswith("_unlocated")
-        ]
         return {
             "dofs": self.num_dofs,
             "load_factor": self.load.value,
             "points": self.step_count,
-            "load_factors": [r.load_factor for r in self.history],
-            "stability_indices": [r.stability_index for r in self.history],
-            "special_points": special,
-            "folds": [r.load_factor for r in self.history if r.kind == "fold"],
-            "bifurcations": [r.load_factor for r in self.history if r.kind == "bifurcation"],
-            "unlocated": [r.load_factor for r in self.history if r.kind.endswith("_unlocated")],
+            **path_figures(self.history),
             "energy": self.newton.energy_value(),
         }
 
@@ -264,7 +254,7 @@ class BranchPath(Driver):
                 self.engine.set_state(self.current)
         converged = not failure and not signum
         reason = failure or (
-            interrupt.reason(signum) if signum else self._end() + self._special_list()
+            interrupt.reason(signum) if signum else self._end() + special_points_text(self.history)
         )
         result = RunOutcome(converged, reason, len(records), records, interrupted=signum)
         for observer in self.observers:
@@ -291,32 +281,13 @@ class BranchPath(Driver):
             return False
         return abs(point.lam) <= self.settings.lambda_max
 
-    def _special_list(self) -> str:
-        """``"; bifurcation at 0.8199 (index 0 → 1), fold at 0.8246 (index 1 → 2)"``, or ``""``.
-
-        The special points of the whole path (a resumed one's too), with the stability indices
-        of the points before and after each (the path's last point has none after it).
-        """
-        named = []
-        for i, point in enumerate(self.history):
-            if point.kind in ("fold", "bifurcation"):
-                after = self.history[i + 1 : i + 2]
-                indices = f"index {self.history[i - 1].stability_index} → " + (
-                    str(after[0].stability_index) if after else "?"
-                )
-                named.append(f"{point.kind} at {point.load_factor:.6g} ({indices})")
-            elif point.kind.endswith("_unlocated"):
-                named.append(f"{point.kind.replace('_', ' ')} before {point.load_factor:.6g}")
-        return f"; {', '.join(named)}" if named else ""
-
     def _end(self) -> str:
         if self.current is not None and not self._inside(self.current):
             return f"the load factor left its range at {self.current.lam:g}"
         if self.extendable():
-            assert self.current is not None
             return (
                 f"path.steps = {self.settings.steps} points spent at load factor "
-                f"{self.current.lam:g}, within ±{self.settings.lambda_max:g} (--resume --set "
+                f"{self.load.value:g}, within ±{self.settings.lambda_max:g} (--resume --set "
                 f"path.steps={2 * self.settings.steps} goes on)"
             )
         return f"{self.step_count} points of the path"
@@ -412,3 +383,49 @@ class BranchPath(Driver):
         for observer in self.observers:
             observer.step(self, record)
         return record
+
+
+def path_figures(history: Sequence[BranchPoint]) -> dict[str, Any]:
+    """The summary's figures of a path's points.
+
+    Args:
+        history: the points in order.
+
+    Returns:
+        ``load_factors`` and ``stability_indices`` per point, ``special_points`` (the rows of
+        the located ones and of a switch), their load factors ``folds`` and ``bifurcations``,
+        and ``unlocated`` (the load factors of the points after unlocated ones).
+    """
+    return {
+        "load_factors": [r.load_factor for r in history],
+        "stability_indices": [r.stability_index for r in history],
+        "special_points": [
+            asdict(r) for r in history if r.kind != "regular" and not r.kind.endswith("_unlocated")
+        ],
+        "folds": [r.load_factor for r in history if r.kind == "fold"],
+        "bifurcations": [r.load_factor for r in history if r.kind == "bifurcation"],
+        "unlocated": [r.load_factor for r in history if r.kind.endswith("_unlocated")],
+    }
+
+
+def special_points_text(history: Sequence[BranchPoint]) -> str:
+    """``"; bifurcation at 0.8199 (index 0 → 1), fold at 0.8246 (index 1 → 2)"``, or ``""``.
+
+    Args:
+        history: the points of the whole path (a resumed one's too), in order.
+
+    Returns:
+        The folds and bifurcations, with the stability indices of the points before and after
+        each (the path's last point has none after it: "?"), and the unlocated ones.
+    """
+    named = []
+    for i, point in enumerate(history):
+        if point.kind in ("fold", "bifurcation"):
+            after = history[i + 1 : i + 2]
+            indices = f"index {history[i - 1].stability_index} → " + (
+                str(after[0].stability_index) if after else "?"
+            )
+            named.append(f"{point.kind} at {point.load_factor:.6g} ({indices})")
+        elif point.kind.endswith("_unlocated"):
+            named.append(f"{point.kind.replace('_', ' ')} before {point.load_factor:.6g}")
+    return f"; {', '.join(named)}" if named else ""
