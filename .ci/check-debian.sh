@@ -182,7 +182,7 @@ if (($# > 0)); then
 else
   # Every test but the demos on two workers; the tests that launch mpirun themselves; and a
   # demo of each driver and model family on 2 ranks (Open MPI), two at a time. `make test`
-  # runs every demo serially and a set on 2 ranks with the wheel; here, on a cold JIT cache,
+  # runs a set of demos on 2 ranks and the others serially with the wheel; here, on a cold JIT cache,
   # each demo pays for gcc compiling its forms (most of the time under DOLFINx 0.9), and all of
   # them would take CI past its 90 minutes.
   demos=(box_folding straight_fold fvk_buckling buckling_strip rod_circle self_avoiding_strip
