@@ -218,7 +218,7 @@ def load(
     assert isinstance(data, Checkpoint)
     if expected is not None and not _same_problem(data.state, expected):
         written = data.state.get("input")
-        changed = differences(written, identity(expected)) if written is not None else []
+        changed = differences(identity(written), identity(expected)) if written is not None else []
         which = f": {'; '.join(changed[:3])}" if changed else ""
         raise InputError(
             f"{purpose}: the checkpoint in {directory} belongs to another problem{which} "

@@ -299,12 +299,16 @@ def height_factor(points: Array) -> float:
     Returns:
         The factor (1 for a shape that is not nearly flat, or exactly flat).
     """
-    span = float(np.ptp(points[:, :2], axis=0).max(initial=0.0))
-    height = float(np.ptp(points[:, 2])) if len(points) else 0.0
+    if not len(points) or not np.isfinite(points).all():
+        return 1.0
+    span = float(np.ptp(points[:, :2], axis=0).max())
+    height = float(np.ptp(points[:, 2]))
     if height <= 0 or span <= 0 or height >= FLAT * span:
         return 1.0
     wanted = DRAWN_HEIGHT * span / height
     decade = 10.0 ** math.floor(math.log10(wanted))
+    if decade > wanted:  # log10 rounded up just below a power of ten
+        decade /= 10
     return max(m * decade for m in (1.0, 2.0, 5.0) if m * decade <= wanted)
 
 

@@ -30,7 +30,7 @@ class ProgressPrinter:
     ``every``: ``"auto"`` prints the first step's line, then one when at least
     :data:`AUTO_SECONDS` and :data:`AUTO_STEPS` steps have passed since the last, and the last
     step's line; an integer n ≥ 1 every n-th step's line; 0 none. A record that is
-    ``notable`` (a path's fold or bifurcation) is printed whenever ``every`` is not 0. The
+    ``notable`` (a path's special point) is printed whenever ``every`` is not 0. The
     final line (converged or not, after how many steps) is always printed. Only rank 0
     prints, so only rank 0 decides, from its own clock: no collective, nothing for the ranks
     to agree on.

@@ -294,7 +294,9 @@ def _figure(value: Any) -> str | None:
         return f"{value:.10g}"
     if value is None or isinstance(value, str | int):
         return str(value)
-    numbers = isinstance(value, list) and all(isinstance(v, int | float) for v in value)
+    numbers = isinstance(value, list) and all(
+        isinstance(v, int | float) and not isinstance(v, bool) for v in value
+    )
     if numbers and len(value) <= SHORT_LIST:
         return "[" + ", ".join(f"{v:.10g}" for v in value) + "]"
     return None

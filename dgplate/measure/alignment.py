@@ -179,10 +179,12 @@ def align(
         start = start * np.sign(np.linalg.det(start))  # proper, whatever the eigh bases
         starts.append(_point_to_point(scan, closest, start, b - start @ a, SCREENING))
     screened = [float(np.mean(_distances(scan, closest, R, t) ** 2)) for R, t, _ in starts]
+    if not np.isfinite(screened).any():
+        raise ValueError("no start of the alignment has finite distances (points not finite?)")
     taken = sum(n for _, _, n in starts)
     refined = []
     for (R, t, _), distance in zip(starts, screened, strict=True):
-        if distance <= CONTENDERS * min(screened):
+        if distance <= CONTENDERS * np.nanmin(screened):
             R, t, second = _point_to_point(scan, closest, R, t, steps // 2)
             R, t, third = _newton(scan, closest, R, t, steps // 2, tol)
             taken += second + third

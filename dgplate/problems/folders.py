@@ -13,6 +13,7 @@ from mpi4py import MPI
 from dgplate.io import checkpoint
 from dgplate.io.output import CHECKPOINT, OutputDir, is_dgplate_output, print0, write_marker
 from dgplate.io.run_reader import summary_is_current
+from dgplate.problems.prepare import extends
 from dgplate.problems.result import Result
 from dgplate.problems.results import load_result
 from dgplate.problems.runner import run
@@ -76,7 +77,7 @@ def run_or_reuse(
             the checkpoint of another problem.
     """
     state = _checkpoint_state(problem, out, comm) if resume else None
-    if state is not None and state.get("finished"):
+    if state is not None and state.get("finished") and not extends(problem, state):
         done = comm.bcast(summary_is_current(out) if comm.rank == 0 else None)
         if done:  # else it was stopped while writing its outputs: the resume writes them
             print0(comm, f"{out}: finished earlier, its results are reused")

@@ -9,6 +9,7 @@ puts a built driver back at the checkpoint's state.
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -137,14 +138,29 @@ def _resume_point(problem: Problem, target: Path, comm: MPI.Comm) -> checkpoint.
     """
     found = checkpoint.load(target / CHECKPOINT, comm, problem.identity())
     written = comm.bcast(summary_is_current(target) if comm.rank == 0 else None)
-    if found.state.get("finished") and written:
-        if not found.state.get("extendable"):
-            raise InputError(
-                f"--resume: the run in {target} converged at step {found.state['step']}; "
-                "nothing to resume"
-            )
-        found.state["finished"] = False  # it goes on from its last point
+    state = found.state
+    if state.get("finished") and state.get("extendable") and (written or extends(problem, state)):
+        state["finished"] = False  # it goes on from its last point (restore checks the budget)
+    elif state.get("finished") and written:
+        raise InputError(
+            f"--resume: the run in {target} converged at step {state['step']}; nothing to resume"
+        )
     return found
+
+
+def extends(problem: Problem, state: Mapping[str, Any]) -> bool:
+    """Whether a checkpoint's path, which spent its points, is asked for more by ``problem``.
+
+    Args:
+        problem: the problem resumed.
+        state: the checkpoint's state (``extendable``: the path ended only by its budget).
+
+    Returns:
+        True when ``problem``'s ``path.steps`` exceeds the points the path has.
+    """
+    path = getattr(problem.model, "path", None)
+    more = int(getattr(path, "steps", 0)) > int(state.get("step", 0))
+    return bool(state.get("extendable")) and more
 
 
 def restore(driver: Driver, prepared: Prepared) -> None:

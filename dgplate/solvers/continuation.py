@@ -70,7 +70,7 @@ class BranchPoint:
 
     @property
     def notable(self) -> bool:
-        """Whether the progress output shows this point whenever it comes: a special point."""
+        """Whether the progress output always shows this point: not a regular one."""
         return self.kind != "regular"
 
     def line(self) -> str:
@@ -184,7 +184,8 @@ class BranchPath(Driver):
             "step": self.step_count,
             "history": [asdict(r) for r in self.history],
             "ds": self.ds,
-            "sigma": self.engine.sigma,
+            # a resume that took no step (it wrote the outputs only) has not started the engine
+            "sigma": self.engine.sigma if self.current is not None else self._sigma,
         }
 
     def restore_state(self, state: Mapping[str, Any]) -> None:
@@ -234,10 +235,8 @@ class BranchPath(Driver):
             The outcome: converged unless a step failed or a signal stopped the path, with
             the reason and this call's records.
         """
-        budget = (
-            self.remaining_steps() if max_steps is None else min(max_steps, self.remaining_steps())
-        )
-        target = self.step_count + budget
+        left = self.remaining_steps()
+        target = self.step_count + (left if max_steps is None else min(max_steps, left))
         records: list[BranchPoint] = []
         failure, signum = "", 0
         try:
@@ -293,8 +292,9 @@ class BranchPath(Driver):
         return f"{self.step_count} points of the path"
 
     def extendable(self) -> bool:
-        """Whether the path ended only because its points were spent, inside its range."""
-        return self.remaining_steps() <= 0 and self._inside(self.current)
+        """Whether its points are spent, λ inside its range (a resume writing outputs too)."""
+        inside = abs(self.load.value) <= self.settings.lambda_max
+        return self.remaining_steps() <= 0 and bool(self.history) and inside
 
     def _advance(self) -> list[BranchPoint]:
         """One arclength step, and the special point before it, if any: their records.
@@ -408,6 +408,10 @@ def path_figures(history: Sequence[BranchPoint]) -> dict[str, Any]:
     }
 
 
+#: At most this many special points are named in a path's reason (the rest are counted).
+NAMED_SPECIAL_POINTS = 6
+
+
 def special_points_text(history: Sequence[BranchPoint]) -> str:
     """``"; bifurcation at 0.8199 (index 0 → 1), fold at 0.8246 (index 1 → 2)"``, or ``""``.
 
@@ -416,16 +420,18 @@ def special_points_text(history: Sequence[BranchPoint]) -> str:
 
     Returns:
         The folds and bifurcations, with the stability indices of the points before and after
-        each (the path's last point has none after it: "?"), and the unlocated ones.
+        each ("?" where there is none), and the unlocated ones: the first
+        :data:`NAMED_SPECIAL_POINTS`, and how many more.
     """
     named = []
     for i, point in enumerate(history):
         if point.kind in ("fold", "bifurcation"):
-            after = history[i + 1 : i + 2]
-            indices = f"index {history[i - 1].stability_index} → " + (
-                str(after[0].stability_index) if after else "?"
-            )
-            named.append(f"{point.kind} at {point.load_factor:.6g} ({indices})")
+            before = history[i - 1].stability_index if i else "?"
+            after = history[i + 1].stability_index if i + 1 < len(history) else "?"
+            named.append(f"{point.kind} at {point.load_factor:.6g} (index {before} → {after})")
         elif point.kind.endswith("_unlocated"):
             named.append(f"{point.kind.replace('_', ' ')} before {point.load_factor:.6g}")
+    if len(named) > NAMED_SPECIAL_POINTS:
+        more = len(named) - NAMED_SPECIAL_POINTS
+        named = [*named[:NAMED_SPECIAL_POINTS], f"{more} more (summary.json: special_points)"]
     return f"; {', '.join(named)}" if named else ""

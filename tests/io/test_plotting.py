@@ -189,6 +189,10 @@ def test_a_nearly_flat_shape_is_drawn_with_its_heights_exaggerated(comm, monkeyp
     assert height_factor(np.array([[0, 0, 0], [1, 0.1, 0.01], [0.5, 0, -0.002]])) == 10
     assert height_factor(np.array([[0, 0, 0], [4, 0, 0.003]])) == 200  # 0.6 / 0.003
     assert height_factor(np.array([[0, 0, 0], [1, 0, 0.3]])) == height_factor(np.zeros((2, 3))) == 1
+    # just below a power of ten (log10 rounds up to 3: 1000 would be too much), not finite, none
+    assert height_factor(np.array([[0, 0, 0], [1, 0, 0.15 / 999.9999999999999]])) == 500
+    assert height_factor(np.array([[0, 0, np.nan], [1, 0, 0.01]])) == 1
+    assert height_factor(np.zeros((0, 3))) == 1
     drawn = []
     monkeypatch.setattr(plotting, "render_png", lambda grid, path, scalars, title, *a, **k: drawn.append(
         (title, np.ptp(grid.points[:, 2]) if grid is not None else None)))  # fmt: skip

@@ -32,6 +32,7 @@ from dgplate.io.run_reader import details, read_summary
 from dgplate.mesh.tagged import rectangle
 from dgplate.models.fvk.model import build_fvk
 from dgplate.models.fvk.spec import FvKSpec, PathSpec
+from dgplate.problems.folders import run_or_reuse
 from dgplate.reference.elastica import clamped_elastica
 from dgplate.reference.fvk import (
     TAU_ANTISYMMETRIC,
@@ -42,7 +43,7 @@ from dgplate.reference.fvk import (
 )
 from dgplate.reference.turned_elastica import _HalfRod, turned_strip_elastica_thresholds
 from dgplate.solvers import special_points
-from dgplate.solvers.continuation import BranchPath
+from dgplate.solvers.continuation import BranchPath, BranchPoint, special_points_text
 from dgplate.solvers.snes import NewtonSolver
 from dgplate.solvers.special_points import SpecialPoints
 
@@ -362,6 +363,47 @@ def test_a_path_that_spent_its_points_goes_on_when_resumed_with_more(tmp_path, c
     shown = details(read_summary(tmp_path / "path")).splitlines()  # dgplate show
     assert f"fold at {fold:.6g} (index 1 → 0)" in shown[1]
     assert any(re.fullmatch(rf"  folds +\[{fold:.10g}\]", line) for line in shown), shown
+
+
+def test_a_path_that_spent_its_points_is_extended_not_reused(tmp_path):
+    """converge's runner (``run_or_reuse``) reuses a path that spent its points when asked
+    for as many, and goes on from it when asked for more; a path stopped after its last
+    checkpoint but before its summary goes on when resumed with more points, and keeps its
+    budget's reason when resumed with as many (it only writes its outputs)."""
+    sets = {"output.vtx": False, "output.png": False, "output.progress": 0, "mesh.cells": [8, 2]}
+    short, longer = (dgplate.load_problem(ARCH, {**sets, "path.steps": n}) for n in (4, 6))
+    out = tmp_path / "reuse"
+    first, _ = run_or_reuse(short, out, MPI.COMM_SELF)
+    assert run_or_reuse(short, out, MPI.COMM_SELF, resume=True)[1]  # reused
+    more, reused = run_or_reuse(longer, out, MPI.COMM_SELF, resume=True)
+    assert not reused and more["points"] == 6 and more.history[:4] == first.history
+    out = tmp_path / "unwritten"
+    dgplate.run(short, out=out, comm=MPI.COMM_SELF)
+    (out / "summary.json").unlink()  # stopped after its checkpoint, before its summary
+    again = dgplate.run(short, out=out, comm=MPI.COMM_SELF, resume=True)
+    assert again["points"] == 4 and "path.steps = 4 points spent" in again["reason"]
+    (out / "summary.json").unlink()
+    resumed = dgplate.run(longer, out=out, comm=MPI.COMM_SELF, resume=True)
+    assert resumed["points"] == 6 and resumed["load_factors"] == more["load_factors"]
+
+
+def test_the_special_points_are_named_with_their_indices_six_at_most():
+    """The reason's list: the indices of the points on either side ("?" where there is
+    none), the unlocated ones, and past six special points how many more."""
+    fields = {"energy": 0.0, "tangent_load": 1.0, "ds": 0.1, "iterations": 1, "branch": 0}
+
+    def point(step, kind, index):
+        return BranchPoint(step, step / 10, stability_index=index, kind=kind, seconds=0.0, **fields)
+
+    kinds = ["fold", "regular", "bifurcation", "regular", "fold_unlocated"]
+    history = [point(i, kind, i) for i, kind in enumerate(kinds)]
+    assert special_points_text(history) == (
+        "; fold at 0 (index ? → 1), bifurcation at 0.2 (index 1 → 3), fold unlocated before 0.4"
+    )
+    many = [point(i, "fold" if i % 2 else "regular", i % 2) for i in range(18)]
+    text = special_points_text(many)
+    assert text.count("fold at") == 6 and text.endswith(", 3 more (summary.json: special_points)")
+    assert special_points_text(many[:1]) == ""
 
 
 def test_follow_traces_the_arch_through_its_fold(tmp_path):
