@@ -40,8 +40,11 @@ def plot_branch(rows: Sequence[Mapping[str, Any]], path: str | Path, title: str 
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    before: list[Mapping[str, Any]] = []  # a switched branch starts at the point it left
     for branch, points in groupby(rows, key=lambda r: r.get("branch", 0)):
-        _draw_branch(ax, list(points), f"C{branch}")
+        drawn = list(points)
+        _draw_branch(ax, before + drawn, f"C{branch}")
+        before = drawn[-1:]
     for kind, marker in MARKERS.items():
         special = [r for r in rows if r.get("kind") == kind]
         if special:

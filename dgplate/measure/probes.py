@@ -59,14 +59,24 @@ def signed_extreme(u: dolfinx.fem.Function[np.float64]) -> float:
 
 
 class DeflectionProbes:
-    """The probes hook of an FvK state (w, u): ``w_max`` (signed extreme) and ``w_center``."""
+    """The probes hook of an FvK state (w, u): ``w_max``, ``w_center`` and ``w_<name>``.
 
-    def __init__(self, state: dolfinx.fem.Function[np.float64], probe: PointProbe) -> None:
-        self.state, self.probe = state, probe
+    ``w_max`` is the signed extreme; ``w_<name>`` is w at each named point.
+    """
+
+    def __init__(
+        self,
+        state: dolfinx.fem.Function[np.float64],
+        probe: PointProbe,
+        named: dict[str, PointProbe] | None = None,
+    ) -> None:
+        self.state, self.probe, self.named = state, probe, named or {}
         space, self._dofs = compat.collapse(state.function_space.sub(0))
         self.w: dolfinx.fem.Function[np.float64] = dolfinx.fem.Function(space, name="w")
 
     def __call__(self) -> dict[str, float]:
-        """The two numbers of the current state (collective)."""
+        """The numbers of the current state (collective)."""
         self.w.x.array[:] = self.state.x.array[self._dofs]
-        return {"w_max": signed_extreme(self.w), "w_center": self.probe(self.w)}
+        numbers = {"w_max": signed_extreme(self.w), "w_center": self.probe(self.w)}
+        numbers.update({f"w_{name}": probe(self.w) for name, probe in self.named.items()})
+        return numbers

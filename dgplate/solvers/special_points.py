@@ -32,6 +32,12 @@ ROUNDOFF = 10.0
 #: corrected before has its |τ| or eigenvalue below NEAR_ROOT times its values at the ends of
 #: the step, the bracket found stands for the special point.
 NEAR_ROOT = 2e-3
+#: ... or when the bracket already has a point on each side of the root, neither more than
+#: twice as far from it as the other, and is at most BALANCED_WIDTH of the step wide: the
+#: interpolated root is then within about its width squared (the heated disc on n = 4: a
+#: corrector failed 3.8·10⁻³ of a step from the bifurcation, whose eigenvalue there was
+#: 7·10⁻³ of its values at the step's ends).
+BALANCED_WIDTH = 1e-2
 #: The secant stops when its bracket is SECANT_WIDTH of the step wide (or after 12 values).
 SECANT_WIDTH = 1e-6
 #: A bracket still wider than this part of the step after the secant and the balancing point
@@ -99,6 +105,10 @@ class _Bracket:
     def exact(self) -> tuple[float, float, PETSc.Vec, float] | None:
         """A recorded point whose value is exactly 0 (an eigenvalue within round-off), if any."""
         return next((side for side in self.sides.values() if side[1] == 0.0), None)
+
+    def balanced(self, width: float) -> bool:
+        """Whether both sides have a point, at most ``width`` apart, neither side lopsided."""
+        return len(self.sides) == 2 and self.width() <= width and self.lopsided() is None
 
     def lopsided(self) -> tuple[float, float, float, float] | None:
         """The root, its distances to the nearer and the farther side, and that side's step.
@@ -215,7 +225,8 @@ class SpecialPoints:
                 # the Hessian is singular at a fold and at a simple bifurcation, and the bordered
                 # Jacobian at a bifurcation as well, so correctors very near the root can fail:
                 # the bracket already found close to it stands for it
-                if best[0] > NEAR_ROOT * min(abs(ends[0]), abs(ends[1])):
+                near = best[0] <= NEAR_ROOT * min(abs(ends[0]), abs(ends[1]))
+                if not near and not bracket.balanced(BALANCED_WIDTH * abs(ds)):
                     raise
                 _balance(bracket, corrected, ds)
             else:

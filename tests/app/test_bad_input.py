@@ -163,6 +163,30 @@ BAD_INPUT = {
         "[path] is for model.name = 'fvk'",
     ),
     "path unknown method": Case(("path.method='crisfield'",), "path.method must be one of", FVK),
+    "fvk pin not a node": Case(
+        ("model.pin=[0.3, 0.3]",), "model.pin [0.3, 0.3] is not a vertex of the mesh", FVK
+    ),
+    "fvk height held by nothing": Case(
+        ("model.clamped=[]",),
+        "model.pin: nothing holds the plate's height against its pressure or natural curvature",
+        FVK,
+    ),
+    "fvk probe named max": Case(
+        ("model.probes={max=[0.5, 0.5]}",),
+        "model.probes.max: a name of letters, digits and _ other than 'center' and 'max'",
+        FVK,
+    ),
+    "fvk mirror edge also clamped": Case(
+        ("model.mirror=['left']",), "model.clamped and model.mirror both list 'left'", FVK
+    ),
+    "fvk unknown mirror group": Case(
+        ("model.mirror=['axis']",), "error: model.mirror: unknown facet group 'axis'", FVK
+    ),
+    "fvk path in an unset natural curvature": Case(
+        ("path.method='arclength'", "path.parameter='natural_curvature'"),
+        "path.parameter = 'natural_curvature' scales nothing: model.natural_curvature is not set",
+        FVK,
+    ),
     "fvk unknown indenter": Case(
         ("model.indenter='tip'",), "error: model.indenter: unknown cell group 'tip'", FVK
     ),

@@ -76,11 +76,24 @@ state. ``leave_unstable = true`` leaves every state whose lowest eigenvalue is n
 lowest eigenvalue is ≥ that tolerance (at most 4 rounds); rank 0 prints one line per branch left.
 See :mod:`dgplate.solvers.newton` and :mod:`dgplate.solvers.eigen`.
 
+Natural curvature. ``natural_curvature = κ₀`` measures bending from κ₀ I: the moment is
+M(D²w − κ₀I) (a plate heated through its thickness, κ₀ = αΔT/t). The energy gains
+−M₀[Σ_T∫_T tr D²w − Σ_e∫_e n·[∇w]], M₀ = D(1 + ν)κ₀, over smooth interior, clamped ([∇w] =
+∇w − Φ) and mirror facets: the IP terms with M − M₀I in place of M, consistent (tested by the
+free plate taking w = ½κ₀|x|²). κ₀ is scaled with the load factor.
+
+Mirror edges. ``mirror`` facet groups lie on a mirror plane of a symmetric plate: ∂w/∂n = 0 by
+the Nitsche terms −∫M_nn ∂ₙw + ½γ₁D/hᵖ(∂ₙw)² (M_nt and the effective shear vanish there), and
+u·n = 0. ``pin = [x, y]`` holds w = 0 at one node of a vertex (the plate's height, which no
+edge holds when none is clamped or simply supported).
+
 The driver's shape is the deformation y = (x₁ + u₁, x₂ + u₂, w) in [DG_k]³, written and drawn
-like every other model's; its records carry ``w_center`` (w at ``model.probe``) and ``w_max``.
+like every other model's; its records carry ``w_center`` (w at ``model.probe``), ``w_max`` and
+``w_<name>`` at each point of ``model.probes``.
 """
 
 from dgplate.models.fvk.energy import (
+    MIRROR,
     SIMPLY_SUPPORTED,
     fvk_bending_energy,
     fvk_energy,
@@ -92,6 +105,7 @@ from dgplate.models.fvk.model import PREFIX, FvKModel, build_fvk
 from dgplate.models.fvk.spec import PENALTY, FvKSpec, NewtonSpec
 
 __all__ = [
+    "MIRROR",
     "PENALTY",
     "PREFIX",
     "SIMPLY_SUPPORTED",

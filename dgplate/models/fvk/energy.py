@@ -32,8 +32,8 @@ from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.fvk.spec import PARAMETERS, FvKSpec
 from dgplate.mpi import allreduce_array
 
-#: Facet-set id of simply supported boundary facets (beside dg.SMOOTH … dg.FREE = 1 … 4).
-SIMPLY_SUPPORTED = 5
+#: Facet-set ids of simply supported and mirror boundary facets (beside dg.SMOOTH … dg.FREE = 1 … 4).
+SIMPLY_SUPPORTED, MIRROR = 5, 6
 
 
 def membrane_strain(u: Any, w: Any, prestrain: Any = 0.0, natural: Any = None) -> Any:
@@ -102,6 +102,50 @@ def fvk_bending_energy(
             + 0.5 * gamma0 * D / h**3 * w * w
         ) * faces.ds(SIMPLY_SUPPORTED)
     return energy
+
+
+def mirror_energy(w: Any, faces: FacetSets, penalty: Penalty, D: Any, nu: Any) -> ufl.Form:
+    """The Nitsche terms of ∂w/∂n = 0 on mirror facets: −∫M_nn ∂ₙw + ½γ₁D/hᵖ (∂ₙw)².
+
+    On a mirror plane the slope across it and the effective shear vanish; an element-wise
+    integration by parts leaves M_nn ∂ₙv there, the only term the condition touches.
+    """
+    n, h = faces.n, faces.h_boundary
+    _, gamma1 = penalty.constants(faces.mesh)
+    slope = ufl.dot(ufl.grad(w), n)
+    moment_nn = ufl.dot(ufl.dot(plane_stress(hessian(w), D, nu), n), n)
+    weight = penalty.gradient_weight(h, gamma1)
+    form: ufl.Form = (-moment_nn * slope + 0.5 * weight * D * slope * slope) * faces.ds(MIRROR)
+    return form
+
+
+def natural_curvature_energy(w: Any, faces: FacetSets, moment: Any, slope: Any = None) -> ufl.Form:
+    """−M₀[Σ∫ tr D²w − Σ∫ n·[∇w]]: the work of the natural moment M₀ I = D(1 + ν)κ₀ I.
+
+    Bending measured from κ₀ I adds −∫M₀I:D²w to ½a_h(w, w) (and a constant). The facet terms
+    are those of the IP method with M − M₀I in place of M: on smooth interior facets, clamped
+    facets ([∇w] = ∇w − Φ) and mirror facets; so the broken integral reduces to the boundary
+    term of a smooth w, and the method stays consistent.
+
+    Args:
+        w: the deflection.
+        faces: the facet sets (mirror facets have id :data:`MIRROR`).
+        moment: M₀ = D(1 + ν)κ₀ (scaled with the load where the path says so).
+        slope: the clamped facets' prescribed ∇w (None: 0).
+
+    Returns:
+        The form, to add to the energy.
+    """
+    n = faces.n
+    grad = ufl.grad(w)
+    work: ufl.Form = ufl.tr(hessian(w)) * faces.dx
+    work -= ufl.inner(n("+"), jump(grad)) * faces.dS_smooth()
+    if faces.has_clamped:
+        out = grad if slope is None else grad - slope
+        work -= ufl.inner(n, out) * faces.ds_clamped()
+    work -= ufl.inner(n, grad) * faces.ds(MIRROR)
+    form: ufl.Form = -moment * work
+    return form
 
 
 def scaling(parameter: str, load_factor: Any) -> Callable[[str], Any]:
@@ -175,6 +219,12 @@ def fvk_energy(
     if slope is not None:
         slope = scale("clamp_slope") * slope
     energy += fvk_bending_energy(w, faces, spec.penalty, D, nu, simply_supported, slope)
+    if spec.mirror:
+        energy += mirror_energy(w, faces, spec.penalty, D, nu)
+    if spec.natural_curvature:
+        kappa0 = values.constant(mesh, spec.natural_curvature)
+        moment = scale("natural_curvature") * D * (1 + nu) * kappa0
+        energy += natural_curvature_energy(w, faces, moment, slope)
     energy -= scale("pressure") * pressure * w * faces.dx
     if spec.indenter is not None and tip is not None:
         depth, stiffness = (
@@ -188,27 +238,30 @@ def fvk_energy(
 
 # -- facets, spaces and in-plane conditions ----------------------------------------------------
 def fvk_facet_sets(tagged: TaggedMesh, spec: FvKSpec) -> FacetSets:
-    """dg.facet_sets plus the simply supported facets (id SIMPLY_SUPPORTED), all in one tag."""
+    """dg.facet_sets plus the simply supported and mirror facets (ids SIMPLY_SUPPORTED, MIRROR)."""
     facets = facet_sets(tagged, spec.clamped, spec.crease, spec.penalty_length)
-    if not spec.simply_supported:
+    groups = {"simply_supported": (spec.simply_supported, SIMPLY_SUPPORTED)}
+    groups["mirror"] = (spec.mirror, MIRROR)
+    if not spec.simply_supported and not spec.mirror:
         return facets
     mesh, fdim = tagged.mesh, tagged.mesh.topology.dim - 1
     fmap = mesh.topology.index_map(fdim)
     tags = facets.tags.values.copy()
     position = np.full(fmap.size_local + fmap.num_ghosts, -1, dtype=np.int64)
     position[facets.tags.indices] = np.arange(facets.tags.indices.size)
-    for group in spec.simply_supported:
-        indices = tagged.facets(group)
-        is_owned = indices < fmap.size_local
-        wrong = np.count_nonzero(tags[position[indices]][is_owned] != FREE)
-        owned = np.count_nonzero(is_owned)
-        wrong, owned = allreduce_array(mesh.comm, [wrong, owned]).astype(int)
-        if wrong or not owned:
-            raise InputError(
-                f"model.simply_supported: group '{group}' must be non-empty boundary facets "
-                f"that are not clamped ({wrong} of {owned} are not)"
-            )
-        tags[position[indices]] = SIMPLY_SUPPORTED
+    for key, (names, tag) in groups.items():
+        for group in names:
+            indices = tagged.facets(group)
+            is_owned = indices < fmap.size_local
+            wrong = np.count_nonzero(tags[position[indices]][is_owned] != FREE)
+            owned = np.count_nonzero(is_owned)
+            wrong, owned = allreduce_array(mesh.comm, [wrong, owned]).astype(int)
+            if wrong or not owned:
+                raise InputError(
+                    f"model.{key}: group '{group}' must be non-empty boundary facets that are "
+                    f"not clamped or given another condition ({wrong} of {owned} are not)"
+                )
+            tags[position[indices]] = tag
     meshtags = dolfinx.mesh.meshtags(mesh, fdim, facets.tags.indices, tags)
     return FacetSets(mesh, meshtags, facets.num_clamped, facets.num_crease, spec.penalty_length)
 
@@ -225,8 +278,11 @@ def fvk_space(
     return dolfinx.fem.functionspace(mesh, basix.ufl.mixed_element(elements))
 
 
-def _edge_axis(tagged: TaggedMesh, group: str) -> int:
-    """Component of u normal to an axis-parallel edge group: 0 for x = const, 1 for y = const."""
+def _edge_axis(tagged: TaggedMesh, group: str, key: str) -> int:
+    """Component of u normal to an axis-parallel edge group: 0 for x = const, 1 for y = const.
+
+    ``key`` names the input that asked for it in the error (a straight edge along x or y).
+    """
     mesh = tagged.mesh
     facets = tagged.facets(group)
     x = mesh.geometry.x[compat.entities_to_geometry(mesh, mesh.topology.dim - 1, facets)]
@@ -235,21 +291,22 @@ def _edge_axis(tagged: TaggedMesh, group: str) -> int:
     flags = np.array([np.all(spread[:, 0] < 1e-10 * scale), np.all(spread[:, 1] < 1e-10 * scale)])
     flags = allreduce_array(mesh.comm, flags, op=MPI.MIN).astype(int)
     if flags.sum() != 1:
-        raise InputError(
-            f"model.membrane.{group} = 'normal' needs a straight edge parallel to the x or y axis"
-        )
+        raise InputError(f"{key} needs a straight edge parallel to the x or y axis")
     return int(np.argmax(flags))
 
 
-def _component_values(tagged: TaggedMesh, group: str, condition: Any) -> list[Any]:
-    """[u_x, u_y] at full load of one group's condition, "free" for a free component."""
+def _component_values(tagged: TaggedMesh, group: str, condition: Any, key: str) -> list[Any]:
+    """[u_x, u_y] at full load of one group's condition, "free" for a free component.
+
+    ``key`` names the input of a "normal" condition in its error.
+    """
     if condition == "fixed":
         return [0.0, 0.0]
     if condition == "free":
         return ["free", "free"]
     if condition == "normal":
         components: list[Any] = ["free", "free"]
-        components[_edge_axis(tagged, group)] = 0.0
+        components[_edge_axis(tagged, group, key)] = 0.0
         return components
     return list(condition)
 
@@ -263,13 +320,16 @@ def membrane_bcs(
 ) -> tuple[list[dolfinx.fem.DirichletBC[np.float64]], BCValues]:
     """Dirichlet conditions on u, and their (Constant, value at full load) pairs."""
     conditions: dict[str, Any] = dict.fromkeys([*spec.clamped, *spec.simply_supported], "fixed")
+    conditions.update(dict.fromkeys(spec.mirror, "normal"))
     conditions.update(spec.membrane)
     fdim = tagged.mesh.topology.dim - 1
     bcs: list[dolfinx.fem.DirichletBC[np.float64]] = []
     bc_values: BCValues = []
     for group, condition in conditions.items():
         facets = tagged.facets(group)
-        for component, value in enumerate(_component_values(tagged, group, condition)):
+        given = group in spec.membrane or group not in spec.mirror
+        key = f"model.membrane.{group} = 'normal'" if given else f"model.mirror: group '{group}'"
+        for component, value in enumerate(_component_values(tagged, group, condition, key)):
             if value == "free":
                 continue
             sub = space.sub(1).sub(component)
@@ -287,7 +347,7 @@ def membrane_bcs(
     if not bcs:
         raise InputError(
             "model.membrane: no edge holds the in-plane displacement (rigid in-plane "
-            "motions); clamp, simply support or fix at least one edge"
+            "motions); clamp, simply support, mirror or fix at least one edge"
         )
     return bcs, bc_values
 

@@ -10,6 +10,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from mpi4py import MPI
+
 import dolfinx.fem
 import dolfinx.mesh
 import numpy as np
@@ -35,7 +37,7 @@ _HINT = "try more newton.load_steps or other newton.snes options"
 
 
 def _check_group_names(spec: FvKSpec, tagged: TaggedMesh) -> None:
-    for key in ("clamped", "simply_supported", "crease", "membrane"):
+    for key in ("clamped", "simply_supported", "mirror", "crease", "membrane"):
         for group in getattr(spec, key):
             tagged.facets(group, f"model.{key}")
 
@@ -44,13 +46,74 @@ def _probe(spec: FvKSpec, mesh: dolfinx.mesh.Mesh[np.float64]) -> PointProbe:
     """The probe of w_center: ``model.probe``, or the centre of the mesh's bounding box."""
     if spec.probe is None:
         lo, hi = bounds(mesh.comm, mesh.geometry.x[:, :2])
-        point = [float(c) for c in (lo + hi) / 2]
-    else:
-        point = [float(c) for c in spec.probe]
+        return _point_probe(mesh, [float(c) for c in (lo + hi) / 2], "model.probe")
+    return _point_probe(mesh, spec.probe, "model.probe")
+
+
+def _point_probe(mesh: dolfinx.mesh.Mesh[np.float64], point: list[float], key: str) -> PointProbe:
+    """A probe at ``point``; an InputError naming ``key`` when it lies outside the mesh."""
+    point = [float(c) for c in point]
     try:
         return PointProbe(mesh, point)
     except ValueError:
-        raise InputError(f"model.probe {point} lies outside the mesh") from None
+        raise InputError(f"{key} {point} lies outside the mesh") from None
+
+
+def pin_deflection(
+    space: dolfinx.fem.FunctionSpace[np.float64], point: list[float]
+) -> dolfinx.fem.DirichletBC[np.float64]:
+    """W = 0 at one node at ``point``: ``model.pin``, the height of a plate nothing holds up.
+
+    The deflection is discontinuous, so every cell at that vertex has a node there; holding
+    all of them would also join the cells at that point, so only the node of the cell of least
+    original (input) index is held, whatever the partition, on every rank that has it.
+
+    Args:
+        space: the mixed space (w, u).
+        point: [x, y], a vertex of the mesh.
+
+    Returns:
+        The condition on the deflection; an InputError when no vertex lies at ``point``.
+    """
+    mesh = space.mesh
+    comm = mesh.comm
+    sub = space.sub(0)
+    collapsed, _ = sub.collapse()
+    lo, hi = bounds(comm, mesh.geometry.x[:, :2])
+    tol = 1e-8 * float(np.max(hi - lo))
+    x0, y0 = (float(c) for c in point)
+
+    def near(x: np.ndarray) -> np.ndarray:
+        return np.asarray(np.hypot(x[0] - x0, x[1] - y0) < tol)
+
+    dofs = dolfinx.fem.locate_dofs_geometrical((sub, collapsed), near)[0]
+    cells = _owned_cells_at(mesh, dolfinx.mesh.locate_entities(mesh, 0, near))
+    original = np.asarray(mesh.topology.original_cell_index, dtype=np.int64)[cells]
+    none = np.iinfo(np.int64).max
+    first = comm.allreduce(int(original.min(initial=none)), op=MPI.MIN)
+    if first == none:
+        raise InputError(f"model.pin {[x0, y0]} is not a vertex of the mesh")
+    index_map, bs = space.dofmap.index_map, space.dofmap.index_map_bs
+    numbers = index_map.local_to_global((dofs // bs).astype(np.int32)) * bs + dofs % bs
+    mine = none
+    if first in original:
+        cell = int(cells[np.flatnonzero(original == first)[0]])
+        (dof,) = np.intersect1d(sub.dofmap.cell_dofs(cell), dofs)
+        mine = int(numbers[np.flatnonzero(dofs == dof)[0]])
+    chosen = comm.allreduce(mine, op=MPI.MIN)
+    held = dofs[numbers == chosen].astype(np.int32)
+    return dolfinx.fem.dirichletbc(values.constant(mesh, 0.0), held, sub)
+
+
+def _owned_cells_at(mesh: dolfinx.mesh.Mesh[np.float64], vertices: np.ndarray) -> np.ndarray:
+    """The owned cells that have one of ``vertices`` (local indices)."""
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(0, tdim)
+    links = mesh.topology.connectivity(0, tdim)
+    found = [links.links(int(v)) for v in vertices]
+    cells = np.unique(np.concatenate(found)) if found else np.zeros(0, dtype=np.int32)
+    owned: np.ndarray = cells[cells < mesh.topology.index_map(tdim).size_local]
+    return owned
 
 
 # -- hooks of the driver -------------------------------------------------------------------------
@@ -103,6 +166,7 @@ class FvKModel(Model):
     bc_values: BCValues
     probe: PointProbe
     tip: dolfinx.fem.Function[np.float64] | None = None
+    named_probes: dict[str, PointProbe] | None = None
 
     def driver(
         self, flow: object, observers: Sequence[Observer], initial: Initial | None
@@ -131,7 +195,7 @@ class FvKModel(Model):
                 newton.snes,
                 bc_values=bc_values,
                 shape=Deformation(state, self.spec.degree),
-                probes=DeflectionProbes(state, self.probe),
+                probes=DeflectionProbes(state, self.probe, self.named_probes),
                 observers=observers,
             )
         return LoadPath(
@@ -145,7 +209,7 @@ class FvKModel(Model):
             bc_values=bc_values,
             observers=observers,
             shape=Deformation(state, self.spec.degree),
-            probes=DeflectionProbes(state, self.probe),
+            probes=DeflectionProbes(state, self.probe, self.named_probes),
             hint=_HINT,
             stability=newton.stability_options,
             relaxation=Relaxation(tau=newton.relaxation_tau) if newton.relaxation else None,
@@ -202,11 +266,18 @@ def build_fvk(spec: FvKSpec, tagged: TaggedMesh) -> FvKModel:
     facets = fvk_facet_sets(tagged, spec)
     space = fvk_space(tagged.mesh, spec.degree)
     bcs, bc_values = membrane_bcs(space, tagged, spec)
+    if spec.pin is not None:
+        bcs.append(pin_deflection(space, spec.pin))
     tip = None
     if spec.indenter is not None:
         tip = tagged.group_function({spec.indenter: 1.0}, 0.0, key="model.indenter")
         _check_indentation(spec, tagged.mesh)
-    return FvKModel(spec, facets, space, bcs, bc_values, _probe(spec, tagged.mesh), tip)
+    named = {
+        name: _point_probe(tagged.mesh, point, f"model.probes.{name}")
+        for name, point in spec.probes.items()
+    }
+    probe = _probe(spec, tagged.mesh)
+    return FvKModel(spec, facets, space, bcs, bc_values, probe, tip, named)
 
 
 def _check_indentation(spec: FvKSpec, mesh: dolfinx.mesh.Mesh[np.float64]) -> None:

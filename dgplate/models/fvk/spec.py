@@ -26,7 +26,15 @@ from dgplate.solvers.newton import Leave, Relaxation, Stability
 PENALTY = Penalty(gamma0=100.0, gamma1=100.0)
 
 #: What the load factor λ can scale (``path.parameter``): every datum, or one of them.
-PARAMETERS = ("load", "pressure", "prestrain", "membrane", "clamp_slope", "indentation")
+PARAMETERS = (
+    "load",
+    "pressure",
+    "prestrain",
+    "natural_curvature",
+    "membrane",
+    "clamp_slope",
+    "indentation",
+)
 
 
 @dataclass
@@ -143,8 +151,8 @@ class PathSpec:
     parameter: str = option(
         "load",
         "what the load factor λ scales: 'load' (every datum below), or one of 'pressure', "
-        "'prestrain', 'membrane' (the prescribed edge displacements), 'clamp_slope', "
-        "'indentation', the others held at their full values",
+        "'prestrain', 'natural_curvature', 'membrane' (the prescribed edge displacements), "
+        "'clamp_slope', 'indentation', the others held at their full values",
         choices=PARAMETERS,
     )
 
@@ -193,6 +201,11 @@ class FvKSpec:
     natural_shape: float | str = option(
         0.0, "natural shape w₀(x, y), a number or formula: strain ½(∇w⊗∇w − ∇w₀⊗∇w₀) + sym∇u"
     )
+    natural_curvature: float = option(
+        0.0,
+        "isotropic natural curvature κ₀ at full load: the moment is M(D²w − κ₀ I), as in a plate "
+        "heated by ΔT through its thickness (κ₀ = αΔT/t) or a bilayer with a mismatch",
+    )
     clamped: list[str] = option([], "facet groups with w = 0 and ∇w = 0 (or model.clamp_slope)")
     clamp_slope: list[float | str] = option(
         [0.0, 0.0],
@@ -202,6 +215,18 @@ class FvKSpec:
         length=2,
     )
     simply_supported: list[str] = option([], "facet groups with w = 0, rotation free")
+    mirror: list[str] = option(
+        [],
+        "facet groups on a mirror plane of a symmetric plate (straight edges along x or y): "
+        "∂w/∂n = 0 and u·n = 0, so a half or a quarter of the plate is solved",
+    )
+    pin: list[float] | None = option(
+        None,
+        "point [x, y] where w = 0 is held (at one node): for a plate that no clamped or simply "
+        "supported edge holds up (free and mirror edges leave its height free)",
+        shown="(none)",
+        length=2,
+    )
     crease: list[str] = option([], "interior facet groups where ∇w may jump (hinges)")
     membrane: dict[str, Literal["fixed", "normal", "free"] | list[float | str]] = option(
         {},
@@ -213,6 +238,11 @@ class FvKSpec:
     penalty_length: str = option("diameter", PENALTY_LENGTH_HELP, choices=PENALTY_LENGTHS)
     probe: list[float] | None = option(
         None, "point [x, y] for w_center", shown="(the bounding-box centre)", length=2
+    )
+    probes: dict[str, list[float]] = option(
+        {},
+        "named points {name = [x, y]} whose deflection is recorded at every step as w_<name>",
+        each=Check(length=2),
     )
     indenter: str | None = option(
         None,
@@ -241,9 +271,7 @@ class FvKSpec:
             raise InputError("model.clamp_slope needs model.clamped (the facets it turns)")
         self._start = starts.Start.from_table(self.start)
         self._check_parameter()
-        both = sorted(set(self.clamped) & set(self.simply_supported))
-        if both:
-            raise InputError(f"model.clamped and model.simply_supported both list {both[0]!r}")
+        self._check_disjoint_groups()
         for group, condition in self.membrane.items():
             if isinstance(condition, str):
                 continue
@@ -252,6 +280,33 @@ class FvKSpec:
                     expressions.check(component, f"model.membrane.{group}[{i}]")
         if self.indentation and self.indenter is None:
             raise InputError("model.indentation needs model.indenter (the cell group pushed)")
+        self._check_probes_and_height()
+
+    def _check_probes_and_height(self) -> None:
+        """Probe names make record fields; something holds a bent plate's height."""
+        for name in self.probes:
+            if not f"w_{name}".isidentifier() or name in ("center", "max"):
+                raise InputError(
+                    f"model.probes.{name}: a name of letters, digits and _ other than "
+                    "'center' and 'max' (it is recorded as w_<name>)"
+                )
+        held = self.clamped or self.simply_supported or self.indenter is not None
+        bent = self.pressure not in (0, 0.0) or self.natural_curvature != 0
+        if bent and not held and self.pin is None:
+            raise InputError(
+                "model.pin: nothing holds the plate's height against its pressure or natural "
+                "curvature (no clamped or simply supported group, no indenter); set "
+                "model.pin = [x, y], a vertex where w = 0"
+            )
+
+    def _check_disjoint_groups(self) -> None:
+        """A facet group has one bending condition: clamped, simply supported or mirror."""
+        keys = ("clamped", "simply_supported", "mirror")
+        for i, first in enumerate(keys):
+            for second in keys[i + 1 :]:
+                both = sorted(set(getattr(self, first)) & set(getattr(self, second)))
+                if both:
+                    raise InputError(f"model.{first} and model.{second} both list {both[0]!r}")
 
     def _check_parameter(self) -> None:
         """``path.parameter`` names a datum that is given: a path in it would change nothing."""
@@ -259,6 +314,7 @@ class FvKSpec:
         given = {
             "pressure": self.pressure not in (0, 0.0),
             "prestrain": self.prestrain != 0,
+            "natural_curvature": self.natural_curvature != 0,
             "clamp_slope": any(c not in (0, 0.0) for c in self.clamp_slope),
             "indentation": self.indenter is not None and self.indentation > 0,
             "membrane": any(
