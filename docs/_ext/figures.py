@@ -143,6 +143,9 @@ FIGURES: dict[str, Figure] = {
         _demo("fvk_turned_strip", "fvk_turned_strip_branch.png", "--paper")
     ),
     "fvk_snap_through.png": Figure(_demo("fvk_snap_through", "fvk_snap_through.png", "--paper")),
+    "fvk_heated_disc.png": Figure(
+        _demo("fvk_heated_disc", "fvk_heated_disc.png", "--paper"), minutes=2
+    ),
     "creases_bilayer_cones.png": Figure(
         _words("demos/bilayer_crease.py --out {out}"),
         {

@@ -372,6 +372,21 @@ def test_path_following_page_is_generated(tmp_path):
         assert all(level["orders"][k] > 1.9 for level in record["turned"][1:])
 
 
+def test_heated_disc_page_is_generated(tmp_path):
+    """docs/path_following.md's heated-disc table is what --table-only writes from its JSON;
+    the bifurcation converges to the exact one at second order, within 0.05 % on n = 16."""
+    page = BENCH.parent / "docs" / "path_following.md"
+    assert_page_is_generated("heated_disc", page, tmp_path)
+    record = json.loads((BENCH / "results" / "heated_disc.json").read_text())
+    levels = record["levels"]
+    assert [level["n"] for level in levels] == [4, 8, 16]
+    errors = [level["error"] for level in levels]
+    assert all(e > 0 for e in errors) and errors[-1] < 5e-4
+    assert all(math.log2(a / b) > 1.9 for a, b in itertools.pairwise(errors))
+    assert all(set(level["indices"]) == {0} for level in levels)
+    assert all(level["kinds"] == ["bifurcation", "switch"] for level in levels)
+
+
 def test_lce_cone_page_is_generated(tmp_path):
     """docs/prestrain.md's cone table is what --table-only writes from lce_cone.json."""
     page = BENCH.parent / "docs" / "prestrain.md"
