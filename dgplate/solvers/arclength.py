@@ -229,6 +229,8 @@ def secant_root(
     """
     s = b
     for _ in range(12):
+        if fb == fa:  # both ends are roots to round-off (eigenvalues within it of 0)
+            break
         s = b - fb * (b - a) / (fb - fa)
         fs = f(s)
         if fs == 0 or abs(b - a) <= xtol:

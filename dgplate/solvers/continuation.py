@@ -394,16 +394,22 @@ def path_figures(history: Sequence[BranchPoint]) -> dict[str, Any]:
     Returns:
         ``load_factors`` and ``stability_indices`` per point, ``special_points`` (the rows of
         the located ones and of a switch), their load factors ``folds`` and ``bifurcations``,
-        and ``unlocated`` (the load factors of the points after unlocated ones).
+        the first of each (``first_fold``, ``first_bifurcation``: None without one; numbers
+        that ``dgplate converge`` follows over the levels), and ``unlocated`` (the load
+        factors of the points after unlocated ones).
     """
+    folds = [r.load_factor for r in history if r.kind == "fold"]
+    bifurcations = [r.load_factor for r in history if r.kind == "bifurcation"]
     return {
         "load_factors": [r.load_factor for r in history],
         "stability_indices": [r.stability_index for r in history],
         "special_points": [
             asdict(r) for r in history if r.kind != "regular" and not r.kind.endswith("_unlocated")
         ],
-        "folds": [r.load_factor for r in history if r.kind == "fold"],
-        "bifurcations": [r.load_factor for r in history if r.kind == "bifurcation"],
+        "folds": folds,
+        "bifurcations": bifurcations,
+        "first_fold": folds[0] if folds else None,
+        "first_bifurcation": bifurcations[0] if bifurcations else None,
         "unlocated": [r.load_factor for r in history if r.kind.endswith("_unlocated")],
     }
 
@@ -420,15 +426,21 @@ def special_points_text(history: Sequence[BranchPoint]) -> str:
 
     Returns:
         The folds and bifurcations, with the stability indices of the points before and after
-        each ("?" where there is none), and the unlocated ones: the first
+        each ("?" where there is none; after a switch, the new branch's), and the unlocated
+        ones: the first
         :data:`NAMED_SPECIAL_POINTS`, and how many more.
     """
     named = []
     for i, point in enumerate(history):
         if point.kind in ("fold", "bifurcation"):
             before = history[i - 1].stability_index if i else "?"
-            after = history[i + 1].stability_index if i + 1 < len(history) else "?"
-            named.append(f"{point.kind} at {point.load_factor:.6g} (index {before} → {after})")
+            following = history[i + 1] if i + 1 < len(history) else None
+            after = "?" if following is None else following.stability_index
+            if following is not None and following.branch != point.branch:
+                indices = f"index {before}; switched onto a branch of index {after}"
+            else:
+                indices = f"index {before} → {after}"
+            named.append(f"{point.kind} at {point.load_factor:.6g} ({indices})")
         elif point.kind.endswith("_unlocated"):
             named.append(f"{point.kind.replace('_', ' ')} before {point.load_factor:.6g}")
     if len(named) > NAMED_SPECIAL_POINTS:

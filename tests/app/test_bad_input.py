@@ -171,6 +171,12 @@ BAD_INPUT = {
         "model.pin: nothing holds the plate's height against its pressure or natural curvature",
         FVK,
     ),
+    "fvk free plate with one mirror": Case(
+        ("model.clamped=[]", "model.mirror=['bottom']", "model.pin=[0.0, 0.0]"),
+        "model.mirror: a plate that no clamped or simply supported group holds needs mirror "
+        "edges along x and along y",
+        FVK,
+    ),
     "fvk probe named max": Case(
         ("model.probes={max=[0.5, 0.5]}",),
         "model.probes.max: a name of letters, digits and _ other than 'center' and 'max'",

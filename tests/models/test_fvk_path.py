@@ -404,6 +404,11 @@ def test_the_special_points_are_named_with_their_indices_six_at_most():
     text = special_points_text(many)
     assert text.count("fold at") == 6 and text.endswith(", 3 more (summary.json: special_points)")
     assert special_points_text(many[:1]) == ""
+    switched = [point(0, "regular", 0), point(1, "bifurcation", 0), point(2, "switch", 0)]
+    switched[2] = dataclasses.replace(switched[2], branch=1)
+    assert special_points_text(switched) == (
+        "; bifurcation at 0.1 (index 0; switched onto a branch of index 0)"
+    )
 
 
 def test_follow_traces_the_arch_through_its_fold(tmp_path):

@@ -278,7 +278,7 @@ def fvk_space(
     return dolfinx.fem.functionspace(mesh, basix.ufl.mixed_element(elements))
 
 
-def _edge_axis(tagged: TaggedMesh, group: str, key: str) -> int:
+def edge_axis(tagged: TaggedMesh, group: str, key: str) -> int:
     """Component of u normal to an axis-parallel edge group: 0 for x = const, 1 for y = const.
 
     ``key`` names the input that asked for it in the error (a straight edge along x or y).
@@ -306,7 +306,7 @@ def _component_values(tagged: TaggedMesh, group: str, condition: Any, key: str) 
         return ["free", "free"]
     if condition == "normal":
         components: list[Any] = ["free", "free"]
-        components[_edge_axis(tagged, group, key)] = 0.0
+        components[edge_axis(tagged, group, key)] = 0.0
         return components
     return list(condition)
 

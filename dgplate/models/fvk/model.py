@@ -23,7 +23,14 @@ from dgplate.errors import InputError
 from dgplate.measure.probes import DeflectionProbes, PointProbe
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import Initial, Model
-from dgplate.models.fvk.energy import BCValues, fvk_energy, fvk_facet_sets, fvk_space, membrane_bcs
+from dgplate.models.fvk.energy import (
+    BCValues,
+    edge_axis,
+    fvk_energy,
+    fvk_facet_sets,
+    fvk_space,
+    membrane_bcs,
+)
 from dgplate.models.fvk.spec import FvKSpec
 from dgplate.mpi import bounds
 from dgplate.solvers.continuation import BranchPath
@@ -266,6 +273,7 @@ def build_fvk(spec: FvKSpec, tagged: TaggedMesh) -> FvKModel:
     facets = fvk_facet_sets(tagged, spec)
     space = fvk_space(tagged.mesh, spec.degree)
     bcs, bc_values = membrane_bcs(space, tagged, spec)
+    _check_free_plate_is_held(spec, tagged)
     if spec.pin is not None:
         bcs.append(pin_deflection(space, spec.pin))
     tip = None
@@ -278,6 +286,26 @@ def build_fvk(spec: FvKSpec, tagged: TaggedMesh) -> FvKModel:
     }
     probe = _probe(spec, tagged.mesh)
     return FvKModel(spec, facets, space, bcs, bc_values, probe, tip, named)
+
+
+def _check_free_plate_is_held(spec: FvKSpec, tagged: TaggedMesh) -> None:
+    """A bent plate that no edge holds up needs mirror edges along x and along y (and a pin).
+
+    Without a clamped or simply supported group (or an indenter), the mirror edges alone hold
+    the tilts of w and the sliding of u along them: one mirror axis leaves a tilt and a
+    sliding free, and the Jacobian is singular.
+    """
+    held = spec.clamped or spec.simply_supported or spec.indenter is not None
+    bent = spec.pressure not in (0, 0.0) or spec.natural_curvature != 0
+    if held or not bent:
+        return
+    axes = {edge_axis(tagged, group, f"model.mirror: group '{group}'") for group in spec.mirror}
+    if axes != {0, 1}:
+        raise InputError(
+            "model.mirror: a plate that no clamped or simply supported group holds needs mirror "
+            "edges along x and along y (its tilts and its sliding are free otherwise): model a "
+            "quarter of a plate symmetric about both axes"
+        )
 
 
 def _check_indentation(spec: FvKSpec, mesh: dolfinx.mesh.Mesh[np.float64]) -> None:
