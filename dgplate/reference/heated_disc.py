@@ -54,6 +54,7 @@ uniform-curvature value.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -164,6 +165,17 @@ def _radii(radius: float, steps: int) -> Array:
     return np.asarray(r0 + (radius - r0) * (np.arange(steps + 1) / steps) ** 2)
 
 
+def _integrate(rates: Callable[[float, Array], Array], y: Array, radii: Array) -> Array:
+    """Y at the last of ``radii`` by the classical Runge–Kutta method from y at the first."""
+    for r, h in zip(radii[:-1], np.diff(radii)):
+        k1 = rates(r, y)
+        k2 = rates(r + h / 2, y + h / 2 * k1)
+        k3 = rates(r + h / 2, y + h / 2 * k2)
+        k4 = rates(r + h, y + h * k3)
+        y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return y
+
+
 def _rates(r: float, y: Array, D: float, Et: float) -> Array:
     """d/dr of (φ, φ′, ψ, ψ′, w) for the axisymmetric FvK equations (columns: shots)."""
     phi, dphi, psi, dpsi = y[0], y[1], y[2], y[3]
@@ -191,14 +203,7 @@ def _shoot(unknowns: Array, radius: float, D: float, Et: float, steps: int) -> A
             0.5 * a * r0**2,
         ]
     )
-    radii = _radii(radius, steps)
-    for r, h in zip(radii[:-1], np.diff(radii)):
-        k1 = _rates(r, y, D, Et)
-        k2 = _rates(r + h / 2, y + h / 2 * k1, D, Et)
-        k3 = _rates(r + h / 2, y + h / 2 * k2, D, Et)
-        k4 = _rates(r + h, y + h * k3, D, Et)
-        y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return y
+    return _integrate(lambda r, y: _rates(r, y, D, Et), y, _radii(radius, steps))
 
 
 def sphere(
@@ -277,17 +282,13 @@ def _rim_determinant(
             power * (power - 1) * r0 ** (power - 2),
             power * (power - 1) * (power - 2) * r0 ** (power - 3),
         ]
-    radii = _radii(radius, steps)
-    for r, h in zip(radii[:-1], np.diff(radii)):
-        k1 = _rates(r, base, D, Et), _mode_rates(r, base, mode, D, Et)
-        b2, m2 = base + h / 2 * k1[0], mode + h / 2 * k1[1]
-        k2 = _rates(r + h / 2, b2, D, Et), _mode_rates(r + h / 2, b2, m2, D, Et)
-        b3, m3 = base + h / 2 * k2[0], mode + h / 2 * k2[1]
-        k3 = _rates(r + h / 2, b3, D, Et), _mode_rates(r + h / 2, b3, m3, D, Et)
-        b4, m4 = base + h * k3[0], mode + h * k3[1]
-        k4 = _rates(r + h, b4, D, Et), _mode_rates(r + h, b4, m4, D, Et)
-        base = base + h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
-        mode = mode + h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+
+    def rates(r: float, y: Array) -> Array:  # the bowl's 5 unknowns, then the 8 × 4 of the modes
+        base, mode = y[:5], y[5:].reshape(8, 4)
+        return np.concatenate([_rates(r, base, D, Et), _mode_rates(r, base, mode, D, Et).ravel()])
+
+    y = _integrate(rates, np.concatenate([base, mode.ravel()]), _radii(radius, steps))
+    mode = y[5:].reshape(8, 4)
     R = radius
     W, W1, W2, W3, P, P1, _, _ = mode
     conditions = np.array(

@@ -240,8 +240,10 @@ def fvk_energy(
 def fvk_facet_sets(tagged: TaggedMesh, spec: FvKSpec) -> FacetSets:
     """dg.facet_sets plus the simply supported and mirror facets (ids SIMPLY_SUPPORTED, MIRROR)."""
     facets = facet_sets(tagged, spec.clamped, spec.crease, spec.penalty_length)
-    groups = {"simply_supported": (spec.simply_supported, SIMPLY_SUPPORTED)}
-    groups["mirror"] = (spec.mirror, MIRROR)
+    groups = {
+        "simply_supported": (spec.simply_supported, SIMPLY_SUPPORTED),
+        "mirror": (spec.mirror, MIRROR),
+    }
     if not spec.simply_supported and not spec.mirror:
         return facets
     mesh, fdim = tagged.mesh, tagged.mesh.topology.dim - 1

@@ -290,9 +290,7 @@ class FvKSpec:
                     f"model.probes.{name}: a name of letters, digits and _ other than "
                     "'center' and 'max' (it is recorded as w_<name>)"
                 )
-        held = self.clamped or self.simply_supported or self.indenter is not None
-        bent = self.pressure not in (0, 0.0) or self.natural_curvature != 0
-        if bent and not held and self.pin is None:
+        if self.bent and not self.held_up and self.pin is None:
             raise InputError(
                 "model.pin: nothing holds the plate's height against its pressure or natural "
                 "curvature (no clamped or simply supported group, no indenter); set "
@@ -334,6 +332,16 @@ class FvKSpec:
     def start_params(self) -> starts.Start:
         """The validated ``start``: Newton's first iterate (at λ = 0 on a path)."""
         return self._start
+
+    @property
+    def held_up(self) -> bool:
+        """Whether an edge (clamped or simply supported) or an indenter holds w."""
+        return bool(self.clamped or self.simply_supported or self.indenter is not None)
+
+    @property
+    def bent(self) -> bool:
+        """Whether a pressure or a natural curvature bends the plate."""
+        return self.pressure not in (0, 0.0) or self.natural_curvature != 0
 
     @property
     def D(self) -> float:
