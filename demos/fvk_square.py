@@ -31,7 +31,8 @@
 #
 # FvK results depend on w/t and Q only (the equations scale), so a = 1, t = 0.01, E = 1 is no
 # restriction. Run: `python demos/fvk_square.py [--paper] [--cells N] [--out DIR]` (also under
-# mpirun); `--paper` (or `--fine`) refines: linear limit up to 32 × 32, Levy's curve on 32 × 32.
+# mpirun). By default the linear limit runs on 8 × 8 and 16 × 16, Levy's curve on 12 × 12;
+# `--paper` (or `--fine`) refines: linear limit up to 32 × 32, Levy's curve on 32 × 32.
 
 # %%
 import argparse
@@ -57,13 +58,17 @@ LINEAR = {
 
 parser = demo.parser("fvk_square", "FvK: a square plate under pressure", "meshes up to 32 × 32")
 parser.add_argument("--fine", dest="paper", action="store_true", help=argparse.SUPPRESS)
-parser.add_argument("--cells", type=int, help="cells per side for the large-deflection run")
+parser.add_argument(
+    "--cells",
+    type=int,
+    help="cells per side for the large-deflection run (default 12; 32 with --paper)",
+)
 args = demo.parse(parser)
 comm = MPI.COMM_WORLD
 folder = demo.output_folder(args, comm)  # checked now; the results appear at the end
 out = folder.path
 levels = [8, 16, 32] if args.paper else [8, 16]
-cells = args.cells or (32 if args.paper else 16)
+cells = args.cells or (32 if args.paper else 12)  # 12: 1.4 % off Levy in 12 s; 16: 1.0 % in 25 s
 E, NU, T = 1.0, ref.LEVY_NU, 0.01
 D = E * T**3 / (12 * (1 - NU**2))
 

@@ -67,7 +67,10 @@ def _series(
     z = np.atleast_1d(np.asarray(z, dtype=float))
     small = np.abs(z) < 1
     out = np.empty_like(z)
-    out[small] = sum(c * z[small] ** (2 * i) for i, c in enumerate(coefficients))
+    square, series = z[small] ** 2, np.zeros(np.count_nonzero(small))
+    for c in reversed(coefficients):  # Horner's scheme in z²
+        series = series * square + c
+    out[small] = series
     out[~small] = direct(z[~small])
     return out
 
@@ -132,8 +135,10 @@ def strip_centre_deflection(q: float, L: float, E: float, t: float, hinge: bool)
         return N - A / L * float(np.sum((dw[1:] ** 2 + dw[:-1] ** 2) / 2 * np.diff(x)))
 
     lo, hi = 1e-14 * A, A
-    for _ in range(200):
+    for _ in range(200):  # about 60 halvings of log N reach round-off
         mid = math.sqrt(lo * hi)
+        if not lo < mid < hi:
+            break
         lo, hi = (mid, hi) if excess(mid) < 0 else (lo, mid)
     return shape(math.sqrt(lo * hi))[0]
 

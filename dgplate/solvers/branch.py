@@ -50,6 +50,12 @@ from dgplate.solvers.path_options import Leave, Relaxation, Stability
 from dgplate.solvers.snes import NewtonSolver
 from dgplate.solvers.stability import StabilityObserver
 
+#: Each proximal step of a relaxation is solved to this fraction of the relaxation's goal.
+PROXIMAL_ATOL = 1e-3
+#: Newton from a relaxed state converges in a few iterations, or stalls at round-off next to a
+#: nearly neutral mode (the cone past its onset: 30 iterations at 2·10⁻¹² before this bound).
+POLISH_ITERATIONS = 8
+
 
 class Path(Protocol):
     """The load path as the branch leaving sees it (:class:`dgplate.solvers.newton.LoadPath`)."""
@@ -103,7 +109,9 @@ class BranchLeaving:
                 break
             newton.anchor.x.array[:] = state.x.array
             newton.inv_tau.value = np.asarray(1.0 / tau)
-            reason, more = newton.solve()
+            # each proximal solve to far below the goal, not to round-off: a relative
+            # tolerance of a small start residual asks for more than round-off allows
+            reason, more = newton.solve(atol=PROXIMAL_ATOL * goal)
             newton.inv_tau.value = np.asarray(0.0)
             its += more
             energy = newton.energy_value() if reason > 0 else math.inf
@@ -183,7 +191,7 @@ class BranchLeaving:
         """Newton from the relaxed state, kept only if it converges without raising Π."""
         state = self.path.state
         relaxed, energy = state.x.array.copy(), self.newton.energy_value()
-        reason, its = self.newton.solve()
+        reason, its = self.newton.solve(max_it=POLISH_ITERATIONS)
         if reason < 0 or self.newton.energy_value() > energy + 1e-12 * abs(energy):
             state.x.array[:] = relaxed
             self.path.set_load(factor)

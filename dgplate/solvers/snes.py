@@ -129,10 +129,26 @@ class NewtonSolver:
         dolfinx.fem.petsc.assemble_matrix(A, self._jacobian, self.bcs)  # type: ignore[arg-type]
         A.assemble()
 
-    def solve(self) -> tuple[int, int]:
-        """SNES from the current state: (reason, iterations); the state is the last iterate."""
+    def solve(self, atol: float | None = None, max_it: int | None = None) -> tuple[int, int]:
+        """SNES from the current state; the state is the last iterate.
+
+        Args:
+            atol: this solve also stops at a residual norm ≤ atol (None: the options' own).
+            max_it: this solve takes at most max_it iterations (None: the options' own).
+
+        Returns:
+            (SNES converged reason, iterations).
+        """
+        rtol, own_atol, stol, own_max_it = self.snes.getTolerances()
+        self.snes.setTolerances(
+            atol=own_atol if atol is None else max(atol, own_atol),
+            max_it=own_max_it if max_it is None else max_it,
+        )
         self.state.x.petsc_vec.copy(self._x)
-        self.snes.solve(None, self._x)
+        try:
+            self.snes.solve(None, self._x)
+        finally:
+            self.snes.setTolerances(rtol, own_atol, stol, own_max_it)
         self._update(self._x)
         # an int at run time (petsc4py's stubs say ConvergedReason)
         return cast(int, self.snes.getConvergedReason()), int(self.snes.getIterationNumber())
