@@ -21,13 +21,13 @@ test: setup test-serial test-mpi
 # (tests/slow_tests.txt: 2 s or more; the demos; the shipped problem files) and those that
 # launch mpirun.
 test-fast: setup
-	$(PY) -m pytest $(PYTEST_FLAGS) -n $(NP) -m "not slow and not spawns_mpirun" tests
+	$(PY) -m pytest $(PYTEST_FLAGS) -n $(NP) --dist worksteal -m "not slow and not spawns_mpirun" tests
 
 # Two passes: the tests on NP parallel workers (pytest-xdist), then those that launch mpirun
 # themselves (marker spawns_mpirun, among them a demo of each model and feature on 2 ranks) one
 # at a time, with the cores to themselves and the forms already in the JIT cache.
 test-serial: setup
-	$(PY) -m pytest $(PYTEST_FLAGS) -n $(NP) -m "not spawns_mpirun" tests
+	$(PY) -m pytest $(PYTEST_FLAGS) -n $(NP) --dist worksteal -m "not spawns_mpirun" tests
 	$(PY) -m pytest $(PYTEST_FLAGS) -m spawns_mpirun tests
 
 # Tests marked `mpi` again on NP ranks; `-m mpi4py` aborts all ranks when one fails.

@@ -53,3 +53,20 @@ def pytest_collection_modifyitems(config, items):
         node = f"tests/{where}::{item.nodeid.split('::', 1)[1]}" if "::" in item.nodeid else ""
         if where.startswith(SLOW_MODULES) or node in slow:
             item.add_marker(pytest.mark.slow)
+    items[:] = longest_modules_first(items)
+
+
+def longest_modules_first(items: list) -> list:
+    """The modules with the most slow tests first, each module's tests together and in order.
+
+    pytest-xdist hands the tests out in this order: a long test that starts last keeps one
+    worker busy after the other has finished. Modules stay whole, so that a module-scoped
+    fixture is built once per worker that runs its tests.
+    """
+    modules: dict[str, list] = {}
+    for item in items:
+        modules.setdefault(item.nodeid.split("::", 1)[0], []).append(item)
+    ranked = sorted(
+        modules.values(), key=lambda tests: -sum(bool(t.get_closest_marker("slow")) for t in tests)
+    )
+    return [item for tests in ranked for item in tests]
