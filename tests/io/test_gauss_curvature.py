@@ -9,7 +9,11 @@ a run of the BNN plate that writes K into its VTX series, summary.json and final
 import json
 from pathlib import Path
 
+from mpi4py import MPI
+
 import dolfinx.fem
+import ffcx.codegeneration.jit
+import ffcx.naming
 import numpy as np
 import pytest
 from helpers import PROBLEMS
@@ -62,6 +66,42 @@ def test_flat_plate_fits_a_cylinder_of_infinite_radius(comm):
     y = deformation(comm, "quadrilateral", 2, [[0, 0], [2, 1]], [4, 2], lambda x: x)
     fit = curvature_summary(y)["cylinder_fit"]
     assert fit["radius"] == float("inf") and fit["rms_residual"] == 0.0
+
+
+def rolled(angle: float):
+    """The sheet rolled onto the unit cylinder about the in-plane direction at ``angle``."""
+    along, across = np.array([np.cos(angle), np.sin(angle)]), np.array([-np.sin(angle), np.cos(angle)])  # fmt: skip
+
+    def y(x):
+        s, t = along @ x[:2], across @ x[:2]
+        return np.vstack([np.sin(s) * along[0] + t * across[0],
+                          np.sin(s) * along[1] + t * across[1], 1.0 - np.cos(s)])  # fmt: skip
+
+    return y
+
+
+def test_the_cylinder_fit_of_another_shape_compiles_nothing(monkeypatch):
+    """Two sheets rolled about different directions fit the unit cylinder with the same compiled
+    expressions: a number of the shape (its direction of least bending) written into an
+    expression would compile a new one for every shape, in every run."""
+    compiled: list[str] = []
+    compile_expressions = ffcx.codegeneration.jit.compile_expressions
+
+    def spy(expressions, *args, **kwargs):
+        compiled.append(ffcx.naming.compute_signature(expressions, ""))
+        return compile_expressions(expressions, *args, **kwargs)
+
+    monkeypatch.setattr(ffcx.codegeneration.jit, "compile_expressions", spy)
+    signatures = []
+    for angle in (0.0, 0.5):
+        compiled.clear()
+        y = deformation(
+            MPI.COMM_SELF, "quadrilateral", 2, [[-1, -1], [1, 1]], [6, 6], rolled(angle)
+        )
+        fit = curvature_summary(y)["cylinder_fit"]
+        assert fit["radius"] == pytest.approx(1.0, rel=0.02)
+        signatures.append(set(compiled))
+    assert signatures[0] and signatures[1] == signatures[0]
 
 
 @pytest.mark.mpi
