@@ -187,7 +187,7 @@ else
   # them would take CI past its 90 minutes.
   demos=(box_folding straight_fold fvk_buckling buckling_strip rod_circle self_avoiding_strip
     lce_strip obstacle_bnn)
-  log "python3 -m pytest -q -n 2 -m 'not mpi and not spawns_mpirun' (no demos)"
+  log "python3 -m pytest -q -n 2 --dist worksteal -m 'not mpi and not spawns_mpirun' (no demos)"
   in_root tests/ -n 2 --dist worksteal --durations=10 -m "not mpi and not spawns_mpirun" \
     -k "not test_demo_runs_and_checks_its_results" || rc=$?
   if ((rc == 0)); then

@@ -56,14 +56,15 @@ def pytest_collection_modifyitems(config, items):
     items[:] = longest_modules_first(items)
 
 
-def longest_modules_first(items: list) -> list:
+def longest_modules_first(items: list[pytest.Item]) -> list[pytest.Item]:
     """The modules with the most slow tests first, each module's tests together and in order.
 
-    pytest-xdist hands the tests out in this order: a long test that starts last keeps one
-    worker busy after the other has finished. Modules stay whole, so that a module-scoped
-    fixture is built once per worker that runs its tests.
+    pytest-xdist splits the tests in this order between its workers (``--dist worksteal``:
+    halves at first, then an idle worker takes the back half of the busy one's queue), so the
+    long tests start early and short ones fill the end. Keeping a module's tests together
+    makes a split inside a module (and a module-scoped fixture built on both workers) rare.
     """
-    modules: dict[str, list] = {}
+    modules: dict[str, list[pytest.Item]] = {}
     for item in items:
         modules.setdefault(item.nodeid.split("::", 1)[0], []).append(item)
     ranked = sorted(

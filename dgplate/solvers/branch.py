@@ -53,7 +53,8 @@ from dgplate.solvers.stability import StabilityObserver
 #: Each proximal step of a relaxation is solved to this fraction of the relaxation's goal.
 PROXIMAL_ATOL = 1e-3
 #: Newton from a relaxed state converges in a few iterations, or stalls at round-off next to a
-#: nearly neutral mode (the cone past its onset: 30 iterations at 2·10⁻¹² before this bound).
+#: nearly neutral mode (the cone past its onset: 30 iterations at 2·10⁻¹² before this bound);
+#: whether it was kept is in ``perturbations`` (``polished``).
 POLISH_ITERATIONS = 8
 
 
@@ -128,7 +129,13 @@ class BranchLeaving:
                 f"steps at load factor {factor:g} (residual {residual:.3g})"
             )
         self.relaxations.append(
-            {"load_factor": factor, "energies": energies, "tau": tau, "residual": residual}
+            {
+                "load_factor": factor,
+                "energies": energies,
+                "tau": tau,
+                "residual": residual,
+                "goal": goal,
+            }
         )
         return its
 
@@ -148,7 +155,9 @@ class BranchLeaving:
             amplitude = leave.fraction * self._deflection_scale()
             self._push(pairs.vectors[0], amplitude)
             pairs.destroy()
-            its += self.relax(factor, leave.relaxation) + self._polish(factor)
+            its += self.relax(factor, leave.relaxation)
+            polished, more = self._polish(factor, PROXIMAL_ATOL * self.relaxations[-1]["goal"])
+            its += more
             pairs = spectrum.lowest_eigenpairs(stability)
             after = float(pairs.values[0]) if len(pairs.values) else math.nan
             spectrum.perturbations.append(
@@ -159,6 +168,7 @@ class BranchLeaving:
                     "energy_before": before,
                     "energy_after": energy_value(),
                     "eigenvalue_after": after,
+                    "polished": polished,
                 }
             )
             if not after < -tol:
@@ -187,15 +197,20 @@ class BranchLeaving:
         self.path.state.x.array[self.newton.free[1]] += amplitude * values / largest
         self.path.state.x.scatter_forward()
 
-    def _polish(self, factor: float) -> int:
-        """Newton from the relaxed state, kept only if it converges without raising Π."""
+    def _polish(self, factor: float, atol: float) -> tuple[bool, int]:
+        """Newton from the relaxed state, kept only if it converges without raising Π.
+
+        Returns whether it was kept, and its iterations (at most ``POLISH_ITERATIONS``; it also
+        stops at a residual ≤ ``atol``).
+        """
         state = self.path.state
         relaxed, energy = state.x.array.copy(), self.newton.energy_value()
-        reason, its = self.newton.solve(max_it=POLISH_ITERATIONS)
-        if reason < 0 or self.newton.energy_value() > energy + 1e-12 * abs(energy):
+        reason, its = self.newton.solve(atol=atol, max_it=POLISH_ITERATIONS)
+        kept = reason > 0 and self.newton.energy_value() <= energy + 1e-12 * abs(energy)
+        if not kept:
             state.x.array[:] = relaxed
             self.path.set_load(factor)
-        return its
+        return kept, its
 
     def leave_unstable(
         self, factor: float, stability: Stability, mode: PETSc.Vec

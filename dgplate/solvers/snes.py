@@ -134,7 +134,8 @@ class NewtonSolver:
 
         Args:
             atol: this solve also stops at a residual norm ≤ atol (None: the options' own).
-            max_it: this solve takes at most max_it iterations (None: the options' own).
+            max_it: this solve takes at most max_it iterations (None, or more than the options'
+                own: the options' own).
 
         Returns:
             (SNES converged reason, iterations).
@@ -142,7 +143,7 @@ class NewtonSolver:
         rtol, own_atol, stol, own_max_it = self.snes.getTolerances()
         self.snes.setTolerances(
             atol=own_atol if atol is None else max(atol, own_atol),
-            max_it=own_max_it if max_it is None else max_it,
+            max_it=own_max_it if max_it is None else min(max_it, own_max_it),
         )
         self.state.x.petsc_vec.copy(self._x)
         try:

@@ -519,6 +519,7 @@ MPI_CASES = [
     "rod of 1e8 cells",
     "unknown group",
     "nan on the plate",
+    "curvature not finite on the plate",
     "start formula not finite on the plate",
     "metric not positive definite",
     "director angle not finite",

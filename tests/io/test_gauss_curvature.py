@@ -69,7 +69,8 @@ def test_flat_plate_fits_a_cylinder_of_infinite_radius(comm):
 
 
 def rolled(angle: float):
-    """The sheet rolled onto the unit cylinder about the in-plane direction at ``angle``."""
+    """The sheet bent along the in-plane direction at ``angle`` onto the unit cylinder, whose
+    axis is the direction across it, (−sin angle, cos angle, 0)."""
     along, across = np.array([np.cos(angle), np.sin(angle)]), np.array([-np.sin(angle), np.cos(angle)])  # fmt: skip
 
     def y(x):
@@ -100,6 +101,8 @@ def test_the_cylinder_fit_of_another_shape_compiles_nothing(monkeypatch):
         )
         fit = curvature_summary(y)["cylinder_fit"]
         assert fit["radius"] == pytest.approx(1.0, rel=0.02)
+        axis = np.array([-np.sin(angle), np.cos(angle), 0.0])
+        assert abs(np.dot(fit["axis"], axis)) == pytest.approx(1.0, abs=1e-6)
         signatures.append(set(compiled))
     assert signatures[0] and signatures[1] == signatures[0]
 
