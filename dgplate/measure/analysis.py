@@ -112,14 +112,8 @@ def fit_cylinder(y: Function, mean_II: Array, areas: Array, total_area: float) -
     # the axis is the mean of ∇y·d_ref: the mean of ∇y, times d_ref (∇y compiles once; d_ref
     # in the expression would compile anew for each shape)
     columns = [geometry.image_of_direction(y, e) for e in ([1.0, 0.0], [0.0, 1.0])]  # ∂ⱼy
-    mean_gradient = np.array(
-        [
-            [mpi.global_sum(comm, float(np.dot(cell_field(column[a], mesh), areas)))
-             for column in columns]
-            for a in range(3)
-        ]
-    )  # fmt: skip
-    axis = mean_gradient @ d_ref
+    local = [[np.dot(cell_field(column[a], mesh), areas) for column in columns] for a in range(3)]
+    axis = mpi.sum_arrays(comm, np.array(local)) @ d_ref
     axis /= np.linalg.norm(axis)
     e1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1 /= np.linalg.norm(e1)
