@@ -30,11 +30,15 @@ from dgplate.measure.creases import crease_polylines, fold_angle_summary
 from dgplate.measure.prestrain import gauss_curvature_figures
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import REQUIRED, Check, option
+from dgplate.solvers.constrained_path import constrained_branch_path, constrained_problem
+from dgplate.solvers.constraint import IsometryDefect
+from dgplate.solvers.continuation import BranchPath, PathSettings
 from dgplate.solvers.driver import Driver, Observer
 from dgplate.solvers.flow import FlowSpec, GradientFlow, Initial
 from dgplate.solvers.moving_clamp import AlphaSchedule, MovingClampFlow, MovingClampSpec
 
 __all__ = [
+    "ArcLengthPath",
     "BoundaryData",
     "DataPath",
     "Initial",
@@ -120,6 +124,55 @@ class DataPath:
     schedule: AlphaSchedule
 
 
+@dataclass(frozen=True)
+class ArcLengthPath:
+    """A plate's equilibria followed in a load factor λ by arclength (``[path]``).
+
+    Attributes:
+        factor: the Constant λ that multiplies the datum ``path.parameter`` in the energy.
+        settings: the path's settings.
+    """
+
+    factor: Constant
+    settings: PathSettings
+
+    def driver(
+        self,
+        plate: PlateModel,
+        flow: FlowSpec,
+        observers: Sequence[Observer],
+        initial: Initial | None,
+    ) -> BranchPath:
+        """The path from λ = 0 (:mod:`dgplate.solvers.constrained_path`).
+
+        Args:
+            plate: the plate whose energy depends on :attr:`factor`.
+            flow: the [flow] section (its constraint's keys: multipliers, edge moments).
+            observers: told of every point and of the end of the run.
+            initial: the first iterate at λ = 0 (None: the flat plate).
+
+        Returns:
+            The driver.
+        """
+        problem = constrained_problem(
+            plate.facets, plate.degree, plate.energy, flow, plate.metric, initial
+        )
+        self.factor.value = np.asarray(0.0)
+        defect = IsometryDefect(problem.y, plate.metric)
+
+        def probes() -> dict[str, float]:
+            problem.deformation()
+            return {"isometry_defect": defect()}
+
+        return constrained_branch_path(
+            problem, self.factor, self.settings, PATH_PREFIX, probes=probes, observers=observers
+        )
+
+
+#: The PETSc options prefix of a plate's path (its Newton solver and bordered systems).
+PATH_PREFIX = "dgplate_plate_path_"
+
+
 @dataclass
 class PlateModel(Model):
     """An isometry-constrained plate: the energy of y ∈ [DG_k]³, run by the gradient flow.
@@ -136,31 +189,38 @@ class PlateModel(Model):
     measures: Sequence[Callable[[Function], dict[str, Any]]] = field(default_factory=tuple)
     continuation: DataPath | None = None
     metric: Expr | None = None  # the target metric G of ∇yᵀ∇y = G (None: I, isometries)
+    arclength: ArcLengthPath | None = None  # the equilibria followed in λ instead of a flow
 
     def driver(
         self, flow: FlowSpec, observers: Sequence[Observer], initial: Initial | None
-    ) -> GradientFlow | MovingClampFlow:
-        """The constrained gradient flow of :attr:`energy`, staged in α with a continuation."""
+    ) -> GradientFlow | MovingClampFlow | BranchPath:
+        """The constrained gradient flow of :attr:`energy` (staged in α with a continuation).
+
+        With :attr:`arclength`: the path of its equilibria in λ instead.
+        """
+        if self.arclength is not None:
+            return self.arclength.driver(self, flow, observers, initial)
         path, facets, energy, metric = self.continuation, self.facets, self.energy, self.metric
         if path is None:
             return GradientFlow(facets, self.degree, energy, flow, observers, initial, metric)
         plain = GradientFlow(facets, self.degree, energy, flow, (), initial, metric)
         return MovingClampFlow(plain, path.alpha, path.schedule, observers)
 
-    def figures(self, driver: GradientFlow | MovingClampFlow) -> dict[str, Any]:
+    def figures(self, driver: Driver) -> dict[str, Any]:
         """‖K_h‖_L¹, ‖δI_h‖_L¹, K_h against G's K, crease fold angles, :attr:`measures`."""
-        out: dict[str, Any] = l1_norms(driver.y, self.metric)
+        y = driver.shape
+        out: dict[str, Any] = l1_norms(y, self.metric)
         if self.metric is not None:
-            out.update(gauss_curvature_figures(driver.y, self.metric))
+            out.update(gauss_curvature_figures(y, self.metric))
         if self.facets.num_crease:
-            out.update(fold_angle_summary(driver.y, self.facets))
+            out.update(fold_angle_summary(y, self.facets))
         for measure in self.measures:
-            out.update(measure(driver.y))
+            out.update(measure(y))
         return out
 
-    def lines(self, driver: GradientFlow | MovingClampFlow) -> list[Array]:
+    def lines(self, driver: Driver) -> list[Array]:
         """The deformed crease lines."""
-        return crease_polylines(driver.y, self.facets) if self.facets.num_crease else []
+        return crease_polylines(driver.shape, self.facets) if self.facets.num_crease else []
 
 
 def flat_identity(mesh: Mesh) -> tuple[Expr, Expr]:

@@ -194,6 +194,21 @@ class Bordered:
             vector.destroy()
 
 
+@dataclass(frozen=True)
+class Multipliers:
+    """The multipliers among the unknowns of a Lagrangian (:mod:`dgplate.solvers.constrained_path`).
+
+    Attributes:
+        rows: m, the negative eigenvalues its KKT Jacobian has whatever the state: the
+            stability index is the negative count less m.
+        weight: 1 on the state's unknowns, 0 on the multipliers': the arclength counts the
+            state only (destroyed with the engine).
+    """
+
+    rows: int
+    weight: PETSc.Vec
+
+
 @dataclass
 class Point:
     """A converged point of the path with its unit tangent (t, τ) and its stability index."""
@@ -253,6 +268,7 @@ class ArcLength:
         tol: the corrector stops when the scaled norm of its update is below ``tol`` ...
         stall: ... or below ``stall`` and no longer falling tenfold per iteration (round-off).
         max_iterations: corrector iterations at most.
+        multipliers: the multipliers of a Lagrangian among the unknowns (None: none).
 
     All methods are collective.
     """
@@ -265,17 +281,28 @@ class ArcLength:
         tol: float = 1e-9,
         stall: float = 1e-6,
         max_iterations: int = 12,
+        multipliers: Multipliers | None = None,
     ) -> None:
         self.newton, self.load, self.state = newton, load, newton.state
+        self.multipliers = multipliers
         self.system = Bordered(newton, load, prefix)
         self.tol, self.stall, self.max_iterations = tol, stall, max_iterations
         self.sigma = 1.0  # the scale of the state: ‖∂u/∂λ‖ at the start
         vector = self.state.x.petsc_vec
-        self._r, self._r_lam, self._du1, self._du2 = (vector.duplicate() for _ in range(4))
+        self._r, self._r_lam, self._du1, self._du2, self._weighted = (
+            vector.duplicate() for _ in range(5)
+        )
 
     def inner(self, a: PETSc.Vec, b: PETSc.Vec) -> float:
-        """The state part aᵀb/σ² of the scaled inner product."""
-        return float(np.real(a.dot(b))) / self.sigma**2
+        """The state part aᵀb/σ² of the scaled inner product (the weighted unknowns only)."""
+        return self._dot(a, b) / self.sigma**2
+
+    def _dot(self, a: PETSc.Vec, b: PETSc.Vec) -> float:
+        """aᵀb over the unknowns the weight counts."""
+        if self.multipliers is None:
+            return float(np.real(a.dot(b)))
+        self._weighted.pointwiseMult(self.multipliers.weight, b)
+        return float(np.real(a.dot(self._weighted)))
 
     def start(self, lam: float, sigma: float | None = None) -> Point:
         """The first point: the state solved at ``lam`` by the load path's Newton solver.
@@ -293,7 +320,7 @@ class ArcLength:
             raise SolverError(f"Newton failed at the start of the path (load factor {lam:g})")
         if sigma is None:
             du = self._load_tangent(lam)
-            sigma = math.sqrt(float(np.real(du.dot(du)))) or 1.0
+            sigma = math.sqrt(self._dot(du, du)) or 1.0
         self.sigma = sigma
         return self.point(lam, None, int(its))
 
@@ -355,12 +382,14 @@ class ArcLength:
         """The stability index of the current state.
 
         Returns:
-            The number of negative Hessian eigenvalues on the free unknowns (the inertia).
+            The number of negative Hessian eigenvalues on the free unknowns (the inertia),
+            less the rows of the multipliers.
         """
         with petsc_failure("the Hessian on the free unknowns"):
             hessian = self.newton.free_hessian()
         try:
-            return eigen.negative_count(hessian)
+            rows = self.multipliers.rows if self.multipliers is not None else 0
+            return eigen.negative_count(hessian) - rows
         finally:
             hessian.destroy()
 
@@ -426,5 +455,7 @@ class ArcLength:
     def destroy(self) -> None:
         """Free the solver and the work vectors."""
         self.system.destroy()
-        for vector in (self._r, self._r_lam, self._du1, self._du2):
+        for vector in (self._r, self._r_lam, self._du1, self._du2, self._weighted):
             vector.destroy()
+        if self.multipliers is not None:
+            self.multipliers.weight.destroy()

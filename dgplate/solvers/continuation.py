@@ -26,7 +26,7 @@ import ufl
 
 from dgplate import interrupt
 from dgplate.errors import SolverError
-from dgplate.solvers.arclength import ArcLength, Point, StepLength
+from dgplate.solvers.arclength import ArcLength, Multipliers, Point, StepLength
 from dgplate.solvers.driver import Driver, Observer, RunOutcome, RunResult
 from dgplate.solvers.newton import LoadFactor, Probes, probe_text, with_probes
 from dgplate.solvers.prefixes import check_prefix, hold_prefix, release_prefix
@@ -98,6 +98,7 @@ class BranchPath(Driver):
         shape: the deformed surface y: ω → ℝ³ of the current state (a callable that updates it).
         probes: numbers of the state added to every record.
         observers: told of every point and of the end of :meth:`run`.
+        multipliers: the multipliers of a Lagrangian among the unknowns (None: none).
     """
 
     budget_key = "path.steps"
@@ -116,6 +117,7 @@ class BranchPath(Driver):
         shape: Callable[[], dolfinx.fem.Function[np.float64]],
         probes: Probes | None = None,
         observers: Sequence[Observer] = (),
+        multipliers: Multipliers | None = None,
     ) -> None:
         check_prefix(prefix)
         self.state, self.comm = state, state.function_space.mesh.comm
@@ -123,7 +125,7 @@ class BranchPath(Driver):
         self._shape_source, self._probes = shape, probes
         self.load = LoadFactor(load_factor, bc_values)
         self.newton = NewtonSolver(state, energy, bcs, prefix, options, "newton.snes")
-        self.engine = ArcLength(self.newton, self.load, f"{prefix}path_")
+        self.engine = ArcLength(self.newton, self.load, f"{prefix}path_", multipliers=multipliers)
         self.special = SpecialPoints(self.engine, settings.step)
         self._record = with_probes(BranchPoint, list(probes()) if probes else [])
         self.history: list[BranchPoint] = []
@@ -276,9 +278,7 @@ class BranchPath(Driver):
 
     def _inside(self, point: Point | None) -> bool:
         """Whether the path goes on from ``point``: λ within its bounds."""
-        if point is None:
-            return False
-        return abs(point.lam) <= self.settings.lambda_max
+        return point is not None and abs(point.lam) <= self.settings.lambda_max
 
     def _end(self) -> str:
         if self.current is not None and not self._inside(self.current):

@@ -227,7 +227,7 @@ class GradientFlow(EnergyFlow):
         self.W = mixed_space(mesh, degree, settings)
         self.V, self._vdofs = compat.collapse(self.W.sub(0))
         self.y: Function = dolfinx.fem.Function(self.V, name="deformation")
-        transfer.interpolate(self.y, initial or _flat)
+        transfer.interpolate(self.y, initial or flat)
         self.energy = energy_fn(self.y)
         self.defect = IsometryDefect(self.y, metric)
         self.metric = metric
@@ -480,6 +480,13 @@ class GradientFlow(EnergyFlow):
         self.measure.destroy()
 
 
-def _flat(x: Array) -> Array:
-    """The flat reference deformation y(x) = (x₁, x₂, 0), at points of shape (3, n)."""
+def flat(x: Array) -> Array:
+    """The flat reference deformation y(x) = (x₁, x₂, 0).
+
+    Args:
+        x: points, of shape (3, n).
+
+    Returns:
+        y at the points, of shape (3, n).
+    """
     return np.vstack([x[0], x[1], np.zeros_like(x[0])])

@@ -211,9 +211,9 @@ class StepSystem:
         """
         # K holds A_const, then B alone, until the first step assembles it whole
         compat.assemble_matrix_into(self.K, self._a_const)
-        norm_a = _max_row_sum(self.K)
+        norm_a = max_row_sum(self.K)
         compat.assemble_matrix_into(self.K, self._b)
-        norm_b = _max_row_sum(self.K)
+        norm_b = max_row_sum(self.K)
         if norm_b > 0:
             self._scale.value = np.asarray(norm_a / norm_b)
         self._K_whole = True
@@ -350,8 +350,15 @@ class StepSystem:
         self.K.destroy()
 
 
-def _max_row_sum(matrix: PETSc.Mat) -> float:
-    """‖A‖_∞, the largest absolute row sum."""
+def max_row_sum(matrix: PETSc.Mat) -> float:
+    """‖A‖_∞, the largest absolute row sum.
+
+    Args:
+        matrix: the matrix.
+
+    Returns:
+        Its norm.
+    """
     norm = matrix.norm(compat.NORM_INFINITY)
     assert isinstance(norm, float)  # a tuple only for NORM_1_AND_2
     return norm
