@@ -76,7 +76,7 @@ demo.copy_figure(Path(args.out), args.figure, "branch.png")
 # ## The thresholds against the closed forms
 #
 # Both converge at second order in h: on 16, 32, 64, 128 and 256 cells the bifurcation is
-# off by +3.4, +0.71, +0.17, +0.042 and +0.009 %, the fold by +3.4, +0.72, +0.17, +0.043 and
+# off by +3.4, +0.71, +0.17, +0.042 and +0.010 %, the fold by +3.4, +0.72, +0.17, +0.043 and
 # +0.011 % (docs/path_following.md). The demo asserts both within 0.8 % on 32 cells and
 # 0.05 % on 128, and the indices: 0 before the bifurcation, 1 between it and the fold, 2 after
 # the fold.

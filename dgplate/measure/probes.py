@@ -39,13 +39,37 @@ class PointProbe:
         if self.count == 0:
             raise ValueError(f"the point {list(point)} lies outside the mesh")
 
-    def __call__(self, u: dolfinx.fem.Function[np.float64]) -> float:
-        """U at the point (the mean over the cells that contain it)."""
+    def __call__(self, u: dolfinx.fem.Function[np.float64], component: int | None = None) -> float:
+        """U at the point (the mean over the cells that contain it).
+
+        Args:
+            u: the function (scalar unless ``component`` is given).
+            component: the component of a vector-valued ``u``.
+
+        Returns:
+            The value.
+        """
         local = 0.0
         if self.cells.size:
             points = np.repeat(self.point, self.cells.size, axis=0)
-            local = float(np.sum(u.eval(points, self.cells)))
+            values = u.eval(points, self.cells)
+            local = float(np.sum(values if component is None else values[:, component]))
         return float(self.comm.allreduce(local, op=MPI.SUM) / self.count)
+
+
+def centre(mesh: dolfinx.mesh.Mesh[np.float64]) -> list[float]:
+    """The centre of the mesh's bounding box (collective).
+
+    Args:
+        mesh: the mesh.
+
+    Returns:
+        Its coordinates (x, y).
+    """
+    x = mesh.geometry.x[:, :2]
+    lo = mesh.comm.allreduce(x.min(axis=0, initial=np.inf), op=MPI.MIN)
+    hi = mesh.comm.allreduce(x.max(axis=0, initial=-np.inf), op=MPI.MAX)
+    return [float(v) for v in (lo + hi) / 2]
 
 
 def signed_extreme(u: dolfinx.fem.Function[np.float64]) -> float:

@@ -28,6 +28,7 @@ from dgplate.errors import InputError
 from dgplate.measure.analysis import l1_norms
 from dgplate.measure.creases import crease_polylines, fold_angle_summary
 from dgplate.measure.prestrain import gauss_curvature_figures
+from dgplate.measure.probes import PointProbe, centre
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import REQUIRED, Check, option
 from dgplate.solvers.constrained_path import constrained_branch_path, constrained_problem
@@ -159,10 +160,12 @@ class ArcLengthPath:
         )
         self.factor.value = np.asarray(0.0)
         defect = IsometryDefect(problem.y, plate.metric)
+        mesh = plate.facets.mesh
+        at_centre = PointProbe(mesh, centre(mesh))
 
         def probes() -> dict[str, float]:
-            problem.deformation()
-            return {"isometry_defect": defect()}
+            y = problem.deformation()
+            return {"w_center": at_centre(y, component=2), "isometry_defect": defect()}
 
         return constrained_branch_path(
             problem, self.factor, self.settings, PATH_PREFIX, probes=probes, observers=observers
@@ -343,6 +346,7 @@ def clamped_data(
     mesh: Mesh,
     key: str = "model.boundary_data",
     path: DataPath | None = None,
+    alpha: Constant | None = None,
 ) -> tuple[Expr, Expr]:
     """Nitsche data (g, Φ) on clamped facets from a problem file.
 
@@ -351,10 +355,12 @@ def clamped_data(
     (:mod:`dgplate.values`). With a ``path`` the data follow it (docs/continuation.md):
     formulas that use ``alpha`` are the path themselves (they must be finite for every α of
     the schedule); otherwise the path is (1 − α)·id + α·g, and Φ likewise (1 − α)·[I₂; 0] + α·Φ.
+    ``alpha``: the α of the data without a schedule (an arclength path's λ, which moves them in
+    the same way; their formulas are checked as it moves, not here).
     """
     if value == "flat":
         return flat_identity(mesh)
-    alpha = path.alpha if path is not None else None
+    alpha = path.alpha if path is not None else alpha
     names = {"alpha": alpha} if alpha is not None else None
     g = values.vector(value.g, mesh, f"{key}.g", 3, names)
     if value.Phi is None:

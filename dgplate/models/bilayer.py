@@ -35,7 +35,7 @@ import ufl
 from ufl.core.expr import Expr
 
 from dgplate import expressions, values
-from dgplate.compat import Function, Mesh
+from dgplate.compat import Function
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import (
     BendingData,
@@ -53,7 +53,6 @@ from dgplate.dg.geometry import second_fundamental_form, unit_normal
 from dgplate.errors import InputError
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.models.base import (
-    ArcLengthPath,
     PlateModel,
     clamped_data,
     continuation_path,
@@ -61,9 +60,9 @@ from dgplate.models.base import (
 )
 from dgplate.models.kirchhoff import KirchhoffSpec, kirchhoff_energy, spec_metric, trace_constant
 from dgplate.models.obstacle import with_obstacle
+from dgplate.models.plate_path import BilayerPathSpec
 from dgplate.models.self_avoidance import with_self_avoidance
 from dgplate.schema import Check, is_matrix, is_number, option, section
-from dgplate.solvers.path_spec import PathKeys
 
 __all__ = [
     "BilayerSpec",
@@ -220,51 +219,6 @@ def _group_matrix(entry: object, key: str) -> list[list[float]]:
     return [[float(v) for v in row if is_number(v)] for row in entry]
 
 
-#: What a bilayer's load factor λ can scale (``path.parameter``).
-PATH_PARAMETERS = ("natural_curvature", "load")
-
-
-@dataclass
-class BilayerPathSpec(PathKeys):
-    """[path] of a bilayer: the path's keys and what its load factor scales."""
-
-    parameter: str = option(
-        "natural_curvature",
-        "what the load factor λ scales: 'natural_curvature' (Z) or 'load' (model.load), the "
-        "other held at its full value",
-        choices=PATH_PARAMETERS,
-    )
-
-    def arclength(self, mesh: Mesh) -> ArcLengthPath | None:
-        """The path's λ (at 1 until the path starts) and settings; None without arclength.
-
-        Args:
-            mesh: the plate's mesh (of the Constant λ).
-
-        Returns:
-            The path, or None when ``method`` is not 'arclength'.
-        """
-        if self.method != "arclength":
-            return None
-        return ArcLengthPath(values.constant(mesh, 1.0), self.settings())
-
-    def scaled(self, datum: Expr, name: str, path: ArcLengthPath | None) -> Expr:
-        """``datum`` times λ when the path's parameter is ``name``, else ``datum`` itself.
-
-        Args:
-            datum: a datum of the energy.
-            name: its name among :data:`PATH_PARAMETERS`.
-            path: the path (None: no path).
-
-        Returns:
-            The datum the energy takes.
-        """
-        if path is None or self.parameter != name:
-            return datum
-        scaled: Expr = path.factor * datum
-        return scaled
-
-
 @dataclass
 class BilayerSpec(KirchhoffSpec):
     """[model] of a bilayer plate: the Kirchhoff keys plus the spontaneous curvature."""
@@ -285,26 +239,6 @@ class BilayerSpec(KirchhoffSpec):
         super().__post_init__()
         if isinstance(self.Z, list):  # formulas are checked now; the shape when it is built
             expressions.check(self.Z, "model.Z")
-        if self.path.method == "arclength":
-            self._check_path()
-
-    def _check_path(self) -> None:
-        """What the arclength path cannot follow (:mod:`dgplate.solvers.constrained_path`)."""
-        if not self.clamped:
-            raise InputError(
-                "path.method = 'arclength' needs model.clamped: a free plate's rigid motions "
-                "leave the Jacobian singular"
-            )
-        refused = {
-            "model.crease": (self.crease, "a free crease's flap turns at no energy"),
-            "model.obstacle": (self.obstacle, "its active set is no part of the Lagrangian"),
-            "model.self_avoidance": (self.self_avoidance, "a term that is not an integral"),
-            "model.continuation": (self.continuation, "the path follows λ, not α"),
-            "model.hessian": (self.ldg_degree is not None, "the lifted Hessian is not an integral"),
-        }
-        for key, (given, why) in refused.items():
-            if given:
-                raise InputError(f"{key}: not with path.method = 'arclength' ({why})")
 
 
 def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
@@ -327,7 +261,8 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     Z = spec.path.scaled(spontaneous_curvature(spec.Z, tagged), "natural_curvature", arclength)
     path = continuation_path(spec.schedule, tagged.mesh)
-    g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path)
+    moving = spec.path.moving_data(arclength)
+    g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path, alpha=moving)
     penalty = spec.penalty
     degree = explicit_quadrature(spec.degree)
     metric = spec_metric(spec, tagged)

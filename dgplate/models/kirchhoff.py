@@ -53,8 +53,9 @@ from dgplate.models.director_smoothness import check_smooth
 from dgplate.models.metric import HELP as metric_help
 from dgplate.models.metric import MetricSpec, target_metric
 from dgplate.models.obstacle import with_obstacle
+from dgplate.models.plate_path import PlatePathSpec
 from dgplate.models.self_avoidance import with_self_avoidance
-from dgplate.schema import Check, option
+from dgplate.schema import Check, option, section
 from dgplate.solvers.moving_clamp import AlphaSchedule, MovingClampSpec
 
 
@@ -128,8 +129,10 @@ class KirchhoffSpec:
     start: str | dict[str, object] = option("flat", starts.HELP)
     metric: MetricSpec | None = option(None, metric_help)
     director: dict[str, float | str] = option({}, director_help)
+    path: PlatePathSpec = section(PlatePathSpec, "path")
 
     def __post_init__(self) -> None:
+        self.path.check(self)
         self._start = starts.Start.from_table(self.start)
         table = self.director  # the lce model's own 'director' is a profile name
         self._director = Director.from_table(table) if isinstance(table, dict) and table else None
@@ -143,10 +146,12 @@ class KirchhoffSpec:
             )
         expressions.check(self.load, "model.load")
         data = self.boundary_data
-        self._schedule = continuation_schedule(
-            self.continuation, self.clamped, data if data == "flat" else data.formulas()
-        )
-        moving = {"alpha": 1.0} if self.continuation else None
+        on_path = self.path.moves_data  # formulas in alpha move with the path's λ
+        self._schedule = None
+        if not on_path:
+            formulas = data if data == "flat" else data.formulas()
+            self._schedule = continuation_schedule(self.continuation, self.clamped, formulas)
+        moving = {"alpha": 1.0} if self.continuation or on_path else None
         if isinstance(data, BoundaryData):
             expressions.check(data.g, "model.boundary_data.g", moving)
             if data.Phi is not None:
@@ -219,10 +224,14 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
         The model: its facet sets, energy, flow settings and figures.
     """
     facets = facet_sets(tagged, spec.clamped, spec.crease, spec.penalty_length)
-    load = values.vector(spec.load, tagged.mesh, "model.load", 3)
+    arclength = spec.path.arclength(tagged.mesh)
+    load = spec.path.scaled(
+        values.vector(spec.load, tagged.mesh, "model.load", 3), "load", arclength
+    )
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     path = continuation_path(spec.schedule, tagged.mesh)
-    g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path)
+    moving = spec.path.moving_data(arclength)
+    g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path, alpha=moving)
     penalty = spec.penalty
     metric = spec_metric(spec, tagged)
     c = spec.trace_weight
@@ -244,7 +253,9 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
         return energy
 
     measures = gauss_penalty_measures(facets, beta, degree, metric)
-    plate = PlateModel(facets, spec.degree, energy_fn, measures, continuation=path, metric=metric)
+    plate = PlateModel(
+        facets, spec.degree, energy_fn, measures, path, metric=metric, arclength=arclength
+    )
     return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)
 
 

@@ -96,7 +96,7 @@ def follow(
     """Follow ``problem``'s equilibrium path in its load factor through folds and bifurcations.
 
     Args:
-        problem: a validated problem of a model with a ``[path]`` section (FvK, bilayer).
+        problem: a validated problem of a model with a ``[path]`` section (FvK, Kirchhoff, bilayer, foundation).
         out: the output folder (default: ``output.dir``, else ``out/<problem name>``).
         comm: the ranks that solve it (collective).
         initial: the start at λ = 0, as for :func:`dgplate.run`.
@@ -116,7 +116,7 @@ def follow(
     if "path" not in [name for name, _ in sections(model)]:
         raise InputError(
             f"dgplate.follow: path following is not available for the {model} model "
-            "(it is for fvk and bilayer); use dgplate.run"
+            "(it is for fvk, kirchhoff, bilayer and foundation); use dgplate.run"
         )
     if "method" in path:
         raise InputError("path.method: dgplate.follow always follows by arclength; give no method")

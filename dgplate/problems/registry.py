@@ -86,7 +86,14 @@ MODELS: dict[str, ModelEntry] = {
     "bilayer": ModelEntry(BilayerSpec, build_bilayer, flow_defaults=flow.ACCURATE),
     "foundation": ModelEntry(FoundationSpec, build_foundation, flow_defaults=flow.ACCURATE),
     "thermal": ModelEntry(ThermalSpec, build_thermal, flow_defaults=flow.ACCURATE),
-    "lce": ModelEntry(LCESpec, build_lce, flow_defaults=flow.ACCURATE),
+    "lce": ModelEntry(
+        LCESpec,
+        build_lce,
+        ignores={
+            "path": "the lce model has no path following (kirchhoff, bilayer and foundation have)"
+        },
+        flow_defaults=flow.ACCURATE,
+    ),
     "rod": ModelEntry(
         RodSpec, build_rod, ignores=ROD_IGNORES, mesh=rod_mesh, flow_defaults=rod_flow.DEFAULTS
     ),
@@ -114,4 +121,6 @@ def model_spec(data: Any, problem: Mapping[str, Any] | None = None) -> Any:
     name = data.get("name", "kirchhoff") if isinstance(data, dict) else "kirchhoff"
     if not isinstance(name, str) or name not in MODELS:
         raise InputError(f"model.name must be one of {', '.join(sorted(MODELS))}, got {name!r}")
+    if problem is not None:  # before the spec, which may read a section the model ignores
+        MODELS[name].reject_ignored(problem, name)
     return from_dict(MODELS[name].spec, data, "model", problem=problem)

@@ -261,7 +261,6 @@ def problem_from_dict(data: dict[str, Any], name: str, overrides: Overrides = ()
             ]
             whose = f"; [{section}] is for model.name = {' or '.join(owners)}" if owners else ""
             raise InputError(f"unknown section [{section}] (known: {', '.join(known)}){whose}")
-    MODELS[model.name].reject_ignored(data, model.name)
     mesh = from_dict(MeshSpec, data.get("mesh"), "mesh")
     flow = from_dict(FlowSpec, MODELS[model.name].flow_table(data.get("flow")), "flow")
     output = from_dict(OutputSpec, data.get("output"), "output")

@@ -18,8 +18,9 @@ Crisfield arc-length continuation of dolfiny). With the scaled inner product
 
 R is the residual as the Newton solver of the load path assembles it
 (:class:`dgplate.solvers.snes.NewtonSolver`: ``ufl.derivative`` of Π, Dirichlet rows u − λg₁).
-∂R/∂λ is (R(u, λ + 1) − R(u, λ − 1))/2: exact, because at a fixed state R is at most quadratic
-in λ for every load the FvK model scales. The terms of Π in λ² do not depend on u, so the
+∂R/∂λ is (R(u, λ + h) − R(u, λ − h))/2h, h = 1 by default: exact, because at a fixed state R is
+at most quadratic in λ for every load the FvK model scales (a parameter on which R depends
+otherwise, e.g. a clamp's angle, takes a small h: an error O(h²)). The terms of Π in λ² do not depend on u, so the
 derivative R and the Jacobian J are affine in λ; the Dirichlet rows lift the data λg by J, and
 J(λ)(λg − u) is quadratic in λ.
 
@@ -134,10 +135,13 @@ class Bordered:
         newton: the assembler of R and J at its state.
         load: the load factor and the Dirichlet data that grow with it.
         prefix: the PETSc options prefix of the linear solver.
+        step: the step h of the central difference ∂R/∂λ.
     """
 
-    def __init__(self, newton: NewtonSolver, load: LoadFactor, prefix: str) -> None:
-        self.newton, self.load = newton, load
+    def __init__(
+        self, newton: NewtonSolver, load: LoadFactor, prefix: str, step: float = 1.0
+    ) -> None:
+        self.newton, self.load, self.step = newton, load, step
         comm = newton.state.function_space.mesh.comm
         self.ksp = linear.make_ksp(comm, newton.jacobian(), prefix=prefix, key="path")
         vector = newton.state.x.petsc_vec
@@ -160,11 +164,11 @@ class Bordered:
             lam: the load factor λ (the load factor is left there).
             out: the vector written.
         """
-        self.residual(lam + 1.0, self._plus)
-        self.residual(lam - 1.0, self._minus)
+        self.residual(lam + self.step, self._plus)
+        self.residual(lam - self.step, self._minus)
         self._plus.copy(out)
         out.axpy(-1.0, self._minus)
-        out.scale(0.5)
+        out.scale(0.5 / self.step)
         self.load.set(lam)
 
     def factorise(self, lam: float) -> None:
@@ -265,10 +269,11 @@ class ArcLength:
         newton: the residual and Jacobian of R(u, λ) at its state (the path's unknowns).
         load: the load factor and the Dirichlet data that grow with it.
         prefix: the PETSc options prefix of the bordered system's linear solver.
+        derivative_step: the step h of the central difference ∂R/∂λ.
+        multipliers: the multipliers of a Lagrangian among the unknowns (None: none).
         tol: the corrector stops when the scaled norm of its update is below ``tol`` ...
         stall: ... or below ``stall`` and no longer falling tenfold per iteration (round-off).
         max_iterations: corrector iterations at most.
-        multipliers: the multipliers of a Lagrangian among the unknowns (None: none).
 
     All methods are collective.
     """
@@ -278,14 +283,15 @@ class ArcLength:
         newton: NewtonSolver,
         load: LoadFactor,
         prefix: str,
+        derivative_step: float = 1.0,
+        multipliers: Multipliers | None = None,
         tol: float = 1e-9,
         stall: float = 1e-6,
         max_iterations: int = 12,
-        multipliers: Multipliers | None = None,
     ) -> None:
         self.newton, self.load, self.state = newton, load, newton.state
         self.multipliers = multipliers
-        self.system = Bordered(newton, load, prefix)
+        self.system = Bordered(newton, load, prefix, derivative_step)
         self.tol, self.stall, self.max_iterations = tol, stall, max_iterations
         self.sigma = 1.0  # the scale of the state: ‖∂u/∂λ‖ at the start
         vector = self.state.x.petsc_vec

@@ -45,12 +45,15 @@ class PathSettings:
             point after it, one more).
         lambda_max: the path ends beyond this load factor.
         switch: leave the first bifurcation along the critical eigenvector.
+        derivative_step: the step h of the central difference ∂R/∂λ (exact at any h for an
+            R at most quadratic in λ, :mod:`dgplate.solvers.arclength`).
     """
 
     step: StepLength
     steps: int = 50
     lambda_max: float = 1.0
     switch: bool = False
+    derivative_step: float = 1.0
 
 
 @dataclass
@@ -125,7 +128,9 @@ class BranchPath(Driver):
         self._shape_source, self._probes = shape, probes
         self.load = LoadFactor(load_factor, bc_values)
         self.newton = NewtonSolver(state, energy, bcs, prefix, options, "newton.snes")
-        self.engine = ArcLength(self.newton, self.load, f"{prefix}path_", multipliers=multipliers)
+        self.engine = ArcLength(
+            self.newton, self.load, f"{prefix}path_", settings.derivative_step, multipliers
+        )
         self.special = SpecialPoints(self.engine, settings.step)
         self._record = with_probes(BranchPoint, list(probes()) if probes else [])
         self.history: list[BranchPoint] = []

@@ -143,6 +143,7 @@ FIGURES: dict[str, Figure] = {
         _demo("fvk_turned_strip", "fvk_turned_strip_branch.png", "--paper")
     ),
     "fvk_snap_through.png": Figure(_demo("fvk_snap_through", "fvk_snap_through.png", "--paper")),
+    "turned_strip_branch.png": Figure(_demo("turned_strip", "turned_strip_branch.png", "--paper")),
     "fvk_heated_disc.png": Figure(
         _demo("fvk_heated_disc", "fvk_heated_disc.png", "--paper"), minutes=2
     ),

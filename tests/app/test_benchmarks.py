@@ -478,3 +478,29 @@ def test_seeds_jobs_two_cases_in_two_processes(tmp_path):
     assert json.loads(out.read_text())["studies"] == record["studies"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["page.md", "runs", "seeds.json"]
     assert "| 1 | 1 | 2 | file | 2 (2×2)" in page.read_text()
+
+
+def test_plate_path_page_is_generated_and_converges(tmp_path):
+    """docs/path_following.md's constrained-plate table is what plate_path.py --table-only
+    writes; its JSON has the bifurcation and the fold at second order, within 2e-4 on 256 cells."""
+    page = BENCH.parent / "docs" / "path_following.md"
+    assert_page_is_generated("plate_path", page, tmp_path)
+    record = json.loads((BENCH / "results" / "plate_path.json").read_text())
+    assert [level["n"] for level in record["turned"]] == [16, 32, 64, 128, 256]
+    for k in range(2):
+        errors = [abs(level["errors"][k]) for level in record["turned"]]
+        assert errors == sorted(errors, reverse=True) and errors[-1] < 2e-4
+        assert all(level["orders"][k] > 1.9 for level in record["turned"][1:])
+
+
+def test_plate_path_benchmark_smoke(tmp_path):
+    """The coarsest level: the record and the page's table."""
+    out, page = tmp_path / "plate_path.json", tmp_path / "path_following.md"
+    page.write_text("<!-- plate_path_turned:begin -->\nSTALE\n<!-- plate_path_turned:end -->\n")
+    out = Path(MPI.COMM_WORLD.bcast(str(out), root=0))
+    page = Path(MPI.COMM_WORLD.bcast(str(page), root=0))
+    args = ["--levels", "16", "--json", str(out), "--page", str(page)]
+    (level,) = load_benchmark("plate_path").main(args)["turned"]
+    assert level["indices"] == [0, 1, 2] and level["errors"][0] == pytest.approx(0.02597, abs=5e-5)
+    if MPI.COMM_WORLD.rank == 0:
+        assert "STALE" not in page.read_text() and "| 16 × 1 | 480 | 0.8215" in page.read_text()

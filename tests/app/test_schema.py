@@ -110,7 +110,8 @@ def test_the_schema_of_every_model_is_a_problem_file_of_its_defaults(model, caps
     data = tomllib.loads(capsys.readouterr().out)
     problem = problem_from_dict(data, "defaults")
     assert problem.model.name == model
-    driver_section = {"fvk": "newton", "thermal": "schedule", "bilayer": "path"}.get(model)
+    plates = dict.fromkeys(("kirchhoff", "bilayer", "foundation"), "path")
+    driver_section = {"fvk": "newton", "thermal": "schedule", **plates}.get(model)
     assert (driver_section in data) if driver_section else set(data) <= set(SECTIONS)
 
 

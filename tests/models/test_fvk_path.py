@@ -423,9 +423,9 @@ def test_follow_traces_the_arch_through_its_fold(tmp_path):
 
 
 def test_follow_refuses_a_model_without_paths_and_names_a_bad_setting(tmp_path):
-    """A kirchhoff problem: one clear error; ``ds=0``: the key named, nothing written."""
-    plate = dgplate.load_problem(ROOT / "demos" / "problems" / "vertical_load.toml")
-    with pytest.raises(dgplate.InputError, match="not available for the kirchhoff model"):
+    """An lce problem: one clear error; ``ds=0``: the key named, nothing written."""
+    plate = dgplate.load_problem(ROOT / "demos" / "problems" / "lce_strip.toml")
+    with pytest.raises(dgplate.InputError, match="not available for the lce model"):
         dgplate.follow(plate, out=tmp_path / "plate")
     arch = dgplate.load_problem(ARCH)
     with pytest.raises(dgplate.InputError, match=r"path\.ds must be > 0"):

@@ -1,0 +1,136 @@
+"""[path] of the isometry-constrained plates: their equilibria followed in a load factor λ.
+
+``path.method = "arclength"`` replaces the gradient flow by the arclength continuation of the
+plate's Lagrangian (:mod:`dgplate.solvers.constrained_path`, docs/path_following.md), from
+λ = 0. λ multiplies one datum of the energy (``path.parameter``):
+
+- "load": ``model.load``;
+- "boundary_data": the clamped data move with λ as with ``model.continuation`` (formulas in
+  ``alpha`` are the path, α = λ; otherwise (1 − λ)·id + λ·g); ∂R/∂λ is then a central
+  difference with the step :data:`BOUNDARY_DATA_STEP` (the data need not be quadratic in λ);
+- "natural_curvature" (a bilayer's default): Z.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+from ufl.core.expr import Expr
+
+from dgplate import values
+from dgplate.compat import Constant, Mesh
+from dgplate.errors import InputError
+from dgplate.models.base import ArcLengthPath
+from dgplate.schema import option
+from dgplate.solvers.path_spec import PathKeys
+
+#: What a plate's load factor λ can scale (``path.parameter``).
+PARAMETERS = ("load", "boundary_data", "natural_curvature")
+
+#: The step h of ∂R/∂λ = (R(λ + h) − R(λ − h))/2h for clamped data moving with λ: an error
+#: O(h²) ≈ 10⁻⁸ of the derivative, far below what the corrector needs.
+BOUNDARY_DATA_STEP = 1e-4
+
+
+@dataclass
+class PlatePathSpec(PathKeys):
+    """[path] of a constrained plate: the path's keys and what its load factor scales."""
+
+    parameter: str = option(
+        "load",
+        "what the load factor λ scales: 'load' (model.load), 'boundary_data' (the clamped data "
+        "move with λ as with model.continuation: formulas in alpha, α = λ) or "
+        "'natural_curvature' (a bilayer's Z)",
+        choices=PARAMETERS,
+    )
+
+    def arclength(self, mesh: Mesh) -> ArcLengthPath | None:
+        """The path's λ (at 1 until the path starts) and settings; None without arclength.
+
+        Args:
+            mesh: the plate's mesh (of the Constant λ).
+
+        Returns:
+            The path, or None when ``method`` is not 'arclength'.
+        """
+        if self.method != "arclength":
+            return None
+        settings = self.settings()
+        if self.parameter == "boundary_data":
+            settings = dataclasses.replace(settings, derivative_step=BOUNDARY_DATA_STEP)
+        return ArcLengthPath(values.constant(mesh, 1.0), settings)
+
+    def scaled(self, datum: Expr, name: str, path: ArcLengthPath | None) -> Expr:
+        """``datum`` times λ when the path's parameter is ``name``, else ``datum`` itself.
+
+        Args:
+            datum: a datum of the energy.
+            name: its name among :data:`PARAMETERS`.
+            path: the path (None: no path).
+
+        Returns:
+            The datum the energy takes.
+        """
+        if path is None or self.parameter != name:
+            return datum
+        scaled: Expr = path.factor * datum
+        return scaled
+
+    def moving_data(self, path: ArcLengthPath | None) -> Constant | None:
+        """The α of the clamped data: λ when they move with it, else None.
+
+        Args:
+            path: the path (None: no path).
+
+        Returns:
+            λ's Constant, or None.
+        """
+        return path.factor if path is not None and self.parameter == "boundary_data" else None
+
+    @property
+    def moves_data(self) -> bool:
+        """Whether the clamped data move with λ (formulas in alpha are allowed)."""
+        return self.method == "arclength" and self.parameter == "boundary_data"
+
+    def check(self, spec: Any) -> None:
+        """What the path cannot follow, one InputError naming the key.
+
+        Args:
+            spec: the plate's [model] section (a :class:`dgplate.models.kirchhoff.KirchhoffSpec`).
+        """
+        if self.method != "arclength":
+            return
+        if not spec.clamped:
+            raise InputError(
+                "path.method = 'arclength' needs model.clamped: a free plate's rigid motions "
+                "leave the Jacobian singular"
+            )
+        if self.parameter == "natural_curvature" and not hasattr(spec, "Z"):
+            raise InputError(
+                f"path.parameter = 'natural_curvature': the {spec.name} model has no Z"
+            )
+        refused = {
+            "model.crease": (spec.crease, "a free crease's flap turns at no energy"),
+            "model.obstacle": (spec.obstacle, "its active set is no part of the Lagrangian"),
+            "model.self_avoidance": (spec.self_avoidance, "a term that is not an integral"),
+            "model.continuation": (spec.continuation, "the path moves the data by λ itself"),
+            "model.hessian": (spec.ldg_degree is not None, "the lifted Hessian is not an integral"),
+        }
+        for key, (given, why) in refused.items():
+            if given:
+                raise InputError(f"{key}: not with path.method = 'arclength' ({why})")
+
+
+@dataclass
+class BilayerPathSpec(PlatePathSpec):
+    """[path] of a bilayer: as a plate's, λ scaling Z by default."""
+
+    parameter: str = option(
+        "natural_curvature",
+        "what the load factor λ scales: 'natural_curvature' (Z), 'load' (model.load) or "
+        "'boundary_data' (the clamped data move with λ as with model.continuation: formulas "
+        "in alpha, α = λ)",
+        choices=PARAMETERS,
+    )
