@@ -14,7 +14,7 @@ import dolfinx.geometry
 import dolfinx.mesh
 import numpy as np
 
-from dgplate import compat
+from dgplate import compat, mpi
 
 
 class PointProbe:
@@ -52,24 +52,34 @@ class PointProbe:
         local = 0.0
         if self.cells.size:
             points = np.repeat(self.point, self.cells.size, axis=0)
-            values = u.eval(points, self.cells)
+            values = np.reshape(u.eval(points, self.cells), (self.cells.size, -1))
             local = float(np.sum(values if component is None else values[:, component]))
         return float(self.comm.allreduce(local, op=MPI.SUM) / self.count)
 
 
-def centre(mesh: dolfinx.mesh.Mesh[np.float64]) -> list[float]:
-    """The centre of the mesh's bounding box (collective).
+def central_probe(mesh: dolfinx.mesh.Mesh[np.float64]) -> PointProbe:
+    """A probe at the centre of the mesh's bounding box, or at the node nearest it (collective).
+
+    The node when the centre lies outside the mesh (a hole there).
 
     Args:
         mesh: the mesh.
 
     Returns:
-        Its coordinates (x, y).
+        The probe.
     """
-    x = mesh.geometry.x[:, :2]
-    lo = mesh.comm.allreduce(x.min(axis=0, initial=np.inf), op=MPI.MIN)
-    hi = mesh.comm.allreduce(x.max(axis=0, initial=-np.inf), op=MPI.MAX)
-    return [float(v) for v in (lo + hi) / 2]
+    comm, x = mesh.comm, mesh.geometry.x[:, :2]
+    lo, hi = mpi.bounding_box(comm, x)
+    centre = (lo + hi) / 2
+    try:
+        return PointProbe(mesh, centre.tolist())
+    except ValueError:
+        distances = np.linalg.norm(x - centre, axis=1)
+        nearest = int(np.argmin(distances)) if len(distances) else -1
+        local = (float(distances[nearest]) if nearest >= 0 else np.inf, comm.rank)
+        _, owner = comm.allreduce(local, op=MPI.MINLOC)
+        node = comm.bcast(x[nearest] if comm.rank == owner else None, root=owner)
+        return PointProbe(mesh, node)
 
 
 def signed_extreme(u: dolfinx.fem.Function[np.float64]) -> float:

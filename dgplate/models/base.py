@@ -28,7 +28,7 @@ from dgplate.errors import InputError
 from dgplate.measure.analysis import l1_norms
 from dgplate.measure.creases import crease_polylines, fold_angle_summary
 from dgplate.measure.prestrain import gauss_curvature_figures
-from dgplate.measure.probes import PointProbe, centre
+from dgplate.measure.probes import central_probe
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import REQUIRED, Check, option
 from dgplate.solvers.constrained_path import constrained_branch_path, constrained_problem
@@ -160,8 +160,7 @@ class ArcLengthPath:
         )
         self.factor.value = np.asarray(0.0)
         defect = IsometryDefect(problem.y, plate.metric)
-        mesh = plate.facets.mesh
-        at_centre = PointProbe(mesh, centre(mesh))
+        at_centre = central_probe(plate.facets.mesh)
 
         def probes() -> dict[str, float]:
             y = problem.deformation()
@@ -346,7 +345,6 @@ def clamped_data(
     mesh: Mesh,
     key: str = "model.boundary_data",
     path: DataPath | None = None,
-    alpha: Constant | None = None,
 ) -> tuple[Expr, Expr]:
     """Nitsche data (g, Φ) on clamped facets from a problem file.
 
@@ -355,12 +353,10 @@ def clamped_data(
     (:mod:`dgplate.values`). With a ``path`` the data follow it (docs/continuation.md):
     formulas that use ``alpha`` are the path themselves (they must be finite for every α of
     the schedule); otherwise the path is (1 − α)·id + α·g, and Φ likewise (1 − α)·[I₂; 0] + α·Φ.
-    ``alpha``: the α of the data without a schedule (an arclength path's λ, which moves them in
-    the same way; their formulas are checked as it moves, not here).
     """
     if value == "flat":
         return flat_identity(mesh)
-    alpha = path.alpha if path is not None else alpha
+    alpha = path.alpha if path is not None else None
     names = {"alpha": alpha} if alpha is not None else None
     g = values.vector(value.g, mesh, f"{key}.g", 3, names)
     if value.Phi is None:

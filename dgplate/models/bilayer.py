@@ -262,7 +262,7 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
     Z = spec.path.scaled(spontaneous_curvature(spec.Z, tagged), "natural_curvature", arclength)
     path = continuation_path(spec.schedule, tagged.mesh)
     moving = spec.path.moving_data(arclength)
-    g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path, alpha=moving)
+    g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path or moving)
     penalty = spec.penalty
     degree = explicit_quadrature(spec.degree)
     metric = spec_metric(spec, tagged)

@@ -231,7 +231,7 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     mu = piecewise_constant(tagged, spec.mu, "model.mu")
     path = continuation_path(spec.schedule, tagged.mesh)
     moving = spec.path.moving_data(arclength)
-    g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path, alpha=moving)
+    g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path or moving)
     penalty = spec.penalty
     metric = spec_metric(spec, tagged)
     c = spec.trace_weight

@@ -17,17 +17,22 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 from ufl.core.expr import Expr
 
 from dgplate import values
-from dgplate.compat import Constant, Mesh
+from dgplate.compat import Mesh
 from dgplate.errors import InputError
-from dgplate.models.base import ArcLengthPath
+from dgplate.models.base import ArcLengthPath, DataPath
 from dgplate.schema import option
+from dgplate.solvers.moving_clamp import AlphaSchedule
 from dgplate.solvers.path_spec import PathKeys
 
 #: What a plate's load factor λ can scale (``path.parameter``).
 PARAMETERS = ("load", "boundary_data", "natural_curvature")
+
+#: The values of λ in [−lambda_max, lambda_max] at which formulas in alpha must be finite.
+FORMULA_SAMPLES = 41
 
 #: The step h of ∂R/∂λ = (R(λ + h) − R(λ − h))/2h for clamped data moving with λ: an error
 #: O(h²) ≈ 10⁻⁸ of the derivative, far below what the corrector needs.
@@ -78,16 +83,22 @@ class PlatePathSpec(PathKeys):
         scaled: Expr = path.factor * datum
         return scaled
 
-    def moving_data(self, path: ArcLengthPath | None) -> Constant | None:
-        """The α of the clamped data: λ when they move with it, else None.
+    def moving_data(self, path: ArcLengthPath | None) -> DataPath | None:
+        """The clamped data's path when they move with λ, else None.
+
+        Its α is λ; its "schedule" holds the values of λ the path may take, at which formulas
+        in alpha are checked to be finite (:func:`dgplate.models.base.clamped_data`).
 
         Args:
             path: the path (None: no path).
 
         Returns:
-            λ's Constant, or None.
+            The data's path, or None.
         """
-        return path.factor if path is not None and self.parameter == "boundary_data" else None
+        if path is None or self.parameter != "boundary_data":
+            return None
+        values = np.linspace(-self.lambda_max, self.lambda_max, FORMULA_SAMPLES)
+        return DataPath(path.factor, AlphaSchedule(alphas=tuple(float(v) for v in values)))
 
     @property
     def moves_data(self) -> bool:
@@ -106,6 +117,11 @@ class PlatePathSpec(PathKeys):
             raise InputError(
                 "path.method = 'arclength' needs model.clamped: a free plate's rigid motions "
                 "leave the Jacobian singular"
+            )
+        if self.parameter == "boundary_data" and spec.boundary_data == "flat":
+            raise InputError(
+                "path.parameter = 'boundary_data' needs model.boundary_data = {g = [...]}: "
+                "the data the path moves (formulas in alpha, or the data at λ = 1)"
             )
         if self.parameter == "natural_curvature" and not hasattr(spec, "Z"):
             raise InputError(

@@ -24,6 +24,7 @@ from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.errors import InputError
 from dgplate.io.output import print0
 from dgplate.models.metric import MetricSpec, largest_jump
+from dgplate.models.plate_path import PlatePathSpec
 from dgplate.solvers.tau import ADAPTIVE_ONLY
 
 if TYPE_CHECKING:
@@ -90,22 +91,32 @@ def adaptive_only(problem: Problem) -> list[str]:
 
 
 def path_only(problem: Problem) -> list[str]:
-    """Warnings for FvK's [path] keys without the arclength method, and [newton] keys with it.
+    """Warnings for [path] keys without the arclength method, and for driver keys with it.
 
-    The arclength continuation reads only ``newton.snes`` (its start's Newton solver).
+    FvK's continuation reads only ``newton.snes`` of [newton] (its start's Newton solver); a
+    plate's reads only ``flow.multiplier_degree`` and ``flow.edge_constraint`` of [flow] (its
+    constraint). A plate's ``path.parameter`` is read by the path alone, FvK's by its load
+    steps as well.
     """
     path = getattr(problem.model, "path", None)
     if path is None:
         return []
+    plate = isinstance(path, PlatePathSpec)
     if path.method != "arclength":
-        given = [key for key in problem.raw.get("path") or {} if key not in ("method", "parameter")]
+        read = ("method",) if plate else ("method", "parameter")
+        given = [key for key in problem.raw.get("path") or {} if key not in read]
         return [f"path.{key} has no effect without path.method = 'arclength'" for key in given]
-    given = [key for key in problem.raw.get("newton") or {} if key != "snes"]
+    section, read = ("flow", PLATE_PATH_FLOW_KEYS) if plate else ("newton", ("snes",))
+    given = [key for key in problem.raw.get(section) or {} if key not in read]
     return [
-        f"newton.{key} has no effect with path.method = 'arclength' (of [newton] the "
-        "continuation reads newton.snes only)"
+        f"{section}.{key} has no effect with path.method = 'arclength' (of [{section}] the "
+        f"continuation reads {', '.join(f'{section}.{k}' for k in read)} only)"
         for key in given
     ]
+
+
+#: The [flow] keys a plate's path reads: those of its constraint.
+PLATE_PATH_FLOW_KEYS = ("multiplier_degree", "edge_constraint")
 
 
 #: Rectangle cells this many times longer than wide warn: with the cell diameter as the length

@@ -258,6 +258,7 @@ def problem_from_dict(data: dict[str, Any], name: str, overrides: Overrides = ()
                 repr(m)
                 for m, entry in MODELS.items()
                 if section in (s for s, _ in driver_sections(entry.spec))
+                and "" not in entry.ignored_keys(section)
             ]
             whose = f"; [{section}] is for model.name = {' or '.join(owners)}" if owners else ""
             raise InputError(f"unknown section [{section}] (known: {', '.join(known)}){whose}")

@@ -158,7 +158,9 @@ class Bordered:
         self.newton.residual(out)
 
     def load_derivative(self, lam: float, out: PETSc.Vec) -> None:
-        """∂R/∂λ of the current state into ``out`` (exact: the module's docstring).
+        """∂R/∂λ of the current state into ``out``: the central difference of step h.
+
+        Exact when R is at most quadratic in λ, else an error O(h²) (the module's docstring).
 
         Args:
             lam: the load factor λ (the load factor is left there).

@@ -12,8 +12,11 @@ built in y ∈ V and moved into W by ``ufl.replace``), and no projection is need
 D²L is the SQP matrix of :mod:`dgplate.solvers.sqp` without the flow's (1/τ) metric term: a
 saddle-point (KKT) matrix, factorised by MUMPS LU as any Jacobian of the path.
 
-- **Scaling.** The constraint rows are scaled by s = ‖D²_y E_h‖_∞ / ‖B‖_∞ at the start (B the
-  constraint's linearisation), as the flow balances its own (only μ and p change with s).
+- **Scaling.** The constraint rows are scaled by s = ‖D²_y L‖_∞ / ‖D_μ D_y L‖_∞ at the start
+  (the Jacobian's y rows: their own columns against the multipliers'), so that they weigh
+  like the others (only μ and p change with s). The pinned edge multipliers of interior cells
+  get the weight c = ‖D²_y L‖_∞ (½ c χ|p|²/h² on a cell of diameter h): their eigenvalues,
+  about c, lie far from 0, where the critical ones are looked for.
 - **Stability index.** The KKT matrix has m = rank B negative eigenvalues whatever the state,
   and the inertia of its LDLᵀ factorisation is m plus that of the Hessian on the tangent space
   of the constraint (ZᵀHZ). The index reported is the negative count minus m, with m the
@@ -70,6 +73,7 @@ class ConstrainedProblem:
         state: w = (y, μ[, p]) ∈ W, at the start deformation and zero multipliers.
         lagrangian: L(w), a form of rank 0.
         scale: the Constant s of the constraint rows (1 until :meth:`balance`).
+        pin: the Constant c of the pinned edge multipliers (1 until :meth:`balance`).
         constraint_rows: m, the global number of multiplier unknowns.
         y: the deformation in V, :meth:`deformation` copies w's y into it.
         vdofs: y's local dofs in W.
@@ -78,6 +82,7 @@ class ConstrainedProblem:
     state: Function
     lagrangian: ufl.Form
     scale: Constant
+    pin: Constant
     constraint_rows: int
     y: Function
     vdofs: Indices
@@ -117,6 +122,7 @@ class ConstrainedProblem:
         is_mu.destroy()
         if norms[1] > 0:
             self.scale.value = np.asarray(norms[0] / norms[1])
+        self.pin.value = np.asarray(norms[0])
 
 
 def _owned_global(state: Function, local_dofs: Indices) -> Indices:
@@ -174,17 +180,18 @@ def constrained_problem(
     constraint = ufl.inner(metric_tensor_defect(y, metric), symmetric(mu)) * metric_measure(
         y, metric
     )
-    pin: ufl.Form | None = None
+    pinned: ufl.Form | None = None
+    c = values.constant(mesh, 1.0)
     rows = _global_size(W.sub(1))
     if settings.edge_constraint:
         edge, (p,) = EdgeConstraint(facets), edge_mu
         constraint += edge.residual(y, p)
-        pin = 0.5 * edge.interior * ufl.inner(p, p) / facets.h * ufl.dx
+        pinned = 0.5 * c * edge.interior * ufl.inner(p, p) / facets.h**2 * ufl.dx
         rows += EdgeConstraint.SIZE * _cells_with_free_facet(edge)
     lagrangian = ufl.replace(energy.total + s * constraint, {y: y_w})
-    if pin is not None:
-        lagrangian += pin
-    return ConstrainedProblem(state, lagrangian, s, rows, y, vdofs)
+    if pinned is not None:
+        lagrangian += pinned
+    return ConstrainedProblem(state, lagrangian, s, c, rows, y, vdofs)
 
 
 def _global_size(space: FunctionSpace) -> int:

@@ -143,7 +143,6 @@ class BranchPath(Driver):
         self._prefix: str | None = prefix
         hold_prefix(prefix)
 
-    # -- the Driver protocol ----------------------------------------------------------------
     @property
     def checkpoint_every(self) -> int:
         """A checkpoint at every point, as a load path's.
@@ -166,8 +165,7 @@ class BranchPath(Driver):
     @property
     def num_dofs(self) -> int:
         """The global number of unknowns."""
-        dofmap = self.state.function_space.dofmap
-        return int(dofmap.index_map.size_global * dofmap.index_map_bs)
+        return int(self.state.x.index_map.size_global * self.state.x.block_size)
 
     def remaining_steps(self) -> int:
         """Points of the path not reached yet."""
@@ -205,6 +203,7 @@ class BranchPath(Driver):
             last = self.history[-1]
             self.load.set(last.load_factor)
             self.branch, self.switched = last.branch, last.branch > 0
+        self._shape = self._shape_source()  # of the restored state (a resume may take no step)
 
     def summary(self) -> dict[str, Any]:
         """The points, the special points and the last load factor."""
@@ -228,7 +227,6 @@ class BranchPath(Driver):
         release_prefix(self._prefix)
         self._prefix = None
 
-    # -- the path ---------------------------------------------------------------------------
     def run(self, max_steps: int | None = None) -> RunResult:
         """Follow the path until ``max_steps`` more points (None: ``steps`` points in all).
 

@@ -24,9 +24,10 @@ from dgplate.solvers.arclength import ArcLength, Point, StepLength, petsc_failur
 if TYPE_CHECKING:
     from dolfinx.fem import Function
 
-#: Hessian eigenvalues within ROUNDOFF · ε · ‖K‖_∞ of 0 count as zero (round-off): the
-#: constant of a backward error of size O(ε‖K‖). Small enough to keep the sign of every
-#: eigenvalue the secant needs on the plates of benchmarks/path_following.py (≥ 45 ε‖K‖_∞).
+#: Hessian eigenvalues within ROUNDOFF · ε · ‖K‖_∞ of 0 count as zero (round-off) when their
+#: sign contradicts the inertia: the constant of a backward error of size O(ε‖K‖). The band
+#: is a bound, often far wider than the error: an eigenvalue in it whose sign the inertia
+#: confirms is kept (the FvK turned strip on 256 cells, the constrained one on 128 and 256).
 ROUNDOFF = 10.0
 #: A special point is located when its corrector fails closer to it than this: when a point
 #: corrected before has its |τ| or eigenvalue below NEAR_ROOT times its values at the ends of

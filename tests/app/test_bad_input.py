@@ -157,10 +157,12 @@ BAD_INPUT = {
     "path step bounds reversed": Case(
         ("path.ds_min=1.0",), "path.ds_min = 1 exceeds path.ds_max = 0.5", FVK
     ),
-    "path without fvk": Case(
+    "path on a rod": Case(
         ("path.ds=0.1",),
         "unknown section [path] (known: mesh, model, flow, output, material); "
-        "[path] is for model.name = 'fvk'",
+        "[path] is for model.name = 'kirchhoff' or 'bilayer' or 'foundation' or 'fvk'",
+        ROD,
+        ROD_SMALL,
     ),
     "path unknown method": Case(("path.method='crisfield'",), "path.method must be one of", FVK),
     "fvk pin not a node": Case(
@@ -811,6 +813,17 @@ def test_warning_newton_key_with_arclength(tmp_path, capsys):
         f"dgplate: warning: newton.{key} has no effect with path.method = 'arclength' (of "
         "[newton] the continuation reads newton.snes only)"
         for key in ("load_steps", "perturb_unstable")
+    ]
+
+
+def test_warning_flow_key_with_a_plates_arclength(tmp_path, capsys):
+    """A plate's path reads [flow]'s constraint keys only: flow.tau is a warning."""
+    sets = ("mesh.cells=[8,1]", "flow.tau=0.1", "path.steps=2")
+    code, warnings = run_warned(tmp_path, capsys, PROBLEMS / "turned_strip.toml", *sets, base=())
+    assert code == 0
+    assert warnings == [
+        "dgplate: warning: flow.tau has no effect with path.method = 'arclength' (of [flow] "
+        "the continuation reads flow.multiplier_degree, flow.edge_constraint only)"
     ]
 
 

@@ -121,20 +121,21 @@ def test_what_the_path_cannot_follow_is_refused_naming_the_key(name, setting, me
 
 @pytest.fixture(scope="module")
 def turned(tmp_path_factory):
-    """The turned strip's study on 16, 32 and 64 cells, one rank (benchmarks/plate_path.py)."""
-    return TURNED.measure(MPI.COMM_SELF, [16, 32, 64])["turned"]
+    """The turned strip's study on 16 and 32 cells, one rank (benchmarks/plate_path.py; its
+    JSON has the finer levels, tests/app/test_benchmarks.py checks them)."""
+    return TURNED.measure(MPI.COMM_SELF, [16, 32])["turned"]
 
 
 def test_turned_strip_bifurcates_and_folds_where_the_elastica_does(turned):
-    """Index 0 → 1 at the bifurcation, 1 → 2 at the fold; both within 0.2 % of the inextensible
-    elastica's on 64 cells (measured +0.150 % and +0.153 %), converging at second order
-    (measured 2.11 and 2.00), the constraint to round-off at every corrected point."""
+    """Index 0 → 1 at the bifurcation, 1 → 2 at the fold; both within 0.7 % of the inextensible
+    elastica's on 32 cells (measured +0.600 % and +0.611 %), converging at second order
+    (measured 2.11 from 16 cells), the constraint to round-off at every corrected point."""
     for level in turned:
         assert level["indices"] == [0, 1, 2] and level["defect"] < 1e-10
     for k in range(2):
         errors = [level["errors"][k] for level in turned]
-        assert errors[0] == pytest.approx(0.026, abs=1e-3) and 0 < errors[-1] < 2e-3
-        assert [level["orders"][k] > 1.9 for level in turned[1:]] == [True, True]
+        assert errors[0] == pytest.approx(0.026, abs=1e-3) and 0 < errors[-1] < 7e-3
+        assert turned[1]["orders"][k] > 1.9
 
 
 @pytest.mark.mpi
@@ -153,3 +154,19 @@ def test_same_turned_path_on_any_number_of_ranks(tmp_path):
     assert parallel.folds == pytest.approx(serial.folds, rel=PARITY_RTOL)
     lams = [run.load_factors for run in (parallel, serial)]
     assert lams[0] == pytest.approx(lams[1], rel=PARITY_RTOL, abs=1e-12)
+
+
+def test_a_resumed_plate_path_goes_on_to_the_same_points(tmp_path):
+    """The turned strip stopped after 8 points and resumed to 14 has the uninterrupted path's
+    points, bifurcation and fold (measured 1.4·10⁻¹¹ apart)."""
+    settings = {**TURNED.QUIET, "mesh.cells": [16, 1]}
+    problem = dgplate.load_problem(PROBLEMS / "turned_strip.toml", settings)
+    whole = dgplate.follow(problem, out=tmp_path / "whole", comm=MPI.COMM_SELF, steps=14)
+    dgplate.follow(problem, out=tmp_path / "part", comm=MPI.COMM_SELF, steps=8)
+    resumed = dgplate.follow(
+        problem, out=tmp_path / "part", comm=MPI.COMM_SELF, steps=14, resume=True
+    )
+    assert resumed.stability_indices == whole.stability_indices
+    assert resumed.load_factors == pytest.approx(whole.load_factors, rel=1e-9, abs=1e-12)
+    assert resumed.bifurcations == pytest.approx(whole.bifurcations, rel=1e-9)
+    assert resumed.folds == pytest.approx(whole.folds, rel=1e-9)
