@@ -170,3 +170,17 @@ def test_a_resumed_plate_path_goes_on_to_the_same_points(tmp_path):
     assert resumed.load_factors == pytest.approx(whole.load_factors, rel=1e-9, abs=1e-12)
     assert resumed.bifurcations == pytest.approx(whole.bifurcations, rel=1e-9)
     assert resumed.folds == pytest.approx(whole.folds, rel=1e-9)
+
+
+def test_the_turned_strip_switches_onto_an_unstable_branch(tmp_path):
+    """With path.switch the path leaves the bifurcation along the critical mode: onto a branch
+    of index 1 on which λ falls (the antisymmetric branch, as the FvK strip's)."""
+    settings = {**TURNED.QUIET, "mesh.cells": [16, 1]}
+    problem = dgplate.load_problem(PROBLEMS / "turned_strip.toml", settings)
+    branch = dgplate.follow(problem, out=tmp_path / "path", comm=MPI.COMM_SELF, switch=True)
+    assert [p["kind"] for p in branch.special_points] == ["bifurcation", "switch"]
+    after = [p for p in branch.points if p["branch"] == 1]
+    assert len(after) >= 3 and {p["stability_index"] for p in after} == {1}
+    lams = [p["load_factor"] for p in after]
+    assert lams == sorted(lams, reverse=True) and lams[0] < branch.bifurcations[0]
+    assert max(p["isometry_defect"] for p in after) < 1e-10
