@@ -30,9 +30,11 @@ test-serial: setup
 	$(PY) -m pytest $(PYTEST_FLAGS) -n $(NP) --dist worksteal -m "not spawns_mpirun" tests
 	$(PY) -m pytest $(PYTEST_FLAGS) -m spawns_mpirun tests
 
-# Tests marked `mpi` again on NP ranks; `-m mpi4py` aborts all ranks when one fails.
+# Tests marked `mpi` again on NP ranks; `-m mpi4py` aborts all ranks when one fails. A test
+# still running after 5 minutes (the longest takes under a minute) prints each rank's stack.
 test-mpi: setup
-	$(MPIRUN) -n $(NP) $(PY) -m mpi4py -m pytest $(PYTEST_FLAGS) -p no:cacheprovider -m mpi tests
+	$(MPIRUN) -n $(NP) $(PY) -m mpi4py -m pytest $(PYTEST_FLAGS) -p no:cacheprovider \
+	  -o faulthandler_timeout=300 -m mpi tests
 
 LINT_DIRS = $(wildcard dgplate tests demos benchmarks docs)
 

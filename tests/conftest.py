@@ -4,6 +4,8 @@ those also marked ``parity`` (one rank against all ranks) run only under mpirun.
 Shared helpers that are not fixtures (paths, factories, checks) are in ``helpers.py``.
 """
 
+import faulthandler
+import signal
 from pathlib import Path
 
 from mpi4py import MPI
@@ -17,7 +19,10 @@ def comm():
 
 
 def pytest_configure(config):
-    """Under mpirun every rank gets its own temporary directory tree (no clean-up races)."""
+    """Under mpirun every rank gets its own temporary directory tree (no clean-up races), and
+    a rank ended by SIGTERM first prints where each of its threads was (then ends as before)."""
+    if MPI.COMM_WORLD.size > 1:
+        faulthandler.register(signal.SIGTERM, all_threads=True, chain=True)
     if MPI.COMM_WORLD.size > 1 and not config.option.basetemp:
         import tempfile
 
