@@ -92,6 +92,21 @@ def signed_extreme(u: dolfinx.fem.Function[np.float64]) -> float:
     return hi if hi >= -lo else lo
 
 
+def height(y: dolfinx.fem.Function[np.float64]) -> float:
+    """The span max y₃ − min y₃ of a deformation's dofs: a free plate's deflection (collective).
+
+    Args:
+        y: a deformation in [DG_k]³.
+
+    Returns:
+        The span, the same on every rank.
+    """
+    space = y.function_space
+    owned = y.x.array.reshape(-1, 3)[: space.dofmap.index_map.size_local, 2]
+    lo, hi = mpi.bounding_box(space.mesh.comm, owned.reshape(-1, 1))
+    return float(hi[0] - lo[0])
+
+
 class DeflectionProbes:
     """The probes hook of an FvK state (w, u): ``w_max``, ``w_center`` and ``w_<name>``.
 

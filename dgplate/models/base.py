@@ -28,7 +28,7 @@ from dgplate.errors import InputError
 from dgplate.measure.analysis import l1_norms
 from dgplate.measure.creases import crease_polylines, fold_angle_summary
 from dgplate.measure.prestrain import gauss_curvature_figures
-from dgplate.measure.probes import central_probe
+from dgplate.measure.probes import central_probe, height
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import REQUIRED, Check, option
 from dgplate.solvers.constrained_path import constrained_branch_path, constrained_problem
@@ -160,14 +160,23 @@ class ArcLengthPath:
         )
         self.factor.value = np.asarray(0.0)
         defect = IsometryDefect(problem.y, plate.metric)
-        at_centre = central_probe(plate.facets.mesh)
+        free = not plate.facets.has_clamped
+        at_centre = None if free else central_probe(plate.facets.mesh)
 
         def probes() -> dict[str, float]:
             y = problem.deformation()
+            if at_centre is None:  # a free plate: its centre is pinned
+                return {"height": height(y), "isometry_defect": defect()}
             return {"w_center": at_centre(y, component=2), "isometry_defect": defect()}
 
         return constrained_branch_path(
-            problem, self.factor, self.settings, PATH_PREFIX, probes=probes, observers=observers
+            problem,
+            self.factor,
+            self.settings,
+            PATH_PREFIX,
+            probes=probes,
+            observers=observers,
+            free=free,
         )
 
 

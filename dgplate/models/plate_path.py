@@ -113,10 +113,14 @@ class PlatePathSpec(PathKeys):
         """
         if self.method != "arclength":
             return
-        if not spec.clamped:
+        if not spec.clamped and any(component != 0 for component in spec.load):
             raise InputError(
-                "path.method = 'arclength' needs model.clamped: a free plate's rigid motions "
-                "leave the Jacobian singular"
+                "model.load: not on a free plate with path.method = 'arclength' (the pins "
+                "that hold its rigid motions would carry the load)"
+            )
+        if self.parameter == "boundary_data" and not spec.clamped:
+            raise InputError(
+                "path.parameter = 'boundary_data' needs model.clamped: the facets whose data move"
             )
         if self.parameter == "boundary_data" and spec.boundary_data == "flat":
             raise InputError(

@@ -62,6 +62,7 @@ from dgplate.solvers.continuation import BranchPath, PathSettings
 from dgplate.solvers.driver import Observer
 from dgplate.solvers.flow import Initial, flat
 from dgplate.solvers.newton import Probes
+from dgplate.solvers.rigid_pins import rigid_pins
 from dgplate.solvers.step_system import StepSettings, max_row_sum, mixed_space
 
 
@@ -137,8 +138,8 @@ def refuse_nonlocal(energy: Energy) -> None:
     """An InputError for energies the Lagrangian cannot hold (the module's docstring)."""
     if energy.nonlocal_terms:
         raise InputError(
-            "path.method = 'arclength': not with self-avoidance or model.ldg_degree (terms "
-            "that are not integrals of y)"
+            "path.method = 'arclength': not with self-avoidance or model.hessian = 'ldg' "
+            "(terms that are not integrals of y)"
         )
     if energy.active_sets or energy.step_shift is not None:
         raise InputError("path.method = 'arclength': not with an obstacle (an active set)")
@@ -218,6 +219,7 @@ def constrained_branch_path(
     options: Mapping[str, Any] | None = None,
     probes: Probes | None = None,
     observers: Sequence[Observer] = (),
+    free: bool = False,
 ) -> BranchPath:
     """The arclength continuation of ``problem`` in ``load_factor`` (collective).
 
@@ -229,6 +231,8 @@ def constrained_branch_path(
         options: PETSc options of the Newton solver at the start (and of its linear solver).
         probes: numbers of the state added to every record.
         observers: told of every point and of the end of the run.
+        free: whether the plate is free (nothing clamped): its rigid motions are then held by
+            six pins (:func:`dgplate.solvers.rigid_pins.rigid_pins`).
 
     Returns:
         The driver, its constraint rows balanced at the start state.
@@ -236,7 +240,7 @@ def constrained_branch_path(
     path = BranchPath(
         problem.state,
         problem.lagrangian,
-        [],
+        rigid_pins(problem.state) if free else [],
         load_factor,
         settings,
         prefix,
