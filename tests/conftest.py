@@ -5,6 +5,7 @@ Shared helpers that are not fixtures (paths, factories, checks) are in ``helpers
 """
 
 import faulthandler
+import os
 import signal
 from pathlib import Path
 
@@ -18,11 +19,26 @@ def comm():
     return MPI.COMM_WORLD
 
 
+#: Under mpirun, a duplicate of this rank's stderr made in pytest_configure, when pytest's
+#: capture is suspended: its test-time capture does not redirect it.
+STDERR: list[int] = []
+
+
+@pytest.fixture(autouse=True)
+def where_sigterm_ends_a_rank():
+    """Under mpirun, a rank ended by SIGTERM first prints where each of its threads was, then
+    ends as before (143). Registered again for each test: a run's interrupt handling puts the
+    default handler back when it ends."""
+    if STDERR:
+        faulthandler.unregister(signal.SIGTERM)
+        faulthandler.register(signal.SIGTERM, file=STDERR[0], all_threads=True, chain=True)
+
+
 def pytest_configure(config):
-    """Under mpirun every rank gets its own temporary directory tree (no clean-up races), and
-    a rank ended by SIGTERM first prints where each of its threads was (then ends as before)."""
-    if MPI.COMM_WORLD.size > 1:
-        faulthandler.register(signal.SIGTERM, all_threads=True, chain=True)
+    """Under mpirun every rank gets its own temporary directory tree (no clean-up races) and
+    its stderr's duplicate (:data:`STDERR`)."""
+    if MPI.COMM_WORLD.size > 1 and not STDERR:
+        STDERR.append(os.dup(2))
     if MPI.COMM_WORLD.size > 1 and not config.option.basetemp:
         import tempfile
 
