@@ -32,6 +32,8 @@ test-serial: setup
 
 # Tests marked `mpi` again on NP ranks; `-m mpi4py` aborts all ranks when one fails. A test
 # still running after 5 minutes (the longest takes under a minute) prints each rank's stack.
+# A rank that ends with exit code 15 and no message ran out of MPICH's communicator ids
+# (MPI_ERR_OTHER; tests/conftest.py collects each module's garbage against it).
 test-mpi: setup
 	$(MPIRUN) -n $(NP) $(PY) -m mpi4py -m pytest $(PYTEST_FLAGS) -p no:cacheprovider \
 	  -o faulthandler_timeout=300 -m mpi tests

@@ -4,9 +4,7 @@ those also marked ``parity`` (one rank against all ranks) run only under mpirun.
 Shared helpers that are not fixtures (paths, factories, checks) are in ``helpers.py``.
 """
 
-import faulthandler
-import os
-import signal
+import gc
 from pathlib import Path
 
 from mpi4py import MPI
@@ -19,26 +17,25 @@ def comm():
     return MPI.COMM_WORLD
 
 
-#: Under mpirun, a duplicate of this rank's stderr made in pytest_configure, when pytest's
-#: capture is suspended: its test-time capture does not redirect it.
-STDERR: list[int] = []
+@pytest.fixture(autouse=True, scope="module")
+def communicators_freed():
+    """Under mpirun, the garbage of each test module is collected after it, on every rank
+    together (after each test it cost a minute of the mpi tier).
 
-
-@pytest.fixture(autouse=True)
-def where_sigterm_ends_a_rank():
-    """Under mpirun, a rank ended by SIGTERM first prints where each of its threads was, then
-    ends as before (143). Registered again for each test: a run's interrupt handling puts the
-    default handler back when it ends."""
-    if STDERR:
-        faulthandler.unregister(signal.SIGTERM)
-        faulthandler.register(signal.SIGTERM, file=STDERR[0], all_threads=True, chain=True)
+    Each mesh, index map and form of DOLFINx holds a duplicate of its communicator until the
+    Python object is collected; cycles wait for Python's collector, which runs when allocation
+    counts say, and MPICH has a fixed number of communicator ids (2048 by default). A whole
+    mpi tier without this ran out of them: a rank ended with MPI_Abort(…, 15) (MPI_ERR_OTHER,
+    from dolfinx::MPI::check_error) in a constructor, a few tests from the end or in the middle
+    (MPICH: "Too many communicators (0/2048 free on this process)").
+    """
+    yield
+    if MPI.COMM_WORLD.size > 1:
+        gc.collect()
 
 
 def pytest_configure(config):
-    """Under mpirun every rank gets its own temporary directory tree (no clean-up races) and
-    its stderr's duplicate (:data:`STDERR`)."""
-    if MPI.COMM_WORLD.size > 1 and not STDERR:
-        STDERR.append(os.dup(2))
+    """Under mpirun every rank gets its own temporary directory tree (no clean-up races)."""
     if MPI.COMM_WORLD.size > 1 and not config.option.basetemp:
         import tempfile
 
