@@ -41,6 +41,24 @@ def global_all(comm: MPI.Comm, local: bool) -> bool:
     return bool(comm.allreduce(bool(local), op=MPI.LAND))
 
 
+def least(comm: MPI.Comm, local: tuple[float, ...] | None) -> tuple[float, ...] | None:
+    """The least of the ranks' tuples (lexicographic), with the rank that gave it appended.
+
+    Ties between ranks go to the lower rank only when the tuples are equal; put what must
+    decide them (coordinates, not ranks) in the tuple to keep a choice partition-independent.
+
+    Args:
+        comm: the communicator.
+        local: this rank's candidate, or None when it has none.
+
+    Returns:
+        (*the least candidate, its rank), or None when no rank has one.
+    """
+    mine = [] if local is None else [(*local, comm.rank)]
+    found = [entry for entries in comm.allgather(mine) for entry in entries]
+    return min(found) if found else None
+
+
 def sum_arrays(comm: MPI.Comm, local: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """The element-wise sum of equally shaped arrays over the ranks."""
     return np.asarray(comm.allreduce(np.asarray(local, dtype=np.float64), op=MPI.SUM))

@@ -73,13 +73,13 @@ def central_probe(mesh: dolfinx.mesh.Mesh[np.float64]) -> PointProbe:
     centre = (lo + hi) / 2
     try:
         return PointProbe(mesh, centre.tolist())
-    except ValueError:
+    except ValueError:  # ties go to the smaller node, whatever the partition
         distances = np.linalg.norm(x - centre, axis=1)
-        nearest = int(np.argmin(distances)) if len(distances) else -1
-        local = (float(distances[nearest]) if nearest >= 0 else np.inf, comm.rank)
-        _, owner = comm.allreduce(local, op=MPI.MINLOC)
-        node = comm.bcast(x[nearest] if comm.rank == owner else None, root=owner)
-        return PointProbe(mesh, node)
+        order = np.lexsort((x[:, 1], x[:, 0], distances))
+        local = (float(distances[order[0]]), *map(float, x[order[0]])) if len(order) else None
+        best = mpi.least(comm, local)
+        assert best is not None  # some rank holds nodes
+        return PointProbe(mesh, list(best[1:3]))
 
 
 def signed_extreme(u: dolfinx.fem.Function[np.float64]) -> float:

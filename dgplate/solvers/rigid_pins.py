@@ -95,14 +95,12 @@ class NodeCopies:
         distance = np.round(np.linalg.norm(points - target, axis=1) / self.scale, ROUND_DIGITS)
         order = np.lexsort((centres[:, 1], centres[:, 0], points[:, 1], points[:, 0], distance))
         order = order[keep(points[order])]
-        mine = [(*_key(distance, points, centres, i), comm.rank) for i in order[:1]]
-        candidates = [entry for entries in comm.allgather(mine) for entry in entries]
-        if not candidates:
+        best = mpi.least(comm, _key(distance, points, centres, order[0]) if len(order) else None)
+        if best is None:
             raise InputError(
                 "model.clamped: a free plate's path needs three nodes not in one line to hold "
                 "its rigid motions (refine the mesh)"
             )
-        best = min(candidates)
         owner = int(best[-1])
         copy = None
         if comm.rank == owner:
