@@ -52,7 +52,8 @@ def least(comm: MPI.Comm, local: tuple[float, ...] | None) -> tuple[float, ...] 
         local: this rank's candidate, or None when it has none.
 
     Returns:
-        (*the least candidate, its rank), or None when no rank has one.
+        The least candidate with the rank that gave it appended, or None when no rank has
+        one.
     """
     mine = [] if local is None else [(*local, comm.rank)]
     found = [entry for entries in comm.allgather(mine) for entry in entries]
