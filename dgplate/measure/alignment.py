@@ -19,6 +19,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TypeAlias
 
+from mpi4py import MPI
+
 import numpy as np
 import numpy.typing as npt
 
@@ -48,21 +50,29 @@ class Alignment:
         return float(np.sqrt(np.mean(self.distances**2)))
 
 
-def kabsch(source: Array, target: Array) -> tuple[Array, Array]:
+def kabsch(source: Array, target: Array, comm: MPI.Comm | None = None) -> tuple[Array, Array]:
     """(R, t) with det R = 1 that minimise Σ|R sᵢ + t − tᵢ|² (pairs of rows).
 
     Args:
         source: the points to move, (k, 3).
         target: the points they should reach, (k, 3).
+        comm: the sums run over the rows of all its ranks (collective); None: these rows.
 
     Returns:
-        The rotation R (3, 3) and the translation t (3,).
+        The rotation R (3, 3) and the translation t (3,), the same on every rank.
     """
-    a, b = source.mean(axis=0), target.mean(axis=0)
-    u, _, vt = np.linalg.svd((source - a).T @ (target - b))
+    count, sums = len(source), np.vstack([source.sum(axis=0), target.sum(axis=0)])
+    if comm is not None:
+        count, sums = comm.allreduce(count), comm.allreduce(sums)
+    a, b = sums / count
+    covariance = (source - a).T @ (target - b)
+    if comm is not None:
+        covariance = comm.allreduce(covariance)
+    u, _, vt = np.linalg.svd(covariance)
     d = np.sign(np.linalg.det(vt.T @ u.T))
     rotation = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
-    return rotation, b - rotation @ a
+    motion = (rotation, b - rotation @ a)
+    return motion if comm is None else comm.bcast(motion, root=0)  # the same bits everywhere
 
 
 def _rotation_of(omega: Array) -> Array:

@@ -24,14 +24,20 @@ from dgplate import expressions, values
 from dgplate.compat import Array, Constant, Function, Mesh
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets
-from dgplate.errors import InputError
+from dgplate.errors import InputError, SolverError
+from dgplate.io.output import print0
+from dgplate.measure.alignment import kabsch
 from dgplate.measure.analysis import l1_norms
 from dgplate.measure.creases import crease_polylines, fold_angle_summary
 from dgplate.measure.prestrain import gauss_curvature_figures
 from dgplate.measure.probes import central_probe, height
 from dgplate.mesh.tagged import TaggedMesh
 from dgplate.schema import REQUIRED, Check, option
-from dgplate.solvers.constrained_path import constrained_branch_path, constrained_problem
+from dgplate.solvers.constrained_path import (
+    ConstrainedProblem,
+    constrained_branch_path,
+    constrained_problem,
+)
 from dgplate.solvers.constraint import IsometryDefect
 from dgplate.solvers.continuation import BranchPath, PathSettings
 from dgplate.solvers.driver import Driver, Observer
@@ -42,6 +48,7 @@ __all__ = [
     "ArcLengthPath",
     "BoundaryData",
     "DataPath",
+    "FlowStart",
     "Initial",
     "Model",
     "PlateModel",
@@ -130,12 +137,15 @@ class ArcLengthPath:
     """A plate's equilibria followed in a load factor λ by arclength (``[path]``).
 
     Attributes:
-        factor: the Constant λ that multiplies the datum ``path.parameter`` in the energy.
+        factor: the Constant λ that scales the datum ``path.parameter`` in the energy.
         settings: the path's settings.
+        start: λ₀, where the path starts: at 0 from the start deformation, else from the
+            gradient flow's minimiser at λ₀.
     """
 
     factor: Constant
     settings: PathSettings
+    start: float = 0.0
 
     def driver(
         self,
@@ -144,13 +154,14 @@ class ArcLengthPath:
         observers: Sequence[Observer],
         initial: Initial | None,
     ) -> BranchPath:
-        """The path from λ = 0 (:mod:`dgplate.solvers.constrained_path`).
+        """The path from λ₀ (:mod:`dgplate.solvers.constrained_path`).
 
         Args:
             plate: the plate whose energy depends on :attr:`factor`.
-            flow: the [flow] section (its constraint's keys: multipliers, edge moments).
+            flow: the [flow] section (its constraint's keys: multipliers, edge moments; all
+                of it for the flow to the start at λ₀ ≠ 0).
             observers: told of every point and of the end of the run.
-            initial: the first iterate at λ = 0 (None: the flat plate).
+            initial: the first iterate at λ₀ (None: the flat plate); at λ₀ ≠ 0 the flow's.
 
         Returns:
             The driver.
@@ -158,7 +169,7 @@ class ArcLengthPath:
         problem = constrained_problem(
             plate.facets, plate.degree, plate.energy, flow, plate.metric, initial
         )
-        self.factor.value = np.asarray(0.0)
+        self.factor.value = np.asarray(self.start)
         defect = IsometryDefect(problem.y, plate.metric)
         free = not plate.facets.has_clamped
         at_centre = None if free else central_probe(plate.facets.mesh)
@@ -169,6 +180,7 @@ class ArcLengthPath:
                 return {"height": height(y), "isometry_defect": defect()}
             return {"w_center": at_centre(y, component=2), "isometry_defect": defect()}
 
+        relax = FlowStart(plate, flow, initial, problem) if self.start else None
         return constrained_branch_path(
             problem,
             self.factor,
@@ -177,7 +189,81 @@ class ArcLengthPath:
             probes=probes,
             observers=observers,
             free=free,
+            prelude=relax,
         )
+
+
+@dataclass(frozen=True)
+class FlowStart:
+    """The start of a path at λ₀ ≠ 0: the gradient flow's minimiser there (collective).
+
+    Called by the path before its first point (not on a resume), with λ at λ₀: the flow of
+    [flow] runs from ``initial`` to its stopping test, and its deformation replaces the
+    path's state (its multipliers stay 0; the path's Newton solve at the start corrects them).
+    A free plate's minimiser is first moved rigidly as near the start as it goes
+    (:func:`place_near`); its pins then hold it there
+    (:func:`dgplate.solvers.rigid_pins.hold_in_place`).
+    """
+
+    plate: PlateModel
+    flow: FlowSpec
+    initial: Initial | None
+    problem: ConstrainedProblem
+
+    def __call__(self) -> int:
+        """Run the flow and take its deformation.
+
+        Returns:
+            The signal that stopped the flow (0: none; the path then does not start).
+
+        Raises:
+            SolverError: the flow ended without converging.
+        """
+        plate, comm, y = self.plate, self.plate.facets.mesh.comm, self.problem.y
+        start = y.x.array.copy()
+        flow = GradientFlow(
+            plate.facets, plate.degree, plate.energy, self.flow, (), self.initial, plate.metric
+        )
+        try:
+            print0(comm, "path: its start is the flow's minimiser at path.lambda_start …")
+            result = flow.run()
+            if result.interrupted:
+                return result.interrupted
+            if not result.converged:
+                raise SolverError(
+                    f"path.lambda_start: the flow to the path's start did not converge "
+                    f"({result.reason})"
+                )
+            print0(
+                comm,
+                f"path: the flow converged after {result.steps} steps, E_h = {result.energy:.6e}",
+            )
+            y.interpolate(flow.shape)  # the same space: exact
+        finally:
+            flow.destroy()
+        if not plate.facets.has_clamped:
+            place_near(y, start)
+        self.problem.state.x.array[self.problem.vdofs] = y.x.array
+        self.problem.state.x.scatter_forward()
+        return 0
+
+
+def place_near(y: Function, start: Array) -> None:
+    """Move ``y`` rigidly to the placement nearest ``start``: least squares over its nodes.
+
+    A free plate's flow leaves it wherever its rigid motions drifted; moved so, a cap or a
+    roll keeps the start's centre and mean orientation (its ``height`` is then its own).
+    Collective.
+
+    Args:
+        y: a deformation in [DG_k]³, moved in place.
+        start: the values of y's local dofs at the start.
+    """
+    owned = y.function_space.dofmap.index_map.size_local
+    nodes, at_start = y.x.array.reshape(-1, 3), start.reshape(-1, 3)
+    rotation, shift = kabsch(nodes[:owned], at_start[:owned], y.function_space.mesh.comm)
+    y.x.array[:] = (nodes @ rotation.T + shift).reshape(-1)
+    y.x.scatter_forward()
 
 
 #: The PETSc options prefix of a plate's path (its Newton solver and bordered systems).

@@ -265,7 +265,7 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
     g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path or moving)
     penalty = spec.penalty
     degree = explicit_quadrature(spec.degree)
-    metric = spec_metric(spec, tagged)
+    metric = spec.path.scaled_metric(spec_metric(spec, tagged), spec, tagged, arclength)
 
     def energy_fn(y: Function) -> Energy:
         return bilayer_energy(

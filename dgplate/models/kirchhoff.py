@@ -132,10 +132,10 @@ class KirchhoffSpec:
     path: PlatePathSpec = section(PlatePathSpec, "path")
 
     def __post_init__(self) -> None:
-        self.path.check(self)
         self._start = starts.Start.from_table(self.start)
         table = self.director  # the lce model's own 'director' is a profile name
         self._director = Director.from_table(table) if isinstance(table, dict) and table else None
+        self.path.check(self)
         if self.metric is not None and self._director is not None:
             raise InputError(
                 "model.director sets the target metric, as model.metric does: give one of them"
@@ -233,7 +233,7 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
     moving = spec.path.moving_data(arclength)
     g, Phi = clamped_data(spec.boundary_data, tagged.mesh, path=path or moving)
     penalty = spec.penalty
-    metric = spec_metric(spec, tagged)
+    metric = spec.path.scaled_metric(spec_metric(spec, tagged), spec, tagged, arclength)
     c = spec.trace_weight
     data: BendingData = {"mu": (1 + c) * mu if c else mu, "g": g, "Phi": Phi}
     if metric is not None:

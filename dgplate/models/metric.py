@@ -126,7 +126,11 @@ def _piece(value: float | str, mesh: Mesh, key: str) -> Expr:
 
 
 def check_positive_definite(
-    spec: MetricSpec, mesh: Mesh, key: str = "model.metric", tagged: TaggedMesh | None = None
+    spec: MetricSpec,
+    mesh: Mesh,
+    key: str = "model.metric",
+    tagged: TaggedMesh | None = None,
+    factors: Sequence[float] = (),
 ) -> None:
     """InputError on every rank when G is not finite and SPD at some sample point of the mesh.
 
@@ -136,12 +140,27 @@ def check_positive_definite(
             values of the cell's group.
         key: the key named in the message.
         tagged: the mesh's cell groups (needed when an entry is a group table).
+        factors: also check G_λ = I + λ(G − I) at each of these λ, the ends a path in the
+            metric can reach (:mod:`dgplate.models.plate_path`): G_λ is affine in λ, so it is
+            SPD between them.
     """
     points, cells = _cell_points(mesh)
     g11, g12, g22 = (
         _at(value, points, cells, f"{key}.{name}", DEFAULTS[name], tagged)
         for name, value in spec.entries().items()
     )
+    _refuse_indefinite(mesh, points, (g11, g12, g22), f"{key}: G")
+    for factor in factors:
+        scaled = (1 + factor * (g11 - 1), factor * g12, 1 + factor * (g22 - 1))
+        where = f"{key} on the path (path.lambda_max + path.ds_max): G_λ at λ = {factor:g}"
+        _refuse_indefinite(mesh, points, scaled, where)
+
+
+def _refuse_indefinite(
+    mesh: Mesh, points: Array, entries: tuple[Array, Array, Array], what: str
+) -> None:
+    """The InputError of :func:`check_positive_definite` on every rank, if any point fails."""
+    g11, g12, g22 = entries
     det = g11 * g22 - g12**2
     bad = np.flatnonzero(~(np.isfinite(det) & (g11 > 0) & (det > 0)))
     local = None
@@ -152,7 +171,7 @@ def check_positive_definite(
     if found:
         x, y, a, b, c = found[0]
         raise InputError(
-            f"{key}: G is not symmetric positive definite at (x, y) = ({x:.6g}, {y:.6g}): "
+            f"{what} is not symmetric positive definite at (x, y) = ({x:.6g}, {y:.6g}): "
             f"g11 = {a:.6g}, g12 = {b:.6g}, g22 = {c:.6g} (det G = {a * c - b * b:.6g})"
         )
 

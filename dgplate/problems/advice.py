@@ -95,7 +95,7 @@ def path_only(problem: Problem) -> list[str]:
 
     FvK's continuation reads only ``newton.snes`` of [newton] (its start's Newton solver); a
     plate's reads only ``flow.multiplier_degree`` and ``flow.edge_constraint`` of [flow] (its
-    constraint). A plate's ``path.parameter`` is read by the path alone, FvK's by its load
+    constraint), unless it starts at ``path.lambda_start`` ≠ 0 from the flow's minimiser. A plate's ``path.parameter`` is read by the path alone, FvK's by its load
     steps as well.
     """
     path = getattr(problem.model, "path", None)
@@ -106,6 +106,8 @@ def path_only(problem: Problem) -> list[str]:
         read = ("method",) if plate else ("method", "parameter")
         given = [key for key in problem.raw.get("path") or {} if key not in read]
         return [f"path.{key} has no effect without path.method = 'arclength'" for key in given]
+    if plate and path.lambda_start:  # the flow to the start at λ₀ reads all of [flow]
+        return []
     section, read = ("flow", PLATE_PATH_FLOW_KEYS) if plate else ("newton", ("snes",))
     given = [key for key in problem.raw.get(section) or {} if key not in read]
     return [

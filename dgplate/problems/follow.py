@@ -103,7 +103,8 @@ def follow(
         force: write into a folder of a user's files (deleting none of them).
         resume: continue the path from the checkpoint in the output folder.
         **path: settings of the ``[path]`` section (``ds``, ``ds_max``, ``ds_min``, ``steps``,
-            ``lambda_max``, ``switch``); ``method`` is ``"arclength"``.
+            ``lambda_max``, ``switch``, ``parameter``; a plate's ``lambda_start``);
+            ``method`` is ``"arclength"``.
 
     Returns:
         The :class:`Branch`: its points, folds, bifurcations and the run's result.

@@ -56,13 +56,14 @@ from dgplate.solvers.constraint import (
     EdgeConstraint,
     metric_measure,
     metric_tensor_defect,
+    refuse_edge_moments_with_metric,
     symmetric,
 )
 from dgplate.solvers.continuation import BranchPath, PathSettings
 from dgplate.solvers.driver import Observer
 from dgplate.solvers.flow import Initial, flat
 from dgplate.solvers.newton import Probes
-from dgplate.solvers.rigid_pins import rigid_pins
+from dgplate.solvers.rigid_pins import hold_in_place, rigid_pins
 from dgplate.solvers.step_system import StepSettings, max_row_sum, mixed_space
 
 
@@ -166,6 +167,7 @@ def constrained_problem(
     Returns:
         The problem, its state at ``initial`` with zero multipliers, s = 1.
     """
+    refuse_edge_moments_with_metric(metric, settings.edge_constraint)
     mesh = facets.mesh
     W = mixed_space(mesh, degree, settings)
     V, vdofs = compat.collapse(W.sub(0))
@@ -220,6 +222,7 @@ def constrained_branch_path(
     probes: Probes | None = None,
     observers: Sequence[Observer] = (),
     free: bool = False,
+    prelude: Callable[[], int] | None = None,
 ) -> BranchPath:
     """The arclength continuation of ``problem`` in ``load_factor`` (collective).
 
@@ -233,14 +236,24 @@ def constrained_branch_path(
         observers: told of every point and of the end of the run.
         free: whether the plate is free (nothing clamped): its rigid motions are then held by
             six pins (:func:`dgplate.solvers.rigid_pins.rigid_pins`).
+        prelude: sets the start state before the first point of a path that has none yet
+            (a flow to a minimiser); returns the signal that stopped it (0: none).
 
     Returns:
         The driver, its constraint rows balanced at the start state.
     """
+    pins = rigid_pins(problem.state) if free else []
+
+    def start(fresh: bool) -> int:
+        """The prelude on a path without points; the pins where the start state has them."""
+        signum = prelude() if prelude is not None and fresh else 0
+        hold_in_place(pins, problem.state)
+        return signum
+
     path = BranchPath(
         problem.state,
         problem.lagrangian,
-        rigid_pins(problem.state) if free else [],
+        pins,
         load_factor,
         settings,
         prefix,
@@ -249,6 +262,7 @@ def constrained_branch_path(
         probes=probes,
         observers=observers,
         multipliers=Multipliers(problem.constraint_rows, problem.weight()),
+        prelude=start,
     )
     problem.balance(path.newton.jacobian())
     return path

@@ -22,6 +22,7 @@ from dgplate import mpi
 from dgplate.compat import Array, Function, Mesh, entities_to_geometry
 from dgplate.dg.forms import FREE, FacetSets, metric_quadrature
 from dgplate.dg.geometry import cell_areas, oriented_normal
+from dgplate.errors import InputError
 from dgplate.mesh.tagged import local_entities
 
 
@@ -45,6 +46,20 @@ def linearised_isometry(v: Expr, y: Expr, q: Expr) -> ufl.Form:
     Gv, Gy = ufl.grad(v), ufl.grad(y)
     form: ufl.Form = ufl.inner(Gv.T * Gy + Gy.T * Gv, symmetric(q)) * ufl.dx
     return form
+
+
+def refuse_edge_moments_with_metric(metric: Expr | None, edge_constraint: bool) -> None:
+    """InputError when ``flow.edge_constraint`` meets a target metric G.
+
+    Args:
+        metric: the target metric (None: I).
+        edge_constraint: whether the free edges' moments are constrained.
+    """
+    if metric is not None and edge_constraint:
+        raise InputError(
+            "flow.edge_constraint holds free edges to the metric I: not with model.metric "
+            "or model.director"
+        )
 
 
 class EdgeConstraint:

@@ -102,6 +102,8 @@ class BranchPath(Driver):
         probes: numbers of the state added to every record.
         observers: told of every point and of the end of :meth:`run`.
         multipliers: the multipliers of a Lagrangian among the unknowns (None: none).
+        prelude: called before the start with whether the path has no points yet (else it
+            was resumed); returns the signal that stopped it (0: none, the path starts).
     """
 
     budget_key = "path.steps"
@@ -121,11 +123,12 @@ class BranchPath(Driver):
         probes: Probes | None = None,
         observers: Sequence[Observer] = (),
         multipliers: Multipliers | None = None,
+        prelude: Callable[[bool], int] | None = None,
     ) -> None:
         check_prefix(prefix)
         self.state, self.comm = state, state.function_space.mesh.comm
         self.settings, self.observers = settings, list(observers)
-        self._shape_source, self._probes = shape, probes
+        self._shape_source, self._probes, self._prelude = shape, probes, prelude
         self.load = LoadFactor(load_factor, bc_values)
         self.newton = NewtonSolver(state, energy, bcs, prefix, options, "newton.snes")
         self.engine = ArcLength(
@@ -230,8 +233,8 @@ class BranchPath(Driver):
     def run(self, max_steps: int | None = None) -> RunResult:
         """Follow the path until ``max_steps`` more points (None: ``steps`` points in all).
 
-        No step starts once the points are that many; a step adds one point, or two when it
-        finds a special point (so the count can end one over).
+        No step starts once the points are that many; a step adds one point, or two at a
+        special point. The ``prelude`` runs before the start.
 
         Args:
             max_steps: the points to add at most in this call, but for that one over.
@@ -246,15 +249,17 @@ class BranchPath(Driver):
         failure, signum = "", 0
         try:
             if self.current is None and self.step_count < target:
-                records += self._start()
-            while self.step_count < target and self._inside(self.current):
+                signum = self._prelude(not self.history) if self._prelude else 0
+                records += [] if signum else self._start()
+            while not signum and self.step_count < target and self._inside(self.current):
                 records += self._advance()
                 signum = interrupt.requested(self.comm)
                 if signum:
                     break
         except SolverError as err:
-            failure = f"{err}; the last point is kept"
+            failure = str(err)
             if self.current is not None:
+                failure += "; the last point is kept"
                 self.engine.set_state(self.current)
         converged = not failure and not signum
         reason = failure or (
@@ -306,7 +311,8 @@ class BranchPath(Driver):
         point.
         """
         self._clock = time.perf_counter()
-        base = self._point()
+        if (base := self.current) is None:
+            raise SolverError("the path has no point to go on from")
         new, ds = self._step(base)
         try:
             records, new, last = self._special(base, new, ds)
@@ -347,11 +353,6 @@ class BranchPath(Driver):
         finally:
             special.destroy()
 
-    def _point(self) -> Point:
-        if self.current is None:
-            raise SolverError("the path has no point to go on from")
-        return self.current
-
     def _step(self, base: Point) -> tuple[Point, float]:
         """The next point from ``base``: the step halved until the corrector converges."""
         ds = self.ds
@@ -363,10 +364,7 @@ class BranchPath(Driver):
             ds = self.settings.step.halved(ds)
 
     def _report(self, point: Point, ds: float, kind: str) -> BranchPoint:
-        """The record of ``point`` (the state is at it), kept and told to the observers.
-
-        ``seconds`` is the time since the step began.
-        """
+        """The record of ``point`` (the state is at it), kept and told to the observers."""
         self._shape = self._shape_source()
         record = self._record(
             step=self.step_count + 1,

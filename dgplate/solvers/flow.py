@@ -41,10 +41,10 @@ from dgplate.compat import Array, Function
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import FacetSets
 from dgplate.dg.geometry import max_cell_diameter
-from dgplate.errors import InputError, SolverError
+from dgplate.errors import SolverError
 from dgplate.schema import option
 from dgplate.solvers import linear, metric_start, transfer
-from dgplate.solvers.constraint import IsometryDefect
+from dgplate.solvers.constraint import IsometryDefect, refuse_edge_moments_with_metric
 from dgplate.solvers.driver import EnergyFlow, Observer
 from dgplate.solvers.linear import OptionValue
 from dgplate.solvers.projection import Projection
@@ -216,11 +216,7 @@ class GradientFlow(EnergyFlow):
                 (:mod:`dgplate.solvers.metric_start`; from an ``initial``, its projections
                 only): the flat plate violates the constraint.
         """
-        if metric is not None and settings.edge_constraint:
-            raise InputError(
-                "flow.edge_constraint holds free edges to the metric I: not with model.metric "
-                "or model.director"
-            )
+        refuse_edge_moments_with_metric(metric, settings.edge_constraint)
         self.facets, self.settings, self.observers = facets, settings, list(observers)
         mesh = facets.mesh
         self.comm: MPI.Comm = mesh.comm

@@ -24,6 +24,7 @@ DOLFINx's conditions need.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from mpi4py import MPI
@@ -191,3 +192,22 @@ def rigid_pins(state: Function) -> list[Any]:
             value = float(state.x.array[dofs[0]]) if len(dofs) else 0.0
             pins.append(dolfinx.fem.dirichletbc(values.constant(mesh, value), dofs, y_space.sub(k)))
     return pins
+
+
+def hold_in_place(pins: Sequence[Any], state: Function) -> None:
+    """Each pin's value set to the one its unknown has in ``state`` (collective).
+
+    A path's pins keep the values of the state it starts from: after a flow to the start, or
+    on a resume (the pinned unknowns do not move along a path, so these are the values of
+    the first start). The ghosts of ``state`` are updated first, so that the ranks that hold
+    a pinned unknown as a ghost read its owner's value.
+
+    Args:
+        pins: the DirichletBCs of :func:`rigid_pins`.
+        state: w = (y, μ[, p]) where the path starts.
+    """
+    state.x.scatter_forward()
+    for pin in pins:
+        dofs = pin.dof_indices()[0]
+        if len(dofs):
+            pin.g.value[...] = state.x.array[dofs[0]]
