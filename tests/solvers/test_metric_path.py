@@ -139,3 +139,13 @@ def test_a_metric_that_is_not_positive_definite_along_the_path_is_refused():
     )
     with pytest.raises(InputError, match=r"ds_max\): G_λ at λ = -3\.5 is not symmetric"):
         dgplate.check(problem, comm=MPI.COMM_SELF)
+
+
+def test_a_start_whose_flow_does_not_converge_ends_the_path_with_its_reason(tmp_path):
+    """A flow to the start stopped by its budget: no point, not converged, the flow's reason."""
+    problem = dgplate.load_problem(DISC, {**SETTINGS, **METRIC_PATH, "flow.max_steps": 1})
+    branch = dgplate.follow(problem, out=tmp_path / "path", comm=MPI.COMM_SELF, steps=3)
+    summary = branch.result.summary
+    assert not summary["converged"] and branch.points == []
+    assert summary["reason"].startswith("path.lambda_start: the flow to the path's start did not")
+    assert "step budget of 1 steps spent" in summary["reason"]
