@@ -210,7 +210,10 @@ def test_a_users_file_in_an_output_folder_of_dgplate_survives(tmp_path):
 
 def test_a_resumed_run_reports_totals_over_all_its_runs(tmp_path, capsys):
     """After --resume, summary.json counts factorisations, steps and wall time over the whole
-    run (the resumed part apart), and the step budget is the flow.max_steps that was set."""
+    run (the resumed part apart), and the step budget is the flow.max_steps that was set.
+
+    The total may lie below the first run's own wall time (measured 0.276 s against
+    0.369 s): the first run's outputs, written after its last checkpoint, are not part of it."""
     out, never = tmp_path / "run", ["--set", "flow.tol=1e-30", "--set", "flow.checkpoint_every=1"]
     assert (
         main(["run", str(VERTICAL), "--out", str(out), *SMALL, *never, "--set", "flow.max_steps=3"])
@@ -224,7 +227,9 @@ def test_a_resumed_run_reports_totals_over_all_its_runs(tmp_path, capsys):
     assert whole["steps"] == 6 and whole["reason"].startswith("step budget of 6 steps spent")
     assert whole["factorisations"] >= first["factorisations"] + 1  # the resumed run's own
     assert whole["step_solves"] > first["step_solves"]
-    assert whole["wall_time_s"] > first["wall_time_s"] >= 0
+    # the total: the first run's time up to its last checkpoint, and the resumed run's
+    earlier = whole["wall_time_s"] - whole["wall_time_since_resume_s"]
+    assert 0 < earlier <= first["wall_time_s"]
     assert 0 < whole["wall_time_since_resume_s"] < whole["wall_time_s"]
 
 
