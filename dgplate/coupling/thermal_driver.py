@@ -151,8 +151,7 @@ class ThermalBilayer(Driver):
         self.step_count = 0
         self.holds_done = 0
         self.last_result: FlowResult | None = None
-        #: the shape (the values of y) at the end of each hold of this run, by its record
-        self.held: dict[int, np.ndarray] = {}
+        self.held = HeldShapes(self.y.function_space)
 
     # -- the runner's view ------------------------------------------------------------------
     @property
@@ -284,8 +283,7 @@ class ThermalBilayer(Driver):
     def _next_step(self) -> HeatStepRecord | None:
         """The schedule's next step: a heat step, or the hold that is due.
 
-        The schedule's next step: a heat step, or the hold that is due. None when a hold
-        was interrupted: it is not counted, and a resumed run does it again.
+        None when a hold was interrupted: it is not counted, and a resumed run does it again.
         """
         holds = self.schedule.holds
         due = self.holds_done < len(holds) and not self._before(holds[self.holds_done])
@@ -298,14 +296,13 @@ class ThermalBilayer(Driver):
             self.step_count = steps_before
             return None
         self.holds_done += 1
-        self.held[record.step] = self.y.x.array.copy()
+        self.held.keep(record.step, self.y)
         return record
 
     def _failure(self, record: HeatStepRecord) -> str | None:
-        """Why the relaxation of ``record`` failed, if it did.
+        """Why the relaxation of ``record`` failed (a solver error or divergence), if it did.
 
-        Why the relaxation of ``record`` failed (a solver error or divergence), if it did:
-        a flow that stopped before its budget without converging or being interrupted.
+        A flow that stopped before its budget without converging or being interrupted.
         """
         result = self.last_result
         if result is None or result.converged or result.interrupted:
@@ -331,8 +328,8 @@ class ThermalBilayer(Driver):
     def run(self, max_steps: int | None = None) -> RunResult:
         """Heat steps and holds until the end of the schedule (or a stop).
 
-        Heat steps and holds until the end of the schedule, an interrupt (SIGINT/SIGTERM,
-        at a step boundary), a failed relaxation, or ``max_steps`` driver steps.
+        The stops: an interrupt (SIGINT/SIGTERM, at a step boundary), a failed relaxation,
+        or ``max_steps`` driver steps.
 
         The result's ``history`` holds this run's records; :attr:`records` all of them.
         """
@@ -358,8 +355,8 @@ class ThermalBilayer(Driver):
 
     # -- checkpoints ------------------------------------------------------------------------
     def checkpoint_fields(self) -> dict[str, dolfinx.fem.Function[np.float64]]:
-        """The plate's and the heat equation's state (see :mod:`dgplate.io.checkpoint`)."""
-        return {**self.flow.checkpoint_fields(), "theta": self.heat.theta}
+        """The plate's and the heat equation's state, and the held shapes (``held_<step>``)."""
+        return {**self.flow.checkpoint_fields(), "theta": self.heat.theta, **self.held.fields()}
 
     def checkpoint_state(self) -> dict[str, Any]:
         """The counters of the driver, the flow and the heat equation, and the records."""
@@ -370,15 +367,17 @@ class ThermalBilayer(Driver):
             "flow": self.flow.checkpoint_state(),
             "heat": self.heat.checkpoint_state(),
             "records": [asdict(r) for r in self.records],
+            "held": self.held.steps(),
         }
 
     def restore_state(self, state: dict[str, Any]) -> None:
-        """Continue from :meth:`checkpoint_state` (the fields are restored first)."""
+        """Continue from :meth:`checkpoint_state` (``Checkpoint.resume``: fields, then this)."""
         self.step_count = int(state["step"])
         self.holds_done = int(state["holds_done"])
         self.flow.restore_state(state["flow"])
         self.heat.restore_state(state["heat"])
         self.records = [HeatStepRecord(**r) for r in state["records"]]
+        self.held.expect(state.get("held", ()))
 
     # -- results ----------------------------------------------------------------------------
     def step_counts(self) -> dict[str, int]:
@@ -410,6 +409,39 @@ class ThermalBilayer(Driver):
         """Free the flow's and the heat solver's PETSc objects."""
         self.flow.destroy()
         self.heat.destroy()
+
+
+class HeldShapes:
+    """Copies of y at the end of the holds, by the hold's record step.
+
+    They are checkpoint fields (``held_<step>``, their steps in the driver's state), so that a
+    resumed run draws the holds before its interruption too (the box's ``at_switch.png``).
+    """
+
+    def __init__(self, space: dolfinx.fem.FunctionSpace[np.float64]) -> None:
+        self.space = space
+        self.shapes: dict[int, dolfinx.fem.Function[np.float64]] = {}
+
+    def keep(self, step: int, y: dolfinx.fem.Function[np.float64]) -> None:
+        """A copy of ``y`` as the shape held at ``step``."""
+        self.shapes[step] = dolfinx.fem.Function(self.space)
+        self.shapes[step].x.array[:] = y.x.array
+
+    def get(self, step: int) -> dolfinx.fem.Function[np.float64] | None:
+        """The shape held at ``step`` (None: no hold ended there)."""
+        return self.shapes.get(step)
+
+    def steps(self) -> list[int]:
+        """The steps of the holds kept, in order."""
+        return sorted(self.shapes)
+
+    def fields(self) -> dict[str, dolfinx.fem.Function[np.float64]]:
+        """The shapes as checkpoint fields, ``held_<step>``."""
+        return {f"held_{step}": shape for step, shape in self.shapes.items()}
+
+    def expect(self, steps: Sequence[int]) -> None:
+        """Empty shapes for ``steps``, to be filled from a checkpoint's fields."""
+        self.shapes = {int(step): dolfinx.fem.Function(self.space) for step in steps}
 
 
 def _safety(result: FlowResult) -> dict[str, float]:

@@ -29,6 +29,7 @@ from petsc4py import PETSc
 
 from dgplate import load_problem as dgplate_problem
 from dgplate.cli import main
+from dgplate.problems.results import load_result
 
 ROOT = Path(__file__).resolve().parents[2]
 VERTICAL = ROOT / "demos" / "problems" / "vertical_load.toml"
@@ -630,6 +631,15 @@ def test_killed_box_resumes_to_the_same_state(tmp_path):
         assert np.isclose(summary[key], expected[key], rtol=1e-8, atol=1e-14), key
     rows = (out / "history.csv").read_text().splitlines()
     assert len(rows) == len((tmp_path / "reference" / "history.csv").read_text().splitlines())
+    # the box held closed at the switch, before the kill, is in the resumed run's checkpoint
+    # (its at_switch.png is drawn from it)
+    expected_fields = load_result(tmp_path / "reference", MPI.COMM_SELF).fields
+    fields = load_result(out, MPI.COMM_SELF).fields
+    held = sorted(name for name in expected_fields if name.startswith("held_"))
+    assert len(held) == 2 and held == sorted(name for name in fields if name.startswith("held_"))
+    for name in held:
+        got, want = fields[name].x.array, expected_fields[name].x.array
+        assert np.allclose(got, want, rtol=1e-8, atol=1e-12), name
 
 
 ONE_RANK_FAILS = textwrap.dedent(

@@ -367,16 +367,15 @@ class ThermalModel(Model):
         """The shapes at the holds before the end, for pictures besides final.png.
 
         ``at_<label>`` (``at_switch`` for the source's one switch: the closed box) → (the
-        values of y, a title). Only the holds of this run: a run resumed after a hold has
-        not got its shape.
+        values of y, a title); those of a resumed run's earlier runs from its checkpoint.
         """
         end = self.spec.schedule.end_time
         shapes = {}
         for record in driver.records:
-            values = driver.held.get(record.step)
-            if values is not None and not math.isclose(record.time, end, rel_tol=1e-12):
+            held = driver.held.get(record.step)
+            if held is not None and not math.isclose(record.time, end, rel_tol=1e-12):
                 title = f"held at t = {record.time:g}: E_h = {record.energy:.4e}"
-                shapes[f"at_{self._hold_label(record.time)}"] = (values, title)
+                shapes[f"at_{self._hold_label(record.time)}"] = (held.x.array.copy(), title)
         return shapes
 
     def lines(self, driver: ThermalBilayer) -> list[np.ndarray]:
