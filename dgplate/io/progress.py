@@ -17,9 +17,11 @@ if TYPE_CHECKING:
 
 
 #: ``output.progress = "auto"``: a progress line when both this many seconds and this many
-#: steps have passed since the last one (whichever gives fewer lines), and at the first step.
+#: steps have passed since the last one (whichever gives fewer lines), and at the first step;
+#: and whenever ``AUTO_MAX_SECONDS`` have passed, so that slow steps are not silent.
 AUTO_SECONDS = 1.0
 AUTO_STEPS = 10
+AUTO_MAX_SECONDS = 10.0
 #: Steps of the stopping test's recent decay from which the time to the tolerance is estimated.
 DECAY_WINDOW = 20
 
@@ -28,8 +30,8 @@ class ProgressPrinter:
     """Rank-0 progress: record lines, each with the time elapsed and left, and how it ended.
 
     ``every``: ``"auto"`` prints the first step's line, then one when at least
-    :data:`AUTO_SECONDS` and :data:`AUTO_STEPS` steps have passed since the last, and the last
-    step's line; an integer n ≥ 1 every n-th step's line; 0 none. A record that is
+    :data:`AUTO_SECONDS` and :data:`AUTO_STEPS` steps have passed since the last, or
+    :data:`AUTO_MAX_SECONDS`, and the last step's line; an integer n ≥ 1 every n-th step's line; 0 none. A record that is
     ``notable`` (a path's special point) is printed whenever ``every`` is not 0. The
     final line (converged or not, after how many steps) is always printed. Only rank 0
     prints, so only rank 0 decides, from its own clock: no collective, nothing for the ranks
@@ -85,6 +87,8 @@ class ProgressPrinter:
         if self._last is None:
             return True
         step0, time0 = self._last
+        if now - time0 >= AUTO_MAX_SECONDS:
+            return True
         return step - step0 >= AUTO_STEPS and now - time0 >= AUTO_SECONDS
 
     def _print(self, line: str) -> None:

@@ -292,8 +292,8 @@ def test_progress_printer_estimates_from_the_decay_of_the_stopping_test():
 
 def test_progress_printer_auto_prints_a_line_a_second_and_every_ten_steps():
     """``auto``: the first step, then a line when both 1 s and 10 steps have passed since
-    the last, the last step's line and the final one. Steps of 0.05 s: every 20th step;
-    steps of 1 s: every 10th."""
+    the last (or 10 s), the last step's line and the final one. Steps of 0.05 s: every 20th
+    step; steps of 1 s: every 10th; steps of 4 s: every 3rd."""
     from dgplate.io.progress import AUTO_STEPS
     from dgplate.solvers.driver import RunOutcome
 
@@ -306,6 +306,9 @@ def test_progress_printer_auto_prints_a_line_a_second_and_every_ten_steps():
     slow = _printed("auto", _NoPath(), records, [float(n) for n in range(46)], done)
     assert [line.split("  ")[0] for line in slow][1:4] == ["line 11", "line 21", "line 31"]
     assert AUTO_STEPS == 10
+    # steps of 4 s: a line at least every 10 s, not only every 10th step (40 s)
+    slower = _printed("auto", _NoPath(), records, [4.0 * n for n in range(46)], done)
+    assert [line.split("  ")[0] for line in slower][1:4] == ["line 4", "line 7", "line 10"]
 
 
 def test_progress_printer_every_n_and_none_end_with_the_final_line():
