@@ -5,8 +5,9 @@
 a ``.geo`` file's size parameters halved (``h``, ``h_*`` and ``*_h`` set to a positive
 number; the counts ``n`` and ``m`` doubled), a rod's ``model.cells`` doubled. Each level of a
 plate's gradient flow starts from the previous level's solution, interpolated onto the finer
-mesh (:class:`~dgplate.solvers.transfer.MeshStart`); FvK's Newton, the rod and a continuation
-in the clamped data start each level from the problem's own start. Each level is a normal run folder ``level-1``, ``level-2`` … of the
+mesh (:class:`~dgplate.solvers.transfer.MeshStart`); FvK's Newton, the rod, a continuation
+in the clamped data and a flow stopped by the rate test start each level from the problem's
+own start. Each level is a normal run folder ``level-1``, ``level-2`` … of the
 study's folder, so that with ``resume`` a finished level is reused and an interrupted one
 continued (:mod:`dgplate.problems.folders`).
 
@@ -147,9 +148,16 @@ def warm_start(problem: Problem) -> bool:
     """Whether a level starts from the coarser level's solution (see :data:`COLD_START`).
 
     A continuation in the clamped data (``model.schedule``) starts at its first α, which the
-    coarser level's final shape does not match: it starts from the problem's start too.
+    coarser level's final shape does not match: it starts from the problem's start too. So
+    does a flow stopped by the rate test (``flow.stop = 'rate'``, the published method): it
+    ends at a state that depends on where it starts (its isometry defect grows with each
+    step, which no projection corrects), so a warm-started level would not be the run that
+    ``dgplate run`` makes at its size. A flow to a discrete minimiser (``'stationarity'``)
+    ends at the same state from either start.
     """
-    return problem.model.name not in COLD_START and getattr(problem.model, "schedule", None) is None
+    if problem.model.name in COLD_START or getattr(problem.model, "schedule", None) is not None:
+        return False
+    return getattr(problem.flow, "stop", "stationarity") == "stationarity"
 
 
 def refinements(problem: Problem, levels: int) -> list[tuple[Problem, str]]:

@@ -109,8 +109,22 @@ def test_an_interrupted_level_is_left_out_of_the_estimates():
 def test_warm_start_only_for_the_plates_gradient_flow():
     cases = {"bilayer_cylinder": True, "rod_arc": False, "fvk_square": False}
     cases["buckling_strip"] = False  # a continuation in the clamped data: starts at α = 0
+    cases["vertical_load"] = False  # the rate test: the end state depends on the start
     for name, warm in cases.items():
         assert warm_start(dgplate.load_problem(PROBLEMS / f"{name}.toml")) is warm, name
+
+
+def test_a_rate_stopped_level_is_the_run_at_its_size(tmp_path):
+    """The BNN plate (the rate test, D_h uncorrected): level 2 of a study from 2 × 2 cells is
+    the plain run on 4 × 4 cells, its E_h, D_h and steps (BNN Table 1's 4 × 4 row)."""
+    problem = dgplate.load_problem(PROBLEMS / "vertical_load.toml", {"mesh.cells": [2, 2], **QUIET})
+    study = dgplate.converge(problem, levels=2, out=tmp_path / "study")
+    finer = dgplate.load_problem(PROBLEMS / "vertical_load.toml", {"mesh.cells": [4, 4], **QUIET})
+    run = dgplate.run(finer, out=tmp_path / "run").summary
+    level = study.levels[1]
+    assert level["steps"] == run["steps"]
+    assert level["energy"] == pytest.approx(run["energy"], rel=1e-12)
+    assert level["isometry_defect"] == pytest.approx(run["isometry_defect"], rel=1e-12)
 
 
 @pytest.mark.mpi
