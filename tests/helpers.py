@@ -68,6 +68,18 @@ def mpirun() -> str | None:
 PARITY_RTOL = 1e-8
 
 
+def assert_same_points(
+    parallel: Any, serial: Any, keys: tuple[str, ...], rel: float = PARITY_RTOL, abs: float = 0.0
+) -> None:
+    """Two paths' stability indices equal and their points' ``keys`` within ``rel``, ``abs``."""
+    import pytest
+
+    assert parallel.stability_indices == serial.stability_indices
+    for key in keys:
+        got, expected = ([p[key] for p in run.points] for run in (parallel, serial))
+        assert got == pytest.approx(expected, rel=rel, abs=abs), key
+
+
 def rates(errors: list[float]) -> list[float]:
     """Observed convergence rates for a sequence of errors at halved mesh sizes."""
     import numpy as np

@@ -65,9 +65,11 @@ def before_run(
     """Warnings about a problem once it is fully validated.
 
     Warnings about a problem once it is fully validated (its driver built, so that a
-    warning never precedes an input error): nothing to solve, τ far from h.
+    warning never precedes an input error): nothing to solve, a load on a free plate, τ far
+    from h.
     """
     messages = [nothing_to_solve(problem, tagged.mesh, starts_flat=initial is None)]
+    messages.append(free_load(problem, tagged.mesh))
     messages.append(weak_self_avoidance(problem))
     messages += adaptive_only(problem)
     messages += path_only(problem)
@@ -95,8 +97,9 @@ def path_only(problem: Problem) -> list[str]:
 
     FvK's continuation reads only ``newton.snes`` of [newton] (its start's Newton solver); a
     plate's reads only ``flow.multiplier_degree`` and ``flow.edge_constraint`` of [flow] (its
-    constraint), unless it starts at ``path.lambda_start`` ≠ 0 from the flow's minimiser. A plate's ``path.parameter`` is read by the path alone, FvK's by its load
-    steps as well.
+    constraint), unless it starts at ``path.lambda_start`` ≠ 0 from the flow's minimiser, whose
+    flow reads all of [flow] but ``checkpoint_every``. A plate's ``path.parameter`` is read by
+    the path alone, FvK's by its load steps as well.
     """
     path = getattr(problem.model, "path", None)
     if path is None:
@@ -106,7 +109,13 @@ def path_only(problem: Problem) -> list[str]:
         read = ("method",) if plate else ("method", "parameter")
         given = [key for key in problem.raw.get("path") or {} if key not in read]
         return [f"path.{key} has no effect without path.method = 'arclength'" for key in given]
-    if plate and path.lambda_start:  # the flow to the start at λ₀ reads all of [flow]
+    if plate and path.lambda_start:  # the flow to the start at λ₀ reads [flow] but its checkpoints
+        if "checkpoint_every" in (problem.raw.get("flow") or {}):
+            return [
+                "flow.checkpoint_every has no effect on the flow to the path's start: it is not "
+                "checkpointed (a stopped start runs again on --resume); the path checkpoints "
+                "its points"
+            ]
         return []
     section, read = ("flow", PLATE_PATH_FLOW_KEYS) if plate else ("newton", ("snes",))
     given = [key for key in problem.raw.get(section) or {} if key not in read]
@@ -215,6 +224,25 @@ def nothing_to_solve(problem: Problem, mesh: Mesh, starts_flat: bool = True) -> 
     if not problem.raw.get("model"):
         message = f"no [model] given (a free kirchhoff plate without load); {message}"
     return message
+
+
+def free_load(problem: Problem, mesh: Mesh) -> str | None:
+    """A warning when a load pulls a Kirchhoff or bilayer plate that nothing holds.
+
+    With nothing clamped and no obstacle, a load that is not balanced leaves the energy
+    unbounded below: the flow carries the plate away for as long as it runs (E_h falling
+    steadily, ΔE/τ constant). Collective on ``mesh``.
+    """
+    spec = problem.model
+    if spec.name not in ("kirchhoff", "bilayer") or spec.clamped or spec.obstacle is not None:
+        return None
+    if all(_agree(f, 0.0, mesh) for f in spec.load):
+        return None
+    return (
+        "model.load on a plate with nothing clamped and no model.obstacle: unless the load is "
+        "balanced the plate has no minimiser, and the flow carries it away until its step "
+        "budget is spent; clamp a side (model.clamped) or add an obstacle"
+    )
 
 
 _FLAT = {"g": ["x", "y", 0.0], "Phi": [[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]]}

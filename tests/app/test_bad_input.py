@@ -719,6 +719,14 @@ def test_warning_nothing_to_solve_empty_problem(tmp_path, capsys):
     assert "nothing to solve" in warnings[0] and "no [model] given" in warnings[0]
 
 
+def test_warning_load_on_a_free_plate(tmp_path, capsys):
+    """A load on a plate with nothing clamped: one warning line (the flow carries it off)."""
+    code, warnings = run_warned(tmp_path, capsys, VERTICAL, "model.clamped=[]", "flow.max_steps=3")
+    assert code == 1  # the budget ends the run, as it would without the warning
+    assert len(warnings) == 1, warnings
+    assert "model.load on a plate with nothing clamped and no model.obstacle" in warnings[0]
+
+
 @pytest.mark.mpi
 def test_warning_unused_solver_option(tmp_path, capsys):
     """A misspelt option is named; options PETSc read (MUMPS' at the factorisation) are not."""

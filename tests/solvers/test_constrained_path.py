@@ -17,7 +17,7 @@ import itertools
 from mpi4py import MPI
 
 import pytest
-from helpers import PARITY_RTOL, PROBLEMS, load_benchmark
+from helpers import PARITY_RTOL, PROBLEMS, assert_same_points, load_benchmark
 
 import dgplate
 from dgplate.errors import InputError
@@ -90,10 +90,7 @@ def test_same_path_on_any_number_of_ranks(tmp_path):
     """Load factors and energies agree between 1 and 2 ranks to 1e-8 (measured 10⁻¹⁰)."""
     parallel = cylinder_path(MPI.COMM_WORLD, tmp_path / "world")
     serial = cylinder_path(MPI.COMM_SELF, tmp_path / f"self{MPI.COMM_WORLD.rank}")
-    assert parallel.stability_indices == serial.stability_indices
-    for key in ("load_factor", "energy"):
-        got, expected = ([p[key] for p in run.points] for run in (parallel, serial))
-        assert got == pytest.approx(expected, rel=PARITY_RTOL, abs=1e-14), key
+    assert_same_points(parallel, serial, ("load_factor", "energy"), abs=1e-14)
 
 
 def free_path(comm, out):

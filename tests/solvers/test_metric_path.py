@@ -12,7 +12,7 @@ import itertools
 from mpi4py import MPI
 
 import pytest
-from helpers import PARITY_RTOL, PROBLEMS
+from helpers import PROBLEMS, assert_same_points
 
 import dgplate
 from dgplate.errors import InputError
@@ -100,19 +100,20 @@ def test_same_metric_path_on_any_number_of_ranks(tmp_path):
     """The points' λ, energies and heights on 1 and 2 ranks to 1e-8."""
     parallel = metric_path(MPI.COMM_WORLD, tmp_path / "world")
     serial = metric_path(MPI.COMM_SELF, tmp_path / f"self{MPI.COMM_WORLD.rank}")
-    assert parallel.stability_indices == serial.stability_indices
-    for key in ("load_factor", "energy", "height"):
-        got, expected = ([p[key] for p in run.points] for run in (parallel, serial))
-        assert got == pytest.approx(expected, rel=PARITY_RTOL), key
+    assert_same_points(parallel, serial, ("load_factor", "energy", "height"))
 
 
 def test_the_flow_keys_are_read_by_a_path_that_starts_with_the_flow():
     """[flow] has no effect on a path from λ = 0 (its keys are warned about), but the flow to
-    a start at λ₀ ≠ 0 reads them all."""
+    a start at λ₀ ≠ 0 reads them all but its checkpoints."""
     flat = dgplate.load_problem(DISC, {"path.method": "arclength", "path.parameter": "load"})
     assert any("flow.tau has no effect" in line for line in path_only(flat))
     started = dgplate.load_problem(DISC, {"path.method": "arclength", **METRIC_PATH})
     assert path_only(started) == []
+    path = {"path.method": "arclength", **METRIC_PATH}
+    saved = dgplate.load_problem(DISC, {**path, "flow.checkpoint_every": 5})
+    (warning,) = path_only(saved)
+    assert warning.startswith("flow.checkpoint_every has no effect on the flow to the path's")
 
 
 @pytest.mark.parametrize(
