@@ -80,8 +80,9 @@ def _parser() -> argparse.ArgumentParser:
         command.add_argument(
             "--resume",
             action="store_true",
-            help="continue from the checkpoint in the output folder (same problem, any ranks); "
-            "converge: reuse the finished levels",
+            help="reuse the finished levels and continue the interrupted one from its checkpoint"
+            if command is converge
+            else "continue from the checkpoint in the output folder (same problem, any ranks)",
         )
         command.add_argument(
             "--allow-large",

@@ -126,7 +126,8 @@ def target_problem(
     if target.is_dir() and any(target.iterdir()) and not is_dgplate_output(target) and not force:
         return (
             f"{key} {target} is a non-empty folder that dgplate did not write; "
-            "choose another or pass --force (dgplate then adds its files and deletes none)"
+            "choose another or pass --force (force=True from Python; dgplate then adds its files "
+            "and deletes none)"
         )
     parent = target
     while not parent.exists():
