@@ -211,10 +211,9 @@ class ThermalBilayer(Driver):
 
     # -- steps ------------------------------------------------------------------------------
     def relax(self, max_steps: int | None = None, test_last: bool = True) -> FlowResult:
-        """Run the flow at the current θ (warm start).
+        """Run the flow at the current θ (warm start), at most ``max_steps`` steps.
 
-        Run the flow at the current θ (warm start), at most ``max_steps`` steps
-        (default :attr:`Schedule.flow_steps`); ``test_last`` as in
+        The default budget is :attr:`Schedule.flow_steps`; ``test_last`` as in
         :meth:`~dgplate.solvers.flow.GradientFlow.run`.
         """
         self.flow.rebase_energy()  # θ changed Z, hence the energy
@@ -234,12 +233,11 @@ class ThermalBilayer(Driver):
         return self._record(result, time.perf_counter() - t0, heat_seconds=heat_seconds)
 
     def hold(self, max_steps: int | None = None, tau: float | None = None) -> HeatStepRecord:
-        """Relax at the current temperature without a heat step.
+        """Relax at the current temperature without a heat step; the record (stored too).
 
-        Relax at the current temperature without a heat step (budget ``max_steps``,
-        default :attr:`Schedule.hold_steps`), optionally with another τ (restored afterwards:
-        each change reassembles the flow's constant matrix once); returns (and stores) the
-        record, which carries the time of the last heat step.
+        Budget ``max_steps`` (default :attr:`Schedule.hold_steps`), optionally another τ
+        (restored afterwards: each change reassembles the flow's constant matrix once). The
+        record carries the time of the last heat step.
         """
         t0 = time.perf_counter()
         previous = self.flow.tau
@@ -299,19 +297,6 @@ class ThermalBilayer(Driver):
         self.held.keep(record.step, self.y)
         return record
 
-    def _failure(self, record: HeatStepRecord) -> str | None:
-        """Why the relaxation of ``record`` failed (a solver error or divergence), if it did.
-
-        A flow that stopped before its budget without converging or being interrupted.
-        """
-        result = self.last_result
-        if result is None or result.converged or result.interrupted:
-            return None
-        budget = self.schedule.hold_steps if record.hold else self.schedule.flow_steps
-        if result.steps >= budget:
-            return None  # the budget is spent: the normal end of a heat step's relaxation
-        return f"the relaxation at t = {record.time:g} stopped: {result.reason}"
-
     def _outcome(self) -> tuple[bool, str]:
         """Converged and reason once the schedule is done: every hold must have converged."""
         for record in self.records:
@@ -342,7 +327,7 @@ class ThermalBilayer(Driver):
                 for observer in self.observers:
                     observer.step(self, record)
             signum = self.interrupted or interrupt.requested(self.comm)
-            failure = None if record is None else self._failure(record)
+            failure = None if record is None else _failure(self.last_result, record, self.schedule)
             if signum or failure:
                 reason = interrupt.reason(signum) if signum else str(failure)
                 break
@@ -370,14 +355,19 @@ class ThermalBilayer(Driver):
             "held": self.held.steps(),
         }
 
+    def resume_from(self, checkpoint: Any) -> None:
+        """Put the driver at ``checkpoint`` with the shapes held before (none: an old one's)."""
+        super().resume_from(checkpoint)
+        self.held.expect(checkpoint.state["driver"].get("held", ()))
+        checkpoint.restore(self.held.fields())
+
     def restore_state(self, state: dict[str, Any]) -> None:
-        """Continue from :meth:`checkpoint_state` (``Checkpoint.resume``: fields, then this)."""
+        """Continue from :meth:`checkpoint_state` (the fields are restored first)."""
         self.step_count = int(state["step"])
         self.holds_done = int(state["holds_done"])
         self.flow.restore_state(state["flow"])
         self.heat.restore_state(state["heat"])
         self.records = [HeatStepRecord(**r) for r in state["records"]]
-        self.held.expect(state.get("held", ()))
 
     # -- results ----------------------------------------------------------------------------
     def step_counts(self) -> dict[str, int]:
@@ -411,6 +401,19 @@ class ThermalBilayer(Driver):
         self.heat.destroy()
 
 
+def _failure(result: FlowResult | None, record: HeatStepRecord, schedule: Schedule) -> str | None:
+    """Why the relaxation of ``record`` failed (a solver error or divergence), if it did.
+
+    A flow (``result``) that stopped before its budget without converging or being interrupted.
+    """
+    if result is None or result.converged or result.interrupted:
+        return None
+    budget = schedule.hold_steps if record.hold else schedule.flow_steps
+    if result.steps >= budget:
+        return None  # the budget is spent: the normal end of a heat step's relaxation
+    return f"the relaxation at t = {record.time:g} stopped: {result.reason}"
+
+
 class HeldShapes:
     """Copies of y at the end of the holds, by the hold's record step.
 
@@ -440,7 +443,7 @@ class HeldShapes:
         return {f"held_{step}": shape for step, shape in self.shapes.items()}
 
     def expect(self, steps: Sequence[int]) -> None:
-        """Empty shapes for ``steps``, to be filled from a checkpoint's fields."""
+        """Empty shapes for ``steps``, filled from a checkpoint's fields by ``resume_from``."""
         self.shapes = {int(step): dolfinx.fem.Function(self.space) for step in steps}
 
 

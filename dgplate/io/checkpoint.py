@@ -160,21 +160,6 @@ class Checkpoint:
                 raise InputError(f"the checkpoint holds no field {name!r}")
             scatter_cells(function, self.tables[name], name)
 
-    def resume(self, driver: Any) -> None:
-        """Put ``driver`` at this checkpoint (collective).
-
-        Its fields first, then its state (``driver`` of the JSON state), then the fields that
-        state named which the driver had not before (a thermal run's held shapes).
-
-        Args:
-            driver: a driver built for this checkpoint's problem.
-        """
-        fields = driver.checkpoint_fields()
-        self.restore(fields)
-        driver.restore_state(self.state["driver"])
-        late = {k: f for k, f in driver.checkpoint_fields().items() if k not in fields}
-        self.restore(late)
-
 
 def save(
     directory: Path,

@@ -16,9 +16,12 @@ from typing import TYPE_CHECKING, Any
 
 from mpi4py import MPI
 
+import dolfinx.fem
+import numpy as np
+import ufl
 from petsc4py import PETSc
 
-from dgplate import expressions
+from dgplate import expressions, values
 from dgplate.dg.geometry import max_cell_diameter
 from dgplate.dg.self_avoidance import SelfAvoidance
 from dgplate.errors import InputError
@@ -227,21 +230,30 @@ def nothing_to_solve(problem: Problem, mesh: Mesh, starts_flat: bool = True) -> 
 
 
 def free_load(problem: Problem, mesh: Mesh) -> str | None:
-    """A warning when a load pulls a Kirchhoff or bilayer plate that nothing holds.
+    """A warning when a net force pulls a Kirchhoff or bilayer plate that nothing holds.
 
-    With nothing clamped and no obstacle, a load that is not balanced leaves the energy
-    unbounded below: the flow carries the plate away for as long as it runs (E_h falling
-    steadily, ΔE/τ constant). Collective on ``mesh``.
+    With nothing clamped and no obstacle, a load whose resultant ∫f is not zero leaves the
+    energy unbounded below (along the translations): the flow carries the plate away for as
+    long as it runs (E_h falling steadily, ΔE/τ constant). A balanced load warns of nothing.
+    Collective on ``mesh``.
     """
     spec = problem.model
     if spec.name not in ("kirchhoff", "bilayer") or spec.clamped or spec.obstacle is not None:
         return None
     if all(_agree(f, 0.0, mesh) for f in spec.load):
         return None
+    load = values.vector(spec.load, mesh, "model.load", 3)
+    dx = ufl.dx(domain=mesh)
+    forms = [load[i] * dx for i in range(3)] + [(abs(load[0]) + abs(load[1]) + abs(load[2])) * dx]
+    local = [dolfinx.fem.assemble_scalar(dolfinx.fem.form(form)) for form in forms]
+    *net, size = mesh.comm.allreduce(np.array(local, dtype=float), op=MPI.SUM)
+    if np.linalg.norm(net) <= 1e-10 * size:
+        return None
     return (
-        "model.load on a plate with nothing clamped and no model.obstacle: unless the load is "
-        "balanced the plate has no minimiser, and the flow carries it away until its step "
-        "budget is spent; clamp a side (model.clamped) or add an obstacle"
+        f"model.load on a plate with nothing clamped and no model.obstacle: its resultant "
+        f"∫f = ({', '.join(f'{v:.3g}' for v in net)}) is not zero, so the plate has no "
+        "minimiser and the flow carries it away until its step budget is spent; clamp a side "
+        "(model.clamped) or add an obstacle"
     )
 
 

@@ -6,8 +6,8 @@ a ``.geo`` file's size parameters halved (``h``, ``h_*`` and ``*_h`` set to a po
 number; the counts ``n`` and ``m`` doubled), a rod's ``model.cells`` doubled. Each level of a
 plate's gradient flow starts from the previous level's solution, interpolated onto the finer
 mesh (:class:`~dgplate.solvers.transfer.MeshStart`); FvK's Newton, the rod, a continuation
-in the clamped data and a flow stopped by the rate test start each level from the problem's
-own start. Each level is a normal run folder ``level-1``, ``level-2`` … of the
+in the clamped data, a path and a flow that does not end at a discrete minimiser start each
+level from the problem's own start (:func:`warm_start`). Each level is a normal run folder ``level-1``, ``level-2`` … of the
 study's folder, so that with ``resume`` a finished level is reused and an interrupted one
 continued (:mod:`dgplate.problems.folders`).
 
@@ -149,15 +149,21 @@ def warm_start(problem: Problem) -> bool:
 
     A continuation in the clamped data (``model.schedule``) starts at its first α, which the
     coarser level's final shape does not match: it starts from the problem's start too. So
-    does a flow stopped by the rate test (``flow.stop = 'rate'``, the published method): it
-    ends at a state that depends on where it starts (its isometry defect grows with each
-    step, which no projection corrects), so a warm-started level would not be the run that
-    ``dgplate run`` makes at its size. A flow to a discrete minimiser (``'stationarity'``)
-    ends at the same state from either start.
+    does a path (``path.method = 'arclength'``), which starts at λ₀, and a flow that does not
+    end at a discrete minimiser: one stopped by the rate test (the published method) or
+    without projection ends at a state that depends on where it starts (its isometry defect
+    grows with each step unless projected), so a warm-started level would not be the run
+    that ``dgplate run`` makes at its size. A flow to a discrete minimiser (``stop =
+    'stationarity'`` with ``projection_steps`` > 0, the default) ends at the same state
+    from either start.
     """
+    path = getattr(problem.model, "path", None)
     if problem.model.name in COLD_START or getattr(problem.model, "schedule", None) is not None:
         return False
-    return getattr(problem.flow, "stop", "stationarity") == "stationarity"
+    if path is not None and path.method == "arclength":
+        return False  # a path starts at λ₀, which the coarser level's last point is not at
+    flow = problem.flow
+    return flow.stop == "stationarity" and flow.projection_steps > 0
 
 
 def refinements(problem: Problem, levels: int) -> list[tuple[Problem, str]]:

@@ -172,7 +172,7 @@ def restore(driver: Driver, prepared: Prepared) -> None:
     start = prepared.start
     if start is None:
         return
-    start.resume(driver)
+    driver.resume_from(start)
     if driver.remaining_steps() <= 0 and not start.state.get("finished"):
         driver.destroy()  # collective, and safe: every rank restored the same state
         raise InputError(

@@ -57,7 +57,7 @@ def load_result(folder: str | Path, comm: MPI.Comm = MPI.COMM_WORLD, state: bool
     found = checkpoint.load(path / CHECKPOINT, comm, problem.identity(), purpose="load_result")
     _, model = build_model(problem, comm)
     driver = model.driver(problem.flow, [], None)
-    found.resume(driver)
+    driver.resume_from(found)
     result.shape, result.fields = driver.shape, driver.checkpoint_fields()
     driver.destroy()
     return result

@@ -157,8 +157,18 @@ class Driver(Protocol):
         ...
 
     def restore_state(self, state: dict[str, Any]) -> None:
-        """Take back the counters of :meth:`checkpoint_state` (the fields are restored first)."""
+        """Take back the counters of :meth:`checkpoint_state` (after the fields: resume_from)."""
         ...
+
+    def resume_from(self, checkpoint: Any) -> None:
+        """Put the driver at ``checkpoint`` (collective): its fields, then its counters.
+
+        Args:
+            checkpoint: a :class:`dgplate.io.checkpoint.Checkpoint` of this driver's problem,
+                its driver's counters under ``state["driver"]``.
+        """
+        checkpoint.restore(self.checkpoint_fields())
+        self.restore_state(checkpoint.state["driver"])
 
     def summary(self) -> dict[str, Any]:
         """Numbers for ``summary.json``: dofs, energy, defect and so on."""

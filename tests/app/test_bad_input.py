@@ -724,7 +724,13 @@ def test_warning_load_on_a_free_plate(tmp_path, capsys):
     code, warnings = run_warned(tmp_path, capsys, VERTICAL, "model.clamped=[]", "flow.max_steps=3")
     assert code == 1  # the budget ends the run, as it would without the warning
     assert len(warnings) == 1, warnings
-    assert "model.load on a plate with nothing clamped and no model.obstacle" in warnings[0]
+    assert "model.load on a plate with nothing clamped and no model.obstacle: its " in warnings[0]
+    assert "resultant ∫f = (0, 0, 0.4) is not zero" in warnings[0]  # 2.5e-2 on (0, 4)²
+    # a balanced load (no net force): no warning
+    balanced = "model.load=[0, 0, '0.01*((x - 2)**2 - 4/3)']"
+    sets = ("model.clamped=[]", balanced, "flow.max_steps=3")
+    code, warnings = run_warned(tmp_path, capsys, VERTICAL, *sets)
+    assert warnings == []
 
 
 @pytest.mark.mpi

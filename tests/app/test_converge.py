@@ -110,6 +110,7 @@ def test_warm_start_only_for_the_plates_gradient_flow():
     cases = {"bilayer_cylinder": True, "rod_arc": False, "fvk_square": False}
     cases["buckling_strip"] = False  # a continuation in the clamped data: starts at α = 0
     cases["vertical_load"] = False  # the rate test: the end state depends on the start
+    cases["turned_strip"] = False  # a path: it starts at λ = 0
     for name, warm in cases.items():
         assert warm_start(dgplate.load_problem(PROBLEMS / f"{name}.toml")) is warm, name
 
