@@ -8,7 +8,7 @@
 [N15], experiment 1: rectangles (0, rW) × (0, W) clamped on x₁ = 0, r = length/W = 0.5, 1,
 7/4, 10/4, Z = aI with a = 1, 2, 5, for W = 1 and W = 4 (cases ``r<r>_a<a>`` and
 ``r<r>_a<a>_w4``). The minimiser is a cylinder of radius 1/a at the energy ½a²|ω|. Each case
-runs ``demos/problems/bilayer_aspect_ratios.toml`` with overrides (the rectangle, n·L × n·W
+runs ``demos/problems/bilayer_aspect_ratios.toml`` with overrides (the rectangle, n·r × n
 cells on level 1, Z, and one of ``SETTINGS``) through :func:`dgplate.converge` into
 ``OUT/<case>/<settings>``, resumably: a rerun reuses the finished levels and continues an
 interrupted one. The cases run one after the other; when ``--budget-minutes`` have passed the
@@ -16,9 +16,15 @@ running level stops at its next step (as on SIGTERM), the cases left are listed 
 status is 3; a rerun goes on from there. A rerun with fewer ``--levels`` keeps a case's record
 of more levels.
 
+Level 1 has n = ``--cells`` cells across the clamped side whatever W: the W = 4 plate's mesh is
+the W = 1 plate's scaled by 4, so its cylinder, of radius 1/a against 1/(aW) of the plate's
+width, is resolved as the W = 1 plate's with Z = aW·I is (the W = 4 row with a equals the
+W = 1 row with 4a when the penalties scale with h as h⁻¹; the ``minimiser`` settings' γ₁h⁻³
+weighs the W = 4 plate's gradient jumps W⁻² times as much).
+
 ``--jobs N`` runs the cases in N processes of this script at once (one case each at a time,
 serial: N = 2 uses the two cores of a laptop), the cases shared out by their expected time
-(the kept record's, else ∝ length·W·a²), each process with its own JSON beside ``--json``
+(the kept record's, else ∝ r·(aW)²), each process with its own JSON beside ``--json``
 (``<stem>.job<k>.json``), merged into ``--json`` when they end; a signal is passed on to them.
 
 ``--json`` keeps, per case and settings, every level's DoFs, steps, wall time, E_h and fitted
@@ -89,13 +95,14 @@ CASES = {
 
 
 def overrides(case: str, settings: str, cells: int) -> dict[str, Any]:
-    """The problem file's overrides for ``case``: its rectangle, level 1's mesh, Z, τ, flow."""
+    """The problem file's overrides for ``case``: its rectangle, level 1's mesh (``cells``
+    across the clamped side), Z, τ, flow."""
     ratio, a, width = CASES[case]
     length = ratio * width
     flow = SETTINGS[settings][1](0.5 * a**2 * length * width)
     return {
         "mesh.corners": [[0.0, 0.0], [length, width]],
-        "mesh.cells": [round(cells * length), round(cells * width)],
+        "mesh.cells": [round(cells * ratio), cells],
         "model.Z": a,
         "flow.tau": 0.05 / (a * width),
         "flow.checkpoint_every": 0,
@@ -121,7 +128,7 @@ def estimate(entry: dict[str, Any] | None, exact: float) -> dict[str, Any]:
 
 
 def record_of(case: str, settings: str, cells: int, study: Any) -> dict[str, Any] | None:
-    """The JSON record of one case's study (level 1 at ``cells`` per unit length).
+    """The JSON record of one case's study (level 1 with ``cells`` across the clamped side).
 
     A study stopped by a signal is recorded with its finished levels and their estimates
     (the stopped level continues on a rerun), and ``interrupted`` set; with none, None.
@@ -153,7 +160,7 @@ def record_of(case: str, settings: str, cells: int, study: Any) -> dict[str, Any
         "ratio": ratio,
         "a": a,
         "width": width,
-        "cells_per_unit": cells,
+        "cells_across": cells,
         "exact_energy": energy,
         "exact_radius": radius,
         "interrupted": study.interrupted,
@@ -282,12 +289,12 @@ def run_cases(args: argparse.Namespace, record: dict[str, Any]) -> list[str]:
 
 
 def expected_seconds(case: str, settings: str, record: dict[str, Any]) -> float:
-    """A case's expected time: its finished record's, else 60 s · length · W · a²."""
+    """A case's expected time: its finished record's, else 60 s · r · (aW)²."""
     kept = record["studies"].get(f"{case}:{settings}")
     if kept is not None and not kept["interrupted"]:
         return float(kept["wall_s"])
     ratio, a, width = CASES[case]
-    return 60.0 * ratio * width**2 * a**2
+    return 60.0 * ratio * (a * width) ** 2
 
 
 def share_out(cases: list[str], jobs: int, cost: dict[str, float]) -> list[list[str]]:
@@ -348,7 +355,7 @@ def supersedes(kept: dict[str, Any] | None, new: dict[str, Any]) -> bool:
     record is a prefix of the kept one at the same level-1 size; it would drop the finest
     levels' figures. Another level-1 size replaces the record.
     """
-    if kept is None or kept["cells_per_unit"] != new["cells_per_unit"]:
+    if kept is None or kept["cells_across"] != new["cells_across"]:
         return True
     return len(new["levels"]) >= len(kept["levels"])
 
@@ -384,7 +391,9 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "--cases", nargs="+", choices=list(CASES), default=list(CASES), metavar="CASE"
     )
     parser.add_argument("--levels", type=int, default=4, help="meshes per case (≥ 2)")
-    parser.add_argument("--cells", type=int, default=4, help="level 1's cells per unit length")
+    parser.add_argument(
+        "--cells", type=int, default=4, help="level 1's cells across the clamped side"
+    )
     parser.add_argument("--settings", choices=list(SETTINGS), default="minimiser")
     parser.add_argument("--budget-minutes", type=float, default=60.0)
     parser.add_argument("--jobs", type=int, default=1, help="processes running cases at once")

@@ -190,7 +190,7 @@ def test_seeds_table(tmp_path):
     assert text.index("| 1 | 1 | 1 |") < text.index("| 7/4 | 1 | 2 |")  # the grid's order
     assert "`minimiser`: the cylinder test's discretisation (γ₁h⁻³" in text
     assert "Not run: `r0.5_a1`, `r1.75_a1`, `r2.5_a1`, `r0.5_a2`, `r1_a2`, " in text
-    assert seeds.overrides("r1.75_a2_w4", "file", 4)["mesh.cells"] == [28, 16]
+    assert seeds.overrides("r1.75_a2_w4", "file", 4)["mesh.cells"] == [7, 4]  # 4 across W
     with pytest.raises(SystemExit) as bad:
         seeds.main(["--levels", "1", "--json", str(out), "--page", str(page)])
     assert bad.value.code == 2 and "<!-- seeds:end -->" in page.read_text()
@@ -231,11 +231,11 @@ def test_seeds_page_is_generated(tmp_path):
 def test_seeds_rerun_with_fewer_levels_keeps_the_finer_record():
     """A rerun's record of a level prefix does not replace one of more levels; another size does."""
     seeds = load_benchmark("seeds")
-    four = {"cells_per_unit": 4, "levels": [{}] * 4}
-    assert not seeds.supersedes(four, {"cells_per_unit": 4, "levels": [{}] * 2})
-    assert seeds.supersedes(four, {"cells_per_unit": 4, "levels": [{}] * 4})
-    assert seeds.supersedes(four, {"cells_per_unit": 2, "levels": [{}] * 2})
-    assert seeds.supersedes(None, {"cells_per_unit": 4, "levels": [{}]})
+    four = {"cells_across": 4, "levels": [{}] * 4}
+    assert not seeds.supersedes(four, {"cells_across": 4, "levels": [{}] * 2})
+    assert seeds.supersedes(four, {"cells_across": 4, "levels": [{}] * 4})
+    assert seeds.supersedes(four, {"cells_across": 2, "levels": [{}] * 2})
+    assert seeds.supersedes(None, {"cells_across": 4, "levels": [{}]})
 
 
 def test_spherical_cap_page_is_generated(tmp_path):
