@@ -207,12 +207,17 @@ def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
     if not summary["converged"]:
         if comm.rank == 0:
             print(
-                f"dgplate: the flow did not converge: {summary['reason']}",
+                f"dgplate: {_failed(summary)}: {summary['reason']}",
                 file=sys.stderr,
                 flush=True,
             )
         return 1
     return 0
+
+
+def _failed(summary: dict[str, Any]) -> str:
+    """How a run that did not end as it should ended, in words (a path stopped, a flow …)."""
+    return "the path stopped" if "points" in summary else "the flow did not converge"
 
 
 def _on_outputs(args: argparse.Namespace, comm: MPI.Comm) -> int:

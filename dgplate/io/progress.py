@@ -137,7 +137,7 @@ class ProgressPrinter:
         if last is not None and self.every == "auto" and self._last is not None:
             if self._last[0] != last.step and self.comm.rank == 0:
                 self._print(f"{last.line()}  ({duration(self.clock() - self.start)})")
-        status = "converged" if result.converged else "NOT converged"
+        status = driver.outcome_words[0 if result.converged else 1]
         steps = count_of(result.steps, "step")
         if self.earlier_steps:
             whole = count_of(self.earlier_steps + result.steps, "step")

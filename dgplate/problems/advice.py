@@ -78,6 +78,7 @@ def before_run(
     messages += path_only(problem)
     messages.append(metric_jump(problem, tagged))
     messages.append(long_cells(problem))
+    messages.append(few_cells(problem, tagged.mesh))
     if problem.flow.tau != "h":
         messages.append(tau_scale(float(problem.flow.tau), max_cell_diameter(tagged.mesh)))
     return [m for m in messages if m]
@@ -160,6 +161,30 @@ def long_cells(problem: Problem) -> str | None:
         f"(mesh.cells = {list(mesh.cells)}): the jumps across their long sides are penalised "
         "too weakly and the result may not converge under refinement; penalty_length = "
         "'facet_normal' takes each facet's normal length instead (docs/path_following.md)"
+    )
+
+
+#: A gmsh plate with fewer cells than this resolves no bending (its size parameter is too large).
+FEW_CELLS = 8
+
+
+def few_cells(problem: Problem, mesh: Mesh) -> str | None:
+    """A warning when a gmsh plate came out with a handful of cells (``h`` too large).
+
+    A rectangle's cell count is what ``mesh.cells`` says; a .geo file's follows from its
+    parameters, and ``h = 10`` on a 5 × 2 plate gives 2 cells without a word from gmsh.
+    """
+    if problem.mesh.type != "gmsh" or mesh.topology.dim != 2:
+        return None
+    cells = mesh.comm.allreduce(mesh.topology.index_map(2).size_local, op=MPI.SUM)
+    if cells >= FEW_CELLS:
+        return None
+    given = dict(problem.mesh.parameters)
+    return (
+        f"the mesh of {problem.mesh.file} has {cells} cell(s)"
+        + (f" with mesh.parameters = {given}" if given else "")
+        + ": too few to resolve a bending shape; a smaller mesh size (mesh.parameters.h in "
+        "the shipped files) gives more"
     )
 
 

@@ -107,6 +107,7 @@ class BranchPath(Driver):
     """
 
     budget_key = "path.steps"
+    outcome_words = ("path ended", "path STOPPED")
 
     def __init__(
         self,

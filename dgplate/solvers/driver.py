@@ -186,6 +186,8 @@ class Driver(Protocol):
     # -- optional capabilities, with their defaults --------------------------------------------
     #: the problem-file key of the step budget, named when a resumed run has none left
     budget_key: str = "flow.max_steps"
+    #: how the last progress line names a run that ended as it should, and one that did not
+    outcome_words: tuple[str, str] = ("converged", "NOT converged")
 
     def extendable(self) -> bool:
         """Whether the run ended only because its step budget was spent, though it could go on.

@@ -804,6 +804,17 @@ def test_warning_long_cells_with_the_diameter_penalty(tmp_path, capsys, length):
     assert advice.long_cells(load_problem(VERTICAL, {"mesh.cells": [4, 8]})) is None
 
 
+def test_warning_a_gmsh_plate_of_a_few_cells(tmp_path, capsys):
+    """``mesh.parameters.h = 10`` on the 5 × 2 L-plate: 3 cells, and a warning naming them."""
+    sets = ("mesh.parameters.h=10", "flow.max_steps=1", "output.png=false", "output.vtx=false")
+    plate = PROBLEMS / "bilayer_partial_clamp.toml"
+    code, warnings = run_warned(tmp_path, capsys, plate, *sets, base=())
+    assert code == 1  # the budget of one step
+    assert len(warnings) == 1, warnings
+    assert "the mesh of long_plate.geo has 3 cell(s)" in warnings[0]
+    assert "'h': 10.0" in warnings[0] and "too few to resolve a bending shape" in warnings[0]
+
+
 def test_warning_adaptive_key_without_adaptive_tau(tmp_path, capsys):
     code, warnings = run_warned(tmp_path, capsys, VERTICAL, "flow.tau_growth=3.0")
     assert code == 0

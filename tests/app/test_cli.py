@@ -290,6 +290,19 @@ def test_progress_printer_estimates_from_the_decay_of_the_stopping_test():
     assert lines[5] == "line 6  (15 s; step budget spent in ~1 steps, ~1.0 s)"
 
 
+def test_a_path_that_spends_its_points_ends_as_a_path(tmp_path, capsys):
+    """A path that spent ``path.steps`` inside its range of λ ended as asked (exit 0), and
+    says so as a path, not as a converged flow; it names how to go on."""
+    strip = Path(__file__).parents[2] / "demos" / "problems" / "turned_strip.toml"
+    sets = ["mesh.cells=[8,1]", "path.steps=2", "output.png=false", "output.vtx=false"]
+    out = tmp_path / "out"
+    code = main(["run", str(strip), "--out", str(out), *(a for v in sets for a in ("--set", v))])
+    assert code == 0
+    last = capsys.readouterr().out.splitlines()[-1]
+    assert last.startswith("path ended after 2 steps: path.steps = 2 points spent at load factor")
+    assert "--resume --set path.steps=4 goes on" in last
+
+
 def test_progress_printer_auto_prints_a_line_a_second_and_every_ten_steps():
     """``auto``: the first step, then a line when both 1 s and 10 steps have passed since
     the last (or 10 s), the last step's line and the final one. Steps of 0.05 s: every 20th

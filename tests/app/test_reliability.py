@@ -194,11 +194,13 @@ def test_a_users_folder_in_place_of_an_output_file_survives(tmp_path):
 
 
 def test_a_users_file_in_an_output_folder_of_dgplate_survives(tmp_path):
-    """A file put into dgplate's frames/ keeps the folder: not replaced, not removed."""
+    """A file put into dgplate's frames/ keeps the folder: not replaced, not removed. One put
+    into checkpoint/ (written in place) stays where it is."""
     out = tmp_path / "run"
     frames = ["--set", "output.frames_every=2", "--set", "output.png=true"]
     assert main(["run", str(VERTICAL), "--out", str(out), *SMALL, *frames]) == 0
     (out / "frames" / "sketch.txt").write_text("notes")
+    (out / "checkpoint" / "log.txt").write_text("mine")
     assert main(["run", str(VERTICAL), "--out", str(out), *SMALL]) == 0  # no frames now
     assert (out / "frames" / "sketch.txt").read_text() == "notes"
     assert main(["run", str(VERTICAL), "--out", str(out), *SMALL, *frames]) == 0
@@ -207,6 +209,8 @@ def test_a_users_file_in_an_output_folder_of_dgplate_survives(tmp_path):
     # frames/ written by this run holds only dgplate's files: the next run replaces it
     assert main(["run", str(VERTICAL), "--out", str(out), *SMALL, *frames]) == 0
     assert not (out / "frames.kept-2").exists()
+    assert (out / "checkpoint" / "log.txt").read_text() == "mine"
+    assert (out / "checkpoint" / "state.npz").is_file()
 
 
 def test_a_resumed_run_reports_totals_over_all_its_runs(tmp_path, capsys):
