@@ -13,7 +13,12 @@ Per run the record holds the steps, the attempts (accepted and refused steps), t
 time, E_h and D_h.
 
     python benchmarks/rollup.py --cells 96 8 [--json benchmarks/results/rollup.json]
+    python benchmarks/rollup.py --controls trust_region --keep --note "…"
     python benchmarks/rollup.py --table-only [--json …] [--page docs/performance.md]
+
+``--keep`` keeps the JSON's runs of the angles and controls not run now (same cells and
+tolerance), e.g. the long defect-bound runs when only the trust region changed; ``--note``
+says where the rows come from.
 
 The table of docs/performance.md between ``<!-- rollup:begin -->`` and ``<!-- rollup:end -->``
 is generated from the JSON (``--table-only``: no runs).
@@ -138,12 +143,23 @@ def table(record: dict[str, Any]) -> str:
     )
 
 
+def kept_runs(previous: dict[str, Any], record: dict[str, Any]) -> list[dict[str, Any]]:
+    """``previous``'s runs of the angles and controls ``record`` has not, if comparable."""
+    same = all(previous.get(key) == record[key] for key in ("cells", "ranks", "tol"))
+    done = {(run["turns"], run["control"]) for run in record["runs"]}
+    if not same:
+        return []
+    return [run for run in previous["runs"] if (run["turns"], run["control"]) not in done]
+
+
 def main(argv: list[str]) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--cells", type=int, nargs=2, default=[96, 8])
     parser.add_argument("--turns", type=float, nargs="+", default=list(TURNS))
     parser.add_argument("--controls", nargs="+", choices=CONTROLS, default=list(CONTROLS))
     parser.add_argument("--tol", type=float, default=1e-6, help="stationarity tolerance")
+    parser.add_argument("--keep", action="store_true", help="keep the JSON's other runs")
+    parser.add_argument("--note", default="", help="where the runs come from (in the JSON)")
     add_page_options(parser, RESULTS / "rollup.json", ROOT / "docs" / "performance.md")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
@@ -155,6 +171,10 @@ def main(argv: list[str]) -> None:
                 runs.append(one_run(comm, turns, args.cells, control, args.tol))
                 print0(comm, json.dumps(runs[-1]))
         record = {"cells": args.cells, "ranks": comm.size, "tol": args.tol, "runs": runs}
+        if args.keep and args.json.exists():
+            record["runs"] = kept_runs(json.loads(args.json.read_text()), record) + runs
+        if args.note:
+            record["note"] = args.note
     publish(comm, args, record, (BEGIN, END), table)
 
 
