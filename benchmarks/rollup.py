@@ -134,7 +134,8 @@ def table(record: dict[str, Any]) -> str:
             f"rank(s), stop ‖P DE_h‖_*' < {record['tol']:g} "
             "(`benchmarks/rollup.py`, `benchmarks/results/rollup.json`). Attempts: accepted and "
             "refused steps; step solves: every solve with a step or SQP matrix, corrections "
-            "included; SQP LU: factorisations of the SQP matrix.",
+            "included; SQP LU: factorisations of the SQP matrix."
+            + (f" Runs: {record['note']}." if record.get("note") else ""),
             "",
             "| turns | step control | steps | attempts | step solves | SQP LU | wall s | E_h | D_h |",
             "|---|---|---|---|---|---|---|---|---|",

@@ -172,7 +172,7 @@ def few_cells(problem: Problem, mesh: Mesh) -> str | None:
     """A warning when a gmsh plate came out with a handful of cells (``h`` too large).
 
     A rectangle's cell count is what ``mesh.cells`` says; a .geo file's follows from its
-    parameters, and ``h = 10`` on a 5 × 2 plate gives 2 cells without a word from gmsh.
+    parameters, and ``h = 10`` on the 5 × 2 L-plate gives 3 cells without a word from gmsh.
     """
     if problem.mesh.type != "gmsh" or mesh.topology.dim != 2:
         return None
@@ -183,8 +183,8 @@ def few_cells(problem: Problem, mesh: Mesh) -> str | None:
     return (
         f"the mesh of {problem.mesh.file} has {cells} cell(s)"
         + (f" with mesh.parameters = {given}" if given else "")
-        + ": too few to resolve a bending shape; a smaller mesh size (mesh.parameters.h in "
-        "the shipped files) gives more"
+        + ": too few to resolve a bending shape; smaller size parameters in mesh.parameters "
+        "(h in most shipped files) give more"
     )
 
 
@@ -238,7 +238,7 @@ def nothing_to_solve(problem: Problem, mesh: Mesh, starts_flat: bool = True) -> 
         return None
     if getattr(spec, "target_metric", None) is not None:  # the flat start violates ∇yᵀ∇y = G
         return None
-    if not all(_agree(f, 0.0, mesh) for f in spec.load):
+    if not _no_load(spec.load, mesh):
         return None
     if spec.clamped and not _flat_data(spec.boundary_data, mesh):
         return None
@@ -265,7 +265,7 @@ def free_load(problem: Problem, mesh: Mesh) -> str | None:
     spec = problem.model
     if spec.name not in ("kirchhoff", "bilayer") or spec.clamped or spec.obstacle is not None:
         return None
-    if all(_agree(f, 0.0, mesh) for f in spec.load):
+    if _no_load(spec.load, mesh):
         return None
     load = values.vector(spec.load, mesh, "model.load", 3)
     dx = ufl.dx(domain=mesh)
@@ -280,6 +280,11 @@ def free_load(problem: Problem, mesh: Mesh) -> str | None:
         "minimiser and the flow carries it away until its step budget is spent; clamp a side "
         "(model.clamped) or add an obstacle"
     )
+
+
+def _no_load(load: Any, mesh: Mesh) -> bool:
+    """Whether every component of ``model.load`` is zero (numbers or formulas)."""
+    return all(_agree(f, 0.0, mesh) for f in load)
 
 
 _FLAT = {"g": ["x", "y", 0.0], "Phi": [[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]]}

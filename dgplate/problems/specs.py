@@ -87,7 +87,7 @@ class OutputSpec:
     )
     progress: int | Literal["auto"] = option(
         "auto",
-        "progress lines on rank 0, each with the time elapsed and an estimate of the time left: 'auto' (the first step, then a line once both a second and 10 steps have passed since the last, or 10 s, and the last step), n (every n-th step) or 0 (none); the final converged / NOT converged line is always printed",
+        "progress lines on rank 0, each with the time elapsed and an estimate of the time left: 'auto' (the first step, then a line once both a second and 10 steps have passed since the last, or 10 s, and the last step), n (every n-th step) or 0 (none); the final converged / NOT converged line (a path's: path ended / path STOPPED) is always printed",
         ge=0,
     )
     frames_every: int = option(

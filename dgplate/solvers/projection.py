@@ -65,6 +65,10 @@ class AndersonMixing:
         own = dC[: self.owned]
         gram = self.comm.allreduce(own.T @ own, op=MPI.SUM)
         rhs = self.comm.allreduce(own.T @ correction[: self.owned], op=MPI.SUM)
+        if not (np.all(np.isfinite(gram)) and np.all(np.isfinite(rhs))):
+            # a diverged closing (its step is refused): the plain correction, history cleared
+            self.states, self.corrections = [], []
+            return np.zeros_like(correction)
         gamma = np.linalg.lstsq(gram, rhs, rcond=1e-12)[0]
         change: Array = (dY + dC) @ gamma
         return change
@@ -113,5 +117,7 @@ class Projection:
             y.x.array[:] -= adjust
             change += correction - adjust
             previous, defect = defect, self.defect()
+            if not math.isfinite(defect):  # diverged: the step is refused by its energy
+                break
             if count >= 1 and (defect <= tol or defect > 0.5 * previous):
                 break

@@ -24,8 +24,8 @@ def _iterate(mixing: AndersonMixing | None, steps: int) -> float:
 
 
 def test_anderson_mixing_solves_a_linear_chord_iteration_in_dimension_plus_one_steps():
-    """On a linear iteration in 4 unknowns, mixing with depth ≥ 4 is GMRES: exact after 5
-    corrections (to round-off), where the plain iteration has an error of 0.9⁵ ≈ 0.6."""
+    """On a linear iteration in 4 unknowns, mixing with depth ≥ 4 is GMRES: exact after 6
+    corrections (to round-off), where the plain iteration has an error of about 0.9⁶."""
     assert _iterate(AndersonMixing(MPI.COMM_SELF, owned=4, depth=5), 6) < 1e-10
     assert _iterate(None, 6) > 0.3
     assert _iterate(AndersonMixing(MPI.COMM_SELF, owned=4, depth=1), 6) > 1e-6
@@ -34,3 +34,13 @@ def test_anderson_mixing_solves_a_linear_chord_iteration_in_dimension_plus_one_s
 def test_anderson_mixing_starts_with_the_plain_correction():
     mixing = AndersonMixing(MPI.COMM_SELF, owned=3)
     assert np.all(mixing.mix(np.zeros(3), np.ones(3)) == 0.0)
+
+
+def test_anderson_mixing_of_a_diverged_correction_falls_back_to_the_plain_one():
+    """A correction that is not finite (a diverging closing) is not mixed, and the history
+    starts again: no LinAlgError from the fit."""
+    mixing = AndersonMixing(MPI.COMM_SELF, owned=2)
+    mixing.mix(np.zeros(2), np.ones(2))
+    assert np.all(mixing.mix(np.ones(2), np.array([np.nan, 1.0])) == 0.0)
+    assert mixing.states == [] and mixing.corrections == []
+    assert np.all(mixing.mix(np.zeros(2), np.ones(2)) == 0.0)
