@@ -27,6 +27,13 @@ serial: N = 2 uses the two cores of a laptop), the cases shared out by their exp
 (the kept record's, else ∝ r·(aW)²), each process with its own JSON beside ``--json``
 (``<stem>.job<k>.json``), merged into ``--json`` when they end; a signal is passed on to them.
 
+The other plates of [N15] with a closed form (``SHAPES``: the I, the partial clamp, the
+hole, the anisotropic plate) run with the ``minimiser`` settings on 3 levels whose finest is
+the published mesh (``--levels`` and ``--cells`` are the rectangles'); their table has the
+markers ``<!-- seed_shapes:begin -->`` and ``<!-- seed_shapes:end -->``. A rerun into an
+``--out`` that holds levels of other settings (e.g. the defect-bound control the
+``minimiser`` settings had before) is refused by ``converge``: use a fresh folder.
+
 ``--json`` keeps, per case and settings, every level's DoFs, steps, wall time, E_h and fitted
 radius with their errors against the closed forms, and converge's orders, extrapolated values
 and error estimates; a rerun of some ``--cases`` keeps the others. The table between the
@@ -39,6 +46,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import signal
 import subprocess
@@ -47,7 +55,7 @@ import threading
 import time
 from fractions import Fraction
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from mpi4py import MPI
 
@@ -62,6 +70,7 @@ from dgplate.problems.specs import load_problem
 ROOT = Path(__file__).resolve().parent.parent
 PROBLEM = ROOT / "demos" / "problems" / "bilayer_aspect_ratios.toml"
 BEGIN, END = "<!-- seeds:begin -->", "<!-- seeds:end -->"
+SHAPES_BEGIN, SHAPES_END = "<!-- seed_shapes:begin -->", "<!-- seed_shapes:end -->"
 RATIOS, CURVATURES, WIDTHS = (0.5, 1.0, 1.75, 2.5), (1.0, 2.0, 5.0), (1.0, 4.0)
 
 #: The targets: extrapolated figures within 1 %, the finest level within 2 % (relative).
@@ -72,8 +81,15 @@ SETTINGS: dict[str, tuple[str, Any]] = {
     "minimiser": (
         "the cylinder test's discretisation (γ₁h⁻³ with γ₁ = 86, edge constraint) flowed to a "
         "discrete minimiser as in `benchmarks/accuracy.py` (adaptive τ from h, two projection "
-        "steps, SQP finish, ‖P DE_h‖_*' < 10⁻⁷)",
-        lambda ideal: {**TUNED, **MINIMISER, "flow.tol": 1e-7, "flow.max_steps": 3000},
+        "steps, SQP steps, ‖P DE_h‖_*' < 10⁻⁷) with the default step control, the trust "
+        "region (the accuracy study's defect bound throttles the rolls: docs/performance.md)",
+        lambda ideal: {
+            **TUNED,
+            **MINIMISER,
+            "flow.step_control": "trust_region",
+            "flow.tol": 1e-7,
+            "flow.max_steps": 3000,
+        },
     ),
     "file": (
         "the problem file's own discretisation and flow as the demo runs it (γ₁h⁻¹ with "
@@ -94,9 +110,81 @@ CASES = {
 }  # fmt: skip
 
 
+class Shape(NamedTuple):
+    """A seed plate beside the rectangles: its problem file, level 1 and closed form.
+
+    The finest of its ``levels`` is the published plate and mesh (the demo's ``--paper``).
+    """
+
+    file: str
+    level1: dict[str, Any]
+    energy: float
+    radius: float
+    levels: int
+    words: str
+
+
+#: The other plates of [N15] with a constant Z, at their published meshes: the minimiser has
+#: II = z n⊗n, z the eigenvalue of Z largest in modulus, so E* = ½(|Z|² − z²)|ω| (Z = aI:
+#: ½a²|ω|) and the radius 1/|z|, on a free plate or one clamped along a ruling.
+SHAPES: dict[str, Shape] = {
+    "i_shape": Shape(
+        "bilayer_i_shape.toml",
+        {"mesh.parameters": {"W": 4.0, "H": 4.0, "t": 1.0, "w": 1.5, "h": 0.5}},
+        0.5 * (2 * 4.0 * 1.0 + 1.5 * 2.0),
+        1.0,
+        3,
+        "the I (flanges 4 × 1, web 1.5 × 2), Z = I, clamped at the foot",
+    ),
+    "partial_clamp": Shape(
+        "bilayer_partial_clamp.toml",
+        {"mesh.parameters": {"W": 4.0, "L": 10.0, "c": 2.0, "h": 1.0}},
+        0.5 * 40.0,
+        1.0,
+        3,
+        "the 4 × 10 plate clamped on 2 of its short side, Z = I",
+    ),
+    "hole": Shape(
+        "bilayer_hole.toml",
+        {"mesh.parameters": {"Lx": 10.0, "Ly": 4.0, "R": 1.0, "h": 0.6}},  # hole_h = h/2
+        0.5 * 4.0 * (40.0 - math.pi),
+        0.5,
+        3,
+        "the 10 × 4 plate with a hole of radius 1, Z = 2I",
+    ),
+    "anisotropic": Shape(
+        "bilayer_anisotropic.toml",
+        {"mesh.corners": [[-2.0, -3.0], [2.0, 3.0]], "mesh.cells": [6, 9]},
+        0.5 * 1.0 * 24.0,
+        0.2,
+        3,
+        "the free 4 × 6 plate, Z = diag(−5, −1)",
+    ),
+}
+
+
+def exact(case: str) -> tuple[float, float]:
+    """The closed-form energy and radius of ``case``."""
+    if case in SHAPES:
+        return SHAPES[case].energy, SHAPES[case].radius
+    ratio, a, width = CASES[case]
+    return 0.5 * a**2 * ratio * width**2, 1.0 / a
+
+
+def problem_file(case: str) -> Path:
+    """The problem file ``case`` runs."""
+    return ROOT / "demos" / "problems" / SHAPES[case].file if case in SHAPES else PROBLEM
+
+
 def overrides(case: str, settings: str, cells: int) -> dict[str, Any]:
     """The problem file's overrides for ``case``: its rectangle, level 1's mesh (``cells``
-    across the clamped side), Z, τ, flow."""
+    across the clamped side), Z, τ, flow; a shape's level 1 and flow."""
+    quiet = {"flow.checkpoint_every": 0, "output.vtx": False, "output.progress": 0}
+    if case in SHAPES:
+        if settings != "minimiser":  # the files' flows are tuned to their scaled-down plates
+            raise ValueError(f"{case}: the shapes run with the minimiser settings only")
+        shape = SHAPES[case]
+        return {**shape.level1, **quiet, **SETTINGS[settings][1](shape.energy)}
     ratio, a, width = CASES[case]
     length = ratio * width
     flow = SETTINGS[settings][1](0.5 * a**2 * length * width)
@@ -105,9 +193,7 @@ def overrides(case: str, settings: str, cells: int) -> dict[str, Any]:
         "mesh.cells": [round(cells * ratio), cells],
         "model.Z": a,
         "flow.tau": 0.05 / (a * width),
-        "flow.checkpoint_every": 0,
-        "output.vtx": False,
-        "output.progress": 0,
+        **quiet,
         **flow,
     }
 
@@ -134,8 +220,7 @@ def record_of(case: str, settings: str, cells: int, study: Any) -> dict[str, Any
     (the stopped level continues on a rerun), and ``interrupted`` set; with none, None.
     Its ``wall_s`` is the sum of the levels' own wall times, whichever invocation ran them.
     """
-    ratio, a, width = CASES[case]
-    energy, radius = 0.5 * a**2 * ratio * width**2, 1.0 / a
+    energy, radius = exact(case)
     finished = study.finished_levels()
     if not finished:
         return None
@@ -154,13 +239,14 @@ def record_of(case: str, settings: str, cells: int, study: Any) -> dict[str, Any
                 "radius_error": relative(r, radius),
             }
         )
+    ratio, a, width = CASES.get(case, (None, None, None))
     return {
         "case": case,
         "settings": settings,
         "ratio": ratio,
         "a": a,
         "width": width,
-        "cells_across": cells,
+        "cells_across": None if case in SHAPES else cells,
         "exact_energy": energy,
         "exact_radius": radius,
         "interrupted": study.interrupted,
@@ -200,10 +286,11 @@ def row(record: dict[str, Any]) -> str:
     """A table row: the finest level's errors, the extrapolated ones, the orders, pass/fail."""
     finest = record["levels"][-1]
     missed = misses(record)
-    cells = [
-        fraction(record["ratio"]),
-        f"{record['width']:g}",
-        f"{record['a']:g}",
+    if record["case"] in SHAPES:
+        cells = [SHAPES[record["case"]].words]
+    else:
+        cells = [fraction(record["ratio"]), f"{record['width']:g}", f"{record['a']:g}"]
+    cells += [
         record["settings"],
         f"{len(record['levels'])} ({finest['size']})"
         + (" + 1 stopped" if record["interrupted"] else ""),
@@ -235,7 +322,7 @@ def table(record: dict[str, Any]) -> str:
         "wall (s) | targets |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
-    lines += [row(studies[key]) for key in sorted(studies, key=_order)]
+    lines += [row(studies[key]) for key in sorted(studies, key=_order) if _grid(key)]
     done = {studies[key]["case"] for key in studies}
     left = [case for case in CASES if case not in done]
     lines += ["", "Settings: " + "; ".join(f"`{k}`: {v[0]}" for k, v in SETTINGS.items()) + "."]
@@ -245,9 +332,32 @@ def table(record: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def shapes_table(record: dict[str, Any]) -> str:
+    """The shapes' section from the JSON record: a row per shape run, the shapes not run."""
+    studies = record["studies"]
+    lines = [
+        SHAPES_BEGIN,
+        "",
+        "| plate | settings | levels (finest) | DoFs | E_h error, finest | E∞ error ± estimate "
+        "| order | radius error, finest | R∞ error ± estimate | order | wall (s) | targets |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    lines += [row(studies[key]) for key in sorted(studies, key=_order) if not _grid(key)]
+    left = [case for case in SHAPES if not any(key.startswith(f"{case}:") for key in studies)]
+    if left:
+        lines += ["", "Not run: " + ", ".join(f"`{case}`" for case in left) + "."]
+    lines += ["", SHAPES_END]
+    return "\n".join(lines)
+
+
+def _grid(key: str) -> bool:
+    """Whether the study ``key`` is of a rectangle of the aspect-ratio grid."""
+    return key.split(":")[0] in CASES
+
+
 def _order(key: str) -> tuple[int, str]:
     case, settings = key.split(":")
-    return list(CASES).index(case), settings
+    return [*CASES, *SHAPES].index(case), settings
 
 
 def stop_after(seconds: float) -> threading.Timer:
@@ -265,11 +375,10 @@ def run_cases(args: argparse.Namespace, record: dict[str, Any]) -> list[str]:
     timer = stop_after(60.0 * args.budget_minutes)
     with interrupt.StopOnSignal():
         for k, case in enumerate(args.cases):
-            problem = load_problem(PROBLEM, overrides(case, args.settings, args.cells))
+            problem = load_problem(problem_file(case), overrides(case, args.settings, args.cells))
             problem.name = f"{case}-{args.settings}"
-            study = converge(
-                problem, args.levels, args.out / case / args.settings, comm, resume=True
-            )
+            levels = SHAPES[case].levels if case in SHAPES else args.levels
+            study = converge(problem, levels, args.out / case / args.settings, comm, resume=True)
             one = record_of(case, args.settings, args.cells, study)
             if one is not None:
                 one["ranks"] = comm.size
@@ -293,6 +402,8 @@ def expected_seconds(case: str, settings: str, record: dict[str, Any]) -> float:
     kept = record["studies"].get(f"{case}:{settings}")
     if kept is not None and not kept["interrupted"]:
         return float(kept["wall_s"])
+    if case in SHAPES:
+        return 600.0
     ratio, a, width = CASES[case]
     return 60.0 * ratio * (a * width) ** 2
 
@@ -314,8 +425,8 @@ def run_jobs(args: argparse.Namespace, record: dict[str, Any]) -> list[str]:
     common = ["--levels", str(args.levels), "--cells", str(args.cells)]
     common += ["--settings", args.settings, "--budget-minutes", str(args.budget_minutes)]
     common += ["--out", str(args.out), "--no-page"]
-    parts, children = [], []
-    for k, group in enumerate(share_out(args.cases, args.jobs, cost)):
+    parts, children, groups = [], [], share_out(args.cases, args.jobs, cost)
+    for k, group in enumerate(groups):
         part = args.json.with_name(f"{args.json.stem}.job{k}.json")
         part.write_text(json.dumps(record, indent=2) + "\n")
         command = [sys.executable, __file__, "--cases", *group, "--json", str(part), *common]
@@ -334,9 +445,11 @@ def run_jobs(args: argparse.Namespace, record: dict[str, Any]) -> list[str]:
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
-    for part in parts:
-        for key, one in json.loads(part.read_text())["studies"].items():
-            if supersedes(record["studies"].get(key), one):
+    for part, group in zip(parts, groups, strict=True):
+        studies = json.loads(part.read_text())["studies"]
+        for key in (f"{case}:{args.settings}" for case in group):  # the job's own cases
+            one = studies.get(key)
+            if one is not None and supersedes(record["studies"].get(key), one):
                 record["studies"][key] = one
         part.unlink()
     args.json.write_text(json.dumps(record, indent=2) + "\n")
@@ -355,7 +468,7 @@ def supersedes(kept: dict[str, Any] | None, new: dict[str, Any]) -> bool:
     record is a prefix of the kept one at the same level-1 size; it would drop the finest
     levels' figures. Another level-1 size replaces the record.
     """
-    if kept is None or kept["cells_across"] != new["cells_across"]:
+    if kept is None or kept.get("cells_across") != new["cells_across"]:
         return True
     return len(new["levels"]) >= len(kept["levels"])
 
@@ -388,7 +501,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     """
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument(
-        "--cases", nargs="+", choices=list(CASES), default=list(CASES), metavar="CASE"
+        "--cases", nargs="+", choices=[*CASES, *SHAPES], default=[*CASES, *SHAPES], metavar="CASE"
     )
     parser.add_argument("--levels", type=int, default=4, help="meshes per case (≥ 2)")
     parser.add_argument(
@@ -405,6 +518,11 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     args = parser.parse_args(argv)
     if args.levels < 2 or args.cells < 1 or args.budget_minutes <= 0 or args.jobs < 1:
         parser.error("--levels must be ≥ 2, --cells ≥ 1, --budget-minutes > 0 and --jobs ≥ 1")
+    if args.settings != "minimiser" and set(args.cases) & set(SHAPES):
+        parser.error(
+            f"--settings {args.settings}: the shapes ({', '.join(SHAPES)}) run with "
+            "the minimiser settings only; name the rectangles with --cases"
+        )
     comm = MPI.COMM_WORLD
     if args.jobs > 1 and comm.size > 1:
         parser.error("--jobs runs serial processes: not under mpirun")
@@ -417,6 +535,8 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
             print0(comm, f"stopped: {', '.join(left)} left (the same command continues)")
     if comm.rank == 0 and not args.no_page:
         write_between(args.page, BEGIN, END, table(record))
+        if any(not _grid(key) for key in record["studies"]):
+            write_between(args.page, SHAPES_BEGIN, SHAPES_END, shapes_table(record))
     return {**record, "left": left}
 
 

@@ -222,6 +222,43 @@ def test_seeds_stopped_study():
     assert seeds.record_of("r1_a1", "minimiser", 4, study) is None
 
 
+def test_seeds_shapes_table(tmp_path):
+    """The other seed plates get a table of their own, with their closed forms; the
+    rectangles' file settings are refused for them."""
+    seeds = load_benchmark("seeds")
+    energy, radius = seeds.exact("i_shape")
+    assert (energy, radius) == (5.5, 1.0)  # ½|ω|, |ω| = 2·4·1 + 1.5·2
+    assert seeds.exact("anisotropic") == (12.0, 0.2)  # ½(|Z|² − z²)|ω| = ½(26 − 25)·24
+    energies, radii = [5.62, 5.53, 5.5075], [1.2, 1.05, 1.0125]
+    levels = [
+        {"size": size, "dofs": dofs, "energy_error": (e - energy) / energy,
+         "radius_error": (r - radius) / radius}
+        for size, dofs, e, r in zip(("h = 0.5", "h = 0.25", "h = 0.125"), (1, 2, 3), energies, radii)
+    ]  # fmt: skip
+    study = {"case": "i_shape", "settings": "minimiser", "levels": levels, "wall_s": 60.0}
+    study |= {"interrupted": 0, "cells_across": None}
+    study["energy"] = seeds.estimate(extrapolate(energies).as_dict(), energy)
+    study["radius"] = seeds.estimate(extrapolate(radii).as_dict(), radius)
+    out = tmp_path / "seeds.json"
+    out.write_text(json.dumps({"studies": {"i_shape:minimiser": study}}))
+    page = tmp_path / "verification.md"
+    page.write_text(
+        "<!-- seeds:begin -->\n<!-- seeds:end -->\n<!-- seed_shapes:begin -->\nold\n"
+        "<!-- seed_shapes:end -->\n"
+    )
+    seeds.main(["--table-only", "--json", str(out), "--page", str(page)])
+    text = page.read_text()
+    row = next(line for line in text.splitlines() if line.startswith("| the I "))
+    assert "| minimiser | 3 (h = 0.125) | 3 | +0.14 % | +0.00 % ± 0.14 % | 2.00 |" in row
+    assert row.endswith("| +1.25 % | -0.00 % ± 1.25 % | 2.00 | 60 | pass |")
+    assert "Not run: `partial_clamp`, `hole`, `anisotropic`." in text
+    assert "| 1 | 1 | 1 |" not in text and "old" not in text
+    with pytest.raises(ValueError, match="minimiser settings only"):
+        seeds.overrides("hole", "file", 4)
+    with pytest.raises(SystemExit):
+        seeds.main(["--settings", "file", "--cases", "hole", "--json", str(out)])
+
+
 def test_seeds_page_is_generated(tmp_path):
     """docs/verification.md's seed 001 table is what --table-only writes from seeds.json."""
     page = BENCH.parent / "docs" / "verification.md"
@@ -462,10 +499,13 @@ def test_seeds_jobs_share_the_cases_out_by_their_expected_time():
 
 
 def test_seeds_jobs_two_cases_in_two_processes(tmp_path):
-    """Two one-cell cases on 2 levels in 2 processes: both records merged, the parts removed."""
+    """Two one-cell cases on 2 levels in 2 processes: both records merged, the parts removed.
+    Each replaces its earlier record, which the other job's copy of the JSON still holds."""
     seeds = load_benchmark("seeds")
     out, page = tmp_path / "seeds.json", tmp_path / "page.md"
     page.write_text("<!-- seeds:begin -->\nold\n<!-- seeds:end -->\n")
+    stale = {"cells_across": 1, "levels": [{}] * 2, "interrupted": 0, "wall_s": 1.0}
+    out.write_text(json.dumps({"studies": {f"r1_a{a}:file": stale for a in (1, 2)}}))
     args = ["--cases", "r1_a1", "r1_a2", "--levels", "2", "--cells", "1", "--jobs", "2"]
     args += ["--settings", "file", "--out", str(tmp_path / "runs")]
     if MPI.COMM_WORLD.size > 1:
@@ -475,6 +515,7 @@ def test_seeds_jobs_two_cases_in_two_processes(tmp_path):
     record = seeds.main([*args, "--json", str(out), "--page", str(page)])
     assert record["left"] == [] and sorted(record["studies"]) == ["r1_a1:file", "r1_a2:file"]
     assert [len(s["levels"]) for s in record["studies"].values()] == [2, 2]
+    assert all("case" in s for s in record["studies"].values())  # none of the stale ones
     assert json.loads(out.read_text())["studies"] == record["studies"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["page.md", "runs", "seeds.json"]
     assert "| 1 | 1 | 2 | file | 2 (2×2)" in page.read_text()
