@@ -217,7 +217,9 @@ def _command(args: argparse.Namespace, comm: MPI.Comm) -> int:
 
 def _failed(summary: dict[str, Any]) -> str:
     """How a run that did not end as it should ended, in words (a path stopped, a flow …)."""
-    return "the path stopped" if "points" in summary else "the flow did not converge"
+    from dgplate.io.run_reader import outcome
+
+    return "the path stopped" if outcome(summary) == "path stopped" else "the flow did not converge"
 
 
 def _on_outputs(args: argparse.Namespace, comm: MPI.Comm) -> int:

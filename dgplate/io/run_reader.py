@@ -14,7 +14,7 @@ import io
 import json
 import math
 import zipfile
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -128,6 +128,22 @@ def _status(summary: dict[str, Any]) -> str:
         return "interrupted"
     if "converged" not in summary:
         return "finished"
+    return outcome(summary)
+
+
+def outcome(summary: Mapping[str, Any]) -> str:
+    """How a finished run ended, in words: a path ended or stopped, a flow converged or not.
+
+    A path's summary is the one that counts its ``points``.
+
+    Args:
+        summary: the run's ``summary.json`` (with ``converged``).
+
+    Returns:
+        ``path ended``, ``path stopped``, ``converged`` or ``not converged``.
+    """
+    if "points" in summary:
+        return "path ended" if summary["converged"] else "path stopped"
     return "converged" if summary["converged"] else "not converged"
 
 

@@ -9,6 +9,8 @@ from typing import Any
 import dolfinx.fem
 import numpy as np
 
+from dgplate.io.run_reader import outcome
+
 #: The summary's figures in a :class:`Result`'s one-line ``repr``.
 _REPR_KEYS = ("steps", "energy", "isometry_defect")
 
@@ -61,7 +63,7 @@ class Result:
         s = self.summary
         shown = [f"{s.get('problem', '?')} ({s.get('model', '?')})"]
         if "converged" in s:
-            shown.append("converged" if s["converged"] else "not converged")
+            shown.append(outcome(s))
         shown += [f"{key}={_shown(s[key])}" for key in _REPR_KEYS if key in s]
         folder = f", folder={str(self.folder)!r}" if self.folder is not None else ""
         return f"Result({', '.join(shown)}{folder})"

@@ -301,6 +301,9 @@ def test_a_path_that_spends_its_points_ends_as_a_path(tmp_path, capsys):
     last = capsys.readouterr().out.splitlines()[-1]
     assert last.startswith("path ended after 2 steps: path.steps = 2 points spent at load factor")
     assert "--resume --set path.steps=4 goes on" in last
+    assert main(["show", str(out)]) == 0
+    assert "path ended" in capsys.readouterr().out
+    assert "path ended" in repr(dgplate.load_result(out, state=False))
 
 
 def test_progress_printer_auto_prints_a_line_a_second_and_every_ten_steps():
