@@ -311,42 +311,36 @@ def row(record: dict[str, Any]) -> str:
     return "| " + " | ".join(cells) + " |"
 
 
-def table(record: dict[str, Any]) -> str:
-    """The page's section from the JSON record: a row per case run, the cases not run listed."""
+#: The tables' columns after the case's own (the rectangle's r, W, a; a shape's name).
+COLUMNS = (
+    "settings", "levels (finest)", "DoFs", "E_h error, finest", "E∞ error ± estimate", "order",
+    "radius error, finest", "R∞ error ± estimate", "order", "wall (s)", "targets",
+)  # fmt: skip
+
+
+def table(record: dict[str, Any], grid: bool = True) -> str:
+    """The page's section from the JSON record: a row per case run, the cases not run listed.
+
+    Args:
+        record: the JSON record.
+        grid: the rectangles' section; False: the shapes'.
+
+    Returns:
+        The section, its markers included.
+    """
     studies = record["studies"]
-    lines = [
-        BEGIN,
-        "",
-        "| length/W | W | a | settings | levels (finest) | DoFs | E_h error, finest | "
-        "E∞ error ± estimate | order | radius error, finest | R∞ error ± estimate | order | "
-        "wall (s) | targets |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    lines += [row(studies[key]) for key in sorted(studies, key=_order) if _grid(key)]
+    begin, end = (BEGIN, END) if grid else (SHAPES_BEGIN, SHAPES_END)
+    names = [*(("length/W", "W", "a") if grid else ("plate",)), *COLUMNS]
+    lines = [begin, "", "| " + " | ".join(names) + " |", "|" + "---|" * len(names)]
+    lines += [row(studies[key]) for key in sorted(studies, key=_order) if _grid(key) == grid]
     done = {studies[key]["case"] for key in studies}
-    left = [case for case in CASES if case not in done]
-    lines += ["", "Settings: " + "; ".join(f"`{k}`: {v[0]}" for k, v in SETTINGS.items()) + "."]
+    left = [case for case in (CASES if grid else SHAPES) if case not in done]
+    if grid:
+        settings = "; ".join(f"`{k}`: {v[0]}" for k, v in SETTINGS.items())
+        lines += ["", f"Settings: {settings}."]
     if left:
         lines += ["", "Not run: " + ", ".join(f"`{case}`" for case in left) + "."]
-    lines += ["", END]
-    return "\n".join(lines)
-
-
-def shapes_table(record: dict[str, Any]) -> str:
-    """The shapes' section from the JSON record: a row per shape run, the shapes not run."""
-    studies = record["studies"]
-    lines = [
-        SHAPES_BEGIN,
-        "",
-        "| plate | settings | levels (finest) | DoFs | E_h error, finest | E∞ error ± estimate "
-        "| order | radius error, finest | R∞ error ± estimate | order | wall (s) | targets |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    lines += [row(studies[key]) for key in sorted(studies, key=_order) if not _grid(key)]
-    left = [case for case in SHAPES if not any(key.startswith(f"{case}:") for key in studies)]
-    if left:
-        lines += ["", "Not run: " + ", ".join(f"`{case}`" for case in left) + "."]
-    lines += ["", SHAPES_END]
+    lines += ["", end]
     return "\n".join(lines)
 
 
@@ -536,7 +530,7 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     if comm.rank == 0 and not args.no_page:
         write_between(args.page, BEGIN, END, table(record))
         if any(not _grid(key) for key in record["studies"]):
-            write_between(args.page, SHAPES_BEGIN, SHAPES_END, shapes_table(record))
+            write_between(args.page, SHAPES_BEGIN, SHAPES_END, table(record, grid=False))
     return {**record, "left": left}
 
 
