@@ -21,6 +21,7 @@ from helpers import PARITY_RTOL, PROBLEMS, assert_same_points, load_benchmark
 
 import dgplate
 from dgplate.errors import InputError
+from dgplate.solvers.special_points import SECANT_WIDTH
 
 TURNED = load_benchmark("plate_path")
 
@@ -223,7 +224,13 @@ def test_same_turned_path_on_any_number_of_ranks(tmp_path):
 
 def test_a_resumed_plate_path_goes_on_to_the_same_points(tmp_path):
     """The turned strip stopped after 8 points and resumed to 14 has the uninterrupted path's
-    points, bifurcation and fold (measured 1.4·10⁻¹¹ apart)."""
+    points, bifurcation and fold.
+
+    The states agree to about 10⁻¹¹, not bit for bit; the secant that locates the bifurcation
+    stops within SECANT_WIDTH·ds, and the located λ moved by 1.0·10⁻⁹ (relative 1.2·10⁻⁹) in
+    one run. So the points are compared within the secant's width (2·10⁻⁷ here); a point of
+    a path resumed from the wrong state differs by a sizeable fraction of ds.
+    """
     settings = {**TURNED.QUIET, "mesh.cells": [16, 1]}
     problem = dgplate.load_problem(PROBLEMS / "turned_strip.toml", settings)
     whole = dgplate.follow(problem, out=tmp_path / "whole", comm=MPI.COMM_SELF, steps=14)
@@ -231,10 +238,11 @@ def test_a_resumed_plate_path_goes_on_to_the_same_points(tmp_path):
     resumed = dgplate.follow(
         problem, out=tmp_path / "part", comm=MPI.COMM_SELF, steps=14, resume=True
     )
+    width = SECANT_WIDTH * problem.raw["path"]["ds_max"]
     assert resumed.stability_indices == whole.stability_indices
-    assert resumed.load_factors == pytest.approx(whole.load_factors, rel=1e-9, abs=1e-12)
-    assert resumed.bifurcations == pytest.approx(whole.bifurcations, rel=1e-9)
-    assert resumed.folds == pytest.approx(whole.folds, rel=1e-9)
+    assert resumed.load_factors == pytest.approx(whole.load_factors, rel=0, abs=width)
+    assert resumed.bifurcations == pytest.approx(whole.bifurcations, rel=0, abs=width)
+    assert resumed.folds == pytest.approx(whole.folds, rel=0, abs=width)
 
 
 def test_the_turned_strip_switches_onto_an_unstable_branch(tmp_path):
