@@ -97,6 +97,29 @@ def wait_longer_for_jit() -> None:
 
 wait_longer_for_jit()
 
+#: The C compiler's flags for the forms FFCx generates, in place of DOLFINx's ``-O2``: gcc
+#: compiles the large dG forms in about half the time and the kernels run as fast
+#: (benchmarks/jit_flags.py, docs/performance.md). A first run, and a CI run with an empty
+#: JIT cache, spend much of their time in gcc.
+JIT_COMPILE_ARGS = ["-O1", "-g0"]
+
+
+def compile_forms_faster() -> None:
+    """Make :data:`JIT_COMPILE_ARGS` DOLFINx's default flags for compiling forms.
+
+    Only the default changes: a ``dolfinx_jit_options.json`` of the user's still overrides it.
+    The flags are part of the JIT cache's key, so forms compiled with other flags are compiled
+    once more, not mixed up.
+    """
+    _, doc = dolfinx.jit.DOLFINX_DEFAULT_JIT_OPTIONS["cffi_extra_compile_args"]
+    dolfinx.jit.DOLFINX_DEFAULT_JIT_OPTIONS["cffi_extra_compile_args"] = (
+        list(JIT_COMPILE_ARGS),
+        doc,
+    )
+
+
+compile_forms_faster()
+
 
 @contextlib.contextmanager
 def on_first_compile(announce: Callable[[], None]) -> Iterator[None]:

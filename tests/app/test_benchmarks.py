@@ -486,6 +486,10 @@ def test_paper_sizes_pages_are_generated(tmp_path):
     assert capsule["tips_height"] > 0 and capsule["tips_distance"] < 1.0  # curled up and in
 
 
+def test_jit_flags_page_is_generated(tmp_path):
+    assert_page_is_generated("jit_flags", BENCH.parent / "docs" / "performance.md", tmp_path)
+
+
 def test_seeds_jobs_share_the_cases_out_by_their_expected_time():
     """--jobs: the longest case first to the least loaded process; every case once."""
     seeds = load_benchmark("seeds")

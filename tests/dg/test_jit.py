@@ -67,6 +67,27 @@ def test_sweep_compiles_once(tmp_path):
     assert len(set(energies)) == 3
 
 
+def test_forms_compile_with_dgplates_flags_unless_the_user_sets_them(tmp_path):
+    """dgplate's compiler flags are DOLFINx's default once dgplate is imported; a user's
+    dolfinx_jit_options.json still wins (DOLFINx reads it from the working folder)."""
+    import dolfinx.jit
+
+    from dgplate import compat
+
+    assert dolfinx.jit.get_options()["cffi_extra_compile_args"] == compat.JIT_COMPILE_ARGS
+    (tmp_path / "dolfinx_jit_options.json").write_text('{"cffi_extra_compile_args": ["-O3"]}')
+    script = (
+        "from mpi4py import MPI; import dgplate.compat, dolfinx.jit; "
+        "print(dolfinx.jit.get_options()['cffi_extra_compile_args'])"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    done = subprocess.run(
+        [sys.executable, "-c", script], cwd=tmp_path, capture_output=True, text=True, env=env
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "['-O3']"
+
+
 @pytest.fixture(scope="module")
 def strip():
     return rectangle(MPI.COMM_SELF, [[0, 0], [2, 1]], [2, 1])
