@@ -74,18 +74,27 @@ def test_forms_compile_with_dgplates_flags_unless_the_user_sets_them(tmp_path):
 
     from dgplate import compat
 
-    assert dolfinx.jit.get_options()["cffi_extra_compile_args"] == compat.JIT_COMPILE_ARGS
-    (tmp_path / "dolfinx_jit_options.json").write_text('{"cffi_extra_compile_args": ["-O3"]}')
+    flags, _ = dolfinx.jit.DOLFINX_DEFAULT_JIT_OPTIONS["cffi_extra_compile_args"]
+    assert flags == compat.JIT_COMPILE_ARGS
     script = (
         "from mpi4py import MPI; import dgplate.compat, dolfinx.jit; "
         "print(dolfinx.jit.get_options()['cffi_extra_compile_args'])"
     )
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
-    done = subprocess.run(
-        [sys.executable, "-c", script], cwd=tmp_path, capture_output=True, text=True, env=env
-    )
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == "['-O3']"
+    env = {
+        **os.environ,
+        "PYTHONPATH": str(Path(__file__).resolve().parents[2]),
+        "XDG_CONFIG_HOME": str(tmp_path / "config"),  # no user options but the test's
+    }
+    outputs = []
+    for options in (None, '{"cffi_extra_compile_args": ["-O3"]}'):
+        if options:
+            (tmp_path / "dolfinx_jit_options.json").write_text(options)
+        done = subprocess.run(
+            [sys.executable, "-c", script], cwd=tmp_path, capture_output=True, text=True, env=env
+        )
+        assert done.returncode == 0, done.stderr
+        outputs.append(done.stdout.strip())
+    assert outputs == [str(compat.JIT_COMPILE_ARGS), "['-O3']"]
 
 
 @pytest.fixture(scope="module")
