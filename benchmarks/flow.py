@@ -74,7 +74,7 @@ class NaiveSystem(StepSystem):
         self.K.assemble()
         return NaiveStepSolver(self.comm, self.K)
 
-    def assemble(self, newton: bool = False) -> NaiveStepSolver:  # type: ignore[override]
+    def assemble(self, newton: bool = False, residual: bool = False) -> NaiveStepSolver:  # type: ignore[override]
         self.K.zeroEntries()
         dolfinx.fem.petsc.assemble_matrix(self.K, self.step_form)  # type: ignore[arg-type]
         self.K.assemble()
@@ -82,6 +82,8 @@ class NaiveSystem(StepSystem):
             local.set(0.0)
         dolfinx.fem.petsc.assemble_vector(self.rhs, self.rhs_form)
         self.rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        if residual:
+            self.add_constraint_residual()
         assert isinstance(self.solver, NaiveStepSolver)
         return self.solver
 

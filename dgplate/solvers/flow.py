@@ -47,7 +47,7 @@ from dgplate.solvers import linear, metric_start, transfer
 from dgplate.solvers.constraint import IsometryDefect, refuse_edge_moments_with_metric
 from dgplate.solvers.driver import EnergyFlow, Observer
 from dgplate.solvers.linear import OptionValue
-from dgplate.solvers.projection import Projection
+from dgplate.solvers.projection import Merit, Projection
 from dgplate.solvers.stationarity import Stationarity
 from dgplate.solvers.step_system import FlowCounts, Spaces, StepSystem, mixed_space
 from dgplate.solvers.steps import FlowResult, StepInfo, stopping_value
@@ -158,7 +158,7 @@ class FlowSpec:
     )
     step_control: str = option(
         "trust_region",
-        "adaptive τ with newton_finish: 'trust_region' (every step an SQP step, accepted when E_h did not rise and its corrections closed the constraint; τ, the trust radius, halved and the SQP step retried when refused, grown by tau_growth when accepted; not with active sets) or 'defect_bound' (plain steps accepted below defect_bound, SQP steps from newton_tau_ratio on, a refused SQP step redone plain)",
+        "adaptive τ with newton_finish: 'trust_region' (every step an SQP step that also solves the constraint linearised from its start's defect, so the states between may be off the constraint; accepted when the merit E_h + λ·c did not rise and D_h stayed below 0.1·|ω| or its start's; τ, the trust radius, halved and the SQP step retried when refused, grown by tau_growth when accepted; a converged run ends on the constraint; not with active sets) or 'defect_bound' (plain steps accepted below defect_bound, SQP steps from newton_tau_ratio on, closed onto the constraint, a refused SQP step redone plain)",
         choices=STEP_CONTROLS,
     )
     newton_finish: bool = option(
@@ -232,6 +232,7 @@ class GradientFlow(EnergyFlow):
         self.energy_increases: list[int] = []  # steps at which E_h went up, over all runs
         self.counts = FlowCounts()
         self._last_increment: Array = np.zeros(0)  # δy of the last step (for undo)
+        self.merit: Merit | None = None  # of the last step, if an SQP step off the constraint
         tau = max_cell_diameter(mesh) if settings.tau == "h" else float(settings.tau)
         spaces = Spaces(self.W, self.V, self._vdofs, self.y)
         self.system = self.system_type(
@@ -299,12 +300,9 @@ class GradientFlow(EnergyFlow):
     def checkpoint_state(self) -> dict[str, Any]:
         """The counters a checkpoint must hold (with :meth:`checkpoint_fields`).
 
-        With them τ (that of the step matrix and the adaptive controller's proposal), so that a
-        resumed adaptive run goes on with the τ it had, not the initial one, and the metric
-        start's figures (a resumed run starts from the checkpoint, not from a new start). K is not in it: a
-        resumed run assembles K whole, where the uninterrupted one may carry it by increments,
-        so the two can differ by round-off from there on (writing a checkpoint must not change
-        the run, so it does not reassemble K).
+        With them τ (the step matrix's and the proposal: a resumed adaptive run goes on with the
+        τ it had) and the metric start's figures. Not K: a resumed run assembles it whole, the
+        uninterrupted one may carry it by increments (the two differ by round-off from there).
         """
         return {
             **super().checkpoint_state(),
@@ -397,6 +395,8 @@ class GradientFlow(EnergyFlow):
             tested = test_last or k < budget - 1
             # first: it fills the record's stationarity
             stop = self.measure.stop_reason(info) if tested else ""
+            if stop and self._land(info):  # measured again on the constraint
+                stop = self.measure.stop_reason(info)
             self.record_step(info, history, increases)
             if stop:
                 converged, reason = True, stop
@@ -406,6 +406,15 @@ class GradientFlow(EnergyFlow):
                 reason = interrupt.reason(signum)
                 break
         return self._finish(converged, reason, signum, history, increases)
+
+    def _land(self, info: StepInfo) -> bool:
+        """Land a converged run on the constraint (:meth:`Projection.land`), update ``info``."""
+        if self.merit is None or not self.projection.land(self._last_increment):
+            return False
+        energy = self.evaluate_energy()
+        info.rate += (info.energy + self.merit.end - energy) / info.tau
+        info.energy, info.defect, self._last_energy = energy, self.defect(), energy
+        return True
 
     def _finish(
         self,
@@ -435,7 +444,8 @@ class GradientFlow(EnergyFlow):
             The step's record.
         """
         t0 = time.perf_counter()
-        solver = self.system.assemble(newton)
+        sqp_path = newton and self.control.trust_region()
+        solver = self.system.assemble(newton, residual=sqp_path)
         t1 = time.perf_counter()
         stats = self.system.solve(solver)
         t2 = time.perf_counter()
@@ -443,14 +453,14 @@ class GradientFlow(EnergyFlow):
         self.y.x.array[:] += dy
         if self.settings.adaptive_tau:
             self.control.linear_defect = self.defect()
-        self.projection.project(stats, solver, dy)
-        if newton:
-            self.projection.close_constraint(stats, solver, dy)
+        self.merit = self.projection.after_step(stats, solver, dy, newton, sqp_path)
         self._last_increment = dy
         owned = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
         increment = mpi.global_max(self.comm, float(np.max(np.abs(dy[:owned]), initial=0.0)))
         energy = self.evaluate_energy()
-        rate = (self._last_energy - energy) / self.tau
+        # off the constraint, the decrease of the merit E_h + λ·c (Merit)
+        change = self.merit.start - self.merit.end if self.merit else 0.0
+        rate = (self._last_energy - energy + change) / self.tau
         self._last_energy = energy
         self.step_count += 1
         self.time += self.tau

@@ -121,6 +121,8 @@ class StepSystem:
         self.begin_active_sets()  # the pattern above has the couplings of the whole sets
         self._rhs_fn: Function = dolfinx.fem.Function(self.W)  # a ghosted vector in every version
         self.rhs = self._rhs_fn.x.petsc_vec
+        # the constraint's residual at a step's start and at its end (the SQP steps' merit)
+        self.start_residual, self.end_residual = self.rhs.duplicate(), self.rhs.duplicate()
         self.solution: Function = dolfinx.fem.Function(self.W)
         curvature = sqp.lagrangian_curvature(
             self.y, self.solution, energy.explicit, self._edge, self._scale, self._trial_test
@@ -276,7 +278,7 @@ class StepSystem:
         if solver is not None and not isinstance(solver, linear.DirectStepSolver):
             solver.constant_changed()
 
-    def assemble(self, newton: bool = False) -> StepSolver:
+    def assemble(self, newton: bool = False, residual: bool = False) -> StepSolver:
         """K = A_const + B(yⁿ) and the right-hand side −DE_h[yⁿ]; with ``newton`` also K_N.
 
         K is assembled whole after A_const changed, and every K_REASSEMBLY steps so that
@@ -285,6 +287,10 @@ class StepSystem:
 
         Args:
             newton: also assemble the SQP matrix K_N = K + H (:mod:`dgplate.solvers.sqp`).
+            residual: the constraint rows' right-hand side is −(∇yⁿᵀ∇yⁿ − G) instead of 0, so
+                that the step also solves the linearised constraint from yⁿ's defect (an SQP
+                step from a state off the constraint); the residual is kept in
+                :attr:`start_residual`.
 
         Returns:
             The solver of the step: the step solver, or K_N's for an SQP step.
@@ -302,8 +308,34 @@ class StepSystem:
         for term in self.energy.nonlocal_terms:
             term.update()
         compat.assemble_vector_into(self.rhs, self.rhs_form)
+        if residual:
+            self.add_constraint_residual()
         assert self.solver is not None
         return self.newton.assemble(self.K) if newton else self.solver
+
+    def add_constraint_residual(self) -> None:
+        """The constraint rows' right-hand side −(∇yⁿᵀ∇yⁿ − G) added to :attr:`rhs`, and kept."""
+        compat.assemble_vector_into(self.start_residual, self._constraint_residual)
+        self.rhs.axpy(1.0, self.start_residual)
+
+    def multiplier_term(self, at_start: bool = False) -> float:
+        """Σ_T ∫_T λ : (∇yᵀ∇y − G) (edge moments included) with the last step's λ (collective).
+
+        The Lagrangian's constraint term at the current y, or at the step's start yⁿ
+        (``at_start``: the residual that :meth:`assemble` kept). The constraint rows are scaled
+        by s and their residual is −s(∇yᵀ∇y − G) : q, the multiplier component of the solution
+        is λ/s: the term is minus their dot product.
+
+        Args:
+            at_start: at yⁿ instead of the current y.
+
+        Returns:
+            The term.
+        """
+        if not at_start:
+            compat.assemble_vector_into(self.end_residual, self._constraint_residual)
+        residual = self.start_residual if at_start else self.end_residual
+        return -float(residual.dot(self.solution.x.petsc_vec))
 
     def solve(self, solver: StepSolver) -> SolveStats:
         """Solve the assembled step with ``solver`` (that of :meth:`assemble`) into ``solution``."""
@@ -348,6 +380,8 @@ class StepSystem:
             self.solver.destroy()
         self.newton.destroy()
         self.K.destroy()
+        self.start_residual.destroy()
+        self.end_residual.destroy()
 
 
 def max_row_sum(matrix: PETSc.Mat) -> float:

@@ -17,7 +17,7 @@ class StepInfo:
     energy: float
     defect: float
     increment: float  # max |δy| over the degrees of freedom
-    rate: float  # (E_h[yⁿ⁻¹] − E_h[yⁿ]) / τ
+    rate: float  # (E_h[yⁿ⁻¹] − E_h[yⁿ]) / τ; of E_h + λ·c after an SQP step off the constraint
     seconds: float
     assembly_s: float
     factor_s: float  # factorisation (0 when the lagged solver reused its factors)

@@ -5,7 +5,8 @@ With ``flow.adaptive_tau`` a step is accepted when E_h did not rise, its lineari
 accept the state; τ then grows, else the step is redone with τ/2. With ``flow.newton_finish``
 the steps are SQP steps (:mod:`dgplate.solvers.sqp`): with ``flow.step_control = 'trust_region'``
 (the default) from the first step on, τ acting as a trust radius, with ``'defect_bound'`` once τ
-is large enough.
+is large enough. The trust region's SQP steps may end off the constraint: they are judged by
+the merit E_h + λ·c instead of E_h (:class:`dgplate.solvers.projection.Merit`).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from typing import Protocol
 
 from dgplate.errors import SolverError
 from dgplate.solvers.constraint import IsometryDefect
-from dgplate.solvers.projection import SQP_DEFECT_TOL
+from dgplate.solvers.projection import SQP_DEFECT_TOL, SQP_STEP_DEFECT, Merit
 from dgplate.solvers.safeguard import ActiveSetStep, Redoable, Safeguard, passes, safety
 from dgplate.solvers.step_system import StepSystem
 from dgplate.solvers.steps import StepInfo
@@ -53,6 +54,7 @@ class Stepper(Redoable, Protocol):
 
     defect: IsometryDefect
     _last_energy: float
+    merit: Merit | None  # the last step's, when it was an SQP step off the constraint
 
     def step(self, newton: bool = False) -> StepInfo:
         """One step from the current state (``newton``: an SQP step)."""
@@ -101,7 +103,7 @@ class TauController:
 
         With ``flow.newton_finish`` the step is first tried as an SQP step
         (:mod:`dgplate.solvers.sqp`) when :meth:`_newton_due`. With the trust region
-        (:meth:`_trust_region`) a refused SQP step (or one whose matrix cannot be factorised)
+        (:meth:`trust_region`) a refused SQP step (or one whose matrix cannot be factorised)
         is retried as an SQP step with τ/2 (``rejected_steps``); otherwise, and below the
         least τ, it is taken back and redone as a plain step with the same τ
         (``newton_rejections``).
@@ -139,7 +141,7 @@ class TauController:
         a refused plain step is redone with τ/2 (both ``rejected_steps``).
         """
         flow = self.flow
-        if newton and not (self._trust_region() and flow.tau / 2 >= self._tau_min()):
+        if newton and not (self.trust_region() and flow.tau / 2 >= self._tau_min()):
             self.counts.newton_rejections += 1
             return False
         self.counts.rejected_steps += 1
@@ -158,7 +160,10 @@ class TauController:
     def _accepted(self, info: StepInfo, energy0: float, defect0: float = math.inf) -> bool:
         """The adaptive controller's test of a step from the energy ``energy0``.
 
-        E_h did not rise, the linearisation error is at most ``flow.defect_bound`` (not asked of
+        An SQP step of the trust region, which may end off the constraint (the flow's
+        ``merit``): its merit E_h + λ·c did not rise, and D_h is at most ``SQP_STEP_DEFECT``·|ω|
+        or its start's. Otherwise: E_h did not rise, the linearisation error is at most
+        ``flow.defect_bound`` (not asked of
         an SQP step under the trust region: its corrections restore the constraint, and the
         test below judges them) and the nonlocal terms accept the state; a non-finite energy or
         defect fails. An SQP step
@@ -175,8 +180,13 @@ class TauController:
         least distance 0.54 against 0.14) became the reference, and every later step was
         refused down to the least τ (docs/performance.md).
         """
+        merit = self.flow.merit
+        if merit is not None:  # an SQP step off the constraint: its merit function
+            bound = max(defect0, SQP_STEP_DEFECT * self.flow.defect.area)
+            kept = merit.lowered(energy0, info.energy) and info.defect <= bound
+            return passes(kept, self.system.energy.nonlocal_terms)
         lowered = info.energy <= energy0 + 1e-12 * max(1.0, abs(energy0))
-        trusted = math.isfinite(defect0) and self._trust_region()
+        trusted = math.isfinite(defect0) and self.trust_region()
         close = trusted or self.linear_defect <= self.settings.defect_bound
         on_constraint = info.defect <= max(defect0, SQP_DEFECT_TOL * self.flow.defect.area)
         return passes(lowered and close and on_constraint, self.system.energy.nonlocal_terms)
@@ -190,9 +200,9 @@ class TauController:
         settings = self.settings
         ratio = min(settings.newton_tau_ratio, settings.tau_max_ratio)
         large = self.system.tau >= ratio * self.initial * (1 - 1e-12)
-        return settings.newton_finish and (large or self._trust_region())
+        return settings.newton_finish and (large or self.trust_region())
 
-    def _trust_region(self) -> bool:
+    def trust_region(self) -> bool:
         """Whether τ is a trust radius of SQP steps (``flow.step_control = 'trust_region'``).
 
         Only with ``flow.newton_finish`` and without active sets (obstacles, whose sets the
@@ -233,7 +243,7 @@ class TauController:
         and halves τ).
         """
         settings = self.settings
-        fast = settings.newton_finish and not (self.counts.rejected_steps or self._trust_region())
+        fast = settings.newton_finish and not (self.counts.rejected_steps or self.trust_region())
         if not fast or settings.tau_growth_max <= settings.tau_growth:
             return settings.tau_growth
         defect = max(self.linear_defect, 1e-300)

@@ -103,4 +103,12 @@ def test_lce_same_on_any_number_of_ranks(tmp_path):
     assert parallel["steps"] == serial["steps"]
     assert parallel["energy"] == pytest.approx(serial["energy"], rel=PARITY_RTOL)
     assert parallel["isometry_defect"] == pytest.approx(serial["isometry_defect"], abs=1e-12)
-    np.testing.assert_allclose(parallel["bbox"], serial["bbox"], rtol=0, atol=1e-8)
+    # the shape: nothing is clamped, so the minimisers are a family under rigid motions, which
+    # only the flow's L² metric (1/τ) damps; the SQP steps at τ up to 64 moved the 2-rank run
+    # by 1.6·10⁻⁶ along it, with II and the curvatures equal to 10⁻¹⁴
+    for key in ("mean_second_fundamental_form", "gauss_curvature_l1"):
+        np.testing.assert_allclose(parallel[key], serial[key], rtol=0, atol=1e-10)
+    assert parallel["cylinder_fit"]["radius"] == pytest.approx(
+        serial["cylinder_fit"]["radius"], rel=1e-10
+    )
+    np.testing.assert_allclose(parallel["bbox"], serial["bbox"], rtol=0, atol=1e-5)

@@ -14,6 +14,12 @@ import pytest
 from helpers import PROBLEMS, QUIET
 
 from dgplate.cli import main
+from dgplate.solvers.projection import (
+    SQP_CORRECTIONS,
+    SQP_DEFECT_TOL,
+    SQP_STEP_DEFECT,
+    Merit,
+)
 from dgplate.solvers.safeguard import Safeguard
 from dgplate.solvers.tau import TauController
 
@@ -63,13 +69,59 @@ def test_nonlocal_terms_are_asked_only_about_steps_that_passed():
         newton_finish=True, step_control="trust_region", defect_bound=1e-2
     )
     control.system = SimpleNamespace(energy=SimpleNamespace(nonlocal_terms=[term], active_sets=[]))
-    control.flow = SimpleNamespace(defect=SimpleNamespace(area=1.0))
+    control.flow = SimpleNamespace(defect=SimpleNamespace(area=1.0), merit=None)
     control.linear_defect = 0.0
     assert not control._accepted(SimpleNamespace(energy=1.1, defect=0.0), 1.0, 0.0)
     assert not control._accepted(SimpleNamespace(energy=0.9, defect=1e-3), 1.0, 0.0)
     assert term.asked == 0
     assert control._accepted(SimpleNamespace(energy=0.9, defect=0.0), 1.0, 0.0)
     assert term.asked == 1
+
+
+def test_a_step_off_the_constraint_is_judged_by_its_merit_and_its_defect():
+    """An SQP step off the constraint: accepted when E_h + λ·c fell, even with E_h up, and D_h
+    within SQP_STEP_DEFECT·|ω| (or its start's); refused steps do not reach accept()."""
+    term = Recording()
+    control = TauController.__new__(TauController)
+    control.settings = SimpleNamespace(newton_finish=True, step_control="trust_region")
+    control.system = SimpleNamespace(energy=SimpleNamespace(nonlocal_terms=[term], active_sets=[]))
+    area, bound = 2.0, SQP_STEP_DEFECT * 2.0
+    control.flow = SimpleNamespace(defect=SimpleNamespace(area=area), merit=Merit(0.0, -0.2))
+    assert control._accepted(SimpleNamespace(energy=1.1, defect=0.5 * bound), 1.0, 0.0)
+    assert term.asked == 1
+    assert not control._accepted(SimpleNamespace(energy=1.3, defect=0.5 * bound), 1.0, 0.0)
+    assert not control._accepted(SimpleNamespace(energy=0.9, defect=2 * bound), 1.0, 0.0)
+    assert not control._accepted(SimpleNamespace(energy=0.9, defect=float("nan")), 1.0, 0.0)
+    assert term.asked == 1
+    # a start further off than the bound: the defect may not grow
+    assert control._accepted(SimpleNamespace(energy=0.9, defect=2 * bound), 1.0, 3 * bound)
+    assert term.asked == 2
+
+
+def test_sqp_steps_go_off_the_constraint_and_a_converged_run_lands_on_it():
+    """The BNN plate (6 × 6) under the trust region: the SQP steps solve the linearised
+    constraint from their start's defect and are not closed, so D_h leaves round-off on the
+    way; the merit E_h + λ·c never rises, and the run stops on the constraint, at the fixed-τ
+    run's E_h, with a step and a correction per attempt and a few more to land."""
+    from mpi4py import MPI
+
+    from helpers import bnn_flow
+
+    def run(**flow):
+        solver = bnn_flow(MPI.COMM_SELF, 6, tol=1e-6, stop="stationarity", max_steps=400, **flow)
+        result, counts, area = solver.run(), solver.counts, solver.defect.area
+        solver.destroy()
+        return result, counts, area
+
+    fixed, _, _ = run(projection_steps=1)
+    result, counts, area = run(adaptive_tau=True, projection_steps=2)
+    assert result.converged and result.energy_increases == []
+    assert max(row.defect for row in result.history[:-1]) > 1e-6 * area
+    assert result.history[-1].defect <= SQP_DEFECT_TOL * area
+    assert result.energy == pytest.approx(fixed.energy, rel=1e-7)
+    attempts = counts.newton_steps + counts.rejected_steps
+    assert counts.newton_steps == result.steps
+    assert 2 * attempts <= counts.step_solves <= 2 * attempts + SQP_CORRECTIONS
 
 
 def test_the_fixed_tau_safeguard_asks_the_nonlocal_terms_only_about_steps_that_lowered_e():
@@ -81,3 +133,26 @@ def test_the_fixed_tau_safeguard_asks_the_nonlocal_terms_only_about_steps_that_l
     assert term.asked == 0
     assert guard.acceptable(SimpleNamespace(rate=1.0, tau=0.1, energy=1.0))
     assert term.asked == 1
+
+
+@pytest.mark.parametrize("tau", [10.0, 100.0])
+def test_the_merit_is_the_energy_of_the_landed_state_to_first_order(tau):
+    """After an SQP step off the constraint, E_h + λ·c predicts the energy of the state
+    brought back onto it at least 20 times better than E_h (BNN plate 6 × 6, three steps in,
+    where λ ≠ 0; measured: 50 and 150 times for τ = 10 and 100)."""
+    from mpi4py import MPI
+
+    from helpers import bnn_flow
+
+    flow = bnn_flow(MPI.COMM_SELF, 6, adaptive_tau=True, projection_steps=2, tau=0.5)
+    for _ in range(3):
+        flow.step(newton=True)
+        flow.projection.land(flow._last_increment)
+    flow.tau = tau
+    flow.step(newton=True)
+    energy, merit, defect = flow.evaluate_energy(), flow.merit, flow.defect()
+    assert merit is not None and defect > 1e-6 * flow.defect.area
+    assert flow.projection.land(flow._last_increment)
+    landed = flow.evaluate_energy()
+    flow.destroy()
+    assert abs(energy + merit.end - landed) < abs(energy - landed) / 20
