@@ -10,7 +10,7 @@ records them with the wall time and where it went:
   mesh, calibration, output, checkpoints), from the per-step seconds of ``history.csv``;
 - the bilayers: the flow's steps and step solves.
 
-    python benchmarks/paper_sizes.py [--ranks 2] [--cases box_file box_paper i_shape_paper]
+    python benchmarks/paper_sizes.py [--ranks 2] [--cases box_file box_paper i_shape_paper …]
     python benchmarks/paper_sizes.py --table-only [--json …] [--page docs/performance.md]
 
 The tables of docs/performance.md (between ``<!-- paper_sizes:begin -->`` and
@@ -50,6 +50,8 @@ DEMOS, PROBLEMS = ROOT / "demos", ROOT / "demos" / "problems"
 #: case → the command's arguments after ``python`` (each takes ``--out``)
 I_SHAPE = str(PROBLEMS / "bilayer_i_shape.toml")
 I_SHAPE_PAPER = "mesh.parameters={W=4.0,H=4.0,t=1.0,w=1.5,h=0.125}"
+PARTIAL_CLAMP = str(PROBLEMS / "bilayer_partial_clamp.toml")
+PARTIAL_CLAMP_PAPER = "mesh.parameters={W=4.0,L=10.0,c=2.0,h=0.25}"
 CASES = {
     "box_file": ["-m", "dgplate", "run", str(PROBLEMS / "box_folding.toml")],
     "box_paper": [str(DEMOS / "box_folding.py"), "--paper"],
@@ -59,6 +61,9 @@ CASES = {
     # the same mesh with the accurate flow (the file's τ as the first τ)
     "i_shape_paper_accurate": ["-m", "dgplate", "run", I_SHAPE, "--set", I_SHAPE_PAPER,
                                "--set", "flow.method='accurate'"],
+    # the published plate (its demo's --paper mesh, h = 0.25) with the accurate flow
+    "partial_clamp_paper_accurate": ["-m", "dgplate", "run", PARTIAL_CLAMP, "--set",
+                                     PARTIAL_CLAMP_PAPER, "--set", "flow.method='accurate'"],
 }  # fmt: skip
 
 

@@ -158,7 +158,7 @@ class FlowSpec:
     )
     step_control: str = option(
         "trust_region",
-        "adaptive τ with newton_finish: 'trust_region' (every step an SQP step that also solves the constraint linearised from its start's defect, so the states between may be off the constraint; accepted when the merit E_h + λ·c did not rise and D_h stayed below 0.1·|ω| or its start's; τ, the trust radius, halved and the SQP step retried when refused, grown by tau_growth when accepted; a converged run ends on the constraint; not with active sets) or 'defect_bound' (plain steps accepted below defect_bound, SQP steps from newton_tau_ratio on, closed onto the constraint, a refused SQP step redone plain)",
+        "adaptive τ with newton_finish: 'trust_region' (every step an SQP step that also solves the constraint linearised from its start's defect, so the states between may be off the constraint; accepted when the merit E_h + λ·c did not rise and D_h stayed below 0.01·|ω| or its start's; τ, the trust radius, halved and the SQP step retried when refused, grown by tau_growth when accepted; a converged run ends on the constraint; not with active sets) or 'defect_bound' (plain steps accepted below defect_bound, SQP steps from newton_tau_ratio on, closed onto the constraint, a refused SQP step redone plain)",
         choices=STEP_CONTROLS,
     )
     newton_finish: bool = option(

@@ -32,8 +32,10 @@ SQP_DEFECT_TOL = 1e-12
 SQP_STEP_CORRECTIONS = 1
 #: D_h per unit area that an SQP step off the constraint may leave (more only if its start had
 #: more): its merit E_h + λ·c is the energy of the state brought back onto the constraint only
-#: to first order in the defect, and λ·c is unbounded below (see Merit).
-SQP_STEP_DEFECT = 0.1
+#: to first order in the defect, and λ·c is unbounded below (see Merit). With 0.02 and more the
+#: I-shaped plate at its paper mesh ended at another minimiser than the closed steps' (E_h −1.9 %,
+#: its axis 8.5° off; docs/performance.md).
+SQP_STEP_DEFECT = 0.01
 #: The corrections' differences the closing's Anderson mixing combines (at most).
 ANDERSON_DEPTH = 5
 
