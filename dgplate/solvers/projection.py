@@ -23,6 +23,7 @@ from dgplate.solvers.constraint import IsometryDefect
 from dgplate.solvers.lagged import StepSolver
 from dgplate.solvers.linear import SolveStats
 from dgplate.solvers.step_system import StepSystem
+from dgplate.solvers.steps import not_raised
 
 #: At most this many corrections close the constraint after an SQP step (see close_constraint).
 SQP_CORRECTIONS = 20
@@ -110,8 +111,7 @@ class Merit:
         Returns:
             True when the merit did not rise.
         """
-        before, after = energy_start + self.start, energy_end + self.end
-        return after <= before + 1e-12 * max(1.0, abs(before))
+        return not_raised(energy_start + self.start, energy_end + self.end)
 
 
 class Projection:

@@ -61,7 +61,7 @@ from dgplate.compat import Array, Function, FunctionSpace, Mesh
 from dgplate.dg.energy import Energy
 from dgplate.dg.forms import integral
 from dgplate.errors import SolverError
-from dgplate.solvers import linear
+from dgplate.solvers import linear, steps
 from dgplate.solvers.driver import EnergyFlow, Observer
 from dgplate.solvers.flow import FlowSpec
 from dgplate.solvers.rod_forms import (
@@ -187,7 +187,7 @@ class RodTau:
 
     def _accepted(self, info: RodStep, energy0: float) -> bool:
         """E did not rise and the linearisation error is small; then the nonlocal terms accept."""
-        lowered = info.energy <= energy0 + 1e-12 * max(1.0, abs(energy0))
+        lowered = steps.not_raised(energy0, info.energy)
         close = self.flow.linear_defect <= self.settings.defect_bound
         return passes(lowered and close, self.flow.energy.nonlocal_terms)
 

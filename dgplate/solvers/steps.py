@@ -36,6 +36,19 @@ class StepInfo:
         )
 
 
+def not_raised(before: float, after: float) -> bool:
+    """Whether an energy went from ``before`` to ``after`` without rising (to a relative 10⁻¹²).
+
+    Args:
+        before: the energy (or merit) before a step.
+        after: the same after it.
+
+    Returns:
+        True when it did not rise beyond round-off.
+    """
+    return after <= before + 1e-12 * max(1.0, abs(before))
+
+
 class StopRule(Protocol):
     """The [flow] keys of the stopping test (:class:`dgplate.solvers.flow.FlowSpec`)."""
 

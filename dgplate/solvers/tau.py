@@ -19,7 +19,7 @@ from dgplate.solvers.constraint import IsometryDefect
 from dgplate.solvers.projection import SQP_DEFECT_TOL, SQP_STEP_DEFECT, Merit
 from dgplate.solvers.safeguard import ActiveSetStep, Redoable, Safeguard, passes, safety
 from dgplate.solvers.step_system import StepSystem
-from dgplate.solvers.steps import StepInfo
+from dgplate.solvers.steps import StepInfo, not_raised
 
 #: The [flow] keys of the adaptive τ controller and its SQP switch: they act only with
 #: ``flow.adaptive_tau = true``.
@@ -185,7 +185,7 @@ class TauController:
             bound = max(defect0, SQP_STEP_DEFECT * self.flow.defect.area)
             kept = merit.lowered(energy0, info.energy) and info.defect <= bound
             return passes(kept, self.system.energy.nonlocal_terms)
-        lowered = info.energy <= energy0 + 1e-12 * max(1.0, abs(energy0))
+        lowered = not_raised(energy0, info.energy)
         trusted = math.isfinite(defect0) and self.trust_region()
         close = trusted or self.linear_defect <= self.settings.defect_bound
         on_constraint = info.defect <= max(defect0, SQP_DEFECT_TOL * self.flow.defect.area)
