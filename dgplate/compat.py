@@ -126,13 +126,16 @@ def on_first_compile(announce: Callable[[], None]) -> Iterator[None]:
     """Call ``announce`` once, before the first form the block compiles (a JIT cache miss).
 
     FFCx's ``get_cached_module`` (0.9 to 0.11) creates the C file of a form it does not find
-    and returns no module: the caller then compiles it and marks it ready. A process that
-    ends before that (:func:`dgplate.interrupt.setting_up`) renames the C file as FFCx does
-    on a failed compilation; left in place, it would make the next run wait for it.
+    and returns no module: the caller then compiles it (``_compile_objects``: the code, then
+    the C compiler) and marks it ready. A process that ends before that
+    (:func:`dgplate.interrupt.setting_up`) renames the C file as FFCx does on a failed
+    compilation; left in place, it would make the next run wait for it. The compilation runs
+    under :func:`dgplate.interrupt.compiling`.
     """
     import ffcx.codegeneration.jit as jit
 
     original: Callable[..., Any] = jit.get_cached_module
+    compile_objects: Callable[..., Any] = jit._compile_objects
     announced: list[bool] = []
 
     signature = inspect.signature(original)
@@ -149,11 +152,17 @@ def on_first_compile(announce: Callable[[], None]) -> Iterator[None]:
                 announce()
         return found
 
+    def compile_under_python_handlers(*args: Any, **kwargs: Any) -> Any:
+        with interrupt.compiling():
+            return compile_objects(*args, **kwargs)
+
     jit.get_cached_module = get_cached_module
+    jit._compile_objects = compile_under_python_handlers
     try:
         yield
     finally:
         jit.get_cached_module = original
+        jit._compile_objects = compile_objects
         interrupt.CLEAN_UP.clear()
 
 

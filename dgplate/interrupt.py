@@ -13,7 +13,9 @@ another compiles), where a Python handler would run only when the call returns. 
 command line (``StopOnSignal(at_once=True)``) a signal during the set-up (:func:`setting_up`)
 ends the process at once, with 130 or 143 and without PETSc's crash report: the C library
 calls the handler directly, which renames the C file of a form compilation this process left
-unfinished (:data:`CLEAN_UP`, else the next run would wait for it) and exits.
+unfinished (:data:`CLEAN_UP`, else the next run would wait for it) and exits. While a form
+compiles (Python, and a wait for the compiler) Python's own handlers do the same
+(:func:`compiling`).
 """
 
 from __future__ import annotations
@@ -129,18 +131,51 @@ def renew() -> None:
             _libc_signal(sig, _END_NOW)
 
 
-def _end_now(signum: int) -> None:
-    """End the process with 128 + ``signum`` now.
+@contextlib.contextmanager
+def compiling() -> Iterator[None]:
+    """A C compiler's run inside :func:`setting_up`: Python's own handlers end the process.
 
-    Called by the C library in the signal's context, even inside compiled code: the least
-    Python possible, and no MPI. The process's own children (a C compiler FFCx started) end
-    first: left running, they would report the C file the clean-up renamed as missing.
+    The C-level handler runs wherever the signal lands, and a compilation is mostly Python
+    (FFCx, cffi, setuptools) and a wait for the compiler: the handler could interrupt this
+    thread inside ``malloc`` or while it takes back the GIL after the wait, and its own
+    allocations or its GIL would then wait for a lock the thread already holds, forever.
+    Python's handlers run between bytecodes, where that cannot happen, and a wait for a child
+    process returns to run them at once. The C-level handlers are back on leaving the block.
+    Outside :func:`setting_up` it does nothing.
+    """
+    if not _ending or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    for sig in SIGNALS:
+        signal.signal(sig, _end_from_python)
+    try:
+        yield
+    finally:
+        renew()
+
+
+def _end_from_python(signum: int, _frame: FrameType | None) -> None:
+    """:func:`_end`, as Python's handler (:func:`compiling`)."""
+    _end(signum)
+
+
+def _end_now(signum: int) -> None:
+    """:func:`_end`, called by the C library in the signal's context (even in compiled code).
 
     The signal may come while the interrupted code has an exception set (being raised or
     handled): every builtin called then fails with SystemError ("returned a result with an
     exception set") and the handler returned without ending the process. It is cleared first.
     """
     _clear_python_error()
+    _end(signum)
+
+
+def _end(signum: int) -> None:
+    """End the process with 128 + ``signum`` now: the least Python possible, and no MPI.
+
+    The process's own children (a C compiler FFCx started) end first: left running, they
+    would report the C file the clean-up renamed as missing.
+    """
     if _has_children():  # only then the scan of /proc, whose reads allocate (see below)
         _end_children(os.getpid())
     for clean_up in CLEAN_UP:

@@ -442,6 +442,51 @@ def test_sigterm_during_checks_compilation_keeps_the_cache_usable(tmp_path):
     assert list(fenics.glob("*.c.failed"))
 
 
+def test_a_compilation_in_the_set_up_ends_from_pythons_handlers(tmp_path, monkeypatch):
+    """While FFCx compiles a form in the command line's set-up, SIGINT and SIGTERM reach
+    Python's handlers, which run between bytecodes: the C library's handler could land inside
+    ``malloc`` or in the GIL's hand-over after the wait for the compiler, and wait there
+    forever. Once the form is compiled, the C library's handler is back."""
+    import ctypes
+
+    import dolfinx
+    import ffcx.codegeneration.jit as jit
+    import ufl
+
+    from dgplate import compat, interrupt
+
+    end_now = ctypes.cast(interrupt._END_NOW, ctypes.c_void_p).value
+    during = []
+    compile_objects = jit._compile_objects
+
+    def spy(*args, **kwargs):
+        during.extend((signal.getsignal(s), _c_handler(s)) for s in interrupt.SIGNALS)
+        return compile_objects(*args, **kwargs)
+
+    monkeypatch.setattr(jit, "_compile_objects", spy)
+    mesh = dolfinx.mesh.create_unit_interval(MPI.COMM_SELF, 2)
+    functional = ufl.SpatialCoordinate(mesh)[0] * ufl.dx
+    with interrupt.StopOnSignal(at_once=True), interrupt.setting_up():
+        before = [_c_handler(s) for s in interrupt.SIGNALS]
+        with compat.on_first_compile(lambda: None):
+            dolfinx.fem.form(functional, jit_options={"cache_dir": str(tmp_path)})
+        after = [_c_handler(s) for s in interrupt.SIGNALS]
+    assert before == after == [end_now, end_now]
+    assert len(during) == 2
+    assert all(python is interrupt._end_from_python and c != end_now for python, c in during)
+    assert list(tmp_path.glob("*.c.cached"))  # it did compile
+
+
+def _c_handler(signum: int) -> int | None:
+    """The address of the C function handling ``signum`` (glibc's ``struct sigaction`` starts
+    with it)."""
+    import ctypes
+
+    action = ctypes.create_string_buffer(256)
+    assert ctypes.CDLL(None).sigaction(signum, None, action) == 0
+    return ctypes.c_void_p.from_buffer(action).value
+
+
 def test_ending_at_once_ends_the_processes_this_one_started():
     """The compiler a form compilation runs, and what it runs in turn, end with the process
     (left running, ``cc1`` reports the C file the clean-up renamed)."""
