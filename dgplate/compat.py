@@ -126,16 +126,16 @@ def on_first_compile(announce: Callable[[], None]) -> Iterator[None]:
     """Call ``announce`` once, before the first form the block compiles (a JIT cache miss).
 
     FFCx's ``get_cached_module`` (0.9 to 0.11) creates the C file of a form it does not find
-    and returns no module: the caller then compiles it (``_compile_objects``: the code, then
-    the C compiler) and marks it ready. A process that ends before that
-    (:func:`dgplate.interrupt.setting_up`) renames the C file as FFCx does on a failed
-    compilation; left in place, it would make the next run wait for it. The compilation runs
-    under :func:`dgplate.interrupt.compiling`.
+    and returns no module: the caller then compiles it and marks it ready. A process that
+    ends before that (:func:`dgplate.interrupt.setting_up`) renames the C file as FFCx does
+    on a failed compilation; left in place, it would make the next run wait for it. FFCx's
+    entry points that DOLFINx calls (``compile_forms`` and the like) run under
+    :func:`dgplate.interrupt.compiling`.
     """
     import ffcx.codegeneration.jit as jit
 
     original: Callable[..., Any] = jit.get_cached_module
-    compile_objects: Callable[..., Any] = jit._compile_objects
+    entries = {name: getattr(jit, name) for name in COMPILE_ENTRIES}
     announced: list[bool] = []
 
     signature = inspect.signature(original)
@@ -152,18 +152,31 @@ def on_first_compile(announce: Callable[[], None]) -> Iterator[None]:
                 announce()
         return found
 
-    def compile_under_python_handlers(*args: Any, **kwargs: Any) -> Any:
-        with interrupt.compiling():
-            return compile_objects(*args, **kwargs)
-
     jit.get_cached_module = get_cached_module
-    jit._compile_objects = compile_under_python_handlers
+    for name, entry in entries.items():
+        setattr(jit, name, _under_python_handlers(entry))
     try:
         yield
     finally:
         jit.get_cached_module = original
-        jit._compile_objects = compile_objects
+        for name, entry in entries.items():
+            setattr(jit, name, entry)
         interrupt.CLEAN_UP.clear()
+
+
+#: FFCx's compilers that DOLFINx calls (FFCx 0.9 to 0.11).
+COMPILE_ENTRIES = ("compile_forms", "compile_expressions")
+
+
+def _under_python_handlers(compile_objects: Callable[..., Any]) -> Callable[..., Any]:
+    """``compile_objects`` run under :func:`dgplate.interrupt.compiling`."""
+
+    @functools.wraps(compile_objects)
+    def compile_under_python_handlers(*args: Any, **kwargs: Any) -> Any:
+        with interrupt.compiling():
+            return compile_objects(*args, **kwargs)
+
+    return compile_under_python_handlers
 
 
 def _abandon(c_file: Path) -> None:

@@ -457,7 +457,7 @@ def test_a_compilation_in_the_set_up_ends_from_pythons_handlers(tmp_path, monkey
 
     end_now = ctypes.cast(interrupt._END_NOW, ctypes.c_void_p).value
     during = []
-    compile_objects = jit._compile_objects
+    compile_objects = jit._compile_objects  # the code, then the C compiler
 
     def spy(*args, **kwargs):
         during.extend((signal.getsignal(s), _c_handler(s)) for s in interrupt.SIGNALS)
