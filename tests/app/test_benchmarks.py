@@ -145,6 +145,20 @@ def test_rollup_page_is_generated(tmp_path):
     assert "| 1 | trust_region |" in page.read_text()
 
 
+def test_sqp_bound_page_is_generated(tmp_path):
+    """docs/performance.md's table of the SQP steps' bound is what --table-only writes from
+    sqp_bound.json, which holds the three cases of every variant, the default among them."""
+    page = BENCH.parent / "docs" / "performance.md"
+    assert_page_is_generated("sqp_bound", page, tmp_path)
+    runs = json.loads((BENCH / "results" / "sqp_bound.json").read_text())["runs"]
+    variants = {run["variant"] for run in runs}
+    assert "0.01" in variants
+    assert {(run["case"], run["variant"]) for run in runs} == {
+        (case, variant) for case in ("rollup", "i_shape", "straight_fold") for variant in variants
+    }
+    assert all(run["converged"] for run in runs)
+
+
 def _seed_study(case: str, energies: list[float], radii: list[float]) -> dict:
     """A seeds.json study of the Z = aI rectangle ``case`` with these levels' E_h and radii."""
     seeds = load_benchmark("seeds")
