@@ -10,12 +10,14 @@ docs/performance.md, "SQP steps off the constraint"). Per variant of the bound t
 - ``straight_fold``: ``demos/problems/straight_fold.toml`` from the flat sheet (1 rank), whose
   exact minimiser has E = 0.
 
-A variant is ``BOUND`` (τ doubled after an accepted step, the default growth) or
-``BOUND:cube_root`` (τ grown by 0.9·(bound/D_h)^⅓, between 1 and 2: the factor that would
-bring a defect ∝ τ³ to 0.9³ of the bound). Each run is a process of its own, whose module
-constants the variant sets.
+A variant is ``BOUND`` (the default control: τ doubled after an accepted step whose D_h used
+at most half of the bound, else held; after a refused one, τ times (D_h/bound)^(−½) between
+0.1 and 0.5), ``BOUND:halved`` (the former control: τ doubled after every accepted step and
+halved after every refused one) or ``BOUND:cube_root`` (τ grown by 0.9·(bound/D_h)^⅓, between
+1 and 2: the factor that would bring a defect ∝ τ³ to 0.9³ of the bound). Each run is a
+process of its own, whose module constants the variant sets.
 
-    python benchmarks/sqp_bound.py [--variants 0.1 0.03 0.02 0.01 0.01:cube_root]
+    python benchmarks/sqp_bound.py [--variants 0.1 0.03 0.02 0.01 0.01:halved 0.01:cube_root]
                                    [--cases rollup i_shape straight_fold] [--keep]
     python benchmarks/sqp_bound.py --table-only
 
@@ -45,10 +47,16 @@ ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results"
 PROBLEMS = ROOT / "demos" / "problems"
 BEGIN, END = "<!-- sqp_bound:begin -->", "<!-- sqp_bound:end -->"
-VARIANTS = ("0.1", "0.03", "0.02", "0.01", "0.01:cube_root")
+VARIANTS = ("0.1", "0.03", "0.02", "0.01", "0.01:halved", "0.01:cube_root")
 #: case → its ranks
 CASES = {"rollup": 1, "i_shape": 2, "straight_fold": 1}
 QUIET = {"output.vtx": False, "output.png": False, "output.progress": 0}
+#: a variant's growth → its name in the table
+GROWTHS = {
+    "": "",
+    "halved": ", τ doubled after every accepted step, halved after every refused one",
+    "cube_root": ", τ grown by 0.9·(bound/D_h)^⅓ after an accepted step",
+}
 I_SHAPE_PAPER = {"W": 4.0, "H": 4.0, "t": 1.0, "w": 1.5, "h": 0.125}
 
 
@@ -73,6 +81,9 @@ def apply(variant: str) -> None:
     vars(tau)["SQP_STEP_DEFECT"] = float(bound)  # the name tau imported
     if growth == "cube_root":
         tau.TauController._growth = _cube_root_growth  # type: ignore[method-assign]
+    elif growth == "halved":
+        tau.TauController._shrink = lambda self, newton: 0.5  # type: ignore[method-assign]
+        tau.TauController._growth = _doubled(tau.TauController._growth)  # type: ignore[method-assign]
     elif growth:
         raise SystemExit(f"unknown growth {growth!r} in variant {variant!r}")
 
@@ -84,6 +95,16 @@ def _cube_root_growth(self: Any) -> float:
     defect = max(self.flow.defect() / self.flow.defect.area, 1e-300)
     wanted = 0.9 * (projection.SQP_STEP_DEFECT / defect) ** (1 / 3)
     return float(min(self.settings.tau_growth, max(1.0, wanted)))
+
+
+def _doubled(growth: Any) -> Any:
+    """The growth of τ as it was before the trust region held τ near its bound."""
+
+    def doubled(self: Any) -> float:
+        self.bound_used = 0.0
+        return float(growth(self))
+
+    return doubled
 
 
 def one(case: str, variant: str, result: Path) -> None:
@@ -143,7 +164,7 @@ def table(record: dict[str, Any]) -> str:
     rows = []
     for variant in dict.fromkeys(r["variant"] for r in record["runs"]):
         bound, _, growth = variant.partition(":")
-        name = bound + (", τ grown by 0.9·(bound/D_h)^⅓ instead of doubled" if growth else "")
+        name = bound + GROWTHS[growth]
         cells = [f"**{name}**" if variant == "0.01" else name]
         roll, shape, fold = (runs.get((case, variant)) for case in CASES)
         cells.append(

@@ -141,7 +141,9 @@ class FlowSpec:
         gt=0,
     )
     tau_growth: float = option(
-        2.0, "adaptive τ: the factor by which τ grows after an accepted step", gt=1
+        2.0,
+        "adaptive τ: the factor by which τ grows after an accepted step (under the trust region, one whose D_h used at most half of its bound)",
+        gt=1,
     )
     tau_growth_max: float = option(
         8.0,
@@ -158,7 +160,7 @@ class FlowSpec:
     )
     step_control: str = option(
         "trust_region",
-        "adaptive τ with newton_finish: 'trust_region' (every step an SQP step that also solves the constraint linearised from its start's defect, so the states between may be off the constraint; accepted when the merit E_h + λ·c did not rise and D_h stayed below 0.01·|ω| or its start's; τ, the trust radius, halved and the SQP step retried when refused, grown by tau_growth when accepted; a converged run ends on the constraint; not with active sets) or 'defect_bound' (plain steps accepted below defect_bound, SQP steps from newton_tau_ratio on, closed onto the constraint, a refused SQP step redone plain)",
+        "adaptive τ with newton_finish: 'trust_region' (every step an SQP step that also solves the constraint linearised from its start's defect, so the states between may be off the constraint; accepted when the merit E_h + λ·c did not rise and D_h stayed below 0.01·|ω| or its start's; τ, the trust radius: retried smaller when refused (halved, or by (D_h/bound)^(−½) down to a tenth when D_h overshot), grown by tau_growth when accepted with D_h at most half its bound, else held; a converged run ends on the constraint; not with active sets) or 'defect_bound' (plain steps accepted below defect_bound, SQP steps from newton_tau_ratio on, closed onto the constraint, a refused SQP step redone plain)",
         choices=STEP_CONTROLS,
     )
     newton_finish: bool = option(

@@ -98,6 +98,43 @@ def test_a_step_off_the_constraint_is_judged_by_its_merit_and_its_defect():
     assert term.asked == 2
 
 
+def _judged(defect):
+    """A trust region's controller that has just judged an SQP step ending at D_h = ``defect``."""
+    control = TauController.__new__(TauController)
+    control.settings = SimpleNamespace(
+        newton_finish=True, step_control="trust_region", tau_growth=2.0, tau_growth_max=2.0
+    )
+    control.system = SimpleNamespace(energy=SimpleNamespace(nonlocal_terms=[], active_sets=[]))
+    control.counts = SimpleNamespace(rejected_steps=0)
+    control.flow = SimpleNamespace(defect=SimpleNamespace(area=1.0), merit=Merit(0.0, -0.1))
+    control._accepted(SimpleNamespace(energy=0.9, defect=defect), 1.0, 0.0)
+    return control
+
+
+@pytest.mark.parametrize(
+    ("used", "growth", "shrink"),
+    [
+        (0.3, 2.0, 0.5),
+        (0.5, 2.0, 0.5),
+        (0.8, 1.0, 0.5),
+        (2.0, None, 0.5),
+        (16.0, None, 0.25),
+        (400.0, None, 0.1),
+    ],
+)
+def test_tau_follows_the_share_of_the_bound_a_step_used(used, growth, shrink):
+    """An SQP step that used at most half of its bound doubles τ, one that used more holds it
+    (doubled, the next step overshot: every third attempt of the full-turn roll-up refused);
+    a refused one shrinks τ by (D_h/bound)^(−½) between 0.1 and 0.5 (not halved again and
+    again after a first step far over the bound)."""
+    control = _judged(used * SQP_STEP_DEFECT)
+    assert control.bound_used == pytest.approx(used)
+    if growth is not None:
+        assert control._growth() == growth
+    assert control._shrink(newton=True) == pytest.approx(shrink)
+    assert control._shrink(newton=False) == 0.5  # a plain step is halved
+
+
 def test_sqp_steps_go_off_the_constraint_and_a_converged_run_lands_on_it():
     """The BNN plate (6 × 6) under the trust region: the SQP steps solve the linearised
     constraint from their start's defect and are not closed, so D_h leaves round-off on the
