@@ -434,8 +434,7 @@ def run_jobs(args: argparse.Namespace, record: dict[str, Any]) -> list[str]:
 
     previous = {sig: signal.signal(sig, forward) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        for child in children:
-            child.wait()
+        codes = [child.wait() for child in children]
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
@@ -447,6 +446,10 @@ def run_jobs(args: argparse.Namespace, record: dict[str, Any]) -> list[str]:
                 record["studies"][key] = one
         part.unlink()
     args.json.write_text(json.dumps(record, indent=2) + "\n")
+    failed = [(k, code) for k, code in enumerate(codes) if code not in (0, 3)]  # 3: budget
+    if failed:  # its cases keep their earlier records: say so instead of tabulating them
+        k, code = failed[0]
+        raise SystemExit(f"seeds.py: job {k} ({' '.join(groups[k])}) exited with {code}")
     studies = record["studies"]
     return [
         case

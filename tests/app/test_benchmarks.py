@@ -516,6 +516,28 @@ def test_seeds_jobs_share_the_cases_out_by_their_expected_time():
     assert seeds.expected_seconds("r2.5_a5", "minimiser", record) == 60.0 * 2.5 * 25
 
 
+def test_a_seeds_job_that_fails_is_named_not_tabulated(tmp_path, monkeypatch):
+    """A job that dies (a crashed renderer, say) leaves its cases' old records: the merge
+    says which job failed and with what code, instead of tabulating those records."""
+    seeds = load_benchmark("seeds")
+    out = tmp_path / "seeds.json"
+    out.write_text(json.dumps({"studies": {}}))
+
+    class Died:
+        def __init__(self, command):
+            self.code = 0 if "r1_a1" in command else -6
+
+        def wait(self):
+            return self.code
+
+    monkeypatch.setattr(seeds.subprocess, "Popen", Died)
+    args = ["--cases", "r1_a1", "r1_a2", "--levels", "2", "--cells", "1", "--jobs", "2"]
+    args += ["--out", str(tmp_path / "runs"), "--json", str(out), "--page", str(tmp_path / "p")]
+    with pytest.raises(SystemExit, match=r"job \d \(r1_a2\) exited with -6"):
+        seeds.main(args)
+    assert not list(tmp_path.glob("seeds.job*.json"))  # the parts removed all the same
+
+
 def test_seeds_jobs_two_cases_in_two_processes(tmp_path):
     """Two one-cell cases on 2 levels in 2 processes: both records merged, the parts removed.
     Each replaces its earlier record, which the other job's copy of the JSON still holds."""
