@@ -157,8 +157,9 @@ class TauController:
         A trust-region SQP step refused with D_h = u·bound (u > 1) is retried with τ times
         u^(−½) (between 0.1 and 0.5): the corrected step's defect grows at least as τ²
         (as τ^2.7 along the full-turn roll-up), so a step that overshot its bound by far is
-        not halved again and again (a full turn from τ = h: its first step refused with
-        u = 29, then with u = 10, then accepted at h/4).
+        not halved again and again (halved, the full turn from τ = h was refused with u = 29,
+        then with u = 10, and accepted at h/4). A step with u ≤ 1 (refused for its merit or by
+        the nonlocal terms, or not an SQP step) is halved.
         """
         if not (newton and self.trust_region()) or self.bound_used <= 1.0:
             return 0.5
