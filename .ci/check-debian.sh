@@ -171,9 +171,12 @@ if [[ ! -d $ROOT/project/tests ]]; then
   log "no tests/ yet: nothing more to run"
   exit 0
 fi
+# -noreset: Xvfb otherwise resets when its last client leaves and drops a client connecting
+# meanwhile; VTK then aborts ("bad X server connection"). See dgplate.io.images.start_xvfb.
 in_root() {
   chroot "$ROOT" "${CENV[@]}" /bin/sh -c \
-    'cd /project && exec xvfb-run -a -s "-screen 0 1280x1024x24" python3 -m pytest -q "$@"' sh "$@"
+    'cd /project && exec xvfb-run -a -s "-screen 0 1280x1024x24 -noreset" \
+       python3 -m pytest -q "$@"' sh "$@"
 }
 rc=0
 if (($# > 0)); then
