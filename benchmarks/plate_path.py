@@ -15,6 +15,7 @@ docs/path_following.md between ``<!-- plate_path_turned:begin -->`` and its end 
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import sys
 import tempfile
@@ -36,10 +37,19 @@ RESULTS = ROOT / "benchmarks" / "results"
 PROBLEM = ROOT / "demos" / "problems" / "turned_strip.toml"
 #: The end shortening and the full clamp angle of the problem file (λ = 1: α = 0.25).
 DELTA, ALPHA = 0.01, 0.25
-#: The bifurcation and the fold in load factor: the elastica's angles over the full angle.
-EXACT = tuple(
-    turned_strip_elastica_thresholds(DELTA)[kind] / ALPHA for kind in ("bifurcation", "fold")
-)
+
+
+@functools.cache
+def exact() -> tuple[float, float]:
+    """The bifurcation and the fold in load factor: the elastica's angles over the full angle.
+
+    Computed at the first call, not at import (2.5 s of shooting, which every pytest process
+    that collects tests/solvers/test_constrained_path.py paid).
+    """
+    thresholds = turned_strip_elastica_thresholds(DELTA)
+    return thresholds["bifurcation"] / ALPHA, thresholds["fold"] / ALPHA
+
+
 LEVELS = [16, 32, 64, 128, 256]
 QUIET = {"output.vtx": False, "output.png": False, "output.progress": 0}
 
@@ -57,7 +67,7 @@ def level(comm: MPI.Comm, n: int) -> dict[str, Any]:
         "dofs": branch.result["dofs"],
         "bifurcation": found[0],
         "fold": found[1],
-        "errors": [f / e - 1 for f, e in zip(found, EXACT, strict=True)],
+        "errors": [f / e - 1 for f, e in zip(found, exact(), strict=True)],
         "indices": runs(branch.stability_indices),
         "defect": max(point["isometry_defect"] for point in branch.points),
         "wall_s": wall,
@@ -70,7 +80,7 @@ def measure(comm: MPI.Comm, levels: list[int]) -> dict[str, Any]:
     for k in range(2):
         for lv, order in zip(study, orders([lv["errors"][k] for lv in study]), strict=True):
             lv.setdefault("orders", []).append(order)
-    return {"ranks": comm.size, "exact": list(EXACT), "delta": DELTA, "turned": study}
+    return {"ranks": comm.size, "exact": list(exact()), "delta": DELTA, "turned": study}
 
 
 def _cells(value: float, error: float, order: float | None) -> str:
