@@ -121,6 +121,43 @@ def compile_forms_faster() -> None:
 compile_forms_faster()
 
 
+def load_each_compiled_module_once() -> None:
+    """Keep the modules of compiled forms that this process has loaded, and reuse them.
+
+    For every ``dolfinx.fem.form`` FFCx looks its module up in the JIT cache folder: a listing
+    of the whole folder (4 ms at its 7,000 files after a test suite), then a fresh import of the
+    module; under MPI rank 0 does it before the others. A process that builds the same form
+    again (every step of a load path, every level of a study, every test) paid that each time.
+    The key is FFCx's own: the module name holds the form's signature and the compiler options,
+    so a form is reused exactly when FFCx would have loaded the same file. Only modules found
+    in the cache are kept; a compilation still happens once, as before. Safe to call more than
+    once.
+    """
+    import ffcx.codegeneration.jit as ffcx_jit
+
+    load: Callable[[str, list[str], Path, int], tuple[Any, Any]] = ffcx_jit.get_cached_module
+    if hasattr(load, "__wrapped__"):
+        return
+    loaded: dict[tuple[str, tuple[str, ...], str], tuple[Any, Any]] = {}
+
+    @functools.wraps(load)
+    def get_cached_module(
+        module_name: str, object_names: list[str], cache_dir: Path, timeout: int
+    ) -> tuple[Any, Any]:
+        key = (module_name, tuple(object_names), str(cache_dir))
+        found = loaded.get(key)
+        if found is None:
+            found = load(module_name, object_names, cache_dir, timeout)
+            if found[0] is not None:  # (None, None): not cached yet, FFCx compiles it
+                loaded[key] = found
+        return found
+
+    ffcx_jit.get_cached_module = get_cached_module
+
+
+load_each_compiled_module_once()
+
+
 @contextlib.contextmanager
 def on_first_compile(announce: Callable[[], None]) -> Iterator[None]:
     """Call ``announce`` once, before the first form the block compiles (a JIT cache miss).

@@ -18,6 +18,7 @@ import dolfinx.fem
 import dolfinx.mesh
 import numpy as np
 import pytest
+import ufl
 
 from dgplate.dg.forms import Penalty, facet_sets
 from dgplate.measure.hinges import hinge_strip
@@ -233,3 +234,26 @@ def test_calibration_strip_shares_the_box_forms():
     assert (
         energy(default, {"left": 20.0, "hinge": 1.0, "right": 20.0}, {"hinge": 0.5}, "left") != box
     )
+
+
+def test_a_form_built_again_reuses_its_loaded_module_with_its_own_data(monkeypatch):
+    """The same form on three meshes with other values (dgplate.compat's memo of FFCx's
+    module loads): FFCx looks in its cache folder once at most (each look checks the module's
+    ``.c.cached`` marker; three looks without the memo), and each form integrates its own
+    mesh's function."""
+    exists, looks = os.path.exists, []
+
+    def counted(path):
+        if str(path).endswith(".c.cached"):
+            looks.append(path)
+        return exists(path)
+
+    monkeypatch.setattr(os.path, "exists", counted)
+    values = []
+    for n, value in ((2, 1.5), (3, 2.5), (4, -0.5)):
+        mesh = dolfinx.mesh.create_unit_square(MPI.COMM_SELF, n, n)
+        f = dolfinx.fem.Function(dolfinx.fem.functionspace(mesh, ("DG", 0)))
+        f.x.array[:] = value
+        values.append(dolfinx.fem.assemble_scalar(dolfinx.fem.form(f * f * f * ufl.dx)))
+    assert len(looks) <= 1
+    assert values == pytest.approx([1.5**3, 2.5**3, -(0.5**3)], rel=1e-12)
