@@ -7,9 +7,10 @@
 
 [N15], experiment 1: rectangles (0, rW) × (0, W) clamped on x₁ = 0, r = length/W = 0.5, 1,
 7/4, 10/4, Z = aI with a = 1, 2, 5, for W = 1 and W = 4 (cases ``r<r>_a<a>`` and
-``r<r>_a<a>_w4``). The minimiser is a cylinder of radius 1/a at the energy ½a²|ω|. Each case
-runs ``demos/problems/bilayer_aspect_ratios.toml`` with overrides (the rectangle, n·r × n
-cells on level 1, Z, and one of ``SETTINGS``) through :func:`dgplate.converge` into
+``r<r>_a<a>_w4``; the W = 4 rows with a = 2 and 5, ``UNRESOLVED``, only when named). The
+minimiser is a cylinder of radius 1/a at the energy ½a²|ω|. Each case runs
+``demos/problems/bilayer_aspect_ratios.toml`` with overrides (the rectangle, n·r × n cells on
+level 1, Z, and one of ``SETTINGS``) through :func:`dgplate.converge` into
 ``OUT/<case>/<settings>``, resumably: a rerun reuses the finished levels and continues an
 interrupted one. The cases run one after the other; when ``--budget-minutes`` have passed the
 running level stops at its next step (as on SIGTERM), the cases left are listed and the exit
@@ -108,6 +109,11 @@ def case_name(ratio: float, a: float, width: float) -> str:
 CASES = {
     case_name(r, a, w): (r, a, w) for w in WIDTHS for a in CURVATURES for r in RATIOS
 }  # fmt: skip
+
+#: The W = 4 rows with a = 2 and 5 (the unit plate's a = 8 and 20: rolls of 3 to 8 turns) run
+#: only when named: at 32 cells across the width on level 4 a cell spans 0.5 and 1.25 radians
+#: of the roll, and by the script's own estimate they take about 23 hours per job.
+UNRESOLVED = [case_name(r, a, 4.0) for a in (2.0, 5.0) for r in RATIOS]
 
 
 class Shape(NamedTuple):
@@ -497,8 +503,14 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     ``record["left"]`` lists the cases a budget stop or a signal left (none: all ran).
     """
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    every = [*CASES, *SHAPES]
     parser.add_argument(
-        "--cases", nargs="+", choices=[*CASES, *SHAPES], default=[*CASES, *SHAPES], metavar="CASE"
+        "--cases",
+        nargs="+",
+        choices=every,
+        default=[case for case in every if case not in UNRESOLVED],
+        metavar="CASE",
+        help="default: all but the W = 4 rows with a = 2 and 5 (UNRESOLVED)",
     )
     parser.add_argument("--levels", type=int, default=4, help="meshes per case (≥ 2)")
     parser.add_argument(
