@@ -197,3 +197,32 @@ def test_singular_shift_is_a_solver_error(solver):
     A.assemble()
     with pytest.raises(SolverError, match=f"the eigensolver \\({solver}\\) failed near 0"):
         eigen.nearest_eigenpairs(A, 2, solver=solver)
+
+
+def test_the_lifting_runs_only_where_the_iterate_misses_the_boundary_data(monkeypatch):
+    """u = λ g on the left edge with g moving at each load step: skipping the lifting
+    J(g − u) where u holds g exactly (it adds exact zeros) gives the states of a lifting at
+    every residual bit for bit. A load step's first residual, where g has moved, lifts; the
+    damped Newton steps reach g only to round-off here (1 of 9 residuals skips), fixed
+    clamps exactly (the FvK cone of test_fvk_leave.py: 138 of 138)."""
+    from dgplate.solvers import snes
+
+    holds = snes.NewtonSolver._holds_dirichlet_data
+    outcomes: list[bool] = []
+
+    def counted(self, x):
+        outcomes.append(holds(self, x))
+        return outcomes[-1]
+
+    states = []
+    for check in (counted, lambda self, x: False):  # the second lifts at every residual
+        monkeypatch.setattr(snes.NewtonSolver, "_holds_dirichlet_data", check)
+        u, energy, bcs, load_factor, value = scalar_problem()
+        with LoadPath(
+            u, energy, bcs, load_factor, [0.5, 1.0], "dgplate_test_lifting_",
+            bc_values=[(value, 0.1)], shape=shape_of(u),
+        ) as driver:  # fmt: skip
+            assert driver.run().converged
+        states.append(u.x.array.copy())
+    assert np.array_equal(states[0], states[1])
+    assert not outcomes[0] and True in outcomes
