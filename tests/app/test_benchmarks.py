@@ -585,3 +585,13 @@ def test_plate_path_benchmark_smoke(tmp_path):
     assert level["indices"] == [0, 1, 2] and level["errors"][0] == pytest.approx(0.02597, abs=5e-5)
     if MPI.COMM_WORLD.rank == 0:
         assert "STALE" not in page.read_text() and "| 16 × 1 | 480 | 0.8215" in page.read_text()
+
+
+def test_form_reuse_page_is_generated(tmp_path):
+    """docs/performance.md's table is form_reuse.py's JSON; the memo is faster per build and
+    the skipped lifting leaves the energy the same bit for bit."""
+    assert_page_is_generated("form_reuse", BENCH.parent / "docs" / "performance.md", tmp_path)
+    record = json.loads((BENCH / "results" / "form_reuse.json").read_text())
+    seconds = record["forms"]["seconds"]
+    assert seconds["memo"] < seconds["ffcx"]
+    assert record["newton"]["same_energy"]
