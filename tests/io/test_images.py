@@ -31,7 +31,8 @@ def test_the_virtual_display_keeps_every_connection_of_processes_that_open_and_c
     monkeypatch,
 ):
     """Against Xvfb's defaults (it resets when its last client leaves) 2–26 % of these fail."""
-    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.setenv("DISPLAY", "")  # recorded, so that the server's display is undone
+    monkeypatch.delenv("DISPLAY")
     display = start_xvfb()
     assert os.environ["DISPLAY"] == display
     children = [

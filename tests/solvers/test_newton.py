@@ -201,7 +201,7 @@ def test_singular_shift_is_a_solver_error(solver):
 
 def test_the_lifting_runs_only_where_the_iterate_misses_the_boundary_data(monkeypatch):
     """u = λ g on the left edge with g moving at each load step: skipping the lifting
-    J(g − u) where u holds g exactly (it adds exact zeros) gives the states of a lifting at
+    J(g − u) where u holds g exactly (it is zero) gives the states of a lifting at
     every residual bit for bit. A load step's first residual, where g has moved, lifts; the
     damped Newton steps reach g only to round-off here (1 of 9 residuals skips), fixed
     clamps exactly (the FvK cone of test_fvk_leave.py: 138 of 138)."""
