@@ -162,6 +162,27 @@ VARIANTS: dict[str, dict[str, Any]] = {
         }
         for gamma in (1.0, 10.0, 100.0)
     },
+    # the C⁰ interior-penalty method (continuous y, model.space = "c0"): the standard penalty
+    # (its γ₀ term vanishes) with the file's constraint, whose first moments are then P1
+    "c0": {**TUNED, **MINIMISER, "model.penalty": STANDARD_PENALTY, "model.space": "c0"},
+    "c0_dg0": {
+        **TUNED,
+        **MINIMISER,
+        "model.penalty": STANDARD_PENALTY,
+        "model.space": "c0",
+        "flow.multiplier_degree": 0,
+    },
+    "c0_noedge": {
+        **TUNED,
+        **MINIMISER,
+        "model.penalty": STANDARD_PENALTY,
+        "model.space": "c0",
+        "flow.edge_constraint": False,
+    },
+    # the same from the exact cylinder's arc (case_setup): the discrete minimiser near it
+    "c0_from_arc": {**TUNED, **MINIMISER, "model.penalty": STANDARD_PENALTY, "model.space": "c0"},
+    "minimiser_c0": {**MINIMISER, "model.space": "c0"},
+    "minimiser_c0_dg1": {**MINIMISER, "model.space": "c0", "flow.multiplier_degree": 1},
     # BNN Table 1 as published: τ = h, no projection, rate stop
     "bnn": {"flow.tau": "h", "flow.tol": 1e-6},
     "minimiser": MINIMISER,
@@ -249,6 +270,8 @@ def one_run(case: str, a: float, n: int, variant: str, tol: float, steps: int) -
         "output.progress": 0,
         **VARIANTS[variant],
     }
+    if variant.endswith("_from_arc"):  # started on the exact cylinder (bilayer cases)
+        overrides["model.start"] = {"type": "arc", "radius": 1.0 / a}
     problem = load_problem(path, overrides)
     with tempfile.TemporaryDirectory(prefix="accuracy_") as folder:
         t0 = time.perf_counter()

@@ -12,7 +12,7 @@ the flow) implement :class:`Model` themselves.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal, Protocol
 
@@ -43,6 +43,7 @@ from dgplate.solvers.continuation import BranchPath, PathSettings
 from dgplate.solvers.driver import Driver, Observer
 from dgplate.solvers.flow import FlowSpec, GradientFlow, Initial
 from dgplate.solvers.moving_clamp import AlphaSchedule, MovingClampFlow, MovingClampSpec
+from dgplate.solvers.step_system import NULL_PIVOTS
 
 __all__ = [
     "ArcLengthPath",
@@ -287,6 +288,7 @@ class PlateModel(Model):
     continuation: DataPath | None = None
     metric: Expr | None = None  # the target metric G of ∇yᵀ∇y = G (None: I, isometries)
     arclength: ArcLengthPath | None = None  # the equilibria followed in λ instead of a flow
+    continuous: bool = False  # y continuous: the C⁰ interior-penalty method (model.space)
 
     def driver(
         self, flow: FlowSpec, observers: Sequence[Observer], initial: Initial | None
@@ -298,9 +300,14 @@ class PlateModel(Model):
         if self.arclength is not None:
             return self.arclength.driver(self, flow, observers, initial)
         path, facets, energy, metric = self.continuation, self.facets, self.energy, self.metric
+        continuous = self.continuous
+        if continuous:  # its step systems are singular at a flat state
+            flow = replace(flow, solver={**NULL_PIVOTS, **flow.solver})
         if path is None:
-            return GradientFlow(facets, self.degree, energy, flow, observers, initial, metric)
-        plain = GradientFlow(facets, self.degree, energy, flow, (), initial, metric)
+            return GradientFlow(
+                facets, self.degree, energy, flow, observers, initial, metric, continuous
+            )
+        plain = GradientFlow(facets, self.degree, energy, flow, (), initial, metric, continuous)
         return MovingClampFlow(plain, path.alpha, path.schedule, observers)
 
     def figures(self, driver: Driver) -> dict[str, Any]:

@@ -296,5 +296,6 @@ def build_bilayer(spec: BilayerSpec, tagged: TaggedMesh) -> PlateModel:
         continuation=path,
         metric=metric,
         arclength=arclength,
+        continuous=spec.continuous,
     )
     return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)

@@ -83,6 +83,10 @@ def kirchhoff_energy(
     return Energy(implicit=energy)
 
 
+#: The spaces of y (``model.space``), the default first.
+SPACES = ("dg", "c0")
+
+
 @dataclass
 class KirchhoffSpec:
     """[model] of a single-layer isometric plate."""
@@ -100,6 +104,11 @@ class KirchhoffSpec:
     penalty: Penalty = option(Penalty(), "IP penalties γ₀ (h⁻³[y]) and γ₁ (h⁻ᵖ[∇y])")
     penalty_length: str = option("diameter", PENALTY_LENGTH_HELP, choices=PENALTY_LENGTHS)
     hessian: str = option("broken", HESSIAN_HELP, choices=HESSIANS)
+    space: str = option(
+        "dg",
+        "the space of y: 'dg' ([DG_k]³, interior penalty on the jumps of y and of ∇y) or 'c0' (continuous [Q_k]³ or [P_k]³, the C⁰ interior-penalty method: jumps of ∇y only; flow.multiplier_degree = 1 then takes P1 moments on quadrilaterals too; needs flow.adaptive_tau and flow.step_control = 'defect_bound'; its step systems are singular at a flat state and the flow from the flat plate may end at another stationary state than from a start near the shape: docs/accuracy.md)",
+        choices=SPACES,
+    )
     gauss_penalty: float = option(
         0.0,
         "β: add (β/2)Σ_T h⁻¹∫_T (det II − K det G)² (K: the Gauss curvature of the target metric G; K = 0, G = I without one) against the free-edge layers of the cell-moment constraint (docs/prestrain.md); 0: none",
@@ -166,6 +175,11 @@ class KirchhoffSpec:
     def schedule(self) -> AlphaSchedule | None:
         """The stages of ``continuation`` (None: the clamped data do not move)."""
         return self._schedule
+
+    @property
+    def continuous(self) -> bool:
+        """Whether y is continuous (``space = 'c0'``)."""
+        return self.space == "c0"
 
     @property
     def ldg_degree(self) -> int | None:
@@ -254,7 +268,14 @@ def build_kirchhoff(spec: KirchhoffSpec, tagged: TaggedMesh) -> PlateModel:
 
     measures = gauss_penalty_measures(facets, beta, degree, metric)
     plate = PlateModel(
-        facets, spec.degree, energy_fn, measures, path, metric=metric, arclength=arclength
+        facets,
+        spec.degree,
+        energy_fn,
+        measures,
+        path,
+        metric=metric,
+        arclength=arclength,
+        continuous=spec.continuous,
     )
     return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)
 

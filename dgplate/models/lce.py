@@ -150,5 +150,6 @@ def build_lce(spec: LCESpec, tagged: TaggedMesh) -> PlateModel:
         ],
         continuation=path,
         metric=metric,
+        continuous=spec.continuous,
     )
     return with_self_avoidance(with_obstacle(plate, spec.obstacle, g, path), spec.self_avoidance)

@@ -177,6 +177,10 @@ class PlatePathSpec(PathKeys):
             "model.self_avoidance": (spec.self_avoidance, "a term that is not an integral"),
             "model.continuation": (spec.continuation, "the path moves the data by λ itself"),
             "model.hessian": (spec.ldg_degree is not None, "the lifted Hessian is not an integral"),
+            "model.space": (
+                spec.continuous,
+                "a continuous y's constraint is singular at the flat plate",
+            ),
         }
         for key, (given, why) in refused.items():
             if given:

@@ -71,26 +71,36 @@ def _nodes(cell_type: str, degree: int) -> int:
     return degree + 1
 
 
+def _continuous_nodes(cell_type: str, degree: int, counts: tuple[int, int, int]) -> int:
+    """Nodes of the continuous degree-``degree`` space on a 2D mesh of (cells, vertices, edges)."""
+    cells, vertices, edges = counts
+    k = degree
+    inside = (k - 1) ** 2 if cell_type == "quadrilateral" else (k - 1) * (k - 2) // 2
+    return vertices + (k - 1) * edges + inside * cells
+
+
 def unknowns(model: Any, flow: Any, cell_type: str, counts: tuple[int, int, int]) -> int:
     """The unknowns of the step system of ``model`` on a mesh of (cells, vertices, edges).
 
     Exact for the meshes DOLFINx builds (the count :attr:`Driver.num_dofs` reports): the plate's
-    flow solves for y ∈ [DG_k]³ and a multiplier in [DG_m]³ (and the edge moments) per cell,
-    the FvK model for w ∈ DG_k and u ∈ [CG_k]², a rod for u ∈ [P_k]³, b ∈ [P₁]³, two DG₁
-    multipliers and a P₁ one (:func:`dgplate.solvers.rod_flow._space`).
+    flow solves for y ∈ [DG_k]³ (continuous with ``model.space = 'c0'``) and a multiplier in
+    [DG_m]³ (P_m with a continuous y) and the edge moments per cell, the FvK model for
+    w ∈ DG_k and u ∈ [CG_k]², a rod for u ∈ [P_k]³, b ∈ [P₁]³, two DG₁ multipliers and a P₁
+    one (:func:`dgplate.solvers.rod_flow._space`).
     """
-    cells, vertices, edges = counts
+    cells, vertices, _ = counts
     k = int(model.degree)
     if model.name == "rod":
         nodes = vertices + (k - 1) * cells  # P_k on an interval
         return 3 * nodes + 3 * vertices + 4 * cells + vertices
     if model.name == "fvk":
-        inside = (k - 1) ** 2 if cell_type == "quadrilateral" else (k - 1) * (k - 2) // 2
-        continuous = vertices + (k - 1) * edges + inside * cells
-        return cells * _nodes(cell_type, k) + 2 * continuous
-    multiplier = 3 * _nodes(cell_type, int(getattr(flow, "multiplier_degree", 0)))
+        return cells * _nodes(cell_type, k) + 2 * _continuous_nodes(cell_type, k, counts)
+    m = int(getattr(flow, "multiplier_degree", 0))
     edge = 2 if getattr(flow, "edge_constraint", False) else 0  # EdgeConstraint.SIZE
-    return cells * (3 * _nodes(cell_type, k) + multiplier + edge)
+    if getattr(model, "continuous", False):
+        y = 3 * _continuous_nodes(cell_type, k, counts)
+        return y + cells * (3 * _nodes("triangle", m) + edge)  # P_m moments on any cell
+    return cells * (3 * _nodes(cell_type, k) + 3 * _nodes(cell_type, m) + edge)
 
 
 def mesh_unknowns(model: Any, flow: Any, mesh: Any) -> int:

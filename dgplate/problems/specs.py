@@ -274,7 +274,23 @@ def problem_from_dict(data: dict[str, Any], name: str, overrides: Overrides = ()
             "model.clamped is empty but flow.l2_metric = false: without clamped faces (or an "
             "anchor) the metric needs the L² product (rigid motions); set flow.l2_metric = 'auto'"
         )
+    _check_space(model, flow)
     return Problem(name, mesh, model, flow, output, data, material)
+
+
+def _check_space(model: Any, flow: FlowSpec) -> None:
+    """A continuous y (``model.space = 'c0'``) only with the flow it converges with.
+
+    Its step systems are singular at a flat state; the fixed-τ flow and the trust region's SQP
+    steps then left the cylinder test far from its minimiser (docs/accuracy.md).
+    """
+    if getattr(model, "continuous", False) and not (
+        flow.adaptive_tau and flow.step_control == "defect_bound"
+    ):
+        raise InputError(
+            "model.space = 'c0' needs flow.adaptive_tau = true and flow.step_control = "
+            "'defect_bound' (the flows it converges with: docs/accuracy.md)"
+        )
 
 
 def _check_name(name: object) -> None:

@@ -26,13 +26,28 @@ from dgplate.errors import InputError
 from dgplate.mesh.tagged import local_entities
 
 
-def multiplier_element(mesh: Mesh, degree: int = 0) -> basix.ufl._ElementBase:
+def multiplier_element(
+    mesh: Mesh, degree: int = 0, total_degree: bool = False
+) -> basix.ufl._ElementBase:
     """DG_degree with three components: the entries (11, 12, 22) of a symmetric 2×2 matrix.
 
     Degree 0 imposes the linearised constraint on cell means (the published method); degree 1
     imposes it on the first moments as well, a stronger discrete isometry.
+
+    Args:
+        mesh: the plate's mesh.
+        degree: the multipliers' polynomial degree.
+        total_degree: P_degree on quadrilaterals too (basix's DPC) instead of Q_degree. A
+            continuous y has fewer unknowns per cell than a broken one (12 against 27 for
+            Q2), and the four Q1 moments per entry leave its step system singular; the three
+            P1 moments do not (docs/accuracy.md).
+
+    Returns:
+        The element.
     """
-    return basix.ufl.element("DG", mesh.basix_cell(), degree, shape=(3,))
+    quadrilateral = mesh.topology.cell_type == dolfinx.mesh.CellType.quadrilateral
+    family = "DPC" if total_degree and degree > 0 and quadrilateral else "DG"
+    return basix.ufl.element(family, mesh.basix_cell(), degree, shape=(3,))
 
 
 def symmetric(q: Expr) -> Expr:

@@ -78,10 +78,9 @@ Initial = Callable[[Array], Array]
 class FlowSpec:
     """The [flow] section: parameters of the gradient flow, validated once, here.
 
-    D_h = O(τ). Cell moments of the constraint alone let the cells along a free edge curve in
-    two directions (Gauss curvature ≠ 0), which lowers a bilayer's energy below the isometric
-    minimum: ``edge_constraint`` also constrains two moments of the metric on free boundary
-    facets (:class:`dgplate.solvers.constraint.EdgeConstraint`).
+    D_h = O(τ). Cell moments alone let a free edge's cells curve two ways (K ≠ 0), below the
+    isometric minimum: ``edge_constraint`` also constrains two moments of the metric on free
+    boundary facets (:class:`dgplate.solvers.constraint.EdgeConstraint`).
     """
 
     method: str = option(
@@ -203,6 +202,7 @@ class GradientFlow(EnergyFlow):
         observers: Sequence[Observer] = (),
         initial: Initial | None = None,
         metric: Expr | None = None,
+        continuous: bool = False,
     ):
         """The flow from ``initial`` (default: the flat plate) of ``energy_fn(y)``.
 
@@ -217,12 +217,13 @@ class GradientFlow(EnergyFlow):
                 With a G the first run begins with the metric start
                 (:mod:`dgplate.solvers.metric_start`; from an ``initial``, its projections
                 only): the flat plate violates the constraint.
+            continuous: y continuous (C⁰ interior penalty: step_system.mixed_space).
         """
         refuse_edge_moments_with_metric(metric, settings.edge_constraint)
         self.facets, self.settings, self.observers = facets, settings, list(observers)
         mesh = facets.mesh
         self.comm: MPI.Comm = mesh.comm
-        self.W = mixed_space(mesh, degree, settings)
+        self.W = mixed_space(mesh, degree, settings, continuous)
         self.V, self._vdofs = compat.collapse(self.W.sub(0))
         self.y: Function = dolfinx.fem.Function(self.V, name="deformation")
         transfer.interpolate(self.y, initial or flat)
@@ -377,12 +378,11 @@ class GradientFlow(EnergyFlow):
         test = stopping_value(self.settings, math.nan, math.nan)[1]
         # the budget as the user set it (flow.max_steps counts the steps of resumed runs too)
         total = max_steps or self.settings.max_steps
-        converged, reason = (
-            False,
-            f"step budget of {total} steps spent before {test} < {self.settings.tol:g}"
-            + ("" if test_last else " (the last step not tested)"),
+        untested = "" if test_last else " (the last step not tested)"
+        reason = (
+            f"step budget of {total} steps spent before {test} < {self.settings.tol:g}{untested}"
         )
-        signum = 0
+        converged, signum = False, 0
         for k in range(budget):
             try:
                 info = self.control.step()

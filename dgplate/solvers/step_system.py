@@ -80,10 +80,31 @@ class Spaces:
     y: Function
 
 
-def mixed_space(mesh: Mesh, degree: int, settings: StepSettings) -> FunctionSpace:
-    """W: y ∈ [DG_k]³, the isometry multiplier, and the edge multipliers (if constrained)."""
-    ve = basix.ufl.element("DG", mesh.basix_cell(), degree, shape=(3,))
-    elements = [ve, multiplier_element(mesh, settings.multiplier_degree)]
+#: MUMPS's null-pivot detection, for the step systems of a continuous y: at a flat state its P1
+#: moments (9 per cell) outnumber the in-plane unknowns (about 8 per cell for Q2) that alone
+#: enter the linearised constraint there, so the systems are singular, and the factors without
+#: it return garbage on two ranks (E_h 10³⁰ at the first step).
+NULL_PIVOTS: dict[str, OptionValue] = {"mat_mumps_icntl_24": 1}
+
+
+def mixed_space(
+    mesh: Mesh, degree: int, settings: StepSettings, continuous: bool = False
+) -> FunctionSpace:
+    """W: y, the isometry multiplier, and the edge multipliers (if constrained).
+
+    Args:
+        mesh: the plate's mesh.
+        degree: the degree k of y.
+        settings: the [flow] keys of the constraint (multiplier degree, edge moments).
+        continuous: y ∈ [Lagrange_k]³ (the C⁰ interior-penalty method, ``model.space = "c0"``;
+            its first-moment multipliers are P1 on every cell) instead of [DG_k]³.
+
+    Returns:
+        The mixed space.
+    """
+    family = "Lagrange" if continuous else "DG"
+    ve = basix.ufl.element(family, mesh.basix_cell(), degree, shape=(3,))
+    elements = [ve, multiplier_element(mesh, settings.multiplier_degree, continuous)]
     if settings.edge_constraint:
         edge = basix.ufl.element("DG", mesh.basix_cell(), 0, shape=(EdgeConstraint.SIZE,))
         elements.append(edge)
@@ -240,8 +261,12 @@ class StepSystem:
         """
         # DOLFINx's pattern of a_const is that of the whole step form: b_n only couples the
         # dofs of one cell, which the cell integrals of a_const already do
-        full = dolfinx.fem.petsc.assemble_matrix(self._a_const)  # DOLFINx's pattern
+        full: PETSc.Mat = dolfinx.fem.petsc.assemble_matrix(self._a_const)  # DOLFINx's pattern
         full.assemble()
+        if not self.V.ufl_element().discontinuous:
+            # a continuous y's row takes b_n's entries from cells of other ranks whose
+            # multipliers are no ghosts here, so their columns cannot be kept by index
+            return full
         imap, bs = self.W.dofmap.index_map, self.W.dofmap.index_map_bs
         is_multiplier = np.ones((imap.size_local + imap.num_ghosts) * bs, dtype=bool)
         is_multiplier[self.vdofs] = False

@@ -15,6 +15,12 @@ from dgplate.problems import sizing
 PROBLEMS = Path(__file__).resolve().parents[2] / "demos" / "problems"
 VERTICAL = PROBLEMS / "vertical_load.toml"
 SMALL = {"mesh.cells": [2, 3], "output.png": False, "output.vtx": False}
+C0 = {
+    "model.space": "c0",
+    "flow.adaptive_tau": True,
+    "flow.step_control": "defect_bound",
+    "flow.edge_constraint": True,
+}
 
 
 @pytest.mark.mpi
@@ -24,6 +30,8 @@ SMALL = {"mesh.cells": [2, 3], "output.png": False, "output.vtx": False}
         ("vertical_load", SMALL),
         ("vertical_load", {**SMALL, "mesh.cell_type": "triangle", "mesh.diagonal": "crossed"}),
         ("vertical_load", {**SMALL, "flow.multiplier_degree": 1, "flow.edge_constraint": True}),
+        ("vertical_load", {**SMALL, **C0, "flow.multiplier_degree": 1}),
+        ("vertical_load", {**SMALL, **C0, "mesh.cell_type": "triangle"}),
         ("fvk_square", SMALL),
         ("fvk_square", {**SMALL, "mesh.cell_type": "triangle"}),
         ("rod_arc", {"model.cells": 7}),

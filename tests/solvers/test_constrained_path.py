@@ -170,6 +170,7 @@ def test_same_free_path_on_any_number_of_ranks(tmp_path):
             "path.parameter = 'boundary_data' needs model.clamped",
         ),
         ("bilayer_cylinder", {"model.hessian": "ldg"}, "model.hessian: not with path.method"),
+        ("bilayer_cylinder", {"model.space": "c0"}, "model.space: not with path.method"),
         ("bilayer_cylinder", {"path.parameter": "pressure"}, "path.parameter"),
         ("bilayer_cylinder", {"path.ds": 0.0}, "path.ds must be > 0"),
         ("turned_strip", {"path.parameter": "natural_curvature"}, "the kirchhoff model has no Z"),
@@ -177,8 +178,9 @@ def test_same_free_path_on_any_number_of_ranks(tmp_path):
     ],
 )
 def test_what_the_path_cannot_follow_is_refused_naming_the_key(name, setting, message):
-    """A load on a free plate, moving data without clamps, a lifted Hessian, an unknown parameter, a step ≤ 0, a Kirchhoff plate's
-    Z, an LCE plate's path: one InputError each."""
+    """A load on a free plate, moving data without clamps, a lifted Hessian, a continuous y, an
+    unknown parameter, a step ≤ 0, a Kirchhoff plate's Z, an LCE plate's path: one InputError
+    each."""
     with pytest.raises(InputError, match=message.replace(".", r"\.")):
         dgplate.load_problem(
             PROBLEMS / f"{name}.toml", {**SETTINGS, "path.method": "arclength", **setting}
